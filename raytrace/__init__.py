@@ -1,0 +1,43 @@
+"""raytrace: a recursive Whitted ray tracer on Intel Embree.
+
+The pipeline, one module per stage::
+
+    scene_file / scene  →  camera  →  accel (embreex + analytic)  →  integrator
+        →  lights + shading + optics  →  film (EXR, PNG)  →  cli
+
+>>> import raytrace
+>>> scene = raytrace.Scene(
+...     camera=raytrace.Camera(position=[0, 0, 5], look_at=[0, 0, 0]),
+...     objects=[raytrace.Sphere([0, 0, 0], 1.0, material="brass")],
+...     lights=[raytrace.PointLight([5, 5, 5])], ambient=0.1)
+>>> image = raytrace.render(scene, width=32, height=24)
+>>> image.rgb.shape
+(24, 32, 3)
+"""
+
+from .errors import SceneError
+from .film import Image, read_exr
+from .material import Checker, Material, MaterialLibrary
+from .material import library as materials
+from .render import render
+from .scene import (
+    AreaLight,
+    Camera,
+    DirectionalLight,
+    Mesh,
+    Plane,
+    PointLight,
+    RenderSettings,
+    Scene,
+    Sphere,
+    SpotLight,
+)
+from .scene_file import load_scene, scene_from_dict
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "AreaLight", "Camera", "Checker", "DirectionalLight", "Image", "Material",
+    "MaterialLibrary", "Mesh", "Plane", "PointLight", "RenderSettings", "Scene", "SceneError",
+    "Sphere", "SpotLight", "load_scene", "materials", "read_exr", "render", "scene_from_dict",
+]

@@ -1,0 +1,293 @@
+"""Ray queries: Embree's BVH for triangle meshes, float64 numpy for analytic shapes.
+
+This is the only module that imports ``embreex``. Embree works in float32 with ``tnear = 0``
+(EMBREEX_NOTES.md), so:
+
+* the whole scene is recentred on the camera in float64 before anything is rounded to float32;
+* a mesh hit point is rebuilt from Embree's barycentrics on the float64 triangle (on its plane);
+* a ray spawned from a mesh hit starts off the surface along the geometric normal, on the side
+  it leaves on, by :data:`OFFSET_ULPS` float32 ulps of the hit triangle's largest coordinate
+  (scale-aware, unlike a fixed epsilon);
+* Embree calls run on chunks of rays in a thread pool (embreex releases the GIL).
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+from .analytic import AnalyticShapes
+from .rays import NO_SHAPE
+from .scene import Mesh, Plane, Scene, Sphere
+
+#: Spawned-ray offset in float32 ulps (2⁻²³ relative) of the triangle's largest coordinate.
+OFFSET_ULPS = 3.0
+#: Rays per Embree call in the thread pool (16k–64k is the measured sweet spot).
+CHUNK = 32768
+#: Shadow rays stop this relative fraction short of the light.
+SHADOW_SHORTEN = 1e-7
+
+SHADING_CODES = {"flat": 0, "smooth": 1, "gouraud": 2}
+
+
+@dataclass
+class Hits:
+    """Closest hits of a batch of ``n`` rays.
+
+    Attributes
+    ----------
+    t : (n,) float64
+        Distance along the unit direction; inf on a miss.
+    shape : (n,) int64
+        Analytic shape index, or NO_SHAPE.
+    triangle : (n,) int64
+        Global triangle index, or −1.
+    uv : (n, 2) float64
+        Barycentrics of vertices 1 and 2 for triangle hits.
+    """
+
+    t: np.ndarray
+    shape: np.ndarray
+    triangle: np.ndarray
+    uv: np.ndarray
+
+    @property
+    def hit(self) -> np.ndarray:
+        return np.isfinite(self.t)
+
+
+@dataclass
+class Surface:
+    """What the shading needs at ``n`` hit points (all float64, camera-relative).
+
+    ``point`` (n, 3); ``geometric`` (n, 3) unit outward normal; ``shading`` (n, 3) unit shading
+    normal on the same side as ``geometric``; ``material`` (n,) int64; ``offset`` (n,) the
+    spawn offset (0 for analytic shapes); ``shape`` (n,) analytic shape or NO_SHAPE;
+    ``triangle`` (n,) or −1; ``uv`` (n, 2) barycentrics; ``gouraud`` (n,) bool.
+    """
+
+    point: np.ndarray
+    geometric: np.ndarray
+    shading: np.ndarray
+    material: np.ndarray
+    offset: np.ndarray
+    shape: np.ndarray
+    triangle: np.ndarray
+    uv: np.ndarray
+    gouraud: np.ndarray
+
+
+
+class Accelerator:
+    """Closest-hit and occlusion queries for a scene, camera-relative.
+
+    Parameters
+    ----------
+    scene : Scene
+        Its objects' materials must be resolved (``Scene`` does so on construction).
+    materials : list of Material
+        The table that ``Surface.material`` indexes; objects' materials are looked up in it.
+    threads : int
+        Worker threads for Embree.
+    """
+
+    def __init__(self, scene: Scene, materials: list, threads: int = 1):
+        self.origin = np.asarray(scene.camera.position, dtype=np.float64)
+        self.threads = max(1, int(threads))
+        mat_index = {id(m): i for i, m in enumerate(materials)}
+        spheres = [o for o in scene.objects if isinstance(o, Sphere)]
+        planes = [o for o in scene.objects if isinstance(o, Plane)]
+        meshes = [o for o in scene.objects if isinstance(o, Mesh)]
+        self.shapes = AnalyticShapes(
+            [s.center - self.origin for s in spheres], [s.radius for s in spheres],
+            [p.point - self.origin for p in planes], [p.normal for p in planes])
+        self.shape_material = np.array(
+            [mat_index[id(o.material)] for o in (*spheres, *planes)], dtype=np.int64)
+        self.degenerate = sum(m.degenerate for m in meshes)
+        self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        self._build_meshes(meshes, mat_index)
+
+    # -- construction --------------------------------------------------------------------
+    def _build_meshes(self, meshes: list[Mesh], mat_index: dict) -> None:
+        self.n_triangles = sum(len(m.faces) for m in meshes)
+        self.embree = None
+        if not meshes:
+            return
+        from embreex import rtcore_scene
+        from embreex.mesh_construction import TriangleMesh
+
+        self.embree = rtcore_scene.EmbreeScene()
+        corners, vnormals, materials, shading, first = [], [], [], [], []
+        count = 0
+        for m in meshes:  # geomID is the attach order
+            v = m.vertices - self.origin
+            v32 = np.ascontiguousarray(v, dtype=np.float32)
+            TriangleMesh(self.embree, v32, np.ascontiguousarray(m.faces, dtype=np.int32))
+            first.append(count)
+            count += len(m.faces)
+            corners.append(v[m.faces])
+            vnormals.append(vertex_normals(v, m.faces)[m.faces])
+            materials.append(np.full(len(m.faces), mat_index[id(m.material)], np.int64))
+            shading.append(np.full(len(m.faces), SHADING_CODES[m.shading], np.int8))
+        self.geom_first = np.array(first, dtype=np.int64)
+        self.tri_corners = np.concatenate(corners)             # (T, 3, 3) float64
+        self.tri_vnormals = np.concatenate(vnormals)           # (T, 3, 3) unit vertex normals
+        self.tri_material = np.concatenate(materials)
+        self.tri_shading = np.concatenate(shading)
+        a, b, c = (self.tri_corners[:, i] for i in range(3))
+        ng = np.cross(b - a, c - a)
+        self.tri_normal = ng / np.linalg.norm(ng, axis=1, keepdims=True)
+        extent = np.abs(self.tri_corners.astype(np.float32)).max(axis=(1, 2)).astype(np.float64)
+        self.tri_offset = OFFSET_ULPS * 2.0**-23 * np.maximum(extent, np.finfo(np.float32).tiny)
+        # The first run() commits the scene and is not thread-safe: do it once here.
+        one = np.zeros((1, 3), np.float32)
+        self.embree.run(one, np.array([[0, 0, 1]], np.float32), output=0)
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+
+    # -- queries -------------------------------------------------------------------------
+    def _chunks(self, fn, n: int) -> None:
+        """Run ``fn(slice)`` over chunks of ``n`` rays, in the pool when there is one."""
+        slices = [slice(i, min(i + CHUNK, n)) for i in range(0, n, CHUNK)]
+        if self._pool is None or len(slices) == 1:
+            for s in slices:
+                fn(s)
+        else:
+            list(self._pool.map(fn, slices))
+
+    def intersect(self, origin: np.ndarray, direction: np.ndarray, origin_shape: np.ndarray,
+                  tmax: np.ndarray | None = None) -> Hits:
+        """Closest hit of each ray with ``0 < t < tmax`` (mesh and analytic)."""
+        n = len(origin)
+        t, shape = self.shapes.intersect(origin, direction, origin_shape, tmax)
+        triangle = np.full(n, -1, dtype=np.int64)
+        uv = np.zeros((n, 2))
+        if self.embree is not None and n:
+            o32 = np.ascontiguousarray(origin, dtype=np.float32)
+            d32 = np.ascontiguousarray(direction, dtype=np.float32)
+            far = t.astype(np.float32)  # stop Embree at the closest analytic hit
+            far[~np.isfinite(far)] = np.float32(np.finfo(np.float32).max)
+            geom = np.empty(n, np.int64)
+            prim = np.empty(n, np.int64)
+            uv32 = np.empty((n, 2), np.float32)
+
+            def run(s: slice) -> None:
+                out = self.embree.run(o32[s], d32[s], dists=far[s].copy(), output=1)
+                geom[s], prim[s] = out["geomID"], out["primID"]
+                uv32[s, 0], uv32[s, 1] = out["u"], out["v"]
+
+            self._chunks(run, n)
+            m = geom >= 0
+            if m.any():
+                tri = self.geom_first[geom[m]] + prim[m]
+                bary = uv32[m].astype(np.float64)
+                p = self._barycentric_point(tri, bary)
+                tm = np.einsum("ij,ij->i", p - origin[m], direction[m])
+                closer = tm < t[m]
+                idx = np.flatnonzero(m)[closer]
+                t[idx] = np.maximum(tm[closer], np.finfo(np.float64).tiny)
+                shape[idx] = NO_SHAPE
+                triangle[idx] = tri[closer]
+                uv[idx] = bary[closer]
+        return Hits(t, shape, triangle, uv)
+
+    def occluded(self, origin: np.ndarray, direction: np.ndarray, origin_shape: np.ndarray,
+                 tmax: np.ndarray) -> np.ndarray:
+        """True where something opaque or not lies in ``(0, tmax)`` (any-hit query)."""
+        n = len(origin)
+        t, _ = self.shapes.intersect(origin, direction, origin_shape, tmax)
+        blocked = np.isfinite(t)
+        if self.embree is not None and n:
+            todo = np.flatnonzero(~blocked)
+            o32 = np.ascontiguousarray(origin[todo], dtype=np.float32)
+            d32 = np.ascontiguousarray(direction[todo], dtype=np.float32)
+            far = np.minimum(tmax[todo], np.finfo(np.float32).max).astype(np.float32)
+            res = np.empty(len(todo), np.int32)
+
+            def run(s: slice) -> None:
+                res[s] = self.embree.run(o32[s], d32[s], dists=far[s].copy(), query="OCCLUDED")
+
+            self._chunks(run, len(todo))
+            blocked[todo] = res == 0
+        return blocked
+
+    # -- surfaces ------------------------------------------------------------------------
+    def _barycentric_point(self, tri: np.ndarray, uv: np.ndarray) -> np.ndarray:
+        c = self.tri_corners[tri]
+        w0 = 1.0 - uv[:, 0] - uv[:, 1]
+        return w0[:, None] * c[:, 0] + uv[:, :1] * c[:, 1] + uv[:, 1:] * c[:, 2]
+
+    def surface(self, hits: Hits, origin: np.ndarray, direction: np.ndarray) -> Surface:
+        """Points, normals and materials at the hits (every row of ``hits`` must be a hit)."""
+        n = len(hits.t)
+        point = origin + hits.t[:, None] * direction
+        geometric = np.empty((n, 3))
+        shading = np.empty((n, 3))
+        material = np.empty(n, np.int64)
+        offset = np.zeros(n)
+        gouraud = np.zeros(n, bool)
+        an = hits.shape != NO_SHAPE
+        if an.any():
+            p, nrm = self.shapes.surface(hits.shape[an], point[an])
+            point[an], geometric[an], shading[an] = p, nrm, nrm
+            material[an] = self.shape_material[hits.shape[an]]
+        tr = ~an
+        if tr.any():
+            tri, uv = hits.triangle[tr], hits.uv[tr]
+            point[tr] = self._barycentric_point(tri, uv)
+            ng = self.tri_normal[tri]
+            geometric[tr] = ng
+            ns = ng.copy()
+            code = self.tri_shading[tri]
+            smooth = code != 0
+            if smooth.any():
+                vn = self.tri_vnormals[tri[smooth]]
+                w = uv[smooth]
+                s = ((1 - w[:, 0] - w[:, 1])[:, None] * vn[:, 0] + w[:, :1] * vn[:, 1]
+                     + w[:, 1:] * vn[:, 2])
+                length = np.linalg.norm(s, axis=1, keepdims=True)
+                good = length[:, 0] > 1e-12
+                s[good] /= length[good]
+                s[~good] = ng[smooth][~good]
+                ns[smooth] = s
+            shading[tr] = ns
+            material[tr] = self.tri_material[tri]
+            offset[tr] = self.tri_offset[tri]
+            gouraud[tr] = code == 2
+        return Surface(point, geometric, shading, material, offset, hits.shape.copy(),
+                       hits.triangle.copy(), hits.uv.copy(), gouraud)
+
+
+def spawn_origins(point: np.ndarray, geometric: np.ndarray, offset: np.ndarray,
+                  direction: np.ndarray) -> np.ndarray:
+    """Start points (n, 3) of rays leaving surface points along ``direction``.
+
+    Mesh hits move ``offset`` off the plane along the geometric normal, to the side the ray
+    leaves on; analytic hits have offset 0 and stay put (their ray carries its shape instead,
+    see :mod:`raytrace.analytic`).
+    """
+    side = np.sign(np.einsum("ij,ij->i", direction, geometric))
+    side[side == 0] = 1.0
+    return point + (side * offset)[:, None] * geometric
+
+
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Unit vertex normals: the normalised sum of the unit normals of the faces sharing
+    each vertex (seed 000, Gouraud: N_V = Σ N_k / |Σ N_k|). (V, 3) float64.
+    """
+    a, b, c = vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]
+    fn = np.cross(b - a, c - a)
+    fn /= np.linalg.norm(fn, axis=1, keepdims=True)
+    acc = np.zeros_like(vertices)
+    for k in range(3):
+        np.add.at(acc, faces[:, k], fn)
+    length = np.linalg.norm(acc, axis=1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = acc / length
+    out[length[:, 0] < 1e-12] = 0.0  # cancelling normals: shading falls back to the face
+    return out

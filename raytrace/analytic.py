@@ -1,0 +1,113 @@
+"""Analytic spheres and planes, intersected in float64 numpy.
+
+Self-intersection is avoided without an epsilon (EMBREEX_NOTES.md, "Precision"): a ray that
+starts on a convex primitive and leaves it cannot hit it again, so that primitive is skipped;
+a ray that starts on a sphere and goes inward (refraction) can only hit its far side, so only
+the far root counts.
+
+The quadratic is solved in the numerically stable form of Haines et al., "Precision
+Improvements for Ray/Sphere Intersection" (Ray Tracing Gems, 2019, ch. 7): the discriminant
+``r² − |f|²`` uses the ray's perpendicular offset ``f``, and the second root comes from
+``c/q`` (Vieta), so neither cancels catastrophically.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .rays import NO_SHAPE
+
+
+class AnalyticShapes:
+    """Spheres then planes, numbered 0..S−1 then S..S+P−1, in camera-relative coordinates.
+
+    Parameters
+    ----------
+    centers : (S, 3) float64
+    radii : (S,) float64
+    points : (P, 3) float64
+        A point on each plane.
+    normals : (P, 3) float64
+        Unit outward normals of the planes.
+    """
+
+    def __init__(self, centers, radii, points, normals):
+        self.centers = np.asarray(centers, dtype=np.float64).reshape(-1, 3)
+        self.radii = np.asarray(radii, dtype=np.float64).reshape(-1)
+        self.points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        self.normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+        self.n_spheres = len(self.radii)
+
+    def __len__(self) -> int:
+        return self.n_spheres + len(self.points)
+
+    def intersect(self, origin: np.ndarray, direction: np.ndarray, origin_shape: np.ndarray,
+                  tmax: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Closest hit of each ray: ``t`` (n,) float64 (inf on a miss) and the shape (n,) int64.
+
+        ``direction`` must be unit length. Only hits with ``0 < t < tmax`` count.
+        """
+        n = len(origin)
+        best_t = np.full(n, np.inf) if tmax is None else np.asarray(tmax, np.float64).copy()
+        best = np.full(n, NO_SHAPE, dtype=np.int64)
+        for s in range(self.n_spheres):
+            t = self._sphere(s, origin, direction, origin_shape == s)
+            closer = t < best_t
+            best_t[closer], best[closer] = t[closer], s
+        for p in range(len(self.points)):
+            sid = self.n_spheres + p
+            t = self._plane(p, origin, direction)
+            t[origin_shape == sid] = np.inf  # a ray leaving a plane never re-hits it
+            closer = t < best_t
+            best_t[closer], best[closer] = t[closer], sid
+        best_t[best == NO_SHAPE] = np.inf
+        return best_t, best
+
+    def _sphere(self, s: int, o: np.ndarray, d: np.ndarray, on_it: np.ndarray) -> np.ndarray:
+        oc = o - self.centers[s]
+        r = self.radii[s]
+        b = np.einsum("ij,ij->i", oc, d)                 # d·(o − c), |d| = 1
+        f = oc - b[:, None] * d                          # perpendicular offset of the ray
+        disc = r * r - np.einsum("ij,ij->i", f, f)       # r² − |f|² (no cancellation)
+        c = np.einsum("ij,ij->i", oc, oc) - r * r
+        inward = on_it & (b < 0)
+        disc = np.where(inward, np.maximum(disc, 0.0), disc)  # it starts on the sphere
+        hit = disc >= 0
+        sq = np.sqrt(np.where(hit, disc, 0.0))
+        q = -b - np.copysign(sq, b)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t0, t1 = q, c / q
+        near, far = np.minimum(t0, t1), np.maximum(t0, t1)
+        t = np.where(near > 0, near, far)
+        t = np.where(inward, np.where(b < 0, q, np.inf), t)  # from the surface inward: far root
+        t = np.where(on_it & ~inward, np.inf, t)             # leaving a convex shape
+        ok = hit & (t > 0) & np.isfinite(t)
+        return np.where(ok, t, np.inf)
+
+    def _plane(self, p: int, o: np.ndarray, d: np.ndarray) -> np.ndarray:
+        n = self.normals[p]
+        denom = d @ n
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = ((self.points[p] - o) @ n) / denom
+        return np.where((t > 0) & np.isfinite(t), t, np.inf)
+
+    def surface(self, shape: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Hit points snapped onto their surfaces, and unit outward normals, (n, 3) each."""
+        normal = np.empty_like(point)
+        point = point.copy()
+        sph = shape < self.n_spheres
+        if sph.any():
+            c = self.centers[shape[sph]]
+            r = self.radii[shape[sph]]
+            radial = point[sph] - c
+            radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+            normal[sph] = radial
+            point[sph] = c + r[:, None] * radial
+        pl = ~sph
+        if pl.any():
+            k = shape[pl] - self.n_spheres
+            nrm = self.normals[k]
+            normal[pl] = nrm
+            off = np.einsum("ij,ij->i", point[pl] - self.points[k], nrm)
+            point[pl] -= off[:, None] * nrm
+        return point, normal

@@ -1,0 +1,40 @@
+"""Errors a user can act on.
+
+Every problem with input (a scene file, a mesh, a command-line flag) is raised as a
+:class:`SceneError` carrying the file, the key and what is wrong, so the command line can print
+one clear line and exit non-zero without a traceback.
+"""
+
+from __future__ import annotations
+
+
+class SceneError(ValueError):
+    """Bad input: ``file: key: problem``.
+
+    Parameters
+    ----------
+    problem : str
+        What is wrong, e.g. ``"must be > 0, got -1"``.
+    key : str, optional
+        The dotted key path inside the scene, e.g. ``"objects[2].radius"``.
+    file : str, optional
+        The scene (or mesh) file; ``None`` for scenes built in Python.
+    """
+
+    def __init__(self, problem: str, key: str | None = None, file: str | None = None):
+        self.problem = problem
+        self.key = key
+        self.file = file
+        super().__init__(str(self))
+
+    def __str__(self) -> str:
+        parts = [p for p in (self.file, self.key) if p]
+        return ": ".join([*parts, self.problem])
+
+    def at(self, file: str | None = None, key_prefix: str | None = None) -> SceneError:
+        """The same error, located in ``file`` and below ``key_prefix``."""
+        key = self.key
+        if key_prefix:
+            key = f"{key_prefix}.{key}" if key and not key.startswith("[") else (
+                f"{key_prefix}{key}" if key else key_prefix)
+        return SceneError(self.problem, key, self.file or file)

@@ -1,0 +1,152 @@
+"""The film: the rendered image, its EXR output and tone-mapped previews.
+
+* EXR: float32 R, G, B, linear and unclamped, with the sRGB/Rec. 709 chromaticities and the
+  render settings in the header (OpenEXR's Python binding, which needs C-contiguous channels:
+  a strided view silently writes wrong pixels, so every channel is copied contiguous).
+* PNG preview: exposure (stops) → tone map → clip to [0, 1] → sRGB encoding by colour-science
+  (imported only here, only when a preview is asked for).
+
+Every file is written atomically: to a temporary file in the same folder, then renamed, so an
+interrupted write leaves the old file (or none), never a truncated one.
+"""
+
+from __future__ import annotations
+
+import os
+import struct
+import tempfile
+import warnings
+import zlib
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+#: Rec. 709 / sRGB primaries and D65 white: (red xy, green xy, blue xy, white xy).
+SRGB_CHROMATICITIES = (0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290)
+
+
+@contextmanager
+def atomic_path(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
+    """A temporary path beside ``path`` that replaces it only if the block completes."""
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix + ".tmp", dir=folder)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_exr(path: str | os.PathLike, rgb: np.ndarray, metadata: dict | None = None) -> None:
+    """Write (H, W, 3) linear RGB as float32 OpenEXR, atomically."""
+    import OpenEXR
+
+    rgb = np.asarray(rgb, dtype=np.float32)
+    if rgb.ndim != 3 or rgb.shape[2] != 3:
+        raise ValueError(f"expected an (H, W, 3) image, got shape {rgb.shape}")
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+              "chromaticities": SRGB_CHROMATICITIES}
+    for k, v in (metadata or {}).items():
+        header[f"raytrace:{k}"] = v if isinstance(v, (int, float)) else str(v)
+    channels = {c: np.ascontiguousarray(rgb[..., i]) for i, c in enumerate("RGB")}
+    with atomic_path(path, ".exr") as tmp, OpenEXR.File(header, channels) as f:
+        f.write(str(tmp))
+
+
+def read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict]:
+    """(H, W, 3) float32 RGB and the header of an EXR file."""
+    import OpenEXR
+
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        ch = f.channels()
+        header = dict(f.header())
+        missing = [c for c in "RGB" if c not in ch]
+        if missing:
+            raise ValueError(f"{path}: no channel(s) {', '.join(missing)} "
+                             f"(has {', '.join(sorted(ch))})")
+        rgb = np.stack([np.asarray(ch[c].pixels, dtype=np.float32) for c in "RGB"], axis=-1)
+    return rgb, header
+
+
+def _clip(x: np.ndarray) -> np.ndarray:
+    return x
+
+
+def _reinhard(x: np.ndarray) -> np.ndarray:
+    """Reinhard et al. 2002, global operator on each channel: x / (1 + x)."""
+    return x / (1.0 + x)
+
+
+#: Tone-mapping operators by name, applied after exposure and before clipping.
+TONEMAPS: dict[str, Callable[[np.ndarray], np.ndarray]] = {"clip": _clip, "reinhard": _reinhard}
+
+
+def preview(rgb: np.ndarray, exposure: float = 0.0, tonemap: str = "clip") -> np.ndarray:
+    """8-bit sRGB preview (H, W, 3) uint8 of linear RGB: ``2^exposure``, tone map, clip,
+    then the sRGB encoding (IEC 61966-2-1) by colour-science. Non-finite values show black.
+    """
+    with warnings.catch_warnings():  # colour warns that matplotlib is absent: not needed
+        warnings.simplefilter("ignore")
+        import colour
+
+    if tonemap not in TONEMAPS:
+        raise ValueError(f"unknown tone map {tonemap!r} (choose from {', '.join(TONEMAPS)})")
+    x = np.nan_to_num(np.asarray(rgb, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)
+    x = TONEMAPS[tonemap](np.maximum(x, 0.0) * 2.0**exposure)
+    encoded = colour.cctf_encoding(np.clip(x, 0.0, 1.0), function="sRGB")
+    return np.clip(np.round(encoded * 255.0), 0, 255).astype(np.uint8)
+
+
+def png_bytes(pixels: np.ndarray) -> bytes:
+    """A PNG file (8-bit RGB, no filtering) of (H, W, 3) uint8 pixels."""
+    h, w, _ = pixels.shape
+    raw = np.concatenate([np.zeros((h, 1), np.uint8), pixels.reshape(h, w * 3)], axis=1)
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6)) + chunk(b"IEND", b""))
+
+
+def write_png(path: str | os.PathLike, rgb: np.ndarray, exposure: float = 0.0,
+              tonemap: str = "clip") -> None:
+    """Write a tone-mapped sRGB PNG preview of linear RGB, atomically."""
+    data = png_bytes(preview(rgb, exposure, tonemap))
+    with atomic_path(path, ".png") as tmp:
+        tmp.write_bytes(data)
+
+
+@dataclass
+class Image:
+    """A rendered image: ``rgb`` (H, W, 3) float32 linear, ``stats`` as in ``--stats``."""
+
+    rgb: np.ndarray
+    stats: dict = field(default_factory=dict)
+    metadata: dict = field(default_factory=dict)
+
+    @property
+    def width(self) -> int:
+        return self.rgb.shape[1]
+
+    @property
+    def height(self) -> int:
+        return self.rgb.shape[0]
+
+    def save(self, path: str | os.PathLike, exposure: float = 0.0, tonemap: str = "clip"
+             ) -> None:
+        """Write ``.exr`` (float, linear) or ``.png`` (tone-mapped sRGB preview)."""
+        suffix = Path(path).suffix.lower()
+        if suffix == ".exr":
+            write_exr(path, self.rgb, self.metadata)
+        elif suffix == ".png":
+            write_png(path, self.rgb, exposure, tonemap)
+        else:
+            raise ValueError(f"{path}: unknown image type {suffix!r} (use .exr or .png)")

@@ -1,0 +1,232 @@
+"""Materials: the coefficients of the seeds' local model and of Whitted's recursion.
+
+A :class:`Material` holds per-channel colours ``ka kd ks kr kt`` (each a constant RGB or a
+:class:`Checker` pattern), the highlight exponent ``shininess`` with its model (``"phong"``
+(V·R)^n, Phong 1975; ``"blinn"`` (N·H)^n, Blinn 1977), the index of refraction and the
+opacity t of the blend ``I = t·I_surface + (1 − t)·I_behind`` (seed 003).
+
+The named library lives in the top-level ``materials/`` folder, one TOML file per material
+(its source in the file), and is shipped inside the wheel as ``raytrace/_materials``:
+
+>>> from raytrace.material import library
+>>> library["brass"].shininess
+27.8974
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import values
+from .errors import SceneError
+
+HIGHLIGHTS = ("phong", "blinn")
+COLOR_KEYS = ("ka", "kd", "ks", "kr", "kt")
+MATERIAL_KEYS = ("base", *COLOR_KEYS, "shininess", "highlight", "ior", "opacity")
+LIBRARY_ONLY_KEYS = ("description", "source")
+
+
+@dataclass(frozen=True, eq=False)
+class Checker:
+    """A 3-D world-space checker (SCENE_FORMAT.md).
+
+    ``colors[0]`` where ``floor(x/s + 1e-4) + floor(y/s + 1e-4) + floor(z/s + 1e-4)`` is even,
+    else ``colors[1]``; the 1e-4 keeps a plane lying on a cell boundary on one side.
+    """
+
+    colors: tuple[np.ndarray, np.ndarray]
+    scale: float = 1.0
+
+    def evaluate(self, points: np.ndarray) -> np.ndarray:
+        """Colours (n, 3) at world points (n, 3)."""
+        cells = np.floor(points / self.scale + 1e-4).sum(axis=1)
+        odd = (cells.astype(np.int64) & 1).astype(bool)
+        return np.where(odd[:, None], self.colors[1], self.colors[0])
+
+    @property
+    def max(self) -> np.ndarray:
+        return np.maximum(self.colors[0], self.colors[1])
+
+
+Color = np.ndarray | Checker
+PATTERN_KEYS = ("pattern", "colors", "scale")
+
+
+def parse_color(value: Any, key: str, *, hi: float | None = None) -> Color:
+    """A colour, or an inline pattern table ``{ pattern = "checker", colors, scale }``."""
+    if isinstance(value, Checker):
+        return value
+    if isinstance(value, Mapping):
+        values.check_keys(value, PATTERN_KEYS, key)
+        values.string(value.get("pattern"), f"{key}.pattern", ["checker"])
+        cols = value.get("colors")
+        if not isinstance(cols, (list, tuple)) or len(cols) != 2:
+            raise SceneError("must be a list of two colours", f"{key}.colors")
+        pair = tuple(values.color(c, f"{key}.colors[{i}]", hi=hi) for i, c in enumerate(cols))
+        scale = values.number(value.get("scale", 1.0), f"{key}.scale", lo=0, lo_open=True)
+        return Checker(pair, scale)
+    return values.color(value, key, hi=hi)
+
+
+@dataclass(eq=False)
+class Material:
+    """Coefficients of one surface; scalars become grey colours, ``ka=None`` follows ``kd``."""
+
+    kd: Any = 0.5
+    ka: Any = None
+    ks: Any = 0.0
+    shininess: float = 32.0
+    highlight: str = "phong"
+    kr: Any = 0.0
+    kt: Any = 0.0
+    ior: float = 1.5
+    opacity: float = 1.0
+    name: str = field(default="", compare=False)
+
+    def __post_init__(self) -> None:
+        where = f"material {self.name!r}" if self.name else "Material"
+        for k in COLOR_KEYS:
+            v = getattr(self, k)
+            if v is None and k == "ka":
+                continue
+            hi = 1.0 if k in ("kr", "kt") else None
+            try:
+                object.__setattr__(self, k, parse_color(v, k, hi=hi))
+            except SceneError as e:
+                raise e.at(key_prefix=where) from None
+        try:
+            self.shininess = values.number(self.shininess, "shininess", lo=0)
+            self.highlight = values.string(self.highlight, "highlight", HIGHLIGHTS)
+            self.ior = values.number(self.ior, "ior", lo=0, lo_open=True)
+            self.opacity = values.number(self.opacity, "opacity", lo=0, hi=1)
+        except SceneError as e:
+            raise e.at(key_prefix=where) from None
+
+    @property
+    def ambient(self) -> Color:
+        """ka, or kd where ka was omitted."""
+        return self.kd if self.ka is None else self.ka
+
+    def _is_zero(self, c: Color) -> bool:
+        return not np.any(c.max if isinstance(c, Checker) else c)
+
+    @property
+    def reflects(self) -> bool:
+        return not self._is_zero(self.kr) and self.opacity > 0
+
+    @property
+    def transmits(self) -> bool:
+        return not self._is_zero(self.kt) and self.opacity > 0
+
+    @property
+    def see_through(self) -> bool:
+        return self.opacity < 1
+
+    @property
+    def transparent(self) -> bool:
+        """Lets shadow rays through (factor t·kt + 1 − t > 0 somewhere)."""
+        return self.transmits or self.see_through
+
+    @property
+    def lit(self) -> bool:
+        """Has a term that lights affect (kd or ks non-zero)."""
+        return not (self._is_zero(self.kd) and self._is_zero(self.ks))
+
+    def replace(self, **changes: Any) -> Material:
+        return dataclasses.replace(self, **changes)
+
+
+def material_from_table(table: Mapping, key: str,
+                        resolve: Callable[[str, str], Material] | None = None,
+                        name: str = "", extra_keys: tuple[str, ...] = ()) -> Material:
+    """A material from a scene/library table, starting from ``base`` when given.
+
+    ``resolve(name, key)`` looks up a base material by name.
+    """
+    values.check_keys(table, (*MATERIAL_KEYS, *extra_keys), key)
+    fields: dict[str, Any] = {k: table[k] for k in MATERIAL_KEYS if k in table and k != "base"}
+    if "base" in table:
+        base_name = values.string(table["base"], f"{key}.base")
+        if resolve is None:
+            raise SceneError("no materials to take a base from", f"{key}.base")
+        base = resolve(base_name, f"{key}.base")
+        fields = {**{f.name: getattr(base, f.name) for f in dataclasses.fields(base)},
+                  **fields}
+    fields["name"] = name
+    try:
+        return Material(**fields)
+    except SceneError as e:
+        # Material() names the key as "Material.kd" etc.; re-root it at the table's key.
+        k = e.key or ""
+        k = k.split(".", 1)[1] if k.startswith(("Material.", "material ")) and "." in k else k
+        raise SceneError(e.problem, f"{key}.{k}" if k else key) from None
+
+
+def _library_folder() -> Path:
+    """``raytrace/_materials`` in a wheel, else the checkout's top-level ``materials/``."""
+    here = Path(__file__).resolve().parent
+    packaged = here / "_materials"
+    return packaged if packaged.is_dir() else here.parent / "materials"
+
+
+class MaterialLibrary(Mapping):
+    """The named materials: ``library["brass"]``; iterating gives the names, sorted."""
+
+    def __init__(self, folder: Path | None = None):
+        self.folder = Path(folder) if folder is not None else _library_folder()
+        self._cache: dict[str, Material] = {}
+
+    @cached_property
+    def _files(self) -> dict[str, Path]:
+        if not self.folder.is_dir():
+            return {}
+        return {p.stem: p for p in sorted(self.folder.glob("*.toml"))}
+
+    def __getitem__(self, name: str) -> Material:
+        if name not in self._cache:
+            path = self._files.get(name)
+            if path is None:
+                raise KeyError(name)
+            self._cache[name] = self._load(name, path)
+        return self._cache[name]
+
+    def _load(self, name: str, path: Path) -> Material:
+        try:
+            table = tomllib.loads(path.read_text())
+        except (OSError, tomllib.TOMLDecodeError) as e:
+            raise SceneError(f"cannot read material: {e}", file=str(path)) from None
+        try:
+            return material_from_table(table, "", self._resolve, name, LIBRARY_ONLY_KEYS)
+        except SceneError as e:
+            raise SceneError(e.problem, (e.key or "").lstrip("."), str(path)) from None
+
+    def _resolve(self, name: str, key: str) -> Material:
+        if name not in self:
+            raise SceneError(f"unknown material {name!r}", key)
+        return self[name]
+
+    def describe(self, name: str) -> dict[str, str]:
+        """The ``description`` and ``source`` strings of a library material."""
+        table = tomllib.loads(self._files[name].read_text())
+        return {k: str(table.get(k, "")) for k in LIBRARY_ONLY_KEYS}
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._files
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._files)
+
+    def __len__(self) -> int:
+        return len(self._files)
+
+
+#: The library of named materials shipped with raytrace.
+library = MaterialLibrary()

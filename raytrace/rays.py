@@ -1,0 +1,83 @@
+"""Rays as structures of arrays: one row per ray.
+
+A :class:`RayBatch` flows through the pipeline: the camera makes one, the accelerator
+intersects it, the integrator shades the hits and spawns the next depth's batch. Whitted's sum
+``I = local + kr·I_r + kt·I_t`` is linear in the child rays, so every ray carries the product of
+the weights along its path and the index of the pixel sample it belongs to; contributions are
+added to that sample (Whitted 1980, in wavefront form as in pbrt-v4's wavefront integrator).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Kinds of ray, for ``RayBatch.kind`` and the statistics.
+CAMERA, REFLECTION, REFRACTION, SEE_THROUGH = 0, 1, 2, 3
+KIND_NAMES = ("camera", "reflection", "refraction", "see_through")
+
+#: ``RayBatch.origin_shape`` value of a ray that starts on no surface (camera rays).
+NO_SHAPE = -1
+
+
+@dataclass
+class RayBatch:
+    """A batch of ``n`` rays.
+
+    Attributes
+    ----------
+    origin : (n, 3) float64
+        Start points, camera-relative world coordinates.
+    direction : (n, 3) float64
+        Unit directions.
+    sample : (n,) int64
+        Index of the pixel sample (within the current pass) the ray contributes to.
+    weight : (n, 3) float64
+        Product of the kr, kt, opacity factors along the path (per RGB channel).
+    depth : int
+        Recursion depth shared by the batch: camera rays are depth 0.
+    origin_shape : (n,) int64
+        The analytic shape (sphere or plane index into the shape table) the ray starts on,
+        or :data:`NO_SHAPE`; it lets analytic intersection avoid self-hits without an epsilon.
+    kind : (n,) int8
+        CAMERA, REFLECTION, REFRACTION or SEE_THROUGH.
+    """
+
+    origin: np.ndarray
+    direction: np.ndarray
+    sample: np.ndarray
+    weight: np.ndarray
+    depth: int
+    origin_shape: np.ndarray
+    kind: np.ndarray
+
+    def __len__(self) -> int:
+        return self.origin.shape[0]
+
+    def take(self, index: np.ndarray) -> RayBatch:
+        """The rays selected by a boolean mask or an index array (compaction)."""
+        return RayBatch(self.origin[index], self.direction[index], self.sample[index],
+                        self.weight[index], self.depth, self.origin_shape[index],
+                        self.kind[index])
+
+    @staticmethod
+    def concatenate(batches: list[RayBatch], depth: int) -> RayBatch:
+        """One batch from several of the same depth (an empty list gives an empty batch)."""
+        if not batches:
+            return RayBatch.empty(depth)
+        return RayBatch(
+            np.concatenate([b.origin for b in batches]),
+            np.concatenate([b.direction for b in batches]),
+            np.concatenate([b.sample for b in batches]),
+            np.concatenate([b.weight for b in batches]),
+            depth,
+            np.concatenate([b.origin_shape for b in batches]),
+            np.concatenate([b.kind for b in batches]),
+        )
+
+    @staticmethod
+    def empty(depth: int = 0) -> RayBatch:
+        z3 = np.zeros((0, 3))
+        return RayBatch(z3, z3.copy(), np.zeros(0, np.int64), z3.copy(), depth,
+                        np.zeros(0, np.int64), np.zeros(0, np.int8))

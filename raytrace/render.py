@@ -1,0 +1,41 @@
+"""``raytrace.render``: one call from a :class:`~raytrace.scene.Scene` to an :class:`Image`."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from . import values
+from .errors import SceneError
+from .film import Image
+from .integrator import PASS_SAMPLES, RenderOptions, WhittedIntegrator
+from .scene import RenderSettings, Scene
+
+
+def render(scene: Scene, *, width: int | None = None, height: int | None = None,
+           spp: int | None = None, max_depth: int | None = None,
+           min_weight: float | None = None, seed: int | None = None, threads: int = 1,
+           progress: Callable[[int, int], None] | None = None,
+           pass_samples: int = PASS_SAMPLES) -> Image:
+    """Render ``scene``; keyword arguments override its ``[render]`` settings.
+
+    Returns an :class:`Image` whose ``rgb`` is (height, width, 3) float32 linear RGB and whose
+    ``stats`` is the ``--stats`` dictionary.
+    """
+    if not isinstance(scene, Scene):
+        raise TypeError(f"render() needs a raytrace.Scene, got {type(scene).__name__}")
+    r = scene.render
+    try:
+        settings = RenderSettings(
+            width=r.width if width is None else width,
+            height=r.height if height is None else height,
+            spp=r.spp if spp is None else spp,
+            max_depth=r.max_depth if max_depth is None else max_depth,
+            min_weight=r.min_weight if min_weight is None else min_weight,
+            background=r.background, seed=r.seed if seed is None else seed)
+        threads = values.number(threads, "threads", lo=1, hi=256, integer=True)
+    except SceneError as e:
+        raise SceneError(e.problem, e.key, scene.path) from None
+    options = RenderOptions(settings.width, settings.height, settings.spp, settings.max_depth,
+                            settings.min_weight, settings.background, settings.seed, threads,
+                            pass_samples)
+    return WhittedIntegrator(scene, options).render(progress)

@@ -1,0 +1,436 @@
+"""The scene: camera, lights, objects, materials and render settings.
+
+These are plain, validated dataclasses. A scene file (:mod:`raytrace.scene_file`) and a Python
+script build the same objects, so both get the same checks and the same error text. Geometry
+stays in world coordinates here; :mod:`raytrace.accel` recentres it on the camera.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import values
+from .errors import SceneError
+from .material import Material, library, material_from_table
+
+#: Largest accepted |coordinate| of a mesh vertex: Embree silently drops triangles with
+#: coordinates around 1.8e19 and float32 products overflow well before 3.4e38.
+MAX_COORDINATE = 1e18
+#: Largest accepted image, in pixels (the float32 image alone is 12 bytes a pixel).
+MAX_PIXELS = 100_000_000
+MAX_SIDE = 100_000
+
+
+def _err(e: SceneError, where: str) -> SceneError:
+    return e.at(key_prefix=where)
+
+
+@dataclass
+class RenderSettings:
+    """``[render]``: image size, sampling and recursion limits."""
+
+    width: int = 640
+    height: int = 480
+    spp: int = 1
+    max_depth: int = 5
+    min_weight: float = 0.0
+    background: Any = 0.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        self.width = values.number(self.width, "render.width", lo=1, hi=MAX_SIDE, integer=True)
+        self.height = values.number(self.height, "render.height", lo=1, hi=MAX_SIDE,
+                                    integer=True)
+        if self.width * self.height > MAX_PIXELS:
+            raise SceneError(f"{self.width}x{self.height} is over the limit of "
+                             f"{MAX_PIXELS:,} pixels", "render.width")
+        self.spp = values.number(self.spp, "render.spp", lo=1, hi=65536, integer=True)
+        self.max_depth = values.number(self.max_depth, "render.max_depth", lo=0, hi=1000,
+                                       integer=True)
+        self.min_weight = values.number(self.min_weight, "render.min_weight", lo=0)
+        self.background = values.color(self.background, "render.background")
+        self.seed = values.number(self.seed, "render.seed", lo=0, hi=2**63 - 1, integer=True)
+
+
+@dataclass
+class Camera:
+    """A pinhole camera; ``fov`` is the vertical field of view in degrees."""
+
+    position: Any = (0.0, 0.0, 0.0)
+    look_at: Any = (0.0, 0.0, -1.0)
+    up: Any = (0.0, 1.0, 0.0)
+    fov: float = 40.0
+
+    def __post_init__(self) -> None:
+        self.position = values.vector(self.position, "camera.position")
+        self.look_at = values.vector(self.look_at, "camera.look_at")
+        self.up = values.vector(self.up, "camera.up", nonzero=True)
+        self.fov = values.number(self.fov, "camera.fov", lo=0, hi=180, lo_open=True,
+                                 hi_open=True)
+        forward = self.look_at - self.position
+        if not np.any(forward) or not np.isfinite(np.linalg.norm(forward)):
+            raise SceneError("must differ from camera.position", "camera.look_at")
+        f = forward / np.linalg.norm(forward)
+        u = self.up / np.linalg.norm(self.up)
+        if np.linalg.norm(np.cross(f, u)) < 1e-9:
+            raise SceneError("must not be parallel to the view direction "
+                             "(look_at − position)", "camera.up")
+
+    def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Right, true-up and forward unit vectors (right-handed, forward = −w)."""
+        w = self.position - self.look_at
+        w = w / np.linalg.norm(w)
+        right = np.cross(self.up, w)
+        right /= np.linalg.norm(right)
+        up = np.cross(w, right)
+        return right, up, -w
+
+
+def _attenuation(value: Any, key: str) -> np.ndarray:
+    a = values.vector(value, key)
+    if np.any(a < 0) or not np.any(a > 0):
+        raise SceneError(f"needs a0, a1, a2 >= 0, not all zero (1/(a0 + a1·d + a2·d²)), "
+                         f"got {a.tolist()}", key)
+    return a
+
+
+@dataclass
+class PointLight:
+    """An isotropic point source with radial attenuation 1/(a0 + a1·d + a2·d²)."""
+
+    position: Any
+    color: Any = 1.0
+    attenuation: Any = (1.0, 0.0, 0.0)
+    type = "point"
+
+    def __post_init__(self) -> None:
+        self.position = values.vector(self.position, "position")
+        self.color = values.color(self.color, "color")
+        self.attenuation = _attenuation(self.attenuation, "attenuation")
+
+
+@dataclass
+class DirectionalLight:
+    """A source at infinity; ``direction`` is the way the light travels. No attenuation."""
+
+    direction: Any
+    color: Any = 1.0
+    type = "directional"
+
+    def __post_init__(self) -> None:
+        self.direction = values.unit(self.direction, "direction")
+        self.color = values.color(self.color, "color")
+
+
+@dataclass
+class SpotLight:
+    """A point source limited to a cone: f_angular = (cos α)^exponent inside, 0 outside."""
+
+    position: Any
+    direction: Any
+    cutoff: float = 45.0
+    exponent: float = 0.0
+    color: Any = 1.0
+    attenuation: Any = (1.0, 0.0, 0.0)
+    type = "spot"
+
+    def __post_init__(self) -> None:
+        self.position = values.vector(self.position, "position")
+        self.direction = values.unit(self.direction, "direction")
+        self.cutoff = values.number(self.cutoff, "cutoff", lo=0, hi=90, lo_open=True)
+        self.exponent = values.number(self.exponent, "exponent", lo=0)
+        self.color = values.color(self.color, "color")
+        self.attenuation = _attenuation(self.attenuation, "attenuation")
+
+
+@dataclass
+class AreaLight:
+    """A two-sided rectangle ``position ± edge_u/2 ± edge_v/2``, sampled by k×k point lights.
+
+    ``color`` is the total over all samples; ``jitter`` places each sample at a seeded random
+    spot in its cell (stratified), otherwise at the cell centre.
+    """
+
+    position: Any
+    edge_u: Any
+    edge_v: Any
+    samples: int = 16
+    jitter: bool = False
+    color: Any = 1.0
+    attenuation: Any = (1.0, 0.0, 0.0)
+    type = "area"
+
+    def __post_init__(self) -> None:
+        self.position = values.vector(self.position, "position")
+        self.edge_u = values.vector(self.edge_u, "edge_u", nonzero=True)
+        self.edge_v = values.vector(self.edge_v, "edge_v", nonzero=True)
+        cross = np.linalg.norm(np.cross(self.edge_u, self.edge_v))
+        if cross <= 1e-12 * np.linalg.norm(self.edge_u) * np.linalg.norm(self.edge_v):
+            raise SceneError("must not be parallel to edge_u", "edge_v")
+        self.samples = values.number(self.samples, "samples", lo=1, hi=4096, integer=True)
+        k = math.isqrt(self.samples)
+        if k * k != self.samples:
+            raise SceneError(f"must be a perfect square k² (a k×k grid), got {self.samples}; "
+                             f"try {k * k} or {(k + 1) ** 2}", "samples")
+        self.jitter = values.boolean(self.jitter, "jitter")
+        self.color = values.color(self.color, "color")
+        self.attenuation = _attenuation(self.attenuation, "attenuation")
+
+    def sample_points(self, seed: int) -> np.ndarray:
+        """The k² sample positions (k², 3): cell centres, or jittered within cells."""
+        k = math.isqrt(self.samples)
+        i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")
+        if self.jitter:
+            rng = np.random.default_rng(seed)
+            su, sv = rng.random((2, k, k))
+        else:
+            su = sv = np.full((k, k), 0.5)
+        fu = ((i + su) / k - 0.5).ravel()
+        fv = ((j + sv) / k - 0.5).ravel()
+        return self.position + fu[:, None] * self.edge_u + fv[:, None] * self.edge_v
+
+
+Light = PointLight | DirectionalLight | SpotLight | AreaLight
+LIGHT_TYPES = {"point": PointLight, "directional": DirectionalLight, "spot": SpotLight,
+               "area": AreaLight}
+
+
+@dataclass
+class Sphere:
+    """An analytic sphere, intersected in float64."""
+
+    center: Any
+    radius: float
+    material: Any = None
+    type = "sphere"
+
+    def __post_init__(self) -> None:
+        self.center = values.vector(self.center, "center")
+        self.radius = values.number(self.radius, "radius", lo=0, lo_open=True)
+
+
+@dataclass
+class Plane:
+    """An infinite analytic plane through ``point``; ``normal`` is its outward side."""
+
+    point: Any
+    normal: Any
+    material: Any = None
+    type = "plane"
+
+    def __post_init__(self) -> None:
+        self.point = values.vector(self.point, "point")
+        self.normal = values.unit(self.normal, "normal")
+
+
+SHADINGS = ("flat", "smooth", "gouraud")
+
+
+def rotation_matrix(degrees: np.ndarray) -> np.ndarray:
+    """Rotation about the fixed world x, then y, then z axes: R = Rz·Ry·Rx."""
+    ax, ay, az = np.radians(degrees)
+    cx, sx, cy, sy, cz, sz = np.cos(ax), np.sin(ax), np.cos(ay), np.sin(ay), np.cos(az), np.sin(az)
+    rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+@dataclass
+class Mesh:
+    """Triangles intersected by Embree.
+
+    Give ``file`` (anything trimesh loads: OBJ, PLY, STL, glTF...), or ``vertices`` (V, 3) and
+    ``faces`` (F, 3), or a ``trimesh.Trimesh`` as ``mesh``. The transform is
+    scale → rotate → translate. Faces with zero area are dropped (and counted in the stats).
+
+    After construction ``vertices`` (float64, world space, transformed) and ``faces`` (int64)
+    hold the triangles; ``degenerate`` counts the dropped faces.
+    """
+
+    file: Any = None
+    vertices: Any = None
+    faces: Any = None
+    mesh: Any = None
+    shading: str = "flat"
+    translate: Any = (0.0, 0.0, 0.0)
+    rotate: Any = (0.0, 0.0, 0.0)
+    scale: Any = 1.0
+    material: Any = None
+    degenerate: int = field(default=0, init=False)
+    type = "mesh"
+
+    def __post_init__(self) -> None:
+        given = [k for k in ("file", "vertices", "mesh") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise SceneError("give exactly one of file, vertices (with faces) or mesh",
+                             "file" if not given else given[1])
+        self.shading = values.string(self.shading, "shading", SHADINGS)
+        translate = values.vector(self.translate, "translate")
+        rotate = values.vector(self.rotate, "rotate")
+        if isinstance(self.scale, (list, tuple, np.ndarray)):
+            scale = values.vector(self.scale, "scale")
+        else:
+            scale = np.full(3, values.number(self.scale, "scale"))
+        if not np.all(scale != 0):
+            raise SceneError(f"must be non-zero, got {np.asarray(self.scale).tolist()}", "scale")
+        self.translate, self.rotate, self.scale = translate, rotate, scale
+
+        if self.file is not None:
+            verts, faces = _load_mesh_file(Path(self.file))
+        elif self.mesh is not None:
+            verts, faces = _from_trimesh(self.mesh, "mesh")
+        else:
+            if self.faces is None:
+                raise SceneError("is required with vertices", "faces")
+            verts, faces = self.vertices, self.faces
+        verts, faces = _check_arrays(verts, faces)
+        world = (verts * scale) @ rotation_matrix(rotate).T + translate
+        if not np.all(np.isfinite(world)) or np.abs(world).max() > MAX_COORDINATE:
+            raise SceneError(f"transformed vertices exceed ±{MAX_COORDINATE:g}, beyond "
+                             "float32's useful range for Embree", "scale")
+        a, b, c = world[faces[:, 0]], world[faces[:, 1]], world[faces[:, 2]]
+        area2 = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+        keep = area2 > 0
+        self.degenerate = int((~keep).sum())
+        if not keep.any():
+            raise SceneError("has no triangle with non-zero area", "faces")
+        self.vertices, self.faces = world, faces[keep]
+
+
+def _check_arrays(verts: Any, faces: Any) -> tuple[np.ndarray, np.ndarray]:
+    try:
+        v = np.asarray(verts, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SceneError("must be a list of [x, y, z] numbers", "vertices") from None
+    if v.ndim != 2 or v.shape[1] != 3 or len(v) < 3:
+        raise SceneError(f"must be an (n >= 3, 3) array of points, got shape {v.shape}",
+                         "vertices")
+    bad = ~np.isfinite(v).all(axis=1)
+    if bad.any():
+        raise SceneError(f"vertex {int(np.argmax(bad))} is not finite ({v[bad][0].tolist()}); "
+                         "Embree would silently drop its triangles", "vertices")
+    if np.abs(v).max() > MAX_COORDINATE:
+        raise SceneError(f"coordinates exceed ±{MAX_COORDINATE:g}, beyond float32's useful "
+                         "range for Embree", "vertices")
+    try:
+        f = np.asarray(faces)
+    except (TypeError, ValueError):
+        raise SceneError("must be a list of [i, j, k] vertex indices", "faces") from None
+    if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
+        raise SceneError(f"must be an (n >= 1, 3) array of vertex indices (triangles only), "
+                         f"got shape {f.shape}", "faces")
+    if not np.issubdtype(f.dtype, np.integer):
+        if not np.issubdtype(f.dtype, np.floating) or not np.all(np.mod(f, 1) == 0):
+            raise SceneError("must hold whole vertex indices", "faces")
+    f = f.astype(np.int64)
+    if f.min() < 0 or f.max() >= len(v):
+        raise SceneError(f"index out of range 0..{len(v) - 1}", "faces")
+    return v, f
+
+
+def _from_trimesh(mesh: Any, key: str) -> tuple[np.ndarray, np.ndarray]:
+    import trimesh
+
+    if isinstance(mesh, trimesh.Scene):
+        mesh = mesh.dump(concatenate=True)
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise SceneError(f"must be a triangle mesh (trimesh.Trimesh), got {type(mesh).__name__}",
+                         key)
+    return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)
+
+
+def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    if not path.is_file():
+        raise SceneError(f"mesh file not found: {path}", "file")
+    import trimesh
+
+    try:
+        loaded = trimesh.load(str(path), process=False)
+    except Exception as e:  # trimesh raises many types for unreadable files
+        raise SceneError(f"cannot read mesh {path}: {e}", "file") from None
+    if isinstance(loaded, trimesh.Scene):
+        if not loaded.geometry:
+            raise SceneError(f"{path} holds no triangles", "file")
+        loaded = loaded.dump(concatenate=True)
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+        raise SceneError(f"{path} holds no triangle mesh (got {type(loaded).__name__})", "file")
+    # Merge coincident vertices so smooth shading can average across faces (STL repeats them).
+    loaded.merge_vertices(merge_tex=True, merge_norm=True)
+    return np.asarray(loaded.vertices, dtype=np.float64), np.asarray(loaded.faces)
+
+
+Shape = Sphere | Plane | Mesh
+
+
+@dataclass
+class Scene:
+    """Everything a render needs. ``materials`` are the scene-local named materials.
+
+    Object and light ``material`` fields may be a :class:`Material`, a name (scene-local first,
+    then the library) or an inline table; :meth:`resolve_materials` turns them into Materials.
+    """
+
+    camera: Camera = field(default_factory=Camera)
+    objects: list = field(default_factory=list)
+    lights: list = field(default_factory=list)
+    materials: dict = field(default_factory=dict)
+    ambient: Any = 0.0
+    render: RenderSettings = field(default_factory=RenderSettings)
+    path: str | None = None
+
+    def __post_init__(self) -> None:
+        self.ambient = values.color(self.ambient, "ambient.color")
+        for i, o in enumerate(self.objects):
+            if not isinstance(o, (Sphere, Plane, Mesh)):
+                raise SceneError(f"must be a Sphere, Plane or Mesh, got {type(o).__name__}",
+                                 f"objects[{i}]", self.path)
+        for i, light in enumerate(self.lights):
+            if not isinstance(light, tuple(LIGHT_TYPES.values())):
+                raise SceneError(f"must be a light, got {type(light).__name__}",
+                                 f"lights[{i}]", self.path)
+        self.resolve_materials()
+
+    def material(self, name: str, key: str = "material") -> Material:
+        """A scene-local material by name, else a library one."""
+        if name in self.materials:
+            return self.materials[name]
+        if name in library:
+            return library[name]
+        known = sorted(set(self.materials) | set(library))
+        raise SceneError(f"unknown material {name!r} (scene materials and library: "
+                         f"{', '.join(known)})", key, self.path)
+
+    def resolve_materials(self) -> None:
+        for name, m in list(self.materials.items()):
+            if not isinstance(m, Material):
+                raise SceneError("must be a Material", f"materials.{name}", self.path)
+        for i, o in enumerate(self.objects):
+            o.material = self._resolve(o.material, f"objects[{i}].material")
+
+    def _resolve(self, m: Any, key: str) -> Material:
+        if m is None:
+            return Material(name="default")
+        if isinstance(m, Material):
+            return m
+        if isinstance(m, str):
+            return self.material(m, key)
+        if isinstance(m, Mapping):
+            try:
+                return material_from_table(m, key, lambda n, k: self.material(n, k))
+            except SceneError as e:
+                raise SceneError(e.problem, e.key, self.path) from None
+        raise SceneError(f"must be a material name or table, got {values.type_name(m)}", key,
+                         self.path)
+
+    @property
+    def triangles(self) -> int:
+        return sum(len(o.faces) for o in self.objects if isinstance(o, Mesh))
+
+

@@ -1,0 +1,170 @@
+"""Scene files: TOML (native) or JSON with the same structure, per SCENE_FORMAT.md.
+
+Validation is strict: an unknown key, a wrong type, an out-of-range value or a missing file
+raises :class:`~raytrace.errors.SceneError` naming the file, the key path and the problem.
+"""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from . import values
+from .errors import SceneError
+from .material import Material, library, material_from_table
+from .scene import (
+    LIGHT_TYPES,
+    AreaLight,
+    Camera,
+    DirectionalLight,
+    Mesh,
+    Plane,
+    PointLight,
+    RenderSettings,
+    Scene,
+    Sphere,
+    SpotLight,
+)
+
+TOP_KEYS = ("render", "camera", "ambient", "materials", "lights", "objects")
+RENDER_KEYS = ("width", "height", "spp", "max_depth", "min_weight", "background", "seed")
+CAMERA_KEYS = ("position", "look_at", "up", "fov")
+LIGHT_KEYS = {
+    PointLight: ("type", "position", "color", "attenuation"),
+    DirectionalLight: ("type", "direction", "color"),
+    SpotLight: ("type", "position", "direction", "cutoff", "exponent", "color", "attenuation"),
+    AreaLight: ("type", "position", "edge_u", "edge_v", "samples", "jitter", "color",
+                "attenuation"),
+}
+OBJECT_TYPES = {"sphere": Sphere, "plane": Plane, "mesh": Mesh}
+OBJECT_KEYS = {
+    Sphere: ("type", "center", "radius", "material"),
+    Plane: ("type", "point", "normal", "material"),
+    Mesh: ("type", "file", "vertices", "faces", "shading", "translate", "rotate", "scale",
+           "material"),
+}
+REQUIRED = {PointLight: ("position",), DirectionalLight: ("direction",),
+            SpotLight: ("position", "direction"), AreaLight: ("position", "edge_u", "edge_v"),
+            Sphere: ("center", "radius"), Plane: ("point", "normal")}
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read a ``.toml`` or ``.json`` scene file into a :class:`Scene`."""
+    path = Path(path)
+    name = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SceneError("scene file not found", file=name) from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise SceneError(f"cannot read scene file: {e}", file=name) from None
+    try:
+        if path.suffix.lower() == ".json":
+            data = json.loads(text)
+        else:
+            data = tomllib.loads(text)
+    except (tomllib.TOMLDecodeError, json.JSONDecodeError) as e:
+        kind = "JSON" if path.suffix.lower() == ".json" else "TOML"
+        raise SceneError(f"invalid {kind}: {e}", file=name) from None
+    try:
+        return scene_from_dict(data, path.parent, name)
+    except SceneError as e:
+        raise SceneError(e.problem, e.key, e.file or name) from None
+
+
+def scene_from_dict(data: Mapping, folder: str | Path = ".", name: str | None = None) -> Scene:
+    """A :class:`Scene` from the parsed structure of a scene file (also for Python dicts)."""
+    folder = Path(folder)
+    values.check_keys(data, TOP_KEYS, "")
+    render_table = _table(data, "render")
+    values.check_keys(render_table, RENDER_KEYS, "render")
+    render = RenderSettings(**render_table)
+    cam_table = _table(data, "camera")
+    values.check_keys(cam_table, CAMERA_KEYS, "camera")
+    camera = Camera(**cam_table)
+    amb = _table(data, "ambient")
+    values.check_keys(amb, ("color",), "ambient")
+    materials = _materials(_table(data, "materials"))
+    lights = [_light(t, f"lights[{i}]") for i, t in enumerate(_array(data, "lights"))]
+    objects = [_object(t, f"objects[{i}]", folder) for i, t in enumerate(_array(data, "objects"))]
+    return Scene(camera=camera, objects=objects, lights=lights, materials=materials,
+                 ambient=amb.get("color", 0.0), render=render, path=name)
+
+
+def _table(data: Mapping, key: str) -> Mapping:
+    value = data.get(key, {})
+    if not isinstance(value, Mapping):
+        raise SceneError(f"must be a table, got {values.type_name(value)}", key)
+    return value
+
+
+def _array(data: Mapping, key: str) -> list:
+    value = data.get(key, [])
+    if not isinstance(value, list) or not all(isinstance(t, Mapping) for t in value):
+        raise SceneError(f"must be an array of tables ([[{key}]]), got "
+                         f"{values.type_name(value)}", key)
+    return value
+
+
+def _materials(tables: Mapping) -> dict[str, Material]:
+    """Scene-local materials; ``base`` may name another scene material or a library one."""
+    done: dict[str, Material] = {}
+    busy: list[str] = []
+
+    def get(name: str, key: str) -> Material:
+        if name in done:
+            return done[name]
+        if name in tables:
+            if name in busy:
+                raise SceneError(f"materials form a cycle: {' -> '.join([*busy, name])}", key)
+            busy.append(name)
+            table = tables[name]
+            if not isinstance(table, Mapping):
+                raise SceneError(f"must be a table, got {values.type_name(table)}",
+                                 f"materials.{name}")
+            done[name] = material_from_table(table, f"materials.{name}", get, name)
+            busy.pop()
+            return done[name]
+        if name in library:
+            return library[name]
+        raise SceneError(f"unknown material {name!r} (not in this scene's materials nor the "
+                         f"library; see `raytrace materials`)", key)
+
+    for name in tables:
+        get(name, f"materials.{name}")
+    return done
+
+
+def _construct(cls: type, table: Mapping, key: str, **extra: Any):
+    for req in REQUIRED.get(cls, ()):
+        if req not in table:
+            raise SceneError("is required", f"{key}.{req}")
+    kwargs = {k: v for k, v in table.items() if k != "type"}
+    kwargs.update(extra)
+    try:
+        return cls(**kwargs)
+    except SceneError as e:
+        raise e.at(key_prefix=key) from None
+
+
+def _light(table: Mapping, key: str):
+    kind = values.string(table.get("type", "point"), f"{key}.type", LIGHT_TYPES)
+    cls = LIGHT_TYPES[kind]
+    values.check_keys(table, LIGHT_KEYS[cls], key)
+    return _construct(cls, table, key)
+
+
+def _object(table: Mapping, key: str, folder: Path):
+    if "type" not in table:
+        raise SceneError(f"is required (one of {', '.join(map(repr, OBJECT_TYPES))})",
+                         f"{key}.type")
+    kind = values.string(table["type"], f"{key}.type", OBJECT_TYPES)
+    cls = OBJECT_TYPES[kind]
+    values.check_keys(table, OBJECT_KEYS[cls], key)
+    extra = {}
+    if cls is Mesh and "file" in table:
+        extra["file"] = folder / values.string(table["file"], f"{key}.file")
+    return _construct(cls, table, key, **extra)

@@ -1,0 +1,99 @@
+"""Checked conversion of scene values: colours, vectors, numbers, tables.
+
+Each function takes the raw value and its key path and either returns a clean value or raises
+:class:`~raytrace.errors.SceneError` naming the key and the problem. Used by the scene-file
+loader, the material library and the Python API alike, so a bad value reads the same wherever
+it comes from.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+import numpy as np
+
+from .errors import SceneError
+
+
+def type_name(value: Any) -> str:
+    return {bool: "a boolean", str: "a string", int: "an integer", float: "a number",
+            list: "a list", tuple: "a list", dict: "a table"}.get(type(value),
+                                                               type(value).__name__)
+
+
+def check_keys(table: Mapping, allowed: Iterable[str], key: str) -> None:
+    """Unknown keys are errors: a misspelt key must never be silently ignored."""
+    if not isinstance(table, Mapping):
+        raise SceneError(f"must be a table, got {type_name(table)}", key)
+    allowed = list(allowed)
+    for k in table:
+        if k not in allowed:
+            raise SceneError(f"unknown key (valid keys: {', '.join(allowed)})",
+                             f"{key}.{k}" if key else k)
+
+
+def number(value: Any, key: str, *, lo: float | None = None, hi: float | None = None,
+           lo_open: bool = False, hi_open: bool = False, integer: bool = False) -> float:
+    """A finite real number (an integer if ``integer``) within optional bounds."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise SceneError(f"must be a number, got {type_name(value)}", key)
+    if integer and not float(value).is_integer():
+        raise SceneError(f"must be a whole number, got {value!r}", key)
+    v = float(value)
+    if not math.isfinite(v):
+        raise SceneError(f"must be finite, got {value!r}", key)
+    if lo is not None and (v <= lo if lo_open else v < lo):
+        raise SceneError(f"must be {'>' if lo_open else '>='} {lo:g}, got {value!r}", key)
+    if hi is not None and (v >= hi if hi_open else v > hi):
+        raise SceneError(f"must be {'<' if hi_open else '<='} {hi:g}, got {value!r}", key)
+    return int(v) if integer else v
+
+
+def vector(value: Any, key: str, n: int = 3, *, nonzero: bool = False) -> np.ndarray:
+    """A list of ``n`` finite numbers as a float64 array."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)) or len(value) != n:
+        raise SceneError(f"must be a list of {n} numbers, got {value!r}", key)
+    out = np.array([number(x, f"{key}[{i}]") for i, x in enumerate(value)], dtype=np.float64)
+    if nonzero and not np.any(out):
+        raise SceneError("must not be the zero vector", key)
+    if nonzero and not np.isfinite(np.linalg.norm(out)):
+        raise SceneError(f"is too long to normalise, got {value!r}", key)
+    return out
+
+
+def unit(value: Any, key: str) -> np.ndarray:
+    """A non-zero direction, normalised."""
+    v = vector(value, key, nonzero=True)
+    return v / np.linalg.norm(v)
+
+
+def color(value: Any, key: str, *, lo: float | None = 0.0, hi: float | None = None
+          ) -> np.ndarray:
+    """A colour: a scalar (grey) or ``[r, g, b]``; float64 (3,)."""
+    if isinstance(value, (list, tuple, np.ndarray)):
+        c = vector(value, key)
+        for i, x in enumerate(c):
+            number(x, f"{key}[{i}]", lo=lo, hi=hi)
+        return c
+    return np.full(3, number(value, key, lo=lo, hi=hi))
+
+
+def boolean(value: Any, key: str) -> bool:
+    if not isinstance(value, bool):
+        raise SceneError(f"must be true or false, got {value!r}", key)
+    return value
+
+
+def string(value: Any, key: str, choices: Iterable[str] | None = None) -> str:
+    if not isinstance(value, str):
+        raise SceneError(f"must be a string, got {type_name(value)}", key)
+    if choices is not None:
+        choices = list(choices)
+        if value not in choices:
+            raise SceneError(f"must be one of {', '.join(map(repr, choices))}, got {value!r}",
+                             key)
+    return value
