@@ -50,16 +50,24 @@ class AnalyticShapes:
         n = len(origin)
         best_t = np.full(n, np.inf) if tmax is None else np.asarray(tmax, np.float64).copy()
         best = np.full(n, NO_SHAPE, dtype=np.int64)
+        own_t = np.full(n, np.inf)  # where a ray leaves the sphere it started on
         for s in range(self.n_spheres):
             t = self._sphere(s, origin, direction, origin_shape == s)
+            own = origin_shape == s
+            own_t[own] = t[own]
             closer = t < best_t
             best_t[closer], best[closer] = t[closer], s
         for p in range(len(self.points)):
             sid = self.n_spheres + p
-            t = self._plane(p, origin, direction)
+            t = self._plane(p, origin, direction, origin_shape != NO_SHAPE)
             t[origin_shape == sid] = np.inf  # a ray leaving a plane never re-hits it
             closer = t < best_t
             best_t[closer], best[closer] = t[closer], sid
+        # Touching solids: leaving the ray's own sphere where another shape begins (equal t
+        # within rounding), the exit comes first, so the contact counts both crossings.
+        tol = 16.0 * np.finfo(np.float64).eps * (np.abs(origin).max(axis=1, initial=0) + best_t)
+        tie = (best != NO_SHAPE) & (best != origin_shape) & (own_t <= best_t + tol)
+        best_t[tie], best[tie] = own_t[tie], origin_shape[tie]
         best_t[best == NO_SHAPE] = np.inf
         return best_t, best
 
@@ -79,17 +87,33 @@ class AnalyticShapes:
             t0, t1 = q, c / q
         near, far = np.minimum(t0, t1), np.maximum(t0, t1)
         t = np.where(near > 0, near, far)
+        # A ray starting on this sphere (its small root t1 within the rounding of the
+        # coordinates) though spawned from another one (touching spheres) is treated like one
+        # spawned here: going in, it enters at t = 0; going out, it never hits. A
+        # rounding-sized root of either sign would otherwise bounce the ray between the two
+        # surfaces until max_depth (a black pixel).
+        scale = np.abs(o).max(axis=1) + np.abs(self.centers[s]).max() + r
+        touching = ~on_it & hit & (np.abs(t1) <= 16.0 * np.finfo(np.float64).eps * scale)
+        enters = touching & (b < 0)
+        t = np.where(enters, np.maximum(t1, 0.0), t)
+        t = np.where(touching & ~enters, np.inf, t)
         t = np.where(inward, np.where(b < 0, q, np.inf), t)  # from the surface inward: far root
         t = np.where(on_it & ~inward, np.inf, t)             # leaving a convex shape
-        ok = hit & (t > 0) & np.isfinite(t)
+        ok = hit & ((t > 0) | enters) & np.isfinite(t)
         return np.where(ok, t, np.inf)
 
-    def _plane(self, p: int, o: np.ndarray, d: np.ndarray) -> np.ndarray:
+    def _plane(self, p: int, o: np.ndarray, d: np.ndarray, spawned: np.ndarray) -> np.ndarray:
         n = self.normals[p]
         denom = d @ n
+        dist = (self.points[p] - o) @ n
         with np.errstate(divide="ignore", invalid="ignore"):
-            t = ((self.points[p] - o) @ n) / denom
-        return np.where((t > 0) & np.isfinite(t), t, np.inf)
+            t = dist / denom
+        # A ray spawned on another analytic shape that touches this plane (a sphere resting on
+        # it) starts on the plane within rounding: it crosses here, at t = 0.
+        tol = 16.0 * np.finfo(np.float64).eps * (np.abs(o).max(axis=1, initial=0)
+                                                 + np.abs(self.points[p]).max())
+        t = np.where(spawned & (np.abs(dist) <= tol) & (denom != 0), 0.0, t)
+        return np.where(((t > 0) | (t == 0) & spawned) & np.isfinite(t), t, np.inf)
 
     def surface(self, shape: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Hit points snapped onto their surfaces, and unit outward normals, (n, 3) each."""

@@ -29,8 +29,15 @@ EXIT_BAD_INPUT = 2
 EXIT_OVER_THRESHOLD = 1
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a bad flag is one line (no usage block), like every other bad input."""
+
+    def error(self, message: str):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="raytrace", description="A Whitted ray tracer on Embree.")
+    p = _Parser(prog="raytrace", description="A Whitted ray tracer on Embree.")
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("render", help="render a scene file to a float EXR")

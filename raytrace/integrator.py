@@ -144,10 +144,11 @@ class WhittedIntegrator:
                     progress(stop, total)
         finally:
             self.accel.close()
-        rgb = pixels.reshape(o.height, o.width, 3)
+        with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
+            rgb = pixels.reshape(o.height, o.width, 3).astype(np.float32)
         bad = ~np.isfinite(rgb)
         nonfinite = int(bad.any(axis=2).sum())
-        rgb = np.where(bad, 0.0, rgb).astype(np.float32)
+        rgb = np.where(bad, np.float32(0.0), rgb)
         seconds = time.perf_counter() - t_start + self.build_seconds
         return Image(rgb, self._stats(nonfinite, seconds), self._metadata())
 

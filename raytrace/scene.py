@@ -8,6 +8,7 @@ stays in world coordinates here; :mod:`raytrace.accel` recentres it on the camer
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -351,18 +352,27 @@ def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray]:
         raise SceneError(f"mesh file not found: {path}", "file")
     import trimesh
 
-    try:
-        loaded = trimesh.load(str(path), process=False)
-    except Exception as e:  # trimesh raises many types for unreadable files
-        raise SceneError(f"cannot read mesh {path}: {e}", "file") from None
-    if isinstance(loaded, trimesh.Scene):
-        if not loaded.geometry:
-            raise SceneError(f"{path} holds no triangles", "file")
-        loaded = loaded.dump(concatenate=True)
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise SceneError(f"{path} holds no triangle mesh (got {type(loaded).__name__})", "file")
-    # Merge coincident vertices so smooth shading can average across faces (STL repeats them).
-    loaded.merge_vertices(merge_tex=True, merge_norm=True)
+    # trimesh warns on stderr about NaN while merging: the error below says it in one line.
+    with warnings.catch_warnings(), np.errstate(invalid="ignore", over="ignore"):
+        warnings.simplefilter("ignore")
+        try:
+            loaded = trimesh.load(str(path), process=False)
+        except Exception as e:  # trimesh raises many types for unreadable files
+            raise SceneError(f"cannot read mesh {path}: {e}", "file") from None
+        if isinstance(loaded, trimesh.Scene):
+            if not loaded.geometry:
+                raise SceneError(f"{path} holds no triangles", "file")
+            loaded = loaded.dump(concatenate=True)
+        if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+            raise SceneError(f"{path} holds no triangle mesh (got {type(loaded).__name__})",
+                             "file")
+        bad = ~np.isfinite(np.asarray(loaded.vertices, dtype=np.float64)).all(axis=1)
+        if bad.any():
+            raise SceneError(f"{path}: vertex {int(np.argmax(bad)) + 1} is not finite "
+                             f"({np.asarray(loaded.vertices)[bad][0].tolist()}); Embree would "
+                             "silently drop its triangles", "file")
+        # Merge coincident vertices so smooth shading can average across faces (STL repeats).
+        loaded.merge_vertices(merge_tex=True, merge_norm=True)
     return np.asarray(loaded.vertices, dtype=np.float64), np.asarray(loaded.faces)
 
 

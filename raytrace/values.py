@@ -44,10 +44,13 @@ def number(value: Any, key: str, *, lo: float | None = None, hi: float | None = 
     v = float(value)
     if not math.isfinite(v):
         raise SceneError(f"must be finite, got {value!r}", key)
+    shown = v if isinstance(value, (np.integer, np.floating)) else value  # not np.float64(…)
+    both = "" if lo is None or hi is None else (
+        f" (the range is {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'})")
     if lo is not None and (v <= lo if lo_open else v < lo):
-        raise SceneError(f"must be {'>' if lo_open else '>='} {lo:g}, got {value!r}", key)
+        raise SceneError(f"must be {'>' if lo_open else '>='} {lo:g}{both}, got {shown!r}", key)
     if hi is not None and (v >= hi if hi_open else v > hi):
-        raise SceneError(f"must be {'<' if hi_open else '<='} {hi:g}, got {value!r}", key)
+        raise SceneError(f"must be {'<' if hi_open else '<='} {hi:g}{both}, got {shown!r}", key)
     return int(v) if integer else v
 
 

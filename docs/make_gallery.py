@@ -1,0 +1,160 @@
+"""Render every scene in scenes/ into docs/gallery/ and write docs/gallery.md.
+
+    .venv/bin/python docs/make_gallery.py
+
+One script, so that the pictures always match the code: run it after any change that alters a
+picture. Each scene is rendered ``WIDTH`` pixels wide (the height keeps the scene's aspect
+ratio) with ``SPP`` stratified samples per pixel, and saved as an sRGB PNG preview (clip tone
+map, exposure 0) of the linear render. The page shows each picture with the scene's own header
+comment, the command that renders it at full size, and deterministic numbers from the render
+(size, ray counts); timings are left out because they change from run to run and machine to
+machine (docs/performance.md holds measured ones).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))  # run from a checkout without installing
+
+import raytrace  # noqa: E402
+from raytrace.film import write_png  # noqa: E402
+from raytrace.scene import Sphere  # noqa: E402
+
+SCENES = ROOT / "scenes"
+OUT = ROOT / "docs" / "gallery"
+PAGE = ROOT / "docs" / "gallery.md"
+WIDTH = 400
+SPP = 4  # a 2×2 stratified grid per pixel: enough to smooth the edges of a preview
+#: Scenes shown first, in this order; the rest follow alphabetically.
+FIRST = ("whitted", "cornell_box", "materials_showcase")
+
+
+def scene_files() -> list[Path]:
+    """Every scene file in scenes/ (TOML or JSON), the FIRST ones first."""
+    files = sorted(p for p in SCENES.iterdir() if p.suffix in (".toml", ".json"))
+    rank = {name: i for i, name in enumerate(FIRST)}
+    return sorted(files, key=lambda p: (rank.get(p.stem, len(rank)), p.stem))
+
+
+def header_comment(path: Path) -> list[str]:
+    """The scene file's leading comment block, without the ``#``."""
+    lines = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if not line.startswith("#"):
+            break
+        lines.append(line[1:].removeprefix(" "))
+    return lines
+
+
+def size_for(scene: raytrace.Scene) -> tuple[int, int]:
+    """WIDTH wide, with the aspect ratio of the scene's own [render] size."""
+    r = scene.render
+    return WIDTH, max(1, round(WIDTH * r.height / r.width))
+
+
+def sphere_grid(scene: raytrace.Scene) -> list[list[str]]:
+    """Material names of the scene's spheres as rows (top first) of columns (left first)."""
+    spheres = [o for o in scene.objects if isinstance(o, Sphere)]
+    rows: dict[float, list[Sphere]] = {}
+    for s in spheres:
+        rows.setdefault(round(float(s.center[1]), 6), []).append(s)
+    return [[s.material.name for s in sorted(rows[y], key=lambda s: s.center[0])]
+            for y in sorted(rows, reverse=True)]
+
+
+def grid_table(grid: list[list[str]]) -> list[str]:
+    width = max(len(r) for r in grid)
+    head = "| row | " + " | ".join(str(c + 1) for c in range(width)) + " |"
+    rule = "|---|" + "---|" * width
+    body = [f"| {i + 1} | " + " | ".join(f"`{n}`" for n in row) + " |" * (width - len(row) + 1)
+            for i, row in enumerate(grid)]
+    return [head, rule, *body]
+
+
+def render_one(path: Path, threads: int) -> tuple[raytrace.Scene, dict]:
+    """Render one scene file to docs/gallery/<name>.png; the scene and the render stats."""
+    scene = raytrace.load_scene(path)
+    w, h = size_for(scene)
+    image = raytrace.render(scene, width=w, height=h, spp=SPP, threads=threads)
+    if image.stats["nonfinite_pixels"]:
+        raise RuntimeError(f"{path.name}: {image.stats['nonfinite_pixels']} non-finite pixels")
+    OUT.mkdir(parents=True, exist_ok=True)
+    write_png(OUT / f"{path.stem}.png", image.rgb)
+    return scene, image.stats
+
+
+def section(path: Path, stats: dict, scene: raytrace.Scene) -> list[str]:
+    """The page's part for one scene: picture, header comment, command, numbers."""
+    full = (scene.render.width, scene.render.height)
+    rel = path.relative_to(ROOT).as_posix()
+    comment = header_comment(path)
+    # The "Render:" line is shown as a command block below; keep the prose.
+    prose = [c for c in comment if not c.startswith("Render:")]
+    rays = stats["rays"]
+    out = [f"## {path.stem}", "", f"![{path.stem}](gallery/{path.stem}.png)", ""]
+    if prose:
+        out += ["```text", *prose, "```", ""]
+    out += [
+        f"Scene file: [`{rel}`](../{rel}). Full size ({full[0]}×{full[1]}):",
+        "",
+        "```sh",
+        f"raytrace render {rel} -o {path.stem}.exr --png {path.stem}.png",
+        "```",
+        "",
+        f"This picture: {stats['width']}×{stats['height']}, spp {stats['spp']}, "
+        f"max_depth {stats['max_depth']}; {rays['total']:,} rays ({rays['camera']:,} camera, "
+        f"{rays['shadow']:,} shadow, {rays['reflection']:,} reflection, "
+        f"{rays['refraction']:,} refraction"
+        + (f", {rays['see_through']:,} see-through" if rays.get("see_through") else "")
+        + ")"
+        + (f"; {stats['triangles']:,} triangles" if stats.get("triangles") else "") + ".",
+        "",
+    ]
+    if path.stem == "materials_showcase":
+        out += ["The spheres by grid position (row 1 is the top row, column 1 the left "
+                "column):", "", *grid_table(sphere_grid(scene)), ""]
+    return out
+
+
+def main() -> int:
+    threads = os.cpu_count() or 1
+    files = scene_files()
+    page = [
+        "# Gallery",
+        "",
+        "Every scene in [`scenes/`](../scenes), rendered by "
+        "[`docs/make_gallery.py`](make_gallery.py) "
+        f"at {WIDTH} pixels wide with {SPP} samples per pixel (a 2×2 stratified grid), shown "
+        "as sRGB previews of the linear renders (clipped at 1, no exposure change). "
+        "Regenerate every picture and this page with:",
+        "",
+        "```sh",
+        ".venv/bin/python docs/make_gallery.py",
+        "```",
+        "",
+        "The scene format is described in [scene_format.md](scene_format.md) and the shading "
+        "model in [shading.md](shading.md).",
+        "",
+        "Contents: " + ", ".join(f"[{p.stem}](#{p.stem})" for p in files) + ".",
+        "",
+    ]
+    total = time.perf_counter()
+    for path in files:
+        t0 = time.perf_counter()
+        scene, stats = render_one(path, threads)
+        print(f"{path.stem:24s} {stats['width']}x{stats['height']}  "
+              f"{time.perf_counter() - t0:6.1f} s  {stats['rays']['total']:>10,} rays")
+        page += section(path, stats, scene)
+    PAGE.write_text("\n".join(page).rstrip() + "\n", encoding="utf-8")
+    print(f"wrote {len(files)} pictures to {OUT.relative_to(ROOT)}/ and "
+          f"{PAGE.relative_to(ROOT)} in {time.perf_counter() - total:.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

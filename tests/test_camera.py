@@ -1,0 +1,90 @@
+"""Camera rays: pixel centres, orientation (pixel (0, 0) top-left), stratified samples."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import raytrace
+from raytrace.camera import camera_rays, hash_uniform, sample_offsets
+
+
+def _rays(camera, w, h, spp=1, seed=0):
+    return camera_rays(camera, w, h, spp, seed, 0, w * h * spp)
+
+
+def test_one_pixel_ray_is_the_forward_direction():
+    cam = raytrace.Camera(position=[1, 2, 3], look_at=[4, -2, 3], fov=55)
+    r = _rays(cam, 1, 1)
+    np.testing.assert_allclose(r.direction[0], [0.6, -0.8, 0.0], atol=1e-15)
+    assert np.all(r.origin == 0)          # camera-relative
+
+
+def test_pixel_centres_through_the_image_plane():
+    # Default camera: at the origin looking down −z, up +y. For a W×H image and vertical
+    # fov φ, pixel (row, col)'s centre is at x = (2(col + ½)/W − 1)·tan(φ/2)·W/H,
+    # y = (1 − 2(row + ½)/H)·tan(φ/2) on the plane z = −1.
+    w, h, fov = 8, 6, 60.0
+    r = _rays(raytrace.Camera(fov=fov), w, h)
+    d = r.direction.reshape(h, w, 3)
+    t = math.tan(math.radians(fov) / 2)
+    for row, col in [(0, 0), (0, 7), (5, 0), (3, 4), (5, 7)]:
+        x = (2 * (col + 0.5) / w - 1) * t * w / h
+        y = (1 - 2 * (row + 0.5) / h) * t
+        expected = np.array([x, y, -1.0]) / math.sqrt(x * x + y * y + 1)
+        np.testing.assert_allclose(d[row, col], expected, atol=1e-15)
+    # pixel (0, 0) is top-left: up and to the left
+    assert d[0, 0, 0] < 0 and d[0, 0, 1] > 0
+    np.testing.assert_allclose(np.linalg.norm(r.direction, axis=1), 1.0, rtol=1e-15)
+
+
+def test_vertical_fov_spans_the_image_height():
+    # With H rows the top and bottom edges are at ±tan(φ/2): a ray through the very top edge
+    # would be at φ/2 above the axis; the top pixel centre is at atan((1 − 1/H)·tan(φ/2)).
+    h, fov = 4, 90.0
+    r = _rays(raytrace.Camera(fov=fov), 1, h)
+    top = math.degrees(math.atan2(r.direction[0, 1], -r.direction[0, 2]))
+    assert top == pytest.approx(math.degrees(math.atan((1 - 1 / h) * 1.0)))
+
+
+def test_stratified_samples_fill_the_pixel_grid():
+    # spp = k²: sample j lies in cell (j % k, j // k) of a k×k grid inside the pixel.
+    spp, k = 16, 4
+    idx = np.arange(10 * spp)
+    sx, sy = sample_offsets(spp, 7, idx)
+    cell = idx % spp
+    assert np.all(np.floor(sx * k) == cell % k) and np.all(np.floor(sy * k) == cell // k)
+    assert np.all((sx >= 0) & (sx < 1) & (sy >= 0) & (sy < 1))
+    # Deterministic for a seed, different for another.
+    np.testing.assert_array_equal(sx, sample_offsets(spp, 7, idx)[0])
+    assert not np.array_equal(sx, sample_offsets(spp, 8, idx)[0])
+
+
+def test_hash_uniform_is_uniform_enough():
+    u = hash_uniform(0, np.arange(100_000), 0)
+    assert u.min() >= 0 and u.max() < 1
+    hist = np.bincount((u * 10).astype(int), minlength=10)
+    assert np.all(np.abs(hist - 10_000) < 500)
+
+
+def test_rays_do_not_depend_on_how_the_samples_are_split():
+    cam = raytrace.Camera(position=[0, 1, 5], look_at=[0, 0, 0])
+    whole = camera_rays(cam, 5, 3, 4, 11, 0, 60)
+    part = camera_rays(cam, 5, 3, 4, 11, 24, 40)
+    np.testing.assert_array_equal(whole.direction[24:40], part.direction)
+    np.testing.assert_array_equal(part.sample, np.arange(16))
+
+
+@pytest.mark.parametrize("kw,key", [
+    (dict(look_at=[0, 0, 0], position=[0, 0, 0]), "camera.look_at"),
+    (dict(look_at=[0, -1, 0]), "camera.up"),
+    (dict(fov=0), "camera.fov"),
+    (dict(fov=180), "camera.fov"),
+    (dict(up=[0, 0, 0]), "camera.up"),
+])
+def test_bad_cameras_name_the_key(kw, key):
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.Camera(**kw)
+    assert e.value.key == key

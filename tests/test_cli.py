@@ -1,0 +1,214 @@
+"""The command line: ``--stats`` counts, ``compare`` exit codes, flags over ``[render]``, bad
+flag values."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from helpers import write_text
+
+import raytrace
+from raytrace import cli
+from raytrace.film import write_exr
+
+# A floor under a camera looking level: with an even height, exactly the lower half of the
+# pixel centres look down (y = (1 − 2(row + ½)/H)·tan(fov/2) < 0 for row >= H/2) and every
+# downward ray hits the infinite plane y = 0 (the camera is at y = 1).
+FLOOR_SCENE = """\
+[render]
+width = {w}
+height = {h}
+spp = {spp}
+max_depth = {depth}
+
+[camera]
+position = [0.0, 1.0, 0.0]
+look_at = [0.0, 1.0, -1.0]
+
+[ambient]
+color = 0.1
+
+[materials.floor]
+kd = 0.5
+kr = 0.25
+
+[[lights]]
+type = "point"
+position = [0.0, 5.0, -3.0]    # above the floor: every floor hit faces it
+
+[[lights]]
+type = "point"
+position = [0.0, -5.0, -3.0]   # below the floor: no floor hit faces it (N·L < 0)
+
+[[objects]]
+type = "plane"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+material = "floor"
+"""
+
+
+def _floor(tmp_path, w=8, h=6, spp=1, depth=5):
+    return write_text(tmp_path / "floor.toml", FLOOR_SCENE.format(w=w, h=h, spp=spp,
+                                                                  depth=depth))
+
+
+def _render(args, capsys):
+    rc = cli.main(["render", *map(str, args), "-q"])
+    captured = capsys.readouterr()
+    return rc, captured
+
+
+def test_stats_keys_and_counts(tmp_path, capsys):
+    w, h, spp = 8, 6, 4
+    scene = _floor(tmp_path, w, h, spp)
+    rc, cap = _render([scene, "-o", tmp_path / "o.exr", "--stats", tmp_path / "s.json"], capsys)
+    assert rc == 0 and cap.err == ""
+    stats = json.loads((tmp_path / "s.json").read_text())
+    for key in ("camera", "shadow", "reflection", "refraction", "total"):
+        assert isinstance(stats["rays"][key], int)
+    assert stats["seconds"]["total"] > 0
+    assert (stats["width"], stats["height"], stats["spp"]) == (w, h, spp)
+    # spp = 4 is a 2×2 stratified grid: every sample of a pixel stays in its pixel, so the
+    # lower-half pixels send all their samples down (their centres' rows are >= H/2 and the
+    # row's top edge is the horizon at worst).
+    floor_hits = (w * h // 2) * spp
+    rays = stats["rays"]
+    assert rays["camera"] == w * h * spp
+    assert rays["shadow"] == floor_hits            # one per floor hit, only the upper light
+    assert rays["reflection"] == floor_hits        # kr > 0: one mirror ray per floor hit
+    assert rays["refraction"] == 0                 # kt = 0
+    assert rays["total"] == sum(v for k, v in rays.items() if k != "total")
+
+
+def test_stats_with_max_depth_zero_has_no_secondary_rays(tmp_path, capsys):
+    scene = _floor(tmp_path, 4, 2, 1, depth=0)
+    rc, _ = _render([scene, "-o", tmp_path / "o.exr", "--stats", tmp_path / "s.json"], capsys)
+    assert rc == 0
+    rays = json.loads((tmp_path / "s.json").read_text())["rays"]
+    assert (rays["camera"], rays["shadow"], rays["reflection"]) == (8, 4, 0)
+
+
+def test_flags_override_the_scene_render_table(tmp_path, capsys):
+    scene = _floor(tmp_path, w=8, h=6, spp=1, depth=5)
+    out = tmp_path / "o.exr"
+    rc, _ = _render([scene, "-o", out, "--width", 5, "--height", 4, "--spp", 9,
+                     "--max-depth", 0, "--seed", 3, "--stats", tmp_path / "s.json"], capsys)
+    assert rc == 0
+    rgb, header = raytrace.read_exr(out)
+    assert rgb.shape == (4, 5, 3)
+    assert (header["raytrace:spp"], header["raytrace:max_depth"], header["raytrace:seed"]) == (
+        9, 0, 3)
+    stats = json.loads((tmp_path / "s.json").read_text())
+    assert (stats["width"], stats["height"], stats["spp"]) == (5, 4, 9)
+    assert stats["rays"]["camera"] == 5 * 4 * 9 and stats["rays"]["reflection"] == 0
+
+
+def test_without_flags_the_scene_values_hold(tmp_path, capsys):
+    scene = _floor(tmp_path, w=3, h=2, spp=1, depth=2)
+    rc, _ = _render([scene, "-o", tmp_path / "o.exr"], capsys)
+    rgb, header = raytrace.read_exr(tmp_path / "o.exr")
+    assert rc == 0 and rgb.shape == (2, 3, 3) and header["raytrace:max_depth"] == 2
+
+
+def test_cli_output_equals_the_python_api(tmp_path, capsys):
+    scene = _floor(tmp_path, 6, 4, 1)
+    rc, _ = _render([scene, "-o", tmp_path / "o.exr", "--threads", 2], capsys)
+    assert rc == 0
+    rgb, _ = raytrace.read_exr(tmp_path / "o.exr")
+    image = raytrace.render(raytrace.load_scene(scene))
+    np.testing.assert_array_equal(rgb, image.rgb)
+
+
+def test_default_output_name_and_png(tmp_path, capsys, monkeypatch):
+    scene = _floor(tmp_path, 4, 2)
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    rc, _ = _render([scene, "--png", "prev.png"], capsys)
+    assert rc == 0
+    assert sorted(os.listdir(work)) == ["floor.exr", "prev.png"]
+
+
+@pytest.mark.parametrize("flag,value", [("--width", "0"), ("--spp", "0"), ("--height", "-1"),
+                                        ("--max-depth", "-1"), ("--threads", "0"),
+                                        ("--min-weight", "-0.5"), ("--tonemap", "fancy"),
+                                        ("--width", "100001")])
+def test_bad_flag_values(tmp_path, capsys, flag, value):
+    scene = _floor(tmp_path, 4, 2)
+    rc, cap = _render([scene, "-o", tmp_path / "o.exr", flag, value], capsys)
+    assert rc == 2
+    lines = cap.err.splitlines()
+    assert len(lines) == 1 and "Traceback" not in cap.err, cap.err
+    assert flag in lines[0] and value.lstrip("-") in lines[0]
+    assert sorted(os.listdir(tmp_path)) == ["floor.toml"]
+
+
+@pytest.mark.parametrize("args,named", [(["--width", "abc"], "--width"),
+                                        (["--spp", "1.5"], "--spp"),
+                                        (["--bogus"], "--bogus")])
+def test_unparsable_flags_give_one_line(tmp_path, capsys, args, named):
+    scene = _floor(tmp_path, 4, 2)
+    with pytest.raises(SystemExit) as e:
+        cli.main(["render", str(scene), "-o", str(tmp_path / "o.exr"), *args])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1, err
+    assert named in err and "Traceback" not in err
+    assert sorted(os.listdir(tmp_path)) == ["floor.toml"]
+
+
+def test_bad_output_paths(tmp_path, capsys):
+    scene = _floor(tmp_path, 4, 2)
+    rc, cap = _render([scene, "-o", tmp_path / "o.png"], capsys)
+    assert rc == 2 and "-o" in cap.err and ".exr" in cap.err
+    rc, cap = _render([scene, "-o", tmp_path / "nodir" / "o.exr"], capsys)
+    assert rc == 2 and "nodir" in cap.err and len(cap.err.splitlines()) == 1
+    assert sorted(os.listdir(tmp_path)) == ["floor.toml"]
+
+
+# -- compare ---------------------------------------------------------------------------------------
+
+def _pair(tmp_path, delta: float):
+    ref = np.full((4, 5, 3), 0.5, np.float32)
+    test = ref.copy()
+    test[0, 0, 0] += delta           # one of 60 values: rmse = delta/√60, max = delta
+    write_exr(tmp_path / "ref.exr", ref)
+    write_exr(tmp_path / "test.exr", test)
+    return str(tmp_path / "test.exr"), str(tmp_path / "ref.exr")
+
+
+def test_compare_within_and_over_threshold(tmp_path, capsys):
+    test, ref = _pair(tmp_path, 0.6)
+    rmse = 0.6 / np.sqrt(60)                      # 0.0775
+    assert cli.main(["compare", test, ref, "--threshold", "0.08"]) == 0
+    assert cli.main(["compare", test, ref, "--threshold", "0.07"]) == 1
+    assert cli.main(["compare", test, ref, "--metric", "max", "--threshold", "0.61"]) == 0
+    assert cli.main(["compare", test, ref, "--metric", "max", "--threshold", "0.59"]) == 1
+    assert cli.main(["compare", ref, ref, "--threshold", "0"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert f"{rmse:.4g}"[:5] in out[0] and "within" in out[0] and "over" in out[1]
+
+
+def test_compare_bad_input(tmp_path, capsys):
+    test, ref = _pair(tmp_path, 0.1)
+    small = tmp_path / "small.exr"
+    write_exr(small, np.zeros((2, 2, 3), np.float32))
+    for args, piece in ((["compare", test, str(small)], "differs"),
+                        (["compare", test, str(tmp_path / "none.exr")], "not found"),
+                        (["compare", test, ref, "--metric", "psnr"], "psnr")):
+        assert cli.main(args) == 2
+        err = capsys.readouterr().err
+        assert len(err.splitlines()) == 1 and piece in err, err
+
+
+def test_compare_in_a_subprocess(tmp_path):
+    test, ref = _pair(tmp_path, 1.0)
+    proc = subprocess.run([sys.executable, "-m", "raytrace", "compare", test, ref],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 1 and "over" in proc.stdout and proc.stderr == ""

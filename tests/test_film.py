@@ -1,0 +1,153 @@
+"""The film: bit-exact float EXR round trips with the header we promise, PNG previews in
+range, and atomic writes."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import OpenEXR
+import pytest
+from helpers import aimed_camera, make_scene, read_png
+
+import raytrace
+from raytrace.film import SRGB_CHROMATICITIES, atomic_path, preview, write_exr, write_png
+
+HDR = np.array([1e6, -3.5, 1e-30, 0.0, -0.0, 1.4e-45, 3.0e38, 0.5, 1.0 / 3.0, -1e-7, 65504.0,
+                123456.789], dtype=np.float32)
+
+
+def _hdr_image(h=5, w=7, seed=0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    rgb = rng.choice(HDR, size=(h, w, 3)).astype(np.float32)
+    rgb.flat[: len(HDR)] = HDR                       # every special value at least once
+    return rgb
+
+
+def _same_bits(a: np.ndarray, b: np.ndarray) -> None:
+    assert a.dtype == np.float32 and b.dtype == np.float32 and a.shape == b.shape
+    np.testing.assert_array_equal(a.view(np.uint32), b.view(np.uint32))
+
+
+def test_exr_round_trip_is_bit_exact(tmp_path):
+    rgb = _hdr_image()
+    write_exr(tmp_path / "a.exr", rgb)
+    back, _ = raytrace.read_exr(tmp_path / "a.exr")
+    _same_bits(back, rgb)
+
+
+def test_exr_round_trip_of_a_strided_view(tmp_path):
+    big = _hdr_image(12, 15, seed=1)
+    for view in (big[::2, ::3], big[:, ::-1], big.transpose(1, 0, 2), big[..., ::-1]):
+        assert not view.flags.c_contiguous
+        write_exr(tmp_path / "v.exr", view)
+        back, _ = raytrace.read_exr(tmp_path / "v.exr")
+        _same_bits(back, np.ascontiguousarray(view))
+
+
+def test_exr_header_has_srgb_chromaticities_and_render_settings(tmp_path):
+    scene = make_scene([raytrace.Sphere([0, 0, 0], 1.0)], [raytrace.PointLight([2, 2, 2])],
+                       camera=aimed_camera([0, 0, 4], [0, 0, 0]))
+    image = raytrace.render(scene, width=6, height=4, spp=4, max_depth=3, seed=9)
+    image.save(tmp_path / "r.exr")
+    back, header = raytrace.read_exr(tmp_path / "r.exr")
+    _same_bits(back, image.rgb)
+    # Stored as float32 in the file.
+    np.testing.assert_allclose(header["chromaticities"], SRGB_CHROMATICITIES, rtol=1e-7)
+    assert (header["raytrace:width"], header["raytrace:height"]) == (6, 4)
+    assert header["raytrace:spp"] == 4 and header["raytrace:max_depth"] == 3
+    assert header["raytrace:seed"] == 9
+
+
+def test_srgb_chromaticities_are_rec709_d65():
+    # ITU-R BT.709: R (0.64, 0.33), G (0.30, 0.60), B (0.15, 0.06), D65 (0.3127, 0.3290).
+    assert SRGB_CHROMATICITIES == (0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290)
+
+
+def test_png_preview_of_known_greys(tmp_path):
+    # sRGB encoding (IEC 61966-2-1): 1.055·x^(1/2.4) − 0.055 above 0.0031308, 12.92·x below.
+    # linear 0.5 → 0.73536 → ·255 = 187.5 → 188; 0.002 → 0.02584 → 6.59 → 7; 0.18 → 117.9 → 118.
+    lin = np.array([0.0, 0.5, 1.0, 0.002, 0.18, 2.0, -1.0, np.nan])
+    rgb = np.repeat(lin[None, :, None], 3, axis=2)
+    assert preview(rgb).dtype == np.uint8
+    expected = [0, 188, 255, 7, 118, 255, 0, 0]
+    np.testing.assert_array_equal(preview(rgb)[0, :, 0], expected)
+    write_png(tmp_path / "g.png", rgb)
+    png = read_png(tmp_path / "g.png")
+    assert png.shape == (1, len(lin), 3)
+    np.testing.assert_array_equal(png[0, :, 1], expected)
+    # one stop of exposure doubles: 0.25 → 0.5 → 188
+    np.testing.assert_array_equal(preview(np.full((1, 1, 3), 0.25), exposure=1.0), 188)
+
+
+def test_preview_of_a_1e6_light_stays_in_range(tmp_path):
+    scene = make_scene([raytrace.Plane([0, 0, 0], [0, 1, 0], material=raytrace.Material(kd=0.8))],
+                       [raytrace.PointLight([0, 1, 0], color=1e6)],
+                       camera=raytrace.Camera(position=[0, 1, 4], look_at=[0, 0, 0]))
+    image = raytrace.render(scene, width=16, height=12)
+    lit = image.rgb[..., 0] > 0
+    assert image.rgb.max() > 1e4 and lit.any() and (~lit).any()
+    for tonemap in ("clip", "reinhard"):
+        image.save(tmp_path / f"{tonemap}.png", tonemap=tonemap)
+        png = read_png(tmp_path / f"{tonemap}.png")
+        assert png.dtype == np.uint8 and png.shape == (12, 16, 3)
+        # Saturated, not wrapped around: a very bright pixel is (nearly) white, the sky black.
+        assert np.all(png[lit] >= 254) and np.all(png[~lit] == 0)
+
+
+def test_reinhard_preview_maps_1_to_half():
+    # x/(1 + x) at x = 1 is 0.5 → 188 after the sRGB encoding.
+    np.testing.assert_array_equal(preview(np.ones((1, 1, 3)), tonemap="reinhard"), 188)
+    with pytest.raises(ValueError, match="reinhard"):
+        preview(np.ones((1, 1, 3)), tonemap="nope")
+
+
+def test_failing_exr_write_leaves_the_old_file_and_no_temp(tmp_path, monkeypatch):
+    target = tmp_path / "out.exr"
+    target.write_bytes(b"the old image")
+    real_file = OpenEXR.File
+
+    class FailingFile:
+        """Writes a partial file, then fails like a full disk."""
+
+        def __init__(self, *args, **kwargs):
+            self._f = real_file(*args, **kwargs)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+        def write(self, path):
+            with open(path, "wb") as f:
+                f.write(b"\x76\x2f\x31\x01 truncated")
+            raise OSError("No space left on device")
+
+    monkeypatch.setattr(OpenEXR, "File", FailingFile)
+    with pytest.raises(OSError, match="No space"):
+        write_exr(target, _hdr_image())
+    assert target.read_bytes() == b"the old image"
+    assert os.listdir(tmp_path) == ["out.exr"]
+
+
+def test_interrupted_write_leaves_the_old_file_and_no_temp(tmp_path):
+    target = tmp_path / "out.png"
+    target.write_bytes(b"old")
+    with pytest.raises(KeyboardInterrupt), atomic_path(target, ".png") as tmp:
+        tmp.write_bytes(b"half")
+        raise KeyboardInterrupt
+    assert target.read_bytes() == b"old"
+    assert os.listdir(tmp_path) == ["out.png"]
+    # And a completed block replaces it.
+    with atomic_path(target, ".png") as tmp:
+        tmp.write_bytes(b"new")
+    assert target.read_bytes() == b"new" and os.listdir(tmp_path) == ["out.png"]
+
+
+def test_bad_shapes_and_types_are_refused_before_writing(tmp_path):
+    with pytest.raises(ValueError, match="H, W, 3"):
+        write_exr(tmp_path / "x.exr", np.zeros((4, 4)))
+    with pytest.raises(ValueError, match="unknown image type"):
+        raytrace.Image(np.zeros((2, 2, 3), np.float32)).save(tmp_path / "x.jpg")
+    assert os.listdir(tmp_path) == []

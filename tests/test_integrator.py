@@ -1,0 +1,528 @@
+"""Whitted's recursion as a wavefront (raytrace.integrator), against closed forms and against a
+slow per-ray recursive reference (tests/reference_tracer.py).
+
+The contract (SCENE_FORMAT.md): for a ray hitting a surface of opacity t,
+
+    I = t·(ka·Ia + Σ_l S_l·f_l·I_l·[kd·max(N·L, 0) + ks·spec] + kr·I_r + kt·I_t)
+        + (1 − t)·I_behind
+
+children have depth parent + 1 and are traced while depth ≤ max_depth and while their path
+weight (product of t·kr, t·kt, 1 − t; max over RGB) is ≥ min_weight; S_l is the product of
+t·kt + (1 − t) over the surfaces a shadow ray crosses; TIR sends the kt share along the mirror
+direction; entering/leaving is decided by the outward geometric normal.
+
+Every expected value below is worked out by hand in the test (comments give the derivation).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+from helpers import aimed_camera, make_scene, pixel
+from reference_tracer import ReferenceTracer
+
+import raytrace
+from raytrace import (
+    Camera,
+    Checker,
+    DirectionalLight,
+    Material,
+    Mesh,
+    Plane,
+    PointLight,
+    Sphere,
+)
+from raytrace.integrator import RenderOptions, WhittedIntegrator
+from raytrace.rays import CAMERA, NO_SHAPE, REFLECTION, REFRACTION, RayBatch
+
+RTOL = 1e-6  # float32 output: ~6e-8 relative rounding, so 1e-6 is tight but safe
+IOR = 1.5
+THETA_C = math.asin(1.0 / IOR)  # critical angle of glass, 41.81°
+
+
+# -- helpers ---------------------------------------------------------------------------------
+def glass(kt=1.0, ior=IOR, kr=0.0, opacity=1.0) -> Material:
+    """A dielectric with no local terms: what comes through it is kt·(what is behind)."""
+    return Material(ka=0.0, kd=0.0, ks=0.0, kr=kr, kt=kt, ior=ior, opacity=opacity)
+
+
+def ambient_only(ka, kr=0.0) -> Material:
+    """A surface whose local term is ka·Ia whatever the geometry."""
+    return Material(ka=ka, kd=0.0, ks=0.0, kr=kr)
+
+
+def integrator(scene, max_depth=10, min_weight=0.0, background=0.0) -> WhittedIntegrator:
+    opts = RenderOptions(1, 1, 1, max_depth, min_weight, np.broadcast_to(
+        np.asarray(background, np.float64), (3,)).copy(), 0)
+    return WhittedIntegrator(scene, opts)
+
+
+def one_ray(origin, direction) -> RayBatch:
+    """A depth-0 batch of one ray (camera-relative origin, unit direction)."""
+    d = np.asarray(direction, np.float64)
+    d = d / np.linalg.norm(d)
+    return RayBatch(np.asarray(origin, np.float64)[None].copy(), d[None].copy(),
+                    np.zeros(1, np.int64), np.ones((1, 3)), 0,
+                    np.full(1, NO_SHAPE, np.int64), np.full(1, CAMERA, np.int8))
+
+
+def follow(integ: WhittedIntegrator, rays: RayBatch, kind: int) -> RayBatch:
+    """One wavefront step (integrator.trace), keeping only the children of ``kind``."""
+    children = integ.trace(rays, np.zeros((1, 3)))
+    return children.take(children.kind == kind)
+
+
+def box(extents, translate=(0.0, 0.0, 0.0), material=None, rotate=(0.0, 0.0, 0.0)) -> Mesh:
+    return Mesh(mesh=trimesh.creation.box(extents=extents), translate=translate,
+                rotate=rotate, material=material)
+
+
+def quad(z, half, material) -> Mesh:
+    """A square in the plane z = const, counter-clockwise seen from +z."""
+    v = [[-half, -half, z], [half, -half, z], [half, half, z], [-half, half, z]]
+    return Mesh(vertices=v, faces=[[0, 1, 2], [0, 2, 3]], material=material)
+
+
+# -- depth semantics -------------------------------------------------------------------------
+KA = np.array([0.1, 0.2, 0.3])
+KD = np.array([0.2, 0.1, 0.05])
+KS = 0.25
+KR = np.array([0.9, 0.6, 0.3])
+IA = 0.5
+BG = np.array([0.3, 0.6, 0.9])
+IL = np.array([1.0, 0.8, 0.6])
+
+
+def mirror_sphere_scene(lights=True):
+    # Camera on the sphere's axis at distance 4 from the centre (0.3, -0.2, 0), radius 1.
+    # The 1×1 ray hits the pole P = (0.3, -0.2, 1) head-on: N = V = (0, 0, 1).
+    m = Material(ka=KA, kd=KD, ks=KS, shininess=40, kr=KR)
+    cam = aimed_camera([0.3, -0.2, 4.0], [0.3, -0.2, 0.0])
+    light = [PointLight([0.3, -0.2, 4.0], IL)] if lights else []
+    return make_scene([Sphere([0.3, -0.2, 0.0], 1.0, m)], light, cam, ambient=IA,
+                      background=BG)
+
+
+@pytest.mark.parametrize("max_depth", [0, 1, 5])
+def test_mirror_sphere_sees_uniform_background(max_depth):
+    # Light at the camera, d = 3, attenuation [1, 0, 0] → f = 1; N·L = 1; Phong R = V so
+    # (V·R)^40 = 1. Local = ka·Ia + Il·(kd·1 + ks·1). The reflected ray leaves along +z and
+    # hits nothing (a lone convex sphere; lights are invisible): I_r = background.
+    # max_depth 0: local only; max_depth ≥ 1: local + kr·background.
+    local = KA * IA + IL * (KD + KS)
+    expected = local + (KR * BG if max_depth >= 1 else 0.0)
+    image = raytrace.render(mirror_sphere_scene(), width=1, height=1, max_depth=max_depth)
+    np.testing.assert_allclose(image.rgb[0, 0], expected, rtol=RTOL)
+    rays = image.stats["rays"]
+    assert rays["reflection"] == min(max_depth, 1)
+    assert rays["shadow"] == 1 and rays["refraction"] == 0
+    assert image.stats["pruned"]["depth"] == (1 if max_depth == 0 else 0)
+
+
+def test_mirror_sphere_every_pixel_is_ambient_plus_kr_background():
+    # No lights: whatever point of a lone mirror sphere a pixel sees, its reflection escapes,
+    # so a pixel is either background (a miss) or ka·Ia + kr·background (a hit). Both occur.
+    image = raytrace.render(mirror_sphere_scene(lights=False), width=16, height=12,
+                            max_depth=3)
+    rgb = image.rgb.reshape(-1, 3).astype(np.float64)
+    on = np.isclose(rgb, KA * IA + KR * BG, rtol=RTOL).all(axis=1)
+    off = np.isclose(rgb, BG, rtol=RTOL).all(axis=1)
+    assert (on | off).all() and on.sum() > 20 and off.sum() > 20
+    assert image.stats["rays"]["reflection"] == on.sum()
+    assert image.stats["rays"]["shadow"] == 0
+
+
+@pytest.mark.parametrize("kind", ["planes", "quads"])
+@pytest.mark.parametrize("depth", [1, 5, 50])
+def test_facing_mirrors_sum_the_geometric_series(kind, depth):
+    # Mirrors at z = -1 and z = 2, the camera between them looking down -z along their common
+    # normal. Every bounce sees the local term L = ka·Ia (ambient only: constant) and passes
+    # kr on: I = L·(1 + kr + … + kr^D) = L·(1 − kr^(D+1))/(1 − kr); the ray never escapes, so
+    # the (absurd) background must not show. Exactly D reflection rays are traced, and the
+    # depth-(D+1) child is the one ray pruned by depth.
+    kr, ka, ia = 0.9, np.array([0.2, 0.1, 0.05]), np.array([1.0, 0.5, 0.25])
+    m = ambient_only(ka, kr=kr)
+    if kind == "planes":
+        objects = [Plane([0, 0, -1.0], [0, 0, 1.0], m), Plane([0, 0, 2.0], [0, 0, -1.0], m)]
+    else:
+        objects = [quad(-1.0, 50.0, m), quad(2.0, 50.0, m)]
+    cam = aimed_camera([0.25, 0.5, 0.5], [0.25, 0.5, -1.0])
+    scene = make_scene(objects, [], cam, ambient=ia, background=7.0)
+    image = raytrace.render(scene, width=1, height=1, max_depth=depth)
+    expected = ka * ia * (1.0 - kr ** (depth + 1)) / (1.0 - kr)
+    np.testing.assert_allclose(image.rgb[0, 0], expected, rtol=RTOL)
+    assert image.stats["rays"]["reflection"] == depth
+    assert image.stats["rays"]["camera"] == 1
+    assert image.stats["pruned"] == {"depth": 1, "weight": 0}
+
+
+# -- refraction ------------------------------------------------------------------------------
+SLAB_TOP, SLAB_H = -0.75, 0.5  # box of extents (8, 0.5, 8) centred at y = -1
+
+
+@pytest.mark.parametrize("theta_deg", [10.0, 30.0, 60.0, 80.0])
+def test_glass_slab_displaces_a_ray_by_h_tan_theta_t(theta_deg):
+    # A ray from (-4, 0, 0) at θi from the vertical hits the slab top y = -0.75 at
+    # x0 = -4 + 0.75·tan θi, refracts to sin θt = sin θi / 1.5, crosses the thickness h = 0.5
+    # and leaves the bottom y = -1.25 at x1 = x0 + h·tan θt, parallel to the incoming ray.
+    # (The lateral shift from the undeviated line is h·sin(θi − θt)/cos θt.)
+    # Mesh hit points come from Embree's float32 barycentrics on the float64 triangle: on the
+    # face's plane, but up to ~2⁻²⁴ × the 10-unit face off along it, hence atol 1e-6.
+    ti = math.radians(theta_deg)
+    tt = math.asin(math.sin(ti) / IOR)
+    d = np.array([math.sin(ti), -math.cos(ti), 0.0])
+    scene = make_scene([box((10.0, SLAB_H, 10.0), (0, -1.0, 0), glass())], [],
+                       Camera([0, 0, 0], [0, -1, 0], up=[0, 0, 1]))
+    integ = integrator(scene)
+    inside = follow(integ, one_ray([-4.0, 0, 0], d), REFRACTION)
+    out = follow(integ, inside, REFRACTION)
+    assert len(inside) == 1 and len(out) == 1
+    # Inside: Snell's direction; outside again: the incoming direction.
+    np.testing.assert_allclose(inside.direction[0], [math.sin(tt), -math.cos(tt), 0.0],
+                               atol=1e-12)
+    np.testing.assert_allclose(out.direction[0], d, atol=1e-12)
+
+    # A ray spawned from a mesh hit starts a few float32 ulps off the face along its normal
+    # (here y), so its x is the hit point's x.
+    x0, x1 = inside.origin[0, 0], out.origin[0, 0]
+    assert x0 == pytest.approx(-4.0 + 0.75 * math.tan(ti), abs=1e-6)
+    assert x1 - x0 == pytest.approx(SLAB_H * math.tan(tt), abs=2e-6)
+    shift = (x1 - (-4.0 + 1.25 * math.tan(ti))) * math.cos(ti)  # perpendicular to the ray
+    assert -shift == pytest.approx(SLAB_H * math.sin(ti - tt) / math.cos(tt), abs=2e-6)
+
+
+@pytest.mark.parametrize("side", [+1, -1])
+def test_slab_shift_seen_end_to_end_on_a_checker_edge(side):
+    # The same slab, kt = 1, in front of a floor y = -2 with an ambient-only checker of scale
+    # 10: its x cell changes where floor(x/10 + 1e-4) steps, at x = -1e-3 (near z = 0 the z
+    # cell is 0; at y = -2 the y cell is floor(-0.1999) = -1). The refracted ray lands at
+    #   x_f = c + 0.75·tan θi (to the slab) + 0.5·tan θt (through) + 0.75·tan θi (to the floor)
+    # for a camera at x = c. Put the predicted landing 2e-5 to one side of the edge: x ≥ edge
+    # gives cells (0, -1, 0), sum odd → colors[1]; x < edge gives sum even → colors[0]. The
+    # undeviated ray would land 0.5·(tan θi − tan θt) ≈ 0.19 away, in the same cell both times.
+    ti = math.radians(40.0)
+    tt = math.asin(math.sin(ti) / IOR)
+    x_f = 1.5 * math.tan(ti) + SLAB_H * math.tan(tt)
+    c = -1e-3 - x_f + side * 2e-5
+    a, b = np.array([0.9, 0.8, 0.7]), np.array([0.1, 0.2, 0.3])
+    floor = Material(ka=Checker((a, b), 10.0), kd=0.0)
+    cam = Camera([c, 0, 0], [c + math.sin(ti), -math.cos(ti), 0], up=[0, 0, 1])
+    scene = make_scene([box((40.0, SLAB_H, 40.0), (0, -1.0, 0), glass()),
+                        Plane([0, -2.0, 0], [0, 1, 0], floor)], [], cam, ambient=1.0)
+    got = pixel(scene, max_depth=3)
+    np.testing.assert_allclose(got, b if side > 0 else a, rtol=RTOL)
+
+
+def test_ior_one_refracts_bit_exactly_straight():
+    # η = 1: the refraction must hand back the incoming direction bit for bit, entering and
+    # leaving (raytrace.optics.refract's radicand is cos²θ exactly then), at any angle.
+    scene = make_scene([box((16.0, SLAB_H, 16.0), (0, -1.0, 0), glass(ior=1.0))], [],
+                       Camera([0, 0, 0], [0, -1, 0], up=[0, 0, 1]))
+    integ = integrator(scene)
+    rng = np.random.default_rng(3)
+    for _ in range(8):
+        d = rng.normal(size=3)
+        d[1] = -abs(d[1]) - 0.3  # downwards, to the slab
+        ray = one_ray([0, 0, 0], d)
+        inside = follow(integ, ray, REFRACTION)
+        out = follow(integ, inside, REFRACTION)
+        assert len(out) == 1
+        assert np.array_equal(inside.direction, ray.direction)
+        assert np.array_equal(out.direction, ray.direction)
+
+
+def _lit_scene(extra=()):
+    """A lit checker floor and a diffuse sphere, seen from z = 6; light at (5, 5, 0)."""
+    floor = Material(kd=Checker((np.array([0.8, 0.8, 0.7]), np.array([0.2, 0.3, 0.2])), 0.7),
+                     ks=0.3, shininess=20)
+    ball = Material(kd=[0.7, 0.3, 0.2], ks=0.5, shininess=50, highlight="blinn")
+    objects = [Plane([0, 0, 0], [0, 1, 0], floor), Sphere([0.3, 0.8, -1.0], 0.8, ball),
+               *extra]
+    return make_scene(objects, [PointLight([5, 5, 0], 1.5, [1, 0.02, 0.01])],
+                      Camera([0, 1.2, 6], [0, 0.6, 0], fov=45), ambient=0.1,
+                      background=[0.2, 0.3, 0.4])
+
+
+@pytest.mark.parametrize("kt,opacity", [(1.0, 1.0), ([0.9, 0.7, 0.5], 1.0),
+                                         ([0.8, 0.6, 0.4], 0.5), (0.0, 0.25)])
+def test_ior_one_slab_only_scales_by_kt_and_opacity(kt, opacity):
+    # An ior-1 slab (z in [4.8, 5.2]) covers the whole view in front of the camera; the
+    # light at z = 0 lights the scene from behind it, so no shadow ray crosses it. Each of the
+    # two crossings passes the ray on straight (ior 1) with weight t·kt (refraction) plus
+    # 1 − t (see-through), so every pixel is (t·kt + 1 − t)² × the slab-less pixel.
+    # max_depth 2 is just enough: the floor and ball are neither reflective nor transparent.
+    # Only the spawn offsets (3 float32 ulps of the slab's ~3-unit camera-relative extent,
+    # ~1e-6 along its normal) move the rays sideways; the steepest pixels (the ball's
+    # highlight) change by ~1e-5 relative for that, hence rtol 3e-5.
+    slab = box((6.0, 6.0, 0.4), (0, 0, 5.0), glass(kt=kt, ior=1.0, opacity=opacity))
+    with_slab = raytrace.render(_lit_scene([slab]), width=32, height=24, max_depth=2)
+    without = raytrace.render(_lit_scene(), width=32, height=24, max_depth=2)
+    factor = (opacity * np.asarray(kt, np.float64) + 1.0 - opacity) ** 2
+    np.testing.assert_allclose(with_slab.rgb, factor * without.rgb.astype(np.float64),
+                               rtol=3e-5, atol=1e-7)
+    assert without.rgb.std() > 0.05  # the picture has content
+    # Every pixel crosses the slab: c children per crossing (refraction if kt > 0, see-through
+    # if t < 1), so c + c² secondary rays per pixel.
+    c = int(np.any(np.asarray(kt) > 0)) + int(opacity < 1)
+    rays = with_slab.stats["rays"]
+    assert rays["refraction"] + rays["see_through"] == 32 * 24 * (c + c * c)
+
+
+@pytest.mark.parametrize("delta_deg,tir", [(-0.01, False), (+0.01, True)])
+def test_critical_angle_inside_a_glass_block(delta_deg, tir):
+    # The camera sits inside a glass cube (ior 1.5, kt = 1, nothing else) and looks at the top
+    # face at θ from its normal. Leaving glass, sin θ_out = 1.5·sin θ: below the critical
+    # angle asin(1/1.5) = 41.81° the ray leaves and sees the background (weight kt = 1); just
+    # above it, TIR sends it down to the bottom face, where (max_depth 1) the depth-1 hit adds
+    # its local term 0 and stops.
+    theta = THETA_C + math.radians(delta_deg)
+    d = [math.sin(theta), math.cos(theta), 0.0]
+    cube = box((2.0, 2.0, 2.0), material=glass())
+    scene = make_scene([cube], [], aimed_camera([0, 0, 0], d, up=[0, 0, 1]), background=BG)
+    image = raytrace.render(scene, width=1, height=1, max_depth=1)
+    np.testing.assert_allclose(image.rgb[0, 0], np.zeros(3) if tir else BG, rtol=RTOL)
+    assert image.stats["total_internal_reflections"] == int(tir)
+    assert image.stats["rays"]["refraction"] == 1
+    if not tir:  # the leaving direction obeys Snell's law, grazing at 88.6°
+        integ = integrator(scene)
+        out = follow(integ, one_ray([0, 0, 0], d), REFRACTION)
+        sin_out = IOR * math.sin(theta)
+        np.testing.assert_allclose(out.direction[0],
+                                   [sin_out, math.sqrt(1 - sin_out**2), 0.0], rtol=1e-9)
+
+
+# -- shadows ---------------------------------------------------------------------------------
+SH_KA, SH_IA = np.array([0.3, 0.2, 0.1]), 0.25
+SH_KD, SH_IL = np.array([0.6, 0.5, 0.4]), np.array([1.0, 0.9, 0.8])
+
+
+def _shadow_pixel(blocker_material, mesh=False, blockers=((0.0, 2.0, 0.0),)) -> np.ndarray:
+    # Floor y = 0, seen at P = (0, 0, 0) from (0, 3, 3); light straight above at (0, 4, 0).
+    # The blockers (r = 0.5) sit on the vertical shadow ray, away from the camera ray (the
+    # camera line passes (0, 1, 1) at 1.41 from (0, 2, 0)).
+    floor = Material(ka=SH_KA, kd=SH_KD, ks=0.0)
+    objects = [Plane([0, 0, 0], [0, 1, 0], floor)]
+    for c in blockers:
+        if mesh:  # a rotated icosphere, so the vertical ray meets no edge or vertex
+            objects.append(Mesh(mesh=trimesh.creation.icosphere(2, 0.5), rotate=[17, 31, 7],
+                                translate=c, material=blocker_material))
+        else:
+            objects.append(Sphere(c, 0.5, blocker_material))
+    light = PointLight([0, 4, 0], SH_IL, [0.5, 0.1, 0.05])
+    scene = make_scene(objects, [light], aimed_camera([0, 3, 3], [0, 0, 0]), ambient=SH_IA)
+    return pixel(scene, max_depth=3)
+
+
+# Unshadowed: N·L = 1, d = 4, f = 1/(0.5 + 0.1·4 + 0.05·16) = 1/1.7; lit = kd·Il·f.
+LIT = SH_KD * SH_IL / 1.7
+AMB = SH_KA * SH_IA
+
+
+def test_shadow_setup_unblocked():
+    np.testing.assert_allclose(_shadow_pixel(None, blockers=()), AMB + LIT, rtol=RTOL)
+
+
+@pytest.mark.parametrize("mesh", [False, True])
+@pytest.mark.parametrize("kt,opacity,factor", [
+    # glass, coloured kt: two crossings → kt² per channel
+    ([0.9, 0.6, 0.3], 1.0, np.array([0.9, 0.6, 0.3]) ** 2),
+    # opaque: nothing gets through → ambient only
+    (0.0, 1.0, np.zeros(3)),
+    # opacity t = 0.5 with kt: (t·kt + 1 − t)² = (0.5·kt + 0.5)²
+    ([0.8, 0.6, 0.4], 0.5, np.array([0.9, 0.8, 0.7]) ** 2),
+    # opacity 0.25, no kt: (1 − t)² = 0.75²
+    (0.0, 0.25, np.full(3, 0.75**2)),
+])
+def test_shadow_through_a_sphere(mesh, kt, opacity, factor):
+    # A sphere's shadow ray crosses two surfaces, each passing t·kt + (1 − t).
+    m = Material(kd=0.4, kt=kt, opacity=opacity)
+    np.testing.assert_allclose(_shadow_pixel(m, mesh), AMB + factor * LIT, rtol=RTOL,
+                               atol=1e-9)
+
+
+def test_shadow_through_two_glass_spheres_multiplies_four_crossings():
+    kt = np.array([0.9, 0.8, 0.7])
+    got = _shadow_pixel(glass(kt=kt), blockers=((0.0, 1.2, 0.0), (0.0, 2.6, 0.0)))
+    np.testing.assert_allclose(got, AMB + kt**4 * LIT, rtol=RTOL)
+
+
+# -- the wavefront equals the recursion --------------------------------------------------------
+def reference_scene() -> raytrace.Scene:
+    """Mirror sphere, glass sphere holding an air bubble (TIR at the bubble), a half-opaque
+    transmitting sphere, a glass cube mesh (TIR between faces), a checker plane, two lights."""
+    floor = Material(kd=Checker((np.array([0.9, 0.9, 0.9]), np.array([0.2, 0.3, 0.2])), 1.0),
+                     ks=0.2, kr=0.1)
+    mirror = Material(kd=0.05, ks=0.5, shininess=60, kr=[0.9, 0.8, 0.7])
+    glass_m = Material(kd=0.0, ks=0.5, shininess=200, highlight="blinn", kr=0.05,
+                       kt=[0.9, 0.95, 0.85], ior=1.5)
+    bubble = Material(kd=0.0, ks=0.0, kr=0.05, kt=0.95, ior=1 / 1.5)
+    veil = Material(kd=[0.8, 0.2, 0.2], ks=0.3, kt=0.4, ior=1.3, opacity=0.5)
+    cube = Material(kd=0.02, ks=0.4, kr=0.04, kt=[0.85, 0.9, 0.95], ior=1.5)
+    return make_scene(
+        [Plane([0, 0, 0], [0, 1, 0], floor), Sphere([-1.3, 0.8, -0.5], 0.8, mirror),
+         Sphere([0.9, 0.9, 0.6], 0.9, glass_m), Sphere([1.05, 1.0, 0.75], 0.45, bubble),
+         Sphere([-0.2, 0.5, 1.2], 0.5, veil),
+         box((0.8, 0.8, 0.8), (1.6, 0.4, -1.6), cube, rotate=(0, 30, 0))],
+        [PointLight([3, 5, 4], 1.0, [1, 0.05, 0.01]), DirectionalLight([-1, -2, -1], 0.5)],
+        Camera([0, 1.5, 6], [0, 0.8, 0], fov=45), ambient=0.1, max_depth=4,
+        background=[0.2, 0.3, 0.5])
+
+
+@pytest.mark.parametrize("min_weight", [0.0, 0.08])
+def test_wavefront_equals_recursive_reference(min_weight):
+    scene = reference_scene()
+    image = raytrace.render(scene, width=24, height=18, min_weight=min_weight)
+    ref = ReferenceTracer(scene, min_weight=min_weight)
+    expected = ref.render(24, 18)
+    np.testing.assert_allclose(image.rgb, expected, rtol=1e-6, atol=1e-9)
+    st, c = image.stats, ref.counts
+    assert st["rays"]["camera"] == c.camera == 24 * 18
+    assert st["rays"]["reflection"] == c.reflection
+    assert st["rays"]["refraction"] == c.refraction
+    assert st["rays"]["see_through"] == c.see_through
+    assert st["rays"]["shadow"] == c.shadow
+    assert st["total_internal_reflections"] == c.tir > 0
+    assert st["pruned"] == {"depth": c.pruned_depth, "weight": c.pruned_weight}
+    assert (c.pruned_weight > 0) == (min_weight > 0)
+
+
+def test_image_does_not_depend_on_pass_size_or_threads():
+    # Per-depth compaction and the pass split must not change a pixel: it is a sum of the
+    # same terms.
+    scene = reference_scene()
+    a = raytrace.render(scene, width=24, height=18)
+    b = raytrace.render(scene, width=24, height=18, pass_samples=37, threads=2)
+    np.testing.assert_array_equal(a.rgb, b.rgb)
+    assert a.stats["rays"] == b.stats["rays"]
+
+
+# -- statistics ------------------------------------------------------------------------------
+def test_no_reflective_or_transparent_material_means_no_secondary_rays():
+    image = raytrace.render(_lit_scene(), width=16, height=12, max_depth=5)
+    rays = image.stats["rays"]
+    assert rays["reflection"] == rays["refraction"] == rays["see_through"] == 0
+    assert rays["shadow"] > 0
+    assert rays["total"] == rays["camera"] + rays["shadow"] == 16 * 12 + rays["shadow"]
+    assert image.stats["pruned"] == {"depth": 0, "weight": 0}
+
+
+def test_no_lights_means_no_shadow_rays():
+    scene = reference_scene()
+    scene.lights = []
+    image = raytrace.render(scene, width=16, height=12)
+    assert image.stats["rays"]["shadow"] == 0
+    assert image.stats["rays"]["reflection"] > 0 and image.stats["rays"]["refraction"] > 0
+
+
+def test_min_weight_prunes_the_mirror_series_where_max_kr_to_the_k_drops_below():
+    # Facing mirrors, kr = (0.9, 0.5, 0.1): a depth-k ray's weight is max(kr^k) = 0.9^k.
+    # With min_weight 0.5: 0.9^6 = 0.531 is traced, 0.9^7 = 0.478 is not. So per pixel 6
+    # reflection rays and 1 pruned by weight, none by depth (max_depth 10); every pixel (the
+    # planes are parallel, so each ray zig-zags forever) is L·Σ_{k=0..6} kr^k per channel.
+    kr = np.array([0.9, 0.5, 0.1])
+    ka, ia = 0.3, 0.5
+    m = ambient_only(ka, kr=kr)
+    scene = make_scene([Plane([0, 0, -1.0], [0, 0, 1.0], m), Plane([0, 0, 2.0], [0, 0, -1.0], m)],
+                       [], Camera([0, 0, 0.5], [0, 0, -1.0], fov=30), ambient=ia)
+    image = raytrace.render(scene, width=4, height=3, max_depth=10, min_weight=0.5)
+    expected = ka * ia * (1 - kr**7) / (1 - kr)
+    np.testing.assert_allclose(image.rgb, np.broadcast_to(expected, (3, 4, 3)), rtol=RTOL)
+    assert image.stats["rays"]["reflection"] == 12 * 6
+    assert image.stats["pruned"] == {"depth": 0, "weight": 12}
+    # max_depth 3 stops it first: 3 rays traced, the depth-4 one pruned by depth.
+    image = raytrace.render(scene, width=4, height=3, max_depth=3, min_weight=0.5)
+    assert image.stats["rays"]["reflection"] == 12 * 3
+    assert image.stats["pruned"] == {"depth": 12, "weight": 0}
+
+
+def test_min_weight_prunes_see_through_rays_of_stacked_veils():
+    # Five parallel veils (opacity t = 0.5, no kr/kt) at z = -1 … -5, ambient only. The ray
+    # through k veils has weight 0.5^k; min_weight 0.2 keeps 0.5 and 0.25, prunes 0.125: two
+    # see-through rays traced, one pruned by weight. Pixel = Σ_{k=0..2} 0.5^k · t·ka·Ia.
+    ka, ia = np.array([0.4, 0.2, 0.1]), 1.0
+    veil = Material(ka=ka, kd=0.0, opacity=0.5)
+    veils = [Plane([0, 0, -z], [0, 0, 1.0], veil) for z in range(1, 6)]
+    scene = make_scene(veils, [], Camera([0, 0, 0], [0, 0, -1]), ambient=ia, background=5.0)
+    image = raytrace.render(scene, width=1, height=1, max_depth=10, min_weight=0.2)
+    np.testing.assert_allclose(image.rgb[0, 0], 0.5 * ka * ia * (1 + 0.5 + 0.25), rtol=RTOL)
+    assert image.stats["rays"]["see_through"] == 2
+    assert image.stats["pruned"] == {"depth": 0, "weight": 1}
+    # Without pruning all five are crossed and the background shows with weight 0.5^5.
+    image = raytrace.render(scene, width=1, height=1, max_depth=10)
+    expected = 0.5 * ka * ia * (1 - 0.5**5) / 0.5 + 0.5**5 * 5.0
+    np.testing.assert_allclose(image.rgb[0, 0], expected, rtol=RTOL)
+    assert image.stats["rays"]["see_through"] == 5
+
+
+@pytest.mark.parametrize("depth", [1, 2, 7])
+def test_tir_count_of_a_ray_trapped_in_a_glass_cube(depth):
+    # The camera inside a glass cube (half-size 1) at (0.2, -0.1, 0) looks along (1, 1, 0):
+    # every wall is met at 45° > 41.81°, so every hit is a TIR and the ray rattles around the
+    # xy-plane without escaping. Hits at depth 0 … D−1 each spawn a TIR ray within max_depth D:
+    # D TIRs, D refraction-kind rays; the depth-D hit's child is pruned. No local term → 0.
+    cube = box((2.0, 2.0, 2.0), material=glass())
+    cam = aimed_camera([0.2, -0.1, 0.0], [1.2, 0.9, 0.0], up=[0, 0, 1])
+    image = raytrace.render(make_scene([cube], [], cam, background=1.0), width=1, height=1,
+                            max_depth=depth)
+    assert image.stats["total_internal_reflections"] == depth
+    assert image.stats["rays"]["refraction"] == depth
+    assert image.stats["pruned"]["depth"] == 1
+    np.testing.assert_array_equal(image.rgb, 0.0)
+
+
+# -- analytic spheres without an epsilon ------------------------------------------------------
+@pytest.mark.parametrize("scale", [1e-4, 1.0, 1e4])
+def test_refracted_ray_finds_the_far_side_of_a_sphere(scale):
+    # Sphere of radius r = scale around c = scale·(0.3, 0.1, -5), camera at scale·(0, 0, 2.5)
+    # (not the origin: the scene is recentred on it). A ray with impact parameter 0.6·r hits
+    # at sin θi = 0.6, refracts to sin θt = 0.4 and must meet the far side after the chord
+    # 2·r·cos θt, leave at the symmetric point with sin θ = 0.6 again, and see the background.
+    r = scale
+    c = scale * np.array([0.3, 0.1, -5.0])
+    eye = scale * np.array([0.0, 0.0, 2.5])
+    axis = np.array([0.0, 0.0, -1.0])
+    side = np.array([1.0, 0.0, 0.0])
+    start = c - 3 * r * axis + 0.6 * r * side  # ray parallel to the axis, offset 0.6 r
+    m = glass(kt=[0.9, 0.8, 0.7])
+    scene = make_scene([Sphere(c, r, m)], [], Camera(eye, c), background=BG)
+    integ = integrator(scene)
+    inside = follow(integ, one_ray(start - eye, axis), REFRACTION)
+    out = follow(integ, inside, REFRACTION)
+    assert len(inside) == 1 and len(out) == 1  # not a TIR, no self-hit, no miss
+    entry, exit_ = inside.origin[0] + eye, out.origin[0] + eye
+    cos_t = math.sqrt(1 - 0.4**2)
+    assert np.linalg.norm(exit_ - entry) == pytest.approx(2 * r * cos_t, rel=1e-12)
+    assert np.linalg.norm(exit_ - c) == pytest.approx(r, rel=1e-14)
+    # Deviation by a sphere: the ray turns by 2(θi − θt) towards the centre.
+    dev = 2 * (math.asin(0.6) - math.asin(0.4))
+    np.testing.assert_allclose(out.direction[0], [-math.sin(dev), 0, -math.cos(dev)],
+                               atol=1e-12)
+    # End to end: every pixel on the sphere sees kt²·background (no local terms, no kr).
+    image = raytrace.render(scene, width=12, height=9, max_depth=2)
+    rgb = image.rgb.reshape(-1, 3).astype(np.float64)
+    through = np.isclose(rgb, m.kt**2 * BG, rtol=RTOL).all(axis=1)
+    assert (through | np.isclose(rgb, BG, rtol=RTOL).all(axis=1)).all()
+    assert through.sum() >= 4
+    assert image.stats["rays"]["refraction"] == 2 * through.sum()
+
+
+def test_camera_inside_a_glass_sphere():
+    # The camera at the centre of a glass sphere (radius 2) sees its inside wall head-on in
+    # every direction: normal incidence never bends or TIRs, so each pixel is the wall's local
+    # term plus kt·background. A point light at the centre (attenuation 1/(1 + 0.5·d)) lights
+    # the wall from inside: the two-sided N faces the camera, N·L = 1, d = 2 → f = 1/2;
+    # its shadow ray runs inward from the wall and must not hit the sphere's far side before
+    # the light. Local = ka·Ia + kd·Il·f.
+    kt, ka, kd = np.array([0.9, 0.8, 0.7]), np.array([0.1, 0.1, 0.2]), np.array([0.3, 0.2, 0.1])
+    m = Material(ka=ka, kd=kd, ks=0.0, kt=kt, ior=IOR)
+    c = np.array([1.0, 2.0, 3.0])
+    scene = make_scene([Sphere(c, 2.0, m)], [PointLight(c, 1.0, [1, 0.5, 0])],
+                       Camera(c, c + [0, 0, -1], fov=90), ambient=0.5, background=BG)
+    image = raytrace.render(scene, width=8, height=6, max_depth=1)
+    expected = ka * 0.5 + kd * 0.5 + kt * BG
+    np.testing.assert_allclose(image.rgb, np.broadcast_to(expected, (6, 8, 3)), rtol=RTOL)
+    assert image.stats["total_internal_reflections"] == 0
+    assert image.stats["rays"]["refraction"] == 48

@@ -1,0 +1,197 @@
+"""Materials: the named library, the seed table's exact values, ``base =`` inheritance,
+inline materials and the 3-D checker pattern."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from helpers import RTOL, aimed_camera, make_scene, pixel, write_text
+
+import raytrace
+from raytrace import cli
+from raytrace.material import Checker, Material, library
+
+# The classic material table of seed 001 (Hill & Kelley Fig. 8.17, after McReynolds & Blythe):
+#   Material         ka (r g b)                    kd (r g b)                    ks (r g b)     n
+SEED_TABLE = {
+    "black_plastic": ([0.0, 0.0, 0.0], [0.01, 0.01, 0.01], [0.5, 0.5, 0.5], 32.0),
+    "brass": ([0.329412, 0.223529, 0.027451], [0.780392, 0.568627, 0.113725],
+              [0.992157, 0.941176, 0.807843], 27.8974),
+    "polished_silver": ([0.23125, 0.23125, 0.23125], [0.2775, 0.2775, 0.2775],
+                        [0.773911, 0.773911, 0.773911], 89.6),
+}
+
+
+def test_every_library_material_loads():
+    names = list(library)
+    assert len(names) >= 30 and names == sorted(names)
+    for name in names:
+        m = library[name]
+        assert isinstance(m, Material) and m.name == name
+        for k in ("kd", "ks", "kr", "kt"):
+            c = getattr(m, k)
+            assert isinstance(c, Checker) or (c.shape == (3,) and np.all(c >= 0))
+        assert np.all(np.asarray(m.kr) + np.asarray(m.kt) <= 1.0 + 1e-12), name
+        assert m.ior > 0 and 0 <= m.opacity <= 1 and m.highlight in ("phong", "blinn")
+        info = library.describe(name)
+        assert info["description"] and info["source"], f"{name} lacks description/source"
+
+
+@pytest.mark.parametrize("name", sorted(SEED_TABLE))
+def test_seed_table_values_are_exact(name):
+    ka, kd, ks, n = SEED_TABLE[name]
+    m = library[name]
+    assert m.ka.tolist() == ka and m.kd.tolist() == kd and m.ks.tolist() == ks
+    assert m.shininess == n and m.highlight == "phong"
+    assert not m.reflects and not m.transmits
+
+
+def test_library_is_usable_by_name_in_scenes_and_from_the_package():
+    assert raytrace.materials["brass"] is library["brass"]
+    assert "brass" in raytrace.materials and "unobtainium" not in raytrace.materials
+    with pytest.raises(KeyError):
+        raytrace.materials["unobtainium"]
+
+
+def _scene_materials(tmp_path, text: str) -> raytrace.Scene:
+    return raytrace.load_scene(write_text(tmp_path / "m.toml", text + """
+[[objects]]
+type = "sphere"
+center = [0, 0, -3]
+radius = 1
+material = "x"
+"""))
+
+
+def test_base_inheritance_ka_follows_a_new_kd_when_the_base_had_none(tmp_path):
+    scene = _scene_materials(tmp_path, """
+[materials.plain]
+kd = 0.3
+ks = 0.4
+shininess = 7
+[materials.x]
+base = "plain"
+kd = [0.9, 0.1, 0.2]
+""")
+    x = scene.materials["x"]
+    assert x.ka is None and x.ambient.tolist() == [0.9, 0.1, 0.2]
+    assert x.ks.tolist() == [0.4] * 3 and x.shininess == 7          # inherited
+
+
+def test_base_inheritance_keeps_an_explicit_base_ka(tmp_path):
+    scene = _scene_materials(tmp_path, """
+[materials.x]
+base = "brass"
+kd = 0.5
+""")
+    x = scene.materials["x"]
+    assert x.ka.tolist() == SEED_TABLE["brass"][0]       # brass's own ka, not the new kd
+    assert x.kd.tolist() == [0.5] * 3 and x.shininess == 27.8974
+    assert library["brass"].kd.tolist() == SEED_TABLE["brass"][1]   # the library is untouched
+
+
+def test_base_chain_through_scene_materials(tmp_path):
+    scene = _scene_materials(tmp_path, """
+[materials.x]
+base = "y"
+ks = 0.25
+[materials.y]
+base = "polished_silver"
+shininess = 5
+""")
+    x = scene.materials["x"]
+    assert x.shininess == 5 and x.ks.tolist() == [0.25] * 3
+    assert x.kd.tolist() == SEED_TABLE["polished_silver"][1]
+
+
+def test_inline_material_renders_its_coefficients():
+    # An inline table on the object; no lights: I = ka·Ia with ka = kd (omitted ka).
+    scene = make_scene([raytrace.Sphere([0, 0, 0], 1.0, material={"kd": [0.2, 0.4, 0.6]})],
+                       camera=aimed_camera([0, 0, 4], [0, 0, 0]), ambient=0.5)
+    np.testing.assert_allclose(pixel(scene), [0.1, 0.2, 0.3], rtol=RTOL)
+    m = scene.objects[0].material
+    assert m.kd.tolist() == [0.2, 0.4, 0.6] and m.ks.tolist() == [0, 0, 0]
+
+
+def test_inline_material_with_base():
+    scene = make_scene([raytrace.Sphere([0, 0, 0], 1.0,
+                                        material={"base": "brass", "kd": 0.1})])
+    m = scene.objects[0].material
+    assert m.kd.tolist() == [0.1] * 3 and m.ka.tolist() == SEED_TABLE["brass"][0]
+
+
+def test_material_defaults():
+    # SCENE_FORMAT.md: kd 0.5, ka = kd, ks 0, shininess 32, phong, kr 0, kt 0, ior 1.5, opacity 1.
+    m = Material()
+    assert m.kd.tolist() == [0.5] * 3 and m.ambient.tolist() == [0.5] * 3
+    assert m.ks.tolist() == [0.0] * 3 and m.shininess == 32 and m.highlight == "phong"
+    assert m.ior == 1.5 and m.opacity == 1.0 and not m.reflects and not m.transmits
+
+
+# -- the checker pattern --------------------------------------------------------------------------
+
+A, B = np.array([0.9, 0.8, 0.7]), np.array([0.1, 0.2, 0.3])
+
+
+def test_checker_parity_at_known_points():
+    # colors[0] where floor(x/s + 1e-4) + floor(y/s + 1e-4) + floor(z/s + 1e-4) is even.
+    c = Checker((A, B), scale=2.0)
+    pts = np.array([[0.5, 0.5, 0.5],      # 0+0+0 even
+                    [2.5, 0.5, 0.5],      # 1+0+0 odd
+                    [-0.5, 0.5, 0.5],     # −1+0+0 odd
+                    [-2.5, -0.5, 3.0],    # −2−1+1 even
+                    [4.1, 2.1, -0.1]])    # 2+1−1 even
+    np.testing.assert_array_equal(c.evaluate(pts), [A, B, B, A, A])
+
+
+def test_checker_bias_picks_a_side_on_a_cell_boundary():
+    # A point a hair below y = 0 or y = 1 (rounding noise of a plane lying on the boundary)
+    # counts as on the boundary's upper cell, exactly like the boundary itself.
+    c = Checker((A, B), scale=1.0)
+    for y in (0.0, -1e-12, 1e-12, -1e-6):
+        np.testing.assert_array_equal(c.evaluate(np.array([[0.5, y, 0.5]])), [A])
+    for y in (1.0, 1.0 - 1e-12, 1.0 + 1e-12):
+        np.testing.assert_array_equal(c.evaluate(np.array([[0.5, y, 0.5]])), [B])
+    # Beyond the bias the side really changes.
+    np.testing.assert_array_equal(c.evaluate(np.array([[0.5, -1e-3, 0.5]])), [B])
+
+
+@pytest.mark.parametrize("plane_y", [0.0, 1.0, -3.0])
+@pytest.mark.parametrize("xz", [(0.5, 0.5), (1.5, 0.5), (-0.5, 0.25), (-1.5, -2.5),
+                                (0.999, 0.5)])
+def test_checker_on_a_plane_lying_on_a_cell_boundary(plane_y, xz):
+    # The plane y = k (an integer) lies exactly on a boundary; the bias puts it in cell k.
+    # kd is the checker and ka is omitted (follows kd); no light, Ia = 1: the pixel is the
+    # checker colour itself.
+    x, z = xz
+    cells = math.floor(x + 1e-4) + round(plane_y) + math.floor(z + 1e-4)
+    expected = A if cells % 2 == 0 else B
+    mat = raytrace.Material(kd={"pattern": "checker", "colors": [A.tolist(), B.tolist()],
+                                "scale": 1.0})
+    target = np.array([x, plane_y, z])
+    scene = make_scene([raytrace.Plane([0.0, plane_y, 0.0], [0, 1, 0], material=mat)],
+                       camera=aimed_camera(target + [0.7, 2.3, 3.1], target), ambient=1.0)
+    np.testing.assert_allclose(pixel(scene), expected, rtol=RTOL)
+
+
+def test_bad_checker_tables_name_the_key():
+    with pytest.raises(raytrace.SceneError, match="colors") as e:
+        Material(kd={"pattern": "checker", "colors": [1.0]})
+    assert "kd.colors" in str(e.value)
+    with pytest.raises(raytrace.SceneError, match="checker"):
+        Material(kd={"pattern": "stripes", "colors": [1.0, 0.0]})
+
+
+# -- `raytrace materials` -------------------------------------------------------------------------
+
+def test_materials_command_lists_the_library(capsys):
+    assert cli.main(["materials"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    listed = [line.split()[0] for line in out]
+    assert listed == list(library)
+    brass = next(line for line in out if line.startswith("brass "))
+    assert library.describe("brass")["description"] in brass
+    glass = next(line for line in out if line.startswith("glass "))
+    assert "ior=1.5" in glass

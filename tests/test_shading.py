@@ -1,0 +1,206 @@
+"""Local shading against values worked out by hand (seed 000/001; SCENE_FORMAT.md):
+
+    I = ka·Ia + Σ_l S_l · f_radial · f_angular · I_l · [ kd·max(N·L, 0) + ks·spec ]
+
+Each test renders one pixel (1×1, spp = 1: the ray is the camera's forward direction, so it
+hits exactly the aimed-at point) and compares it with the formula evaluated here in float64.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from helpers import RTOL, aimed_camera, make_scene, pixel, unit
+
+import raytrace
+from raytrace.shading import blinn, cosine_power, direct, phong
+
+FLOOR = dict(point=[0.0, 0.0, 0.0], normal=[0.0, 1.0, 0.0])
+
+
+def test_diffuse_plane_under_attenuated_point_light():
+    # Plane y = 0, N = (0, 1, 0); the pixel sees P = (0.3, 0, -0.2).
+    # Light at (1.3, 3, 0.8): P→light = (1, 3, 1), d = √11, N·L = 3/√11.
+    # f = 1/(a0 + a1·d + a2·d²) = 1/(0.5 + 0.25·√11 + 0.1·11).
+    # I = ka·Ia + f·Il·kd·N·L, per channel.
+    ka, kd = np.array([0.3, 0.2, 0.1]), np.array([0.6, 0.4, 0.2])
+    ia, il = np.array([0.2, 0.25, 0.5]), np.array([1.0, 2.0, 0.5])
+    p = np.array([0.3, 0.0, -0.2])
+    d = math.sqrt(11.0)
+    f = 1.0 / (0.5 + 0.25 * d + 0.1 * d * d)
+    expected = ka * ia + f * il * kd * (3.0 / d)
+    scene = make_scene(
+        [raytrace.Plane(**FLOOR, material=raytrace.Material(kd=kd, ka=ka))],
+        [raytrace.PointLight([1.3, 3.0, 0.8], color=il, attenuation=[0.5, 0.25, 0.1])],
+        camera=aimed_camera([-1.0, 2.5, 3.0], p), ambient=ia)
+    np.testing.assert_allclose(pixel(scene), expected, rtol=RTOL)
+
+
+def test_omitted_ka_follows_kd():
+    # No light: I = ka·Ia with ka = kd when ka is omitted.
+    kd, ia = np.array([0.7, 0.5, 0.25]), 0.4
+    scene = make_scene([raytrace.Plane(**FLOOR, material=raytrace.Material(kd=kd))],
+                       camera=aimed_camera([0.0, 1.0, 2.0], [0.0, 0.0, 0.0]), ambient=ia)
+    np.testing.assert_allclose(pixel(scene), kd * ia, rtol=RTOL)
+
+
+def _highlight_scene(model: str, theta_l: float, theta_v: float, n: float):
+    """Plane y = 0 at P = 0; light at angle θ_L from N towards +x, eye at θ_V towards −x,
+    both in the xy plane, so R (the mirror of L) lies at θ_L on the eye's side."""
+    tl, tv = math.radians(theta_l), math.radians(theta_v)
+    light = 3.0 * np.array([math.sin(tl), math.cos(tl), 0.0])
+    eye = 4.0 * np.array([-math.sin(tv), math.cos(tv), 0.0])
+    mat = raytrace.Material(kd=[0.2, 0.3, 0.4], ka=0.1, ks=[0.5, 0.6, 0.7], shininess=n,
+                            highlight=model)
+    return make_scene([raytrace.Plane(**FLOOR, material=mat)],
+                      [raytrace.PointLight(light, color=[1.0, 0.9, 0.8])],
+                      camera=aimed_camera(eye, [0.0, 0.0, 0.0]), ambient=0.3), mat
+
+
+@pytest.mark.parametrize("model", ["phong", "blinn"])
+def test_highlight_peak_at_mirror_direction(model):
+    # Light and eye symmetric about N at 45°: V = R (so V·R = 1) and H = N (N·H = 1).
+    # I = ka·Ia + Il·(kd·cos 45° + ks·1).
+    scene, m = _highlight_scene(model, 45.0, 45.0, 50.0)
+    il = np.array([1.0, 0.9, 0.8])
+    expected = m.ka * 0.3 + il * (m.kd * math.cos(math.radians(45)) + m.ks * 1.0)
+    np.testing.assert_allclose(pixel(scene), expected, rtol=RTOL)
+
+
+@pytest.mark.parametrize("model", ["phong", "blinn"])
+def test_highlight_off_peak(model):
+    # θ_L = 30°, θ_V = 55°: R is 25° away from V, so V·R = cos 25° (Phong), and H bisects L, V
+    # at (55° − 30°)/2 = 12.5° from N, so N·H = cos 12.5° (Blinn; seed 001: α = φ/2).
+    theta_l, theta_v, n = 30.0, 55.0, 10.0
+    scene, m = _highlight_scene(model, theta_l, theta_v, n)
+    phi = math.radians(theta_v - theta_l)
+    spec = math.cos(phi) ** n if model == "phong" else math.cos(phi / 2) ** n
+    il = np.array([1.0, 0.9, 0.8])
+    expected = m.ka * 0.3 + il * (m.kd * math.cos(math.radians(theta_l)) + m.ks * spec)
+    np.testing.assert_allclose(pixel(scene), expected, rtol=RTOL)
+    # The highlight really is there: it is more than 5 % of the pixel.
+    assert np.all(il * m.ks * spec > 0.05 * expected)
+
+
+def test_light_behind_the_surface_gives_ambient_only():
+    # L below the plane, eye above: N (turned to the eye) · L < 0: no diffuse, no highlight.
+    mat = raytrace.Material(kd=0.8, ka=0.5, ks=1.0, shininess=1)
+    scene = make_scene([raytrace.Plane(**FLOOR, material=mat)],
+                       [raytrace.PointLight([0.5, -2.0, 0.0], color=5.0)],
+                       camera=aimed_camera([0.0, 2.0, 2.0], [0.0, 0.0, 0.0]), ambient=0.2)
+    np.testing.assert_allclose(pixel(scene), np.full(3, 0.5 * 0.2), rtol=RTOL)
+
+
+def test_two_sided_plane_seen_from_below():
+    # The eye is below the plane whose normal points up: N turns to the viewer, (0, −1, 0);
+    # a light below at P + (0, −2, 0) gives N·L = 1, d = 2, f = 1/(1 + d) = 1/3.
+    mat = raytrace.Material(kd=0.6, ka=0.0)
+    scene = make_scene([raytrace.Plane(**FLOOR, material=mat)],
+                       [raytrace.PointLight([0.0, -2.0, 0.0], attenuation=[1.0, 1.0, 0.0])],
+                       camera=aimed_camera([1.0, -1.0, 1.0], [0.0, 0.0, 0.0]))
+    np.testing.assert_allclose(pixel(scene), np.full(3, 0.6 / 3.0), rtol=RTOL)
+
+
+def _shadow_scene(with_blocker: bool):
+    # Plane y = 0, light straight above P = 0 at (0, 4, 0); an opaque sphere of radius 0.5
+    # at (0, 2, 0) sits on the segment P→light. The eye at (3, 1, 3) sees P: its ray passes
+    # the sphere's centre at distance √(4 − 4/19) ≈ 1.95 > 0.5.
+    objects = [raytrace.Plane(**FLOOR, material=raytrace.Material(kd=[0.8, 0.6, 0.4],
+                                                                  ka=[0.5, 0.5, 0.25]))]
+    if with_blocker:
+        objects.append(raytrace.Sphere([0.0, 2.0, 0.0], 0.5, material="brass"))
+    return make_scene(objects, [raytrace.PointLight([0.0, 4.0, 0.0], color=2.0)],
+                      camera=aimed_camera([3.0, 1.0, 3.0], [0.0, 0.0, 0.0]), ambient=0.2)
+
+
+def test_shadowed_point_gets_exactly_the_ambient_term():
+    ambient = np.array([0.5, 0.5, 0.25]) * 0.2            # ka·Ia
+    np.testing.assert_allclose(pixel(_shadow_scene(True)), ambient, rtol=RTOL)
+    # Without the blocker the same point is lit: + Il·kd·N·L with N·L = 1 (f = 1).
+    lit = ambient + 2.0 * np.array([0.8, 0.6, 0.4])
+    np.testing.assert_allclose(pixel(_shadow_scene(False)), lit, rtol=RTOL)
+
+
+def test_shadow_behind_a_mesh_occluder():
+    # The same blocker as a 2-triangle square (Embree) at y = 2 across the light's path.
+    square = raytrace.Mesh(vertices=[[-0.5, 2, -0.5], [0.5, 2, -0.5], [0.5, 2, 0.5],
+                                     [-0.5, 2, 0.5]], faces=[[0, 1, 2], [0, 2, 3]],
+                           material="black_plastic")
+    scene = _shadow_scene(False)
+    scene = make_scene([*scene.objects, square], scene.lights, camera=scene.camera,
+                       ambient=0.2)
+    np.testing.assert_allclose(pixel(scene), np.array([0.5, 0.5, 0.25]) * 0.2, rtol=RTOL)
+
+
+def test_transparent_shadow_factor_is_kt_squared():
+    # A glass sphere (kt = 0.6, opacity 1) in the light's path: the shadow ray crosses it
+    # twice, S = kt² = 0.36 (SCENE_FORMAT.md: the product of t·kt + (1 − t) per crossing).
+    glass = raytrace.Material(kd=0.0, ka=0.0, kt=0.6, ior=1.5)
+    scene = _shadow_scene(False)
+    scene = make_scene([scene.objects[0], raytrace.Sphere([0.0, 2.0, 0.0], 0.5, material=glass)],
+                       scene.lights, camera=scene.camera, ambient=0.2)
+    expected = np.array([0.5, 0.5, 0.25]) * 0.2 + 0.36 * 2.0 * np.array([0.8, 0.6, 0.4])
+    np.testing.assert_allclose(pixel(scene), expected, rtol=RTOL)
+
+
+def test_mirror_reflection_and_opacity_blend():
+    # The eye looks straight down (0, −1, 0) at a mirror floor (kr = 0.5, kd = ks = ka = 0)
+    # from (0, 1, 0); the reflected ray goes straight up and misses: it adds kr·background.
+    # With opacity t = 0.75 the see-through ray continues down and misses too:
+    # I = t·(kr·B) + (1 − t)·B.
+    bg = np.array([0.2, 0.4, 0.8])
+    mat = raytrace.Material(kd=0.0, ka=0.0, kr=0.5, opacity=0.75)
+    scene = make_scene([raytrace.Plane(**FLOOR, material=mat)],
+                       camera=aimed_camera([0.0, 1.0, 0.0], [0.0, 0.0, 0.0], up=[0, 0, -1]),
+                       background=bg)
+    np.testing.assert_allclose(pixel(scene), 0.75 * 0.5 * bg + 0.25 * bg, rtol=RTOL)
+    # max_depth = 0: only local shading (zero here), no child rays.
+    np.testing.assert_allclose(pixel(scene, max_depth=0), 0.0, atol=0)
+
+
+# -- the shading functions on their own --------------------------------------------------------
+
+def test_cosine_power_matches_the_plain_formula_and_is_stable():
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=(500, 3))
+    b = rng.normal(size=(500, 3))
+    a /= np.linalg.norm(a, axis=1, keepdims=True)
+    b /= np.linalg.norm(b, axis=1, keepdims=True)
+    n = rng.uniform(0.5, 200, 500)
+    plain = np.maximum(np.einsum("ij,ij->i", a, b), 0.0) ** n
+    np.testing.assert_allclose(cosine_power(a, b, n), plain, rtol=1e-9, atol=1e-300)
+    # A huge exponent: cos(1e-4)^1e8 = exp(1e8·ln cos 1e-4) ≈ exp(−0.5).
+    x = np.array([[1.0, 0.0, 0.0]])
+    y = np.array([[math.cos(1e-4), math.sin(1e-4), 0.0]])
+    expected = math.exp(1e8 * math.log(math.cos(1e-4)))
+    assert cosine_power(x, y, np.array([1e8]))[0] == pytest.approx(expected, rel=1e-6)
+
+
+def test_phong_and_blinn_functions_at_known_angles():
+    n_ = np.array([[0.0, 1.0, 0.0]])
+    to_l = unit([math.sin(math.radians(20)), math.cos(math.radians(20)), 0.0])[None]
+    to_v = unit([-math.sin(math.radians(50)), math.cos(math.radians(50)), 0.0])[None]
+    e = np.array([7.0])
+    assert phong(n_, to_l, to_v, e)[0] == pytest.approx(math.cos(math.radians(30)) ** 7)
+    assert blinn(n_, to_l, to_v, e)[0] == pytest.approx(math.cos(math.radians(15)) ** 7)
+    # direct(): zero where N·L <= 0, even with ks > 0.
+    below = np.array([[0.0, -1.0, 0.0]])
+    out = direct(n_, below, to_v, np.ones((1, 3)), np.ones((1, 3)), e, np.array([0]))
+    assert np.all(out == 0)
+
+
+def test_occluder_beyond_the_light_casts_no_shadow_in_a_scene_with_glass():
+    # A mesh ceiling at y = 6 lies beyond the light at y = 4: the shadow ray stops at the light,
+    # so P stays lit (I = kd·Il·N·L = 0.5). A glass sphere elsewhere makes the renderer walk
+    # transparent shadows (closest-hit queries with tmax) instead of the occlusion query.
+    # (Regression: the closest-hit query ignored tmax for meshes, so P came out black.)
+    ceiling = raytrace.Mesh(vertices=[[-5, 6, -5], [5, 6, -5], [5, 6, 5], [-5, 6, 5]],
+                            faces=[[0, 1, 2], [0, 2, 3]])
+    glass = raytrace.Material(kd=0.0, ka=0.0, kt=0.6)
+    for extra in ([], [raytrace.Sphere([10, 0, 0], 0.5, material=glass)]):
+        scene = make_scene([raytrace.Plane(**FLOOR, material=raytrace.Material(kd=0.5, ka=0)),
+                            ceiling, *extra], [raytrace.PointLight([0, 4, 0])],
+                           camera=aimed_camera([3, 1, 3], [0, 0, 0]))
+        np.testing.assert_allclose(pixel(scene), np.full(3, 0.5), rtol=RTOL)
