@@ -93,8 +93,17 @@ def section(path: Path, stats: dict, scene: raytrace.Scene) -> list[str]:
     full = (scene.render.width, scene.render.height)
     rel = path.relative_to(ROOT).as_posix()
     comment = header_comment(path)
-    # The "Render:" line is shown as a command block below; keep the prose.
-    prose = [c for c in comment if not c.startswith("Render:")]
+    # The "Render:" line (and its indented continuation lines) is shown as a command block
+    # below; keep the prose.
+    prose, command, in_render = [], [], False
+    for line in comment:
+        in_render = line.startswith("Render:") or (in_render and line[:1].isspace())
+        if in_render:
+            command.append(line.removeprefix("Render:").strip())
+        else:
+            prose.append(line)
+    command_line = " ".join(command) or (
+        f"raytrace render {rel} -o {path.stem}.exr --png {path.stem}.png")
     rays = stats["rays"]
     out = [f"## {path.stem}", "", f"![{path.stem}](gallery/{path.stem}.png)", ""]
     if prose:
@@ -103,7 +112,7 @@ def section(path: Path, stats: dict, scene: raytrace.Scene) -> list[str]:
         f"Scene file: [`{rel}`](../{rel}). Full size ({full[0]}×{full[1]}):",
         "",
         "```sh",
-        f"raytrace render {rel} -o {path.stem}.exr --png {path.stem}.png",
+        command_line,
         "```",
         "",
         f"This picture: {stats['width']}×{stats['height']}, spp {stats['spp']}, "
@@ -112,7 +121,9 @@ def section(path: Path, stats: dict, scene: raytrace.Scene) -> list[str]:
         f"{rays['refraction']:,} refraction"
         + (f", {rays['see_through']:,} see-through" if rays.get("see_through") else "")
         + ")"
-        + (f"; {stats['triangles']:,} triangles" if stats.get("triangles") else "") + ".",
+        + (f"; {stats['triangles']:,} triangles" if stats.get("triangles") else "")
+        + (f"; {stats['total_internal_reflections']:,} total internal reflections"
+           if stats.get("total_internal_reflections") else "") + ".",
         "",
     ]
     if path.stem == "materials_showcase":

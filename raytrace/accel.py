@@ -145,6 +145,11 @@ class Accelerator:
         a, b, c = (self.tri_corners[:, i] for i in range(3))
         ng = np.cross(b - a, c - a)
         self.tri_normal = ng / np.linalg.norm(ng, axis=1, keepdims=True)
+        # A vertex whose face normals cancel (inconsistent winding) has no normal: its corners
+        # use the face's own, so Gouraud shading does not go dark there.
+        zero = ~self.tri_vnormals.any(axis=2)
+        self.tri_vnormals[zero] = np.broadcast_to(self.tri_normal[:, None], zero.shape + (3,))[
+            zero]
         extent = np.abs(self.tri_corners.astype(np.float32)).max(axis=(1, 2)).astype(np.float64)
         self.tri_offset = OFFSET_ULPS * 2.0**-23 * np.maximum(extent, np.finfo(np.float32).tiny)
         # The first run() commits the scene and is not thread-safe: do it once here.
@@ -168,65 +173,87 @@ class Accelerator:
 
     def intersect(self, origin: np.ndarray, direction: np.ndarray, origin_shape: np.ndarray,
                   tmax: np.ndarray | None = None) -> Hits:
-        """Closest hit of each ray with ``0 < t < tmax`` (mesh and analytic)."""
+        """Closest hit of each ray with ``0 < t < tmax`` (mesh and analytic).
+
+        Each chunk of :data:`CHUNK` rays runs the whole query in one worker: the analytic
+        shapes, Embree bounded by the closest analytic hit, and the float64 refinement of
+        Embree's hits. numpy and embreex release the GIL, so all of it runs in parallel; every
+        step is row-wise, so the result does not depend on the number of threads.
+        """
         n = len(origin)
         if self.recorder is not None:
             self._record("INTERSECT", origin, direction, tmax)
-        t, shape = self.shapes.intersect(origin, direction, origin_shape, tmax)
+        t = np.empty(n)
+        shape = np.empty(n, dtype=np.int64)
         triangle = np.full(n, -1, dtype=np.int64)
         uv = np.zeros((n, 2))
-        if self.embree is not None and n:
-            o32 = np.ascontiguousarray(origin, dtype=np.float32)
-            d32 = np.ascontiguousarray(direction, dtype=np.float32)
-            # Stop Embree at the closest analytic hit, or at tmax (the analytic query returns
-            # inf, not tmax, where it finds nothing before tmax).
-            bound = t if tmax is None else np.minimum(t, tmax)
-            far = bound.astype(np.float32)
-            far[~np.isfinite(far)] = np.float32(np.finfo(np.float32).max)
-            geom = np.empty(n, np.int64)
-            prim = np.empty(n, np.int64)
-            uv32 = np.empty((n, 2), np.float32)
 
-            def run(s: slice) -> None:
-                out = self.embree.run(o32[s], d32[s], dists=far[s].copy(), output=1)
-                geom[s], prim[s] = out["geomID"], out["primID"]
-                uv32[s, 0], uv32[s, 1] = out["u"], out["v"]
+        def run(s: slice) -> None:
+            lim = None if tmax is None else tmax[s]
+            t[s], shape[s] = self.shapes.intersect(origin[s], direction[s], origin_shape[s], lim)
+            if self.embree is not None:
+                self._closest_triangles(origin[s], direction[s], lim, t[s], shape[s],
+                                        triangle[s], uv[s])
 
-            self._chunks(run, n)
-            m = geom >= 0
-            if m.any():
-                tri = self.geom_first[geom[m]] + prim[m]
-                bary = self._refine_uv(tri, origin[m], direction[m], uv32[m])
-                p = self._barycentric_point(tri, bary)
-                tm = np.einsum("ij,ij->i", p - origin[m], direction[m])
-                closer = tm < bound[m]
-                idx = np.flatnonzero(m)[closer]
-                t[idx] = np.maximum(tm[closer], np.finfo(np.float64).tiny)
-                shape[idx] = NO_SHAPE
-                triangle[idx] = tri[closer]
-                uv[idx] = bary[closer]
+        self._chunks(run, n)
         return Hits(t, shape, triangle, uv)
+
+    def _closest_triangles(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray | None,
+                           t: np.ndarray, shape: np.ndarray, triangle: np.ndarray,
+                           uv: np.ndarray) -> None:
+        """Embree's closest hits of one chunk, written into the views ``t``, ``shape``,
+        ``triangle``, ``uv`` where a triangle comes before the analytic hit."""
+        # Stop Embree at the closest analytic hit, or at tmax (the analytic query returns
+        # inf, not tmax, where it finds nothing before tmax).
+        bound = t if tmax is None else np.minimum(t, tmax)
+        far = bound.astype(np.float32)  # a fresh array: Embree overwrites it
+        far[~np.isfinite(far)] = np.float32(np.finfo(np.float32).max)
+        out = self.embree.run(np.ascontiguousarray(o, dtype=np.float32),
+                              np.ascontiguousarray(d, dtype=np.float32), dists=far, output=1)
+        idx = np.flatnonzero(out["geomID"] >= 0)
+        if not len(idx):
+            return
+        tri = self.geom_first[out["geomID"][idx]] + out["primID"][idx]
+        corners = self.tri_corners[tri]
+        om, dm = o[idx], d[idx]
+        bary = _refine_uv(corners, om, dm, out["u"][idx], out["v"][idx])
+        tm = np.einsum("ij,ij->i", _barycentric_point(corners, bary) - om, dm)
+        closer = tm < bound[idx]
+        hit = idx[closer]
+        t[hit] = np.maximum(tm[closer], np.finfo(np.float64).tiny)
+        shape[hit] = NO_SHAPE
+        triangle[hit] = tri[closer]
+        uv[hit] = bary[closer]
 
     def occluded(self, origin: np.ndarray, direction: np.ndarray, origin_shape: np.ndarray,
                  tmax: np.ndarray) -> np.ndarray:
-        """True where something opaque or not lies in ``(0, tmax)`` (any-hit query)."""
+        """True where something opaque or not lies in ``(0, tmax)`` (any-hit query).
+
+        Chunked like :meth:`intersect`; Embree only sees the rays no analytic shape blocks.
+        """
         n = len(origin)
         if self.recorder is not None:
             self._record("OCCLUDED", origin, direction, tmax)
-        t, _ = self.shapes.intersect(origin, direction, origin_shape, tmax)
-        blocked = np.isfinite(t)
-        if self.embree is not None and n:
-            todo = np.flatnonzero(~blocked)
-            o32 = np.ascontiguousarray(origin[todo], dtype=np.float32)
-            d32 = np.ascontiguousarray(direction[todo], dtype=np.float32)
-            far = np.minimum(tmax[todo], np.finfo(np.float32).max).astype(np.float32)
-            res = np.empty(len(todo), np.int32)
+        blocked = np.empty(n, dtype=bool)
+        big = np.finfo(np.float32).max
 
-            def run(s: slice) -> None:
-                res[s] = self.embree.run(o32[s], d32[s], dists=far[s].copy(), query="OCCLUDED")
+        def run(s: slice) -> None:
+            o, d, lim = origin[s], direction[s], tmax[s]
+            t, _ = self.shapes.intersect(o, d, origin_shape[s], lim)
+            b = np.isfinite(t)
+            if self.embree is not None:
+                todo = np.flatnonzero(~b)
+                if 0 < len(todo) < len(b):
+                    o, d, lim = o[todo], d[todo], lim[todo]
+                if len(todo):
+                    res = self.embree.run(np.ascontiguousarray(o, dtype=np.float32),
+                                          np.ascontiguousarray(d, dtype=np.float32),
+                                          dists=np.minimum(lim, big).astype(np.float32),
+                                          query="OCCLUDED")
+                    b[todo] = res == 0
+            blocked[s] = b
 
-            self._chunks(run, len(todo))
-            blocked[todo] = res == 0
+        self._chunks(run, n)
         return blocked
 
     def _record(self, query: str, origin: np.ndarray, direction: np.ndarray,
@@ -239,76 +266,126 @@ class Accelerator:
                       np.ascontiguousarray(direction, dtype=np.float32), far)
 
     # -- surfaces ------------------------------------------------------------------------
-    def _refine_uv(self, tri: np.ndarray, origin: np.ndarray, direction: np.ndarray,
-                   uv32: np.ndarray) -> np.ndarray:
-        """Barycentrics (n, 2) of Embree's hits recomputed in float64 (Möller & Trumbore 1997).
-
-        Embree's float32 ``u, v`` are off by ~1e-5 (measured), enough to move smooth normals
-        and hit points visibly between scales; solving ``o + t·d = a + u·e1 + v·e2`` again on
-        the float64 triangle makes them exact to ~1e-15. The result is clamped onto the
-        triangle (a float64 solve may land a hair outside an edge Embree hit); rays (nearly)
-        parallel to the plane keep Embree's values.
-        """
-        c = self.tri_corners[tri]
-        e1, e2 = c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
-        p = np.cross(direction, e2)
-        det = np.einsum("ij,ij->i", e1, p)
-        s = origin - c[:, 0]
-        q = np.cross(s, e1)
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            uv = np.column_stack([np.einsum("ij,ij->i", s, p),
-                                  np.einsum("ij,ij->i", direction, q)]) / det[:, None]
-        ok = np.isfinite(uv).all(axis=1) & (det != 0)
-        uv = np.where(ok[:, None], np.maximum(uv, 0.0), uv32.astype(np.float64))
-        total = uv.sum(axis=1)
-        over = total > 1.0
-        uv[over] /= total[over, None]
-        return uv
-
-    def _barycentric_point(self, tri: np.ndarray, uv: np.ndarray) -> np.ndarray:
-        c = self.tri_corners[tri]
-        w0 = 1.0 - uv[:, 0] - uv[:, 1]
-        return w0[:, None] * c[:, 0] + uv[:, :1] * c[:, 1] + uv[:, 1:] * c[:, 2]
-
     def surface(self, hits: Hits, origin: np.ndarray, direction: np.ndarray) -> Surface:
-        """Points, normals and materials at the hits (every row of ``hits`` must be a hit)."""
+        """Points, normals and materials at the hits (every row of ``hits`` must be a hit).
+
+        Computed chunk by chunk in the thread pool, like :meth:`intersect`.
+        """
         n = len(hits.t)
-        point = origin + hits.t[:, None] * direction
+        point = np.empty((n, 3))
         geometric = np.empty((n, 3))
         shading = np.empty((n, 3))
         material = np.empty(n, np.int64)
         offset = np.zeros(n)
         gouraud = np.zeros(n, bool)
-        an = hits.shape != NO_SHAPE
-        if an.any():
-            p, nrm = self.shapes.surface(hits.shape[an], point[an])
-            point[an], geometric[an], shading[an] = p, nrm, nrm
-            material[an] = self.shape_material[hits.shape[an]]
-        tr = ~an
-        if tr.any():
-            tri, uv = hits.triangle[tr], hits.uv[tr]
-            point[tr] = self._barycentric_point(tri, uv)
-            ng = self.tri_normal[tri]
-            geometric[tr] = ng
-            ns = ng.copy()
-            code = self.tri_shading[tri]
-            smooth = code != 0
-            if smooth.any():
-                vn = self.tri_vnormals[tri[smooth]]
-                w = uv[smooth]
-                s = ((1 - w[:, 0] - w[:, 1])[:, None] * vn[:, 0] + w[:, :1] * vn[:, 1]
-                     + w[:, 1:] * vn[:, 2])
-                length = np.linalg.norm(s, axis=1, keepdims=True)
-                good = length[:, 0] > 1e-12
-                s[good] /= length[good]
-                s[~good] = ng[smooth][~good]
-                ns[smooth] = s
-            shading[tr] = ns
-            material[tr] = self.tri_material[tri]
-            offset[tr] = self.tri_offset[tri]
-            gouraud[tr] = code == 2
-        return Surface(point, geometric, shading, material, offset, hits.shape.copy(),
-                       hits.triangle.copy(), hits.uv.copy(), gouraud)
+
+        def run(s: slice) -> None:
+            self._surface_chunk(hits.t[s], hits.shape[s], hits.triangle[s], hits.uv[s],
+                                origin[s], direction[s], point[s], geometric[s], shading[s],
+                                material[s], offset[s], gouraud[s])
+
+        self._chunks(run, n)
+        return Surface(point, geometric, shading, material, offset, hits.shape, hits.triangle,
+                       hits.uv, gouraud)
+
+    def _surface_chunk(self, t, shape, triangle, uv, origin, direction,
+                       point, geometric, shading, material, offset, gouraud) -> None:
+        """:meth:`surface` for one chunk, written into the output views."""
+        an = shape != NO_SHAPE
+        n_an = int(np.count_nonzero(an))
+        if n_an:
+            sel = slice(None) if n_an == len(an) else an
+            s_an = shape[sel]
+            p, nrm = self.shapes.surface(s_an, origin[sel] + t[sel, None] * direction[sel])
+            point[sel], geometric[sel], shading[sel] = p, nrm, nrm
+            material[sel] = self.shape_material[s_an]
+        if n_an == len(an):
+            return
+        sel = slice(None) if not n_an else ~an
+        tri, w = triangle[sel], uv[sel]
+        corners = self.tri_corners[tri]
+        point[sel] = _barycentric_point(corners, w)
+        ng = self.tri_normal[tri]
+        geometric[sel] = ng
+        code = self.tri_shading[tri]
+        smooth = code != 0
+        n_smooth = int(np.count_nonzero(smooth))
+        if n_smooth:
+            every = n_smooth == len(smooth)
+            ms = slice(None) if every else smooth
+            vn = self.tri_vnormals[tri if every else tri[smooth]]
+            ws = w[ms]
+            ns = ((1 - ws[:, 0] - ws[:, 1])[:, None] * vn[:, 0] + ws[:, :1] * vn[:, 1]
+                  + ws[:, 1:] * vn[:, 2])
+            length = _norm(ns)
+            good = length > 1e-12
+            ns[good] /= length[good, None]
+            ns[~good] = ng[ms][~good]
+            if every:
+                shading[sel] = ns
+            else:
+                ns_all = ng.copy()
+                ns_all[smooth] = ns
+                shading[sel] = ns_all
+        else:
+            shading[sel] = ng
+        material[sel] = self.tri_material[tri]
+        offset[sel] = self.tri_offset[tri]
+        gouraud[sel] = code == 2
+
+
+def _refine_uv(corners: np.ndarray, origin: np.ndarray, direction: np.ndarray,
+               u32: np.ndarray, v32: np.ndarray) -> np.ndarray:
+    """Barycentrics (n, 2) of Embree's hits recomputed in float64 (Möller & Trumbore 1997).
+
+    Embree's float32 ``u, v`` are off by ~1e-5 (measured), enough to move smooth normals
+    and hit points visibly between scales; solving ``o + t·d = a + u·e1 + v·e2`` again on
+    the float64 triangle (``corners`` (n, 3, 3)) makes them exact to ~1e-15. The result is
+    clamped onto the triangle (a float64 solve may land a hair outside an edge Embree hit);
+    rays (nearly) parallel to the plane keep Embree's values.
+    """
+    c0 = corners[:, 0]
+    e1, e2 = corners[:, 1] - c0, corners[:, 2] - c0
+    p = _cross(direction, e2)
+    det = np.einsum("ij,ij->i", e1, p)
+    s = origin - c0
+    q = _cross(s, e1)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        u = np.einsum("ij,ij->i", s, p) / det
+        v = np.einsum("ij,ij->i", direction, q) / det
+    ok = np.isfinite(u) & np.isfinite(v) & (det != 0)
+    uv = np.empty((len(u), 2))
+    uv[:, 0] = np.where(ok, np.maximum(u, 0.0), u32)
+    uv[:, 1] = np.where(ok, np.maximum(v, 0.0), v32)
+    total = uv[:, 0] + uv[:, 1]
+    over = total > 1.0
+    if over.any():
+        uv[over] /= total[over, None]
+    return uv
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross`` of (n, 3) float64 arrays: the same arithmetic, without its dtype and axis
+    handling (a third of the cost on 32k-ray chunks)."""
+    out = np.empty(a.shape)
+    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
+    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
+    np.subtract(a1 * b2, a2 * b1, out=out[:, 0])
+    np.subtract(a2 * b0, a0 * b2, out=out[:, 1])
+    np.subtract(a0 * b1, a1 * b0, out=out[:, 2])
+    return out
+
+
+def _norm(a: np.ndarray) -> np.ndarray:
+    """Row lengths (n,) of (n, 3): ``np.linalg.norm(a, axis=1)``'s sum, in its order."""
+    return np.sqrt(a[:, 0] * a[:, 0] + a[:, 1] * a[:, 1] + a[:, 2] * a[:, 2])
+
+
+def _barycentric_point(corners: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Points (n, 3) at barycentrics ``uv`` (n, 2) of triangles ``corners`` (n, 3, 3)."""
+    c = corners
+    w0 = 1.0 - uv[:, 0] - uv[:, 1]
+    return w0[:, None] * c[:, 0] + uv[:, :1] * c[:, 1] + uv[:, 1:] * c[:, 2]
 
 
 def spawn_origins(point: np.ndarray, geometric: np.ndarray, offset: np.ndarray,

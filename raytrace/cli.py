@@ -100,6 +100,8 @@ def _render(args: argparse.Namespace) -> int:
     for flag, path in (("-o", out), ("--png", args.png), ("--stats", args.stats)):
         if path and not Path(path).resolve().parent.is_dir():
             raise SceneError(f"folder does not exist: {Path(path).parent}", flag)
+        if path and Path(path).is_dir():  # found now, not after the render
+            raise SceneError(f"is a folder, not a file: {path}", flag)
     t0 = time.perf_counter()
     scene = load_scene(args.scene)
     load_seconds = time.perf_counter() - t0
@@ -186,8 +188,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.close()
         return 0
     except KeyboardInterrupt:
-        print("raytrace: interrupted; no output written", file=sys.stderr)
+        end_bar = "\n" if sys.stderr.isatty() else ""  # leave the progress bar's line
+        print(f"{end_bar}raytrace: interrupted; no output written", file=sys.stderr)
         return 130
+    except OSError as e:  # e.g. no permission or no space left writing an output
+        print(f"raytrace: error: {e.filename or ''}: {e.strerror or e}", file=sys.stderr)
+        return EXIT_BAD_INPUT
 
 
 if __name__ == "__main__":

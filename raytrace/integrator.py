@@ -137,8 +137,19 @@ class WhittedIntegrator:
                 samples = np.zeros((stop - start, 3))
                 rays = camera_rays(self.scene.camera, o.width, o.height, o.spp, o.seed,
                                    start, stop)
-                while len(rays):
-                    rays = self.trace(rays, samples)
+                # Depth by depth; a batch grown past the pass size (2 children per glass hit)
+                # is split and its chunks finished one after another, so memory stays
+                # bounded by the pass size × max_depth rather than growing as 2^depth.
+                pending = [rays]
+                while pending:
+                    rays = pending.pop()
+                    if len(rays) > per_pass:
+                        pending.extend(rays.take(slice(i, i + per_pass)) for i in
+                                       reversed(range(0, len(rays), per_pass)))
+                        continue
+                    children = self.trace(rays, samples)
+                    if len(children):
+                        pending.append(children)
                 pixels[start // o.spp: stop // o.spp] = samples.reshape(-1, o.spp, 3).mean(1)
                 if progress is not None:
                     progress(stop, total)

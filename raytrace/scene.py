@@ -291,11 +291,22 @@ class Mesh:
             if self.faces is None:
                 raise SceneError("is required with vertices", "faces")
             verts, faces = self.vertices, self.faces
-        verts, faces = _check_arrays(verts, faces)
+        try:
+            verts, faces = _check_arrays(verts, faces)
+        except SceneError as e:  # name the key the user wrote: file or mesh, not vertices
+            if self.file is not None:
+                raise SceneError(f"{self.file}: {e.problem}", "file") from None
+            if self.mesh is not None:
+                raise SceneError(e.problem, "mesh") from None
+            raise
         world = (verts * scale) @ rotation_matrix(rotate).T + translate
         if not np.all(np.isfinite(world)) or np.abs(world).max() > MAX_COORDINATE:
             raise SceneError(f"transformed vertices exceed ±{MAX_COORDINATE:g}, beyond "
                              "float32's useful range for Embree", "scale")
+        if np.prod(np.sign(scale)) < 0:
+            # A mirroring scale turns counter-clockwise into clockwise: reverse each face so
+            # the winding still gives the outward normal (entering vs leaving for refraction).
+            faces = faces[:, ::-1]
         a, b, c = world[faces[:, 0]], world[faces[:, 1]], world[faces[:, 2]]
         area2 = np.linalg.norm(np.cross(b - a, c - a), axis=1)
         keep = area2 > 0
@@ -358,7 +369,9 @@ def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray]:
         try:
             loaded = trimesh.load(str(path), process=False)
         except Exception as e:  # trimesh raises many types for unreadable files
-            raise SceneError(f"cannot read mesh {path}: {e}", "file") from None
+            # (the exception alone can mislead: random bytes in an .stl fail on a text codec)
+            raise SceneError(f"cannot read mesh {path}: not a mesh file trimesh can load "
+                             f"({type(e).__name__}: {e})", "file") from None
         if isinstance(loaded, trimesh.Scene):
             if not loaded.geometry:
                 raise SceneError(f"{path} holds no triangles", "file")

@@ -31,7 +31,8 @@ def cosine_power(a: np.ndarray, b: np.ndarray, n: np.ndarray) -> np.ndarray:
     """
     diff = a - b
     h = 0.5 * dot(diff, diff)  # 1 − cos
-    positive = h < 1.0
+    # h < 1 alone lets a·b = 0 through when |a − b|² rounds just below 2 (then 0^0 gave 1).
+    positive = (h < 1.0) & (dot(a, b) > 0)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         p = np.exp(n * np.log1p(-np.minimum(h, 1.0)))
     p = np.where(n == 0, 1.0, p)

@@ -1,0 +1,216 @@
+"""The benchmark harness (benchmarks/): the POV-Ray writer, the ray recorder in
+raytrace.accel that the raw-Embree baseline replays, and ``bench.py --quick``'s JSON.
+
+POV-Ray parts are skipped where ``povray`` is not installed (``apt-get install povray``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import raytrace
+from raytrace import accel
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+import bench  # noqa: E402
+import povray  # noqa: E402
+
+needs_povray = pytest.mark.skipif(not povray.available(), reason="povray is not installed")
+
+
+def _block(text: str, keyword: str) -> str:
+    """The body of the first ``keyword { ... }`` block (no nested braces inside)."""
+    m = re.search(keyword + r"\s*\{([^{}]*)\}", text)
+    assert m, f"no {keyword} block"
+    return m.group(1)
+
+
+def _declared_and_listed(body: str) -> tuple[int, int]:
+    """A mesh2 list ``N, <..>, <..>, ...``: the declared N and the number of <..> entries."""
+    declared = int(body.strip().split(",", 1)[0])
+    return declared, len(re.findall(r"<[^>]*>", body))
+
+
+@pytest.fixture(scope="module")
+def mesh_scene_file(tmp_path_factory) -> Path:
+    # Subdivision 2: 320 triangles, the same scene file as the benchmark's 81 920.
+    return bench.write_mesh_scene(tmp_path_factory.mktemp("mesh"), subdivisions=2)
+
+
+# -- the POV-Ray writer -------------------------------------------------------------------------
+def test_whitted_pov_is_well_formed():
+    scene = raytrace.load_scene(ROOT / "scenes" / "whitted.toml")
+    text = povray.scene_to_pov(scene, 640, 480)
+    assert text.count("{") == text.count("}")
+    assert "#version 3.7;" in text
+    assert len(re.findall(r"^sphere \{", text, re.MULTILINE)) == 2
+    assert len(re.findall(r"^plane \{", text, re.MULTILINE)) == 1
+    assert len(re.findall(r"^light_source \{", text, re.MULTILINE)) == 1
+    # max_depth 5: camera ray (POV level 1) + 5 bounces.
+    assert re.search(r"max_trace_level 6\b", text)
+    # Vertical fov 40° at 4:3 → horizontal 2·atan(tan 20° · 4/3) = 51.774°.
+    angle = float(re.search(r"angle ([\d.]+)", text).group(1))
+    assert angle == pytest.approx(2 * math.degrees(math.atan(math.tan(math.radians(20)) * 4 / 3)))
+    assert angle == pytest.approx(51.774, abs=1e-3)
+    # The glass refracts in POV-Ray too: an interior with the scene's ior.
+    assert "interior { ior 1.5 }" in text
+
+
+def test_mesh_pov_has_every_vertex_and_face(mesh_scene_file):
+    scene = raytrace.load_scene(mesh_scene_file)
+    text = povray.scene_to_pov(scene, 64, 64)
+    meshes = [o for o in scene.objects if isinstance(o, raytrace.Mesh)]
+    blocks = text.split("mesh2 {")[1:]
+    assert len(blocks) == len(meshes) == 2
+    for mesh, block in zip(meshes, blocks, strict=True):
+        nv, listed_v = _declared_and_listed(_block(block, "vertex_vectors"))
+        nf, listed_f = _declared_and_listed(_block(block, "face_indices"))
+        assert nv == listed_v == len(mesh.vertices)
+        assert nf == listed_f == len(mesh.faces)
+        if mesh.shading == "smooth":  # one normal per vertex
+            nn, listed_n = _declared_and_listed(_block(block, "normal_vectors"))
+            assert nn == listed_n == len(mesh.vertices)
+        else:
+            assert "normal_vectors" not in block
+    assert text.count("{") == text.count("}")
+    # The first vertex round-trips to 10 significant digits.
+    first = _block(blocks[0], "vertex_vectors").split("<", 1)[1].split(">", 1)[0]
+    assert np.allclose([float(x) for x in first.split(",")], meshes[0].vertices[0], rtol=1e-9)
+
+
+@pytest.mark.parametrize("a", [[1.0, 0.0, 0.0], [2.0, 0.0, 0.5], [0.5, 0.25, 0.0],
+                               [1.0, 0.0, 3.0]])
+def test_fade_matches_the_attenuation_where_exact(a):
+    # POV-Ray: scale · 2/(1 + (d/D)^p). With one of a1, a2 zero and a0 > 0 this equals
+    # 1/(a0 + a1·d + a2·d²): e.g. a2 > 0, D² = a0/a2: 2/(1 + a2·d²/a0)/(2·a0) = 1/(a0 + a2·d²).
+    scale, text = povray.fade(a)
+    d = np.array([0.1, 1.0, 3.7, 50.0])
+    if text:
+        D = float(re.search(r"fade_distance (\S+)", text).group(1))
+        p = float(re.search(r"fade_power (\S+)", text).group(1))
+        pov = scale * 2.0 / (1.0 + (d / D) ** p)
+    else:
+        pov = np.full_like(d, scale)
+    assert np.allclose(pov, 1.0 / (a[0] + a[1] * d + a[2] * d * d), rtol=1e-9)
+
+
+@needs_povray
+def test_povray_renders_the_same_view(tmp_path):
+    """POV-Ray's render of the Whitted scene lines up with raytrace's: same sky pixels, and
+    closer to raytrace's image than its left-right mirror is (the handedness)."""
+    w, h = 64, 48
+    scene = raytrace.load_scene(ROOT / "scenes" / "whitted.toml")
+    pov = povray.write_pov(scene, tmp_path / "whitted.pov", w, h)
+    res = povray.run_povray(pov, w, h, threads=1, timeout=120)
+    assert res["returncode"] == 0, res["log_tail"]
+    assert res["seconds"]["trace"] >= 0 and res["wall_seconds"] > 0
+    theirs = raytrace.read_exr(res["output"])[0].astype(np.float64)
+    ours = raytrace.render(scene, width=w, height=h).rgb.astype(np.float64)
+    sky = np.array([0.35, 0.55, 0.85])
+    sky_ours = np.all(np.abs(ours - sky) < 1e-6, axis=2)
+    sky_theirs = np.all(np.abs(theirs - sky) < 1e-3, axis=2)
+    assert sky_ours[0].all() and sky_theirs[0].all()  # the top row is sky in both
+    assert np.mean(sky_ours != sky_theirs) < 0.02    # only horizon pixels may differ
+    assert np.abs(ours - theirs).mean() < 0.5 * np.abs(ours - theirs[:, ::-1]).mean()
+
+
+def test_parse_times_and_counts():
+    log = ("Rays:             318570   Saved:             38838   Max Level: 6/6\n"
+           "Shadow Ray Tests:            181770   Succeeded:                 53408\n"
+           "  Parse Time:       0 hours  0 minutes  0 seconds (0.012 seconds)\n"
+           "  Trace Time:       0 hours  1 minutes  2 seconds (62.046 seconds)\n")
+    assert povray.parse_times(log) == {"parse": 0.012, "trace": 62.046}
+    assert povray.parse_counts(log) == {"rays": 318570, "shadow_tests": 181770}
+
+
+# -- the recorder hook ------------------------------------------------------------------------
+def test_recorder_is_off_by_default():
+    assert accel.Accelerator.recorder is None
+
+
+def test_recorder_sees_every_ray_and_changes_nothing(mesh_scene_file):
+    # The Whitted scene (transparent shadows through intersect) and the mesh scene (occluded).
+    for path in (ROOT / "scenes" / "whitted.toml", mesh_scene_file):
+        scene = raytrace.load_scene(path)
+        plain = raytrace.render(scene, width=40, height=30)
+        rec = bench.Recorder()
+        accel.Accelerator.recorder = rec
+        try:
+            recorded = raytrace.render(scene, width=40, height=30)
+        finally:
+            accel.Accelerator.recorder = None
+        assert np.array_equal(recorded.rgb, plain.rgb)
+        assert rec.count() == plain.stats["rays"]["total"] > 0
+        queries = {b[0] for b in rec.batches}
+        assert queries <= {"INTERSECT", "OCCLUDED"} and "INTERSECT" in queries
+        for _, o, d, far in rec.batches:
+            assert o.dtype == d.dtype == far.dtype == np.float32
+            assert o.flags.c_contiguous and d.flags.c_contiguous
+            assert np.all(far > 0)
+    _, rec, stats = bench.record_rays(mesh_scene_file, 20, 20, threads=1)
+    assert accel.Accelerator.recorder is None  # bench restores the default
+    assert rec.count() == stats["rays"]["total"]
+
+
+def test_replay_traces_the_recorded_rays(mesh_scene_file):
+    scene, rec, _ = bench.record_rays(mesh_scene_file, 24, 24, threads=2)
+    raw = bench.raw_embree(scene, rec, threads=2)
+    assert raw["rays"] == rec.count() > 0
+    assert raw["occluded_rays"] > 0  # the mesh scene's shadow rays are any-hit queries
+    assert raw["triangles"] == sum(len(o.faces) for o in scene.objects)
+    assert raw["seconds"]["trace"] > 0
+
+
+def test_baseline_tessellates_analytic_shapes():
+    scene = raytrace.load_scene(ROOT / "scenes" / "whitted.toml")
+    geometry = bench.baseline_geometry(scene)
+    assert len(geometry) == 3
+    origin = scene.camera.position
+    for (v, _), obj in zip(geometry, scene.objects, strict=True):
+        if isinstance(obj, raytrace.Sphere):  # icosphere vertices lie on the sphere
+            r = np.linalg.norm(v + origin - obj.center, axis=1)
+            assert np.allclose(r, obj.radius)
+        else:  # quad corners lie on the plane
+            assert np.allclose((v + origin - obj.point) @ obj.normal, 0.0, atol=1e-9)
+
+
+# -- bench.py --quick -------------------------------------------------------------------------
+def test_quick_benchmark_json(tmp_path):
+    out = tmp_path / "results.json"
+    p = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench.py"), "--quick",
+                        "--json", str(out), "--workdir", str(tmp_path / "work")],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-3000:]
+    assert "throughput" in p.stdout
+    res = json.loads(out.read_text())
+    assert {"machine", "settings", "throughput", "scaling", "startup", "threads"} <= set(res)
+    assert [r["scene"] for r in res["throughput"]] == ["mesh", "whitted"]
+    for r in res["throughput"]:
+        assert {"camera", "shadow", "reflection", "refraction", "total"} <= set(r["rays"])
+        assert {"build", "trace", "shade", "write", "render", "process_wall"} <= set(
+            r["seconds"])
+        assert r["rays_match"] is True
+        assert r["raw_embree"]["rays"] == r["rays"]["total"]
+        assert r["ratio"] == pytest.approx(r["rays_per_second"]
+                                           / r["raw_embree"]["rays_per_second"])
+        assert r["peak_rss_mib"] > 10
+    whitted = res["throughput"][1]
+    assert whitted["rays"]["refraction"] > 0 and whitted["rays"]["reflection"] > 0
+    assert all(r["identical"] for r in res["threads"])
+    assert {"runs", "fixed_seconds", "microseconds_per_sample"} <= set(res["scaling"])
+    assert res["startup"]["best"] > 0
+    if povray.available():
+        assert [r["scene"] for r in res["povray"]] == ["mesh", "whitted"]
+        for r in res["povray"]:
+            assert r["returncode"] == 0 and "trace" in r["seconds"]
+            assert r["wall_ratio"] > 0

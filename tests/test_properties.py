@@ -1,0 +1,131 @@
+"""Property-based tests (hypothesis) of the pure optics and shading functions.
+
+reflect and refract keep unit length; refraction obeys Snell's law η₁ sin θ₁ = η₂ sin θ₂ in
+the plane of incidence; total internal reflection happens exactly when η sin θᵢ > 1; the local
+shading terms are finite, non-negative and bounded by (kd + ks)·I_l. Few examples each, so the
+file runs in a few seconds.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from raytrace.lights import Emitter, cos_cutoff
+from raytrace.optics import critical_angle, reflect, refract
+from raytrace.shading import HIGHLIGHT_CODES, cosine_power, direct
+
+FAST = settings(max_examples=150, deadline=None)
+
+coord = st.floats(-1.0, 1.0, allow_nan=False)
+vec3 = st.tuples(coord, coord, coord)
+eta = st.floats(1e-3, 1e3, allow_nan=False)
+colour = st.tuples(*(st.floats(0.0, 1.0),) * 3)
+
+
+def unit(v) -> np.ndarray:
+    a = np.asarray(v, dtype=np.float64)
+    norm = np.linalg.norm(a)
+    assume(norm > 1e-3)
+    return (a / norm)[None, :]
+
+
+def incident(d, n) -> tuple[np.ndarray, np.ndarray]:
+    """A unit direction and a unit normal on the side it comes from (d·n <= 0)."""
+    d, n = unit(d), unit(n)
+    c = float(d[0] @ n[0])
+    assume(abs(c) > 1e-6)
+    return d, (n if c < 0 else -n)
+
+
+@FAST
+@given(vec3, vec3)
+def test_reflect_keeps_unit_length_and_mirrors_the_angle(d, n):
+    d, n = unit(d), unit(n)
+    r = reflect(d, n)
+    assert abs(np.linalg.norm(r) - 1.0) < 1e-12
+    assert abs(float(r[0] @ n[0]) + float(d[0] @ n[0])) < 1e-12   # r·n = −d·n
+    assert np.allclose(np.cross(r, n), np.cross(d, n), atol=1e-12)  # tangent part kept
+
+
+@FAST
+@given(vec3, vec3, eta)
+def test_refract_keeps_unit_length_and_obeys_snell(d, n, e):
+    d, n = incident(d, n)
+    t, tir = refract(d, n, np.array([e]))
+    assert np.isfinite(t).all()
+    assert abs(np.linalg.norm(t) - 1.0) < 1e-9
+    if tir[0]:
+        np.testing.assert_allclose(t, reflect(d, n), atol=1e-12)
+        return
+    sin_i = np.linalg.norm(np.cross(d, n))
+    sin_t = np.linalg.norm(np.cross(t, n))
+    assert abs(sin_t - e * sin_i) < 1e-9 * max(1.0, e)        # η₁ sin θ₁ = η₂ sin θ₂
+    assert float(t[0] @ n[0]) <= 1e-12                            # it crosses the surface
+    assert abs(np.linalg.det(np.vstack([d, n, t]))) < 1e-9 * max(1.0, e)  # coplanar
+
+
+@FAST
+@given(vec3, vec3, eta)
+def test_total_internal_reflection_exactly_when_predicted(d, n, e):
+    d, n = incident(d, n)
+    sin_i = math.sqrt(max(0.0, 1.0 - float(d[0] @ n[0]) ** 2))
+    _, tir = refract(d, n, np.array([e]))
+    if e * sin_i > 1.0 + 1e-9:
+        assert tir[0]
+    elif e * sin_i < 1.0 - 1e-9:
+        assert not tir[0]
+
+
+@FAST
+@given(st.floats(1.0 + 1e-9, 1e3))
+def test_critical_angle_is_where_snell_reaches_90_degrees(ior):
+    th = critical_angle(ior)
+    assert 0 < th <= math.pi / 2
+    assert abs(ior * math.sin(th) - 1.0) < 1e-12
+
+
+@FAST
+@given(vec3, vec3, st.floats(0.0, 1e8), st.floats(1.0, 1e8))
+def test_cosine_power_is_a_bounded_decreasing_function_of_n(a, b, n, factor):
+    a, b = unit(a), unit(b)
+    p = float(cosine_power(a, b, np.array([n]))[0])
+    q = float(cosine_power(a, b, np.array([n * factor]))[0])
+    assert 0.0 <= q <= p <= 1.0
+    if float(a[0] @ b[0]) <= 0:
+        assert p == 0.0
+
+
+@FAST
+@given(vec3, vec3, vec3, colour, colour, st.floats(0.0, 1e8),
+       st.sampled_from(sorted(HIGHLIGHT_CODES)), st.floats(0.0, 1e6))
+def test_direct_is_finite_non_negative_and_bounded(nrm, light, eye, kd, ks, shininess, model,
+                                                   intensity):
+    n, ldir, v = unit(nrm), unit(light), unit(eye)
+    kd, ks = np.array([kd]), np.array([ks])
+    out = direct(n, ldir, v, kd, ks, np.array([shininess]), np.array([HIGHLIGHT_CODES[model]]))
+    lit = out * intensity
+    assert np.isfinite(lit).all()
+    assert (lit >= 0).all()
+    assert (lit <= (kd + ks) * intensity * (1 + 1e-12)).all()
+    if float(n[0] @ ldir[0]) <= 0:
+        assert (out == 0).all()
+
+
+@FAST
+@given(vec3, st.floats(1.0, 1e3), st.floats(0.0, 10.0), st.floats(0.0, 10.0),
+       st.floats(1e-6, 90.0), st.floats(0.0, 1e3), st.floats(-1e4, 1e4))
+def test_light_factor_is_finite_and_at_most_one_over_a0(p, a0, a1, a2, cutoff, exponent,
+                                                        offset):
+    # f_radial·f_angular <= 1/a0: the shading is bounded by (kd + ks)·I_l/a0 (<= with a0 >= 1).
+    point = np.asarray(p, dtype=np.float64)[None, :] * abs(offset)
+    em = Emitter(np.ones(3), np.zeros(3), np.array([0.0, -1.0, 0.0]), np.array([a0, a1, a2]),
+                 cos_cutoff(cutoff), exponent)
+    to_light, dist, f = em.incidence(point)
+    assert np.isfinite(to_light).all() and np.isfinite(f).all()
+    assert 0.0 <= f[0] <= 1.0 / a0
+    if dist[0] > 0:
+        assert abs(np.linalg.norm(to_light) - 1.0) < 1e-12
