@@ -391,12 +391,32 @@ def test_wavefront_equals_recursive_reference(min_weight):
 
 def test_image_does_not_depend_on_pass_size_or_threads():
     # Per-depth compaction and the pass split must not change a pixel: it is a sum of the
-    # same terms.
+    # same terms. 37 samples a pass does not divide the 432 pixels.
     scene = reference_scene()
     a = raytrace.render(scene, width=24, height=18)
     b = raytrace.render(scene, width=24, height=18, pass_samples=37, threads=2)
     np.testing.assert_array_equal(a.rgb, b.rgb)
     assert a.stats["rays"] == b.stats["rays"]
+
+
+def test_no_batch_outgrows_the_pass():
+    # Glass doubles the rays at every hit; a batch larger than the pass is split and its
+    # chunks finished one after another (depth first), so no trace() call sees more rays
+    # than a pass holds, and the image is the same sum (up to the order of float additions).
+    sizes = []
+
+    class Recording(WhittedIntegrator):
+        def trace(self, rays, samples):
+            sizes.append(len(rays))
+            return super().trace(rays, samples)
+
+    scene = reference_scene()
+    opts = RenderOptions(24, 18, 1, 6, 0.0, np.array([0.2, 0.3, 0.5]), 0, pass_samples=16)
+    small = Recording(scene, opts).render()
+    assert max(sizes) <= 16 and len(sizes) > 27 * 6
+    whole = raytrace.render(scene, width=24, height=18, max_depth=6)
+    np.testing.assert_allclose(small.rgb, whole.rgb, rtol=1e-6, atol=1e-9)
+    assert small.stats["rays"] == whole.stats["rays"]
 
 
 # -- statistics ------------------------------------------------------------------------------

@@ -540,11 +540,10 @@ def test_touching_dielectrics():
         img, _ = render_checked(scene, width=5, height=5)
         assert img[2, 2, 0] == pytest.approx(kt**4, rel=1e-6)
         assert img.min() >= 0 and img.max() <= 1.0
-    slab = [Plane([0, 0, 0], [0, 1, 0], g), Plane([0, -1, 0], [0, -1, 0], g)]
+    # The slab is the glass between y0 − 1 and y0 (two planes, outward normals ∓y).
     for y0, r in ((0.0, 1.0), (1e3, 0.01)):
-        objs = [Sphere([0, y0 + r, 0], r, g), *slab]
-        objs[1] = Plane([0, y0, 0], [0, 1, 0], g)
-        objs[2] = Plane([0, y0 - 1, 0], [0, -1, 0], g)
+        objs = [Sphere([0, y0 + r, 0], r, g), Plane([0, y0, 0], [0, 1, 0], g),
+                Plane([0, y0 - 1, 0], [0, -1, 0], g)]
         scene = Scene(camera=Camera([0, y0 + r + 3, 0], [0, y0, 0], [0, 0, -1], fov=60),
                       objects=objs, render=RenderSettings(background=1.0, max_depth=10))
         img, _ = render_checked(scene, width=5, height=5)
