@@ -28,7 +28,7 @@ scalars and 3-vectors. Gouraud meshes are not supported (the reference scenes us
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -55,7 +55,6 @@ class Counts:
     tir: int = 0
     pruned_depth: int = 0
     pruned_weight: int = 0
-    kinds: dict = field(default_factory=dict)
 
 
 def coefficient(c: np.ndarray | Checker, world: np.ndarray) -> np.ndarray:
@@ -98,7 +97,7 @@ class ReferenceTracer:
             if all(o.material is not m for m in self.materials):
                 self.materials.append(o.material)
         self.accel = Accelerator(scene, self.materials, threads=1)
-        if getattr(self.accel, "tri_shading", np.zeros(0)).tolist().count(2):
+        if np.any(getattr(self.accel, "tri_shading", np.zeros(0)) == 2):
             raise NotImplementedError("the reference tracer has no Gouraud shading")
         self.origin = self.accel.origin
         self.lights = emitters(scene.lights, self.origin, seed)

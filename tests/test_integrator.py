@@ -16,6 +16,7 @@ Every expected value below is worked out by hand in the test (comments give the 
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -35,8 +36,10 @@ from raytrace import (
     PointLight,
     Sphere,
 )
+from raytrace.cli import main
+from raytrace.film import read_exr
 from raytrace.integrator import RenderOptions, WhittedIntegrator
-from raytrace.rays import CAMERA, NO_SHAPE, REFLECTION, REFRACTION, RayBatch
+from raytrace.rays import CAMERA, NO_SHAPE, REFRACTION, RayBatch
 
 RTOL = 1e-6  # float32 output: ~6e-8 relative rounding, so 1e-6 is tight but safe
 IOR = 1.5
@@ -365,7 +368,7 @@ def reference_scene() -> raytrace.Scene:
         [Plane([0, 0, 0], [0, 1, 0], floor), Sphere([-1.3, 0.8, -0.5], 0.8, mirror),
          Sphere([0.9, 0.9, 0.6], 0.9, glass_m), Sphere([1.05, 1.0, 0.75], 0.45, bubble),
          Sphere([-0.2, 0.5, 1.2], 0.5, veil),
-         box((0.8, 0.8, 0.8), (1.6, 0.4, -1.6), cube, rotate=(0, 30, 0))],
+         box((0.8, 0.8, 0.8), (1.6, 0.45, -1.6), cube, rotate=(0, 30, 0))],
         [PointLight([3, 5, 4], 1.0, [1, 0.05, 0.01]), DirectionalLight([-1, -2, -1], 0.5)],
         Camera([0, 1.5, 6], [0, 0.8, 0], fov=45), ambient=0.1, max_depth=4,
         background=[0.2, 0.3, 0.5])
@@ -546,3 +549,46 @@ def test_camera_inside_a_glass_sphere():
     np.testing.assert_allclose(image.rgb, np.broadcast_to(expected, (6, 8, 3)), rtol=RTOL)
     assert image.stats["total_internal_reflections"] == 0
     assert image.stats["rays"]["refraction"] == 48
+
+
+def test_facing_mirrors_through_the_command_line(tmp_path):
+    # The same series from a scene file via `raytrace render --stats`: D = 5 on a 3×2 image
+    # (the planes are parallel, so every pixel zig-zags the same way): 5 reflection rays per
+    # pixel, and the EXR pixel is L·(1 − 0.9⁶)/(1 − 0.9) with L = ka·Ia = 0.2·0.5.
+    scene = tmp_path / "mirrors.toml"
+    scene.write_text("""
+[render]
+width = 3
+height = 2
+max_depth = 5
+background = 9.0
+[camera]
+position = [0.0, 0.0, 0.5]
+look_at = [0.0, 0.0, -1.0]
+fov = 20.0
+[ambient]
+color = 0.5
+[materials.m]
+ka = 0.2
+kd = 0.0
+kr = 0.9
+[[objects]]
+type = "plane"
+point = [0.0, 0.0, -1.0]
+normal = [0.0, 0.0, 1.0]
+material = "m"
+[[objects]]
+type = "plane"
+point = [0.0, 0.0, 2.0]
+normal = [0.0, 0.0, -1.0]
+material = "m"
+""")
+    out, stats = tmp_path / "m.exr", tmp_path / "m.json"
+    assert main(["render", str(scene), "-o", str(out), "--stats", str(stats), "-q"]) == 0
+    s = json.loads(stats.read_text())
+    assert s["rays"]["reflection"] == 5 * 6 and s["rays"]["camera"] == 6
+    assert s["rays"]["shadow"] == s["rays"]["refraction"] == s["rays"]["see_through"] == 0
+    assert s["rays"]["total"] == 6 + 30
+    assert s["pruned"] == {"depth": 6, "weight": 0}
+    rgb = read_exr(out)[0]
+    np.testing.assert_allclose(rgb, 0.1 * (1 - 0.9**6) / 0.1, rtol=RTOL)
