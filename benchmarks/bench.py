@@ -22,15 +22,21 @@ Parts (``--parts``, comma-separated; default all):
     The same scenes written by ``benchmarks/povray.py`` and rendered by ``povray`` (no
     antialiasing, same size and threads): whole-process wall time, POV-Ray's parse and trace
     times, its peak memory.
+``profile``
+    Each scene rendered once more in this process on one thread with every pipeline stage
+    wrapped in a timer (exclusive seconds): Embree's ``run`` calls, analytic intersection, the
+    rest of raytrace.accel, camera rays, shading, compaction, accumulation, the integrator's
+    loop, the BVH build, the scene load and the EXR write.
 ``scaling``
-    The mesh scene at growing pixel counts and spp: seconds per sample should stay flat;
-    the full run also renders 3840×2160 at 4 spp and reports its peak memory.
+    The mesh scene at growing pixel counts and spp, with a least-squares fit
+    ``seconds = fixed + per_sample·samples`` and its largest residual; the full run also
+    renders 3840×2160 at 4 spp (``--no-big`` skips it) and reports its peak memory.
 ``startup``
     ``raytrace render`` of a small analytic scene (the Whitted scene at 64×48) to EXR, three
     times: the wall time of each, and of ``python -c "import raytrace"``.
 ``threads``
-    Both scenes at ``--threads 1, 2, 4``: seconds, speed-up over one thread, and whether each
-    EXR is bit-identical to the one-thread image.
+    Both scenes at ``--threads 1, 2, 4`` (1, 2 with ``--quick``): seconds, speed-up over one
+    thread, and whether each EXR is bit-identical to the one-thread image.
 
 Prints one table per part and writes everything as JSON (``--json``, default
 ``benchmarks/results.json``). Other processes on the machine make timings noisy: the load
@@ -40,12 +46,14 @@ average at the start is recorded with the results.
 from __future__ import annotations
 
 import argparse
+import inspect
 import json
 import os
 import platform
 import sys
 import tempfile
 import time
+from collections import defaultdict
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -61,7 +69,9 @@ import raytrace  # noqa: E402
 from raytrace import accel  # noqa: E402
 from raytrace.scene import Mesh, Plane, Sphere  # noqa: E402
 
-PARTS = ("throughput", "povray", "scaling", "startup", "threads")
+PARTS = ("throughput", "povray", "profile", "scaling", "startup", "threads")
+#: Parts run only when named in --parts.
+EXTRA_PARTS = ("numba",)
 WHITTED = ROOT / "scenes" / "whitted.toml"
 #: (width, height) of each benchmark scene, full and --quick.
 SIZES = {"mesh": (1000, 1000), "whitted": (1280, 960)}
@@ -328,6 +338,316 @@ def povray_part(name: str, path: Path, size: tuple[int, int], threads: int, work
     return row
 
 
+# -- where the time goes ----------------------------------------------------------------------
+class Timers:
+    """Exclusive wall time per category of nested, wrapped calls (one thread only)."""
+
+    def __init__(self):
+        self.seconds: dict[str, float] = defaultdict(float)
+        self.calls: dict[str, int] = defaultdict(int)
+        self._stack: list[float] = []
+
+    def wrap(self, category: str, fn):
+        def timed(*args, **kwargs):
+            t0 = time.perf_counter()
+            self._stack.append(0.0)
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                dt = time.perf_counter() - t0
+                inner = self._stack.pop()
+                self.seconds[category] += dt - inner
+                self.calls[category] += 1
+                if self._stack:
+                    self._stack[-1] += dt
+        return timed
+
+
+class TimedEmbree:
+    """Stands in for an embreex scene and times its ``run`` calls."""
+
+    def __init__(self, inner, timers: Timers):
+        self.run = timers.wrap("embree", inner.run)
+
+
+#: (module or class, attribute, category) timed by :func:`profile_breakdown`; attributes that
+#: the code no longer has are skipped.
+def _targets():
+    from raytrace import analytic, integrator, lights, rays
+
+    W, A = integrator.WhittedIntegrator, accel.Accelerator
+    return [
+        (A, "intersect", "accel"), (A, "occluded", "accel"), (A, "surface", "accel"),
+        (analytic.AnalyticShapes, "intersect", "analytic"),
+        (analytic.AnalyticShapes, "surface", "analytic"),
+        (integrator, "camera_rays", "camera"),
+        (integrator, "add", "accumulation"),
+        (rays.RayBatch, "take", "compaction"), (rays.RayBatch, "concatenate", "compaction"),
+        (W, "_prune", "compaction"),
+        (W, "trace", "integrator"), (W, "render", "integrator"),
+        (W, "shade", "shading"), (W, "direct_lighting", "shading"), (W, "shadow", "shading"),
+        (W, "_gouraud", "shading"), (W, "_spawn", "shading"), (W, "_keep_side", "shading"),
+        (integrator, "direct", "shading"), (integrator, "reflect", "shading"),
+        (integrator, "refract", "shading"), (lights.Emitter, "incidence", "shading"),
+        (integrator.MaterialTable, "color", "shading"),
+    ]
+
+
+def profile_breakdown(path: Path, width: int, height: int) -> dict:
+    """One single-threaded render in this process with every pipeline stage timed
+    exclusively: Embree's ``run`` calls, analytic intersection, the rest of raytrace.accel
+    (float32 conversion, float64 hit refinement, surfaces), camera rays, shading (lights,
+    highlights, materials, spawning children), compaction, accumulation, the integrator's own
+    loop; plus the BVH build, the scene load and the EXR write."""
+    from raytrace.film import write_exr
+
+    timers = Timers()
+    saved = []
+    for owner, name, category in _targets():
+        raw = inspect.getattr_static(owner, name, None)
+        if raw is None:
+            continue
+        fn = raw.__func__ if isinstance(raw, staticmethod) else raw
+        wrapped = timers.wrap(category, fn)
+        setattr(owner, name, staticmethod(wrapped) if isinstance(raw, staticmethod) else wrapped)
+        saved.append((owner, name, raw))
+    build = accel.Accelerator._build_meshes
+
+    def timed_build(self, *args, **kwargs):
+        t0 = time.perf_counter()
+        build(self, *args, **kwargs)
+        timers.seconds["build"] += time.perf_counter() - t0
+        if self.embree is not None:
+            self.embree = TimedEmbree(self.embree, timers)
+
+    accel.Accelerator._build_meshes = timed_build
+    try:
+        t0 = time.perf_counter()
+        scene = raytrace.load_scene(path)
+        load = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        image = raytrace.render(scene, width=width, height=height, threads=1)
+        render = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        write_exr(Path(tempfile.gettempdir()) / f"raytrace-profile-{os.getpid()}.exr", image.rgb)
+        write = time.perf_counter() - t0
+    finally:
+        accel.Accelerator._build_meshes = build
+        for owner, name, raw in saved:
+            setattr(owner, name, raw)
+        (Path(tempfile.gettempdir()) / f"raytrace-profile-{os.getpid()}.exr").unlink(
+            missing_ok=True)
+    sec = dict(timers.seconds)
+    sec["other"] = render - sum(sec.values())
+    sec["load"], sec["write"] = load, write
+    return {"scene": Path(path).stem, "width": width, "height": height, "threads": 1,
+            "rays": image.stats["rays"], "render_seconds": render,
+            "seconds": dict(sorted(sec.items(), key=lambda kv: -kv[1])),
+            "calls": dict(timers.calls)}
+
+
+# -- numba prototypes (the proposed next step) -----------------------------------------------
+def _numba_kernels():
+    """Prototype kernels for the three hottest numpy stages; compiled on first call."""
+    import math
+
+    import numba as nb
+
+    @nb.njit(parallel=True, cache=False)
+    def analytic(o, d, osh, centers, radii, points, normals, t_out, s_out):
+        # Spheres then planes, closest hit; self-hits skipped as in raytrace.analytic (the
+        # touching-solids tolerance is left out of this prototype).
+        ns, npl = centers.shape[0], points.shape[0]
+        for i in nb.prange(o.shape[0]):
+            bt, bs = np.inf, -1
+            for s in range(ns):
+                ox = o[i, 0] - centers[s, 0]
+                oy = o[i, 1] - centers[s, 1]
+                oz = o[i, 2] - centers[s, 2]
+                b = ox * d[i, 0] + oy * d[i, 1] + oz * d[i, 2]
+                fx, fy, fz = ox - b * d[i, 0], oy - b * d[i, 1], oz - b * d[i, 2]
+                r = radii[s]
+                disc = r * r - (fx * fx + fy * fy + fz * fz)
+                if osh[i] == s:  # leaving its own sphere: only the far root going in
+                    if b < 0:
+                        q = -b - math.copysign(math.sqrt(max(disc, 0.0)), b)
+                        if 0 < q < bt:
+                            bt, bs = q, s
+                    continue
+                if disc < 0:
+                    continue
+                q = -b - math.copysign(math.sqrt(disc), b)
+                t1 = (ox * ox + oy * oy + oz * oz - r * r) / q
+                near, far = min(q, t1), max(q, t1)
+                t = near if near > 0 else far
+                if 0 < t < bt:
+                    bt, bs = t, s
+            for p in range(npl):
+                if osh[i] == ns + p:
+                    continue
+                den = d[i, 0] * normals[p, 0] + d[i, 1] * normals[p, 1] + d[i, 2] * normals[p, 2]
+                t = ((points[p, 0] - o[i, 0]) * normals[p, 0] + (points[p, 1] - o[i, 1])
+                     * normals[p, 1] + (points[p, 2] - o[i, 2]) * normals[p, 2]) / den
+                if 0 < t < bt and math.isfinite(t):
+                    bt, bs = t, ns + p
+            t_out[i], s_out[i] = bt, bs
+
+    @nb.njit(parallel=True, cache=False)
+    def phong_point(p, nrm, eye, kd, ks, shin, lpos, att, out):
+        # kd·max(N·L, 0) + ks·max(V·R, 0)^n times 1/(a0 + a1·d + a2·d²), one point light.
+        for i in nb.prange(p.shape[0]):
+            lx, ly, lz = lpos[0] - p[i, 0], lpos[1] - p[i, 1], lpos[2] - p[i, 2]
+            dl = math.sqrt(lx * lx + ly * ly + lz * lz)
+            lx, ly, lz = lx / dl, ly / dl, lz / dl
+            f = 1.0 / (att[0] + dl * (att[1] + att[2] * dl))
+            ndl = nrm[i, 0] * lx + nrm[i, 1] * ly + nrm[i, 2] * lz
+            if ndl <= 0:
+                out[i, 0] = out[i, 1] = out[i, 2] = 0.0
+                continue
+            rx = 2 * ndl * nrm[i, 0] - lx
+            ry = 2 * ndl * nrm[i, 1] - ly
+            rz = 2 * ndl * nrm[i, 2] - lz
+            rl = max(math.sqrt(rx * rx + ry * ry + rz * rz), 1e-300)
+            rx, ry, rz = rx / rl, ry / rl, rz / rl
+            hx, hy, hz = eye[i, 0] - rx, eye[i, 1] - ry, eye[i, 2] - rz
+            h = 0.5 * (hx * hx + hy * hy + hz * hz)  # 1 − V·R, stable
+            spec = 0.0
+            if h < 1.0 and eye[i, 0] * rx + eye[i, 1] * ry + eye[i, 2] * rz > 0:
+                spec = math.exp(shin[i] * math.log1p(-h)) if shin[i] != 0 else 1.0
+            for c in range(3):
+                out[i, c] = f * (kd[i, c] * ndl + ks[i, c] * spec)
+
+    @nb.njit(parallel=True, cache=False)
+    def refine_surface(tri, corners, vnormals, fnormals, o, d, u32, v32, point, ns, t_out):
+        # Möller–Trumbore in float64 on Embree's triangle, clamped; point; smooth normal.
+        for i in nb.prange(o.shape[0]):
+            c, vn = corners[tri[i]], vnormals[tri[i]]
+            e1 = c[1] - c[0]
+            e2 = c[2] - c[0]
+            px = d[i, 1] * e2[2] - d[i, 2] * e2[1]
+            py = d[i, 2] * e2[0] - d[i, 0] * e2[2]
+            pz = d[i, 0] * e2[1] - d[i, 1] * e2[0]
+            det = e1[0] * px + e1[1] * py + e1[2] * pz
+            sx, sy, sz = o[i, 0] - c[0, 0], o[i, 1] - c[0, 1], o[i, 2] - c[0, 2]
+            qx, qy, qz = sy * e1[2] - sz * e1[1], sz * e1[0] - sx * e1[2], sx * e1[1] - sy * e1[0]
+            u = (sx * px + sy * py + sz * pz) / det
+            v = (d[i, 0] * qx + d[i, 1] * qy + d[i, 2] * qz) / det
+            if det == 0 or not (math.isfinite(u) and math.isfinite(v)):
+                u, v = u32[i], v32[i]
+            u, v = max(u, 0.0), max(v, 0.0)
+            if u + v > 1:
+                u, v = u / (u + v), v / (u + v)
+            w = 1 - u - v
+            t, l2 = 0.0, 0.0
+            for k in range(3):
+                point[i, k] = w * c[0, k] + u * c[1, k] + v * c[2, k]
+                t += (point[i, k] - o[i, k]) * d[i, k]
+                ns[i, k] = w * vn[0, k] + u * vn[1, k] + v * vn[2, k]
+                l2 += ns[i, k] * ns[i, k]
+            t_out[i] = t
+            length = math.sqrt(l2)
+            for k in range(3):
+                ns[i, k] = ns[i, k] / length if length > 1e-12 else fnormals[tri[i], k]
+
+    return analytic, phong_point, refine_surface
+
+
+def _best(fn, repeat: int = 3) -> float:
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def numba_prototypes(mesh_path: Path, quick: bool) -> list[dict]:
+    """Prototype numba kernels against the numpy code they would replace, on the benchmark
+    scenes' camera rays: analytic intersection (Whitted), direct lighting and mesh-hit
+    refinement + surface (mesh). Evidence for docs/performance.md's next steps; not used by
+    the renderer."""
+    from raytrace.camera import camera_rays
+    from raytrace.integrator import RenderOptions, WhittedIntegrator
+    from raytrace.shading import direct
+
+    analytic, phong_point, refine_surface = _numba_kernels()
+    out = []
+    # Analytic: camera rays of the Whitted scene, and their mirror reflections.
+    w, h = QUICK_SIZES["whitted"] if quick else SIZES["whitted"]
+    scene = raytrace.load_scene(WHITTED)
+    opts = RenderOptions(w, h, 1, 5, 0.0, np.zeros(3), 0, 1)
+    sh = WhittedIntegrator(scene, opts).accel.shapes
+    cam = camera_rays(scene.camera, w, h, 1, 0, 0, w * h)
+    t, s = sh.intersect(cam.origin, cam.direction, cam.origin_shape)
+    hit = np.isfinite(t)
+    point, normal = sh.surface(s[hit], cam.origin[hit] + t[hit, None] * cam.direction[hit])
+    d = cam.direction[hit]
+    refl = d - 2.0 * np.einsum("ij,ij->i", d, normal)[:, None] * normal
+    for label, (o, d, osh) in {"camera": (cam.origin, cam.direction, cam.origin_shape),
+                               "reflection": (point, refl, s[hit])}.items():
+        to, so = np.empty(len(o)), np.empty(len(o), np.int64)
+        args = (o, d, osh, sh.centers, sh.radii, sh.points, sh.normals, to, so)
+        analytic(*args)
+        tn = _best(lambda o=o, d=d, osh=osh: sh.intersect(o, d, osh))
+        tb = _best(lambda args=args: analytic(*args))
+        rt, rs = sh.intersect(o, d, osh)
+        with np.errstate(invalid="ignore"):  # inf − inf on rays that miss in both
+            same = np.mean((so == rs) & ((to == rt) | (np.abs(to - rt) <= 1e-12 * np.abs(rt))))
+        out.append({"stage": f"analytic intersection, whitted {label} rays", "n": len(o),
+                    "numpy_seconds": tn, "numba_seconds": tb,
+                    "agreement": f"same hit for {same:.4%} of rays"})
+    # Mesh scene: Embree's hits of the camera rays.
+    w, h = QUICK_SIZES["mesh"] if quick else SIZES["mesh"]
+    scene = raytrace.load_scene(mesh_path)
+    integ = WhittedIntegrator(scene, RenderOptions(w, h, 1, 5, 0.0, np.zeros(3), 0, 1))
+    acc = integ.accel
+    cam = camera_rays(scene.camera, w, h, 1, 0, 0, w * h)
+    big = np.finfo(np.float32).max
+    e = acc.embree.run(cam.origin.astype(np.float32), cam.direction.astype(np.float32),
+                       dists=np.full(w * h, big, np.float32), output=1)
+    k = np.flatnonzero(e["geomID"] >= 0)
+    tri = acc.geom_first[e["geomID"][k]] + e["primID"][k]
+    o, d = cam.origin[k], cam.direction[k]
+    u32, v32 = e["u"][k], e["v"][k]
+    m = len(k)
+    pt, ns, tt = np.empty((m, 3)), np.empty((m, 3)), np.empty(m)
+    args = (tri, acc.tri_corners, acc.tri_vnormals, acc.tri_normal, o, d, u32, v32, pt, ns, tt)
+    refine_surface(*args)
+
+    def numpy_refine_surface():
+        corners = acc.tri_corners[tri]
+        uv = accel._refine_uv(corners, o, d, u32, v32)
+        np.einsum("ij,ij->i", accel._barycentric_point(corners, uv) - o, d)
+        hits = accel.Hits(np.ones(m), np.full(m, -1), tri, uv)
+        return acc.surface(hits, o, d)
+
+    surf = numpy_refine_surface()
+    out.append({"stage": "mesh hit refinement + surface (no Embree)", "n": m,
+                "numpy_seconds": _best(numpy_refine_surface),
+                "numba_seconds": _best(lambda: refine_surface(*args)),
+                "agreement": f"max |normal diff| {np.abs(ns - surf.shading).max():.1e}"})
+    mat = surf.material
+    kd = integ.table.color("kd", mat, surf.point)
+    ks = integ.table.color("ks", mat, surf.point)
+    shin, model = integ.table.shininess[mat], integ.table.highlight[mat]
+    em = integ.emitters[0]
+    eye = -d
+    res = np.empty((m, 3))
+    args2 = (surf.point, surf.shading, eye, kd, ks, shin, em.position, em.attenuation, res)
+    phong_point(*args2)
+
+    def numpy_direct():
+        to_light, _, f = em.incidence(surf.point)
+        return direct(surf.shading, to_light, eye, kd, ks, shin, model) * f[:, None]
+
+    ref = numpy_direct()
+    out.append({"stage": "direct lighting, 1 point light, Phong", "n": m,
+                "numpy_seconds": _best(numpy_direct),
+                "numba_seconds": _best(lambda: phong_point(*args2)),
+                "agreement": f"max |diff| {np.abs(res - ref).max():.1e}"})
+    return out
+
+
 # -- scaling, start-up, threads ----------------------------------------------------------------
 def linear_fit(samples: list[int], seconds: list[float]) -> dict:
     """Least-squares ``seconds = fixed + per_sample·samples`` and the largest relative
@@ -445,6 +765,13 @@ def report(results: dict) -> str:
                    "faster)\n" + table(
                        ["scene", "pixels", "rt wall", "pov wall", "ratio", "rt trace+shade",
                         "pov parse", "pov trace", "ratio", "pov MiB"], rows))
+    if results.get("profile"):
+        for r in results["profile"]:
+            total = r["render_seconds"] + r["seconds"]["load"] + r["seconds"]["write"]
+            rows = [[k, _f(v), f"{100 * v / total:.1f}%"] for k, v in r["seconds"].items()]
+            out.append(f"where the time goes: {r['scene']} {r['width']}x{r['height']}, 1 thread, "
+                       f"{r['rays']['total'] / 1e6:.2f}M rays, {total:.2f} s\n"
+                       + table(["stage", "seconds", "share"], rows))
     if results.get("scaling"):
         sc = results["scaling"]
         rows = [[f"{r['width']}x{r['height']}", str(r["spp"]), str(r["samples"]),
@@ -462,6 +789,13 @@ def report(results: dict) -> str:
                    f"residual {_f(sc['max_residual'], '{:.1%}')})\n"
                    + table(["pixels", "spp", "samples", "render s", "us/sample", "peak MiB"],
                            rows))
+    if results.get("numba"):
+        rows = [[r["stage"], str(r["n"]), _f(r["numpy_seconds"]), _f(r["numba_seconds"]),
+                 _f(r["numpy_seconds"] / r["numba_seconds"], "{:.0f}x"), r["agreement"]]
+                for r in results["numba"]]
+        out.append("numba prototypes (numpy: 1 thread; numba: parallel over all cores, "
+                   "compiled beforehand)\n" + table(
+                       ["stage", "n", "numpy s", "numba s", "speed-up", "agreement"], rows))
     if results.get("startup"):
         s = results["startup"]
         out.append(f"start-up: raytrace render whitted 64x48 to EXR, wall "
@@ -499,9 +833,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--workdir", help="folder for scenes and images (default: a temp folder)")
     a = p.parse_args(argv)
     parts = [x for x in a.parts.split(",") if x]
-    unknown = sorted(set(parts) - set(PARTS))
+    unknown = sorted(set(parts) - set(PARTS) - set(EXTRA_PARTS))
     if unknown:
-        p.error(f"unknown part(s) {', '.join(unknown)} (choose from {', '.join(PARTS)})")
+        p.error(f"unknown part(s) {', '.join(unknown)} "
+                f"(choose from {', '.join(PARTS + EXTRA_PARTS)})")
     names = [x for x in a.scenes.split(",") if x]
     if set(names) - set(SIZES):
         p.error(f"unknown scene(s) in {a.scenes!r} (choose from {', '.join(SIZES)})")
@@ -527,13 +862,19 @@ def main(argv: list[str] | None = None) -> int:
             else:
                 results["povray"] = []
                 results["povray_missing"] = "povray not found (apt-get install povray)"
+        if "profile" in parts:
+            results["profile"] = [profile_breakdown(f, *sizes[n]) for n, f in files.items()]
         if "scaling" in parts:
             results["scaling"] = scaling(scene_files(workdir)["mesh"], a.threads, workdir,
                                          a.quick, big=not (a.quick or a.no_big))
+        if "numba" in parts:
+            results["numba"] = numba_prototypes(files.get("mesh") or scene_files(workdir)["mesh"],
+                                                a.quick)
         if "startup" in parts:
             results["startup"] = startup(workdir, a.threads, runs=2 if a.quick else 3)
         if "threads" in parts:
             results["threads"] = threads_part(files, workdir, a.quick, a.repeat)
+    results["machine"]["load_average_end"] = os.getloadavg()
     Path(a.json).write_text(json.dumps(results, indent=2, default=float) + "\n")
     print(report(results))
     print(f"\nwrote {a.json}")

@@ -46,6 +46,7 @@ import re
 import shutil
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -290,9 +291,8 @@ def measure_process(cmd: list[str], cwd: str | os.PathLike | None = None,
     ``wait4``'s ``ru_maxrss`` would be wrong here: Linux carries the parent's high-water mark
     across fork/vfork and exec, so every child would report at least this process's size.
     """
-    out_path = Path(cwd or ".") / f".measure-{os.getpid()}-{time.monotonic_ns()}"
     peak = 0
-    with open(f"{out_path}.out", "w+b") as fo, open(f"{out_path}.err", "w+b") as fe:
+    with tempfile.TemporaryFile() as fo, tempfile.TemporaryFile() as fe:
         t0 = time.perf_counter()
         proc = subprocess.Popen(cmd, cwd=cwd, stdout=fo, stderr=fe, stdin=subprocess.DEVNULL)
         deadline = None if timeout is None else t0 + timeout
@@ -311,8 +311,6 @@ def measure_process(cmd: list[str], cwd: str | os.PathLike | None = None,
         fo.seek(0)
         fe.seek(0)
         stdout, stderr = fo.read().decode(errors="replace"), fe.read().decode(errors="replace")
-    for suffix in (".out", ".err"):
-        Path(f"{out_path}{suffix}").unlink(missing_ok=True)
     return {"returncode": proc.returncode, "wall_seconds": wall, "peak_rss_mib": peak / 1024.0,
             "stdout": stdout, "stderr": stderr}
 

@@ -163,9 +163,13 @@ class Accelerator:
 
     # -- queries -------------------------------------------------------------------------
     def _chunks(self, fn, n: int) -> None:
-        """Run ``fn(slice)`` over chunks of ``n`` rays, in the pool when there is one."""
+        """Run ``fn(slice)`` over chunks of ``n`` rays, in the pool when there is one.
+
+        Without meshes a chunk is numpy work alone (analytic shapes), which measured slower
+        on two threads than on one (many short GIL-releasing calls): then the chunks run here.
+        """
         slices = [slice(i, min(i + CHUNK, n)) for i in range(0, n, CHUNK)]
-        if self._pool is None or len(slices) == 1:
+        if self._pool is None or len(slices) == 1 or self.embree is None:
             for s in slices:
                 fn(s)
         else:
