@@ -12,36 +12,92 @@ import math
 
 import numpy as np
 
+from .jit import kernel
 from .rays import CAMERA, NO_SHAPE, RayBatch
 from .scene import Camera
 
 _M1, _M2, _M3 = np.uint64(0x9E3779B97F4A7C15), np.uint64(0xBF58476D1CE4E5B9), np.uint64(
     0x94D049BB133111EB)
+_ONE, _TWO = np.uint64(1), np.uint64(2)
+_S11, _S27, _S30, _S31 = np.uint64(11), np.uint64(27), np.uint64(30), np.uint64(31)
+
+
+@kernel
+def uniform1(seed, index, stream):
+    """A uniform float in [0, 1) from SplitMix64 of (seed, index, stream) (Steele et al. 2014):
+    the top 53 bits of the mixed ``(2·index + stream)·M1 + seed·M3``, modulo 2⁶⁴."""
+    z = (np.uint64(index) * _TWO + np.uint64(stream)) * _M1 + np.uint64(seed) * _M3
+    z = (z ^ (z >> _S30)) * _M2
+    z = (z ^ (z >> _S27)) * _M3
+    z = z ^ (z >> _S31)
+    return float(z >> _S11) * 2.0**-53
+
+
+@kernel
+def offset1(spp, k, seed, sample):
+    """Position (sx, sy) in [0, 1)² inside its pixel of global sample ``sample``: the centre for
+    spp = 1, jittered in cell (j mod k, j div k) of a k×k grid for spp = k² (j = sample mod
+    spp), jittered over the whole pixel otherwise (k = 0)."""
+    if spp == 1:
+        return 0.5, 0.5
+    u1, u2 = uniform1(seed, sample, 0), uniform1(seed, sample, 1)
+    if k == 0:
+        return u1, u2
+    cell = sample % spp
+    return (cell % k + u1) / k, (cell // k + u2) / k
+
+
+@kernel
+def _uniform_rows(seed, index, stream, out):
+    for i in range(index.shape[0]):
+        out[i] = uniform1(seed, index[i], stream)
+
+
+@kernel
+def _offset_rows(spp, k, seed, sample, sx, sy):
+    for i in range(sample.shape[0]):
+        sx[i], sy[i] = offset1(spp, k, seed, sample[i])
+
+
+@kernel
+def _directions(start, width, height, spp, k, seed, tan_half, right, up, forward, out):
+    """Unit directions of global samples ``start …`` into ``out`` (n, 3): through
+    ``x = (2(col + sx)/W − 1)·tan(fov/2)·W/H``, ``y = (1 − 2(row + sy)/H)·tan(fov/2)`` on the
+    image plane one unit along ``forward``."""
+    for j in range(out.shape[0]):
+        sample = start + j
+        pixel = sample // spp
+        row, col = pixel // width, pixel % width
+        sx, sy = offset1(spp, k, seed, sample)
+        x = (2.0 * (col + sx) / width - 1.0) * tan_half * (width / height)
+        y = (1.0 - 2.0 * (row + sy) / height) * tan_half
+        dx = x * right[0] + y * up[0] + forward[0]
+        dy = x * right[1] + y * up[1] + forward[1]
+        dz = x * right[2] + y * up[2] + forward[2]
+        length = math.sqrt(dx * dx + dy * dy + dz * dz)
+        out[j, 0], out[j, 1], out[j, 2] = dx / length, dy / length, dz / length
+
+
+def _grid(spp: int) -> int:
+    """k for a k×k stratified grid of ``spp`` samples, 0 when spp is not a square."""
+    k = math.isqrt(spp)
+    return k if k * k == spp else 0
 
 
 def hash_uniform(seed: int, index: np.ndarray, stream: int) -> np.ndarray:
     """Uniform floats in [0, 1) from SplitMix64 of (seed, index, stream) (Steele et al. 2014)."""
-    with np.errstate(over="ignore"):
-        z = (index.astype(np.uint64) * np.uint64(2) + np.uint64(stream)) * _M1 + np.uint64(
-            seed) * _M3
-        z = (z ^ (z >> np.uint64(30))) * _M2
-        z = (z ^ (z >> np.uint64(27))) * _M3
-        z = z ^ (z >> np.uint64(31))
-    return (z >> np.uint64(11)).astype(np.float64) * 2.0**-53
+    index = np.ascontiguousarray(index, dtype=np.int64)
+    out = np.empty(index.shape)
+    _uniform_rows(seed, index.reshape(-1), stream, out.reshape(-1))
+    return out
 
 
 def sample_offsets(spp: int, seed: int, sample: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Positions (sx, sy) in [0, 1)² inside the pixel of global sample indices ``sample``."""
-    if spp == 1:
-        half = np.full(len(sample), 0.5)
-        return half, half.copy()
-    u1 = hash_uniform(seed, sample, 0)
-    u2 = hash_uniform(seed, sample, 1)
-    k = math.isqrt(spp)
-    if k * k != spp:
-        return u1, u2
-    cell = sample % spp
-    return (cell % k + u1) / k, (cell // k + u2) / k
+    sample = np.ascontiguousarray(sample, dtype=np.int64).reshape(-1)
+    sx, sy = np.empty(len(sample)), np.empty(len(sample))
+    _offset_rows(spp, _grid(spp), seed, sample, sx, sy)
+    return sx, sy
 
 
 def camera_rays(camera: Camera, width: int, height: int, spp: int, seed: int,
@@ -49,18 +105,13 @@ def camera_rays(camera: Camera, width: int, height: int, spp: int, seed: int,
     """Rays of global samples ``start..stop-1`` (sample = pixel·spp + k), from the origin:
     the scene is camera-relative.
     """
-    sample = np.arange(start, stop, dtype=np.int64)
-    pixel = sample // spp
-    row, col = pixel // width, pixel % width
-    sx, sy = sample_offsets(spp, seed, sample)
+    n = stop - start
     tan_half = math.tan(math.radians(camera.fov) / 2.0)
-    x = (2.0 * (col + sx) / width - 1.0) * tan_half * (width / height)
-    y = (1.0 - 2.0 * (row + sy) / height) * tan_half
-    right, up, forward = camera.basis()
-    d = x[:, None] * right + y[:, None] * up + forward
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    n = len(sample)
-    return RayBatch(origin=np.zeros((n, 3)), direction=d, sample=sample - start,
-                    weight=np.ones((n, 3)), depth=0,
+    right, up, forward = (np.ascontiguousarray(v, dtype=np.float64) for v in camera.basis())
+    direction = np.empty((n, 3))
+    _directions(start, width, height, spp, _grid(spp), seed, tan_half, right, up, forward,
+                direction)
+    return RayBatch(origin=np.zeros((n, 3)), direction=direction,
+                    sample=np.arange(n, dtype=np.int64), weight=np.ones((n, 3)), depth=0,
                     origin_shape=np.full(n, NO_SHAPE, np.int64),
                     kind=np.full(n, CAMERA, np.int8))

@@ -15,6 +15,11 @@ by the pass size, not the resolution.
 What a scene does not need is left out: no shadow rays without lights or for unlit materials,
 an occlusion query unless something is transparent, no reflection or refraction wavefront
 unless some material reflects or transmits.
+
+This module is the loop; the per-ray arithmetic of each step is a compiled pass over the batch
+in :mod:`raytrace.shading_kernels` (the heavy ones run chunk by chunk on ``threads`` threads),
+and the contributions are summed into the samples in a fixed order, so an image does not
+depend on the number of threads.
 """
 
 from __future__ import annotations
@@ -25,13 +30,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .accel import SHADOW_SHORTEN, Accelerator, Surface, spawn_origins
+from . import shading_kernels as K
+from .accel import SHADOW_SHORTEN, Accelerator, Surface
 from .camera import camera_rays
 from .film import Image
 from .lights import Emitter, emitters
 from .material import COLOR_KEYS, Checker, Material
-from .optics import dot, reflect, refract
-from .rays import KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH, RayBatch
+from .optics import dot
+from .rays import KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH, RayBatch, take_rows
 from .scene import Scene
 from .shading import HIGHLIGHT_CODES, direct
 
@@ -39,6 +45,9 @@ from .shading import HIGHLIGHT_CODES, direct
 PASS_SAMPLES = 1 << 17
 #: Most surfaces a transparent shadow ray passes through before it counts as blocked.
 MAX_SHADOW_CROSSINGS = 64
+ZERO3 = np.zeros(3)
+NO_ROWS = np.zeros(0, np.int64)
+NO_LIGHT = np.zeros((0, 3))
 
 
 @dataclass
@@ -57,40 +66,62 @@ class RenderOptions:
 
 
 class MaterialTable:
-    """Per-material coefficient arrays, gathered by material index at hit points.
+    """Per-material coefficients, looked up by material index at the hits.
 
-    Constant colours are rows of (M, 3) arrays; :class:`Checker` patterns are evaluated at the
-    world points of the hits that use them.
+    ``colors`` (M, 15) holds the constant colours ka kd ks kr kt, three columns each
+    (``shading_kernels.KA`` …); where colour k of material m is a :class:`Checker`,
+    ``pattern[m, k]`` indexes its row of ``checkers`` (colour 0, colour 1, scale), evaluated
+    at the world points of the hits; −1 means constant. :attr:`arrays` is the whole table as
+    the kernels take it.
     """
 
     def __init__(self, materials: list[Material]):
         self.materials = materials
-        self.const = {k: np.zeros((len(materials), 3)) for k in COLOR_KEYS}
-        self.patterns: dict[str, list[tuple[int, Checker]]] = {k: [] for k in COLOR_KEYS}
+        self.colors = np.zeros((len(materials), 3 * len(COLOR_KEYS)))
+        self.pattern = np.full((len(materials), len(COLOR_KEYS)), -1, np.int64)
+        checkers = []
         for i, m in enumerate(materials):
-            for k in COLOR_KEYS:
-                c = m.ambient if k == "ka" else getattr(m, k)
+            for k, key in enumerate(COLOR_KEYS):
+                c = m.ambient if key == "ka" else getattr(m, key)
                 if isinstance(c, Checker):
-                    self.patterns[k].append((i, c))
+                    self.pattern[i, k] = len(checkers)
+                    checkers.append([*c.colors[0], *c.colors[1], c.scale])
                 else:
-                    self.const[k][i] = c
+                    self.colors[i, 3 * k:3 * k + 3] = c
+        self.checkers = np.array(checkers, dtype=np.float64).reshape(-1, 7)
         self.shininess = np.array([m.shininess for m in materials], dtype=np.float64)
-        self.highlight = np.array([HIGHLIGHT_CODES[m.highlight] for m in materials])
+        self.highlight = np.array([HIGHLIGHT_CODES[m.highlight] for m in materials], np.int64)
         self.ior = np.array([m.ior for m in materials], dtype=np.float64)
         self.opacity = np.array([m.opacity for m in materials], dtype=np.float64)
         self.lit = np.array([m.lit for m in materials], dtype=bool)
         self.reflects = np.array([m.reflects for m in materials], dtype=bool)
         self.transmits = np.array([m.transmits for m in materials], dtype=bool)
         self.transparent = np.array([m.transparent for m in materials], dtype=bool)
+        self.arrays = (self.colors, self.pattern, self.checkers, self.shininess, self.highlight,
+                       self.ior, self.opacity, self.lit, self.reflects, self.transmits)
 
-    def color(self, key: str, material: np.ndarray, world: np.ndarray) -> np.ndarray:
-        """Coefficient ``key`` (n, 3) for hits with material indices (n,) at world points."""
-        out = self.const[key][material]
-        for i, pattern in self.patterns[key]:
-            m = material == i
-            if m.any():
-                out[m] = pattern.evaluate(world[m])
+    def color(self, key: str, material: np.ndarray, world: np.ndarray,
+              origin: np.ndarray = ZERO3) -> np.ndarray:
+        """Coefficient ``key`` (n, 3) for hits with material indices (n,) at world points
+        ``world + origin``."""
+        out = np.empty((len(material), 3))
+        K.colors_at(material, world, origin, self.arrays, 3 * COLOR_KEYS.index(key), out)
         return out
+
+
+class Scratch:
+    """Arrays reused from batch to batch, by name (no batch outgrows the pass): the shading
+    passes are quick enough that fresh pages for their temporaries would cost more."""
+
+    def __init__(self):
+        self._arrays: dict[str, np.ndarray] = {}
+
+    def __call__(self, name: str, n: int, columns: int = 0, dtype=np.float64) -> np.ndarray:
+        """An uninitialised (n,) or (n, columns) C-contiguous array of ``dtype``."""
+        a = self._arrays.get(name)
+        if a is None or len(a) < n:
+            a = self._arrays[name] = np.empty((n, columns) if columns else n, dtype)
+        return a[:n]
 
 
 @dataclass
@@ -120,8 +151,12 @@ class WhittedIntegrator:
         self.build_seconds = time.perf_counter() - t0
         self.origin = self.accel.origin
         self.emitters: list[Emitter] = emitters(scene.lights, self.origin, options.seed)
-        self.ambient = scene.ambient
+        self.ambient = np.asarray(scene.ambient, np.float64)
+        self.background = np.asarray(options.background, np.float64).reshape(1, 3).copy()
         self.any_transparent = bool(self.table.transparent.any()) if self.materials else False
+        self.lit = bool(self.emitters) and bool(self.table.lit.any())
+        self.scratch = Scratch()
+        self._sums: np.ndarray | None = None
         self.stats = Stats()
 
     # -- the loop ----------------------------------------------------------------------------
@@ -150,7 +185,8 @@ class WhittedIntegrator:
                     children = self.trace(rays, samples)
                     if len(children):
                         pending.append(children)
-                pixels[start // o.spp: stop // o.spp] = samples.reshape(-1, o.spp, 3).mean(1)
+                pixels[start // o.spp: stop // o.spp] = (
+                    samples if o.spp == 1 else samples.reshape(-1, o.spp, 3).mean(1))
                 if progress is not None:
                     progress(stop, total)
         finally:
@@ -158,140 +194,145 @@ class WhittedIntegrator:
         with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
             rgb = pixels.reshape(o.height, o.width, 3).astype(np.float32)
         bad = ~np.isfinite(rgb)
-        nonfinite = int(bad.any(axis=2).sum())
-        rgb = np.where(bad, np.float32(0.0), rgb)
+        nonfinite = 0
+        if bad.any():
+            nonfinite = int(bad.any(axis=2).sum())
+            rgb[bad] = 0.0
         seconds = time.perf_counter() - t_start + self.build_seconds
         return Image(rgb, self._stats(nonfinite, seconds), self._metadata())
 
     def trace(self, rays: RayBatch, samples: np.ndarray) -> RayBatch:
         """One depth: intersect, add background and local shading, return the next depth."""
         st, o = self.stats, self.opt
-        kinds = np.bincount(rays.kind, minlength=len(KIND_NAMES))
-        for name, count in zip(KIND_NAMES, kinds, strict=True):
-            st.rays[name] += int(count)
+        for kind, name in enumerate(KIND_NAMES):
+            st.rays[name] += int(np.count_nonzero(rays.kind == kind))
         t0 = time.perf_counter()
         hits = self.accel.intersect(rays.origin, rays.direction, rays.origin_shape)
         st.trace_seconds += time.perf_counter() - t0
         hit = hits.hit
-        if (~hit).any() and np.any(o.background):
-            add(samples, rays.sample[~hit], rays.weight[~hit] * o.background)
-        if not hit.any():
+        found = np.flatnonzero(hit)
+        if len(found) < len(rays) and np.any(o.background):
+            add(samples, rays.sample, rays.weight, self.background, np.flatnonzero(~hit),
+                self.sums(samples))
+        if not len(found):
             return RayBatch.empty(rays.depth + 1)
         t1 = time.perf_counter()
         trace_before = st.trace_seconds
-        rays = rays.take(hit)
-        hits_idx = np.flatnonzero(hit)
-        hits.t, hits.shape = hits.t[hits_idx], hits.shape[hits_idx]
-        hits.triangle, hits.uv = hits.triangle[hits_idx], hits.uv[hits_idx]
+        if len(found) < len(rays):  # compaction: only the hits go on
+            rays = rays.take(found)
+            hits.t, hits.shape, hits.triangle = (hits.t[found], hits.shape[found],
+                                                 hits.triangle[found])
+            hits.uv = take_rows(hits.uv, found)
         surf = self.accel.surface(hits, rays.origin, rays.direction)
         children = self.shade(rays, surf, samples)
         st.shade_seconds += time.perf_counter() - t1 - (st.trace_seconds - trace_before)
         return children
 
+    def sums(self, samples: np.ndarray) -> np.ndarray:
+        """Zeroed scratch for :func:`add` into ``samples`` (``add`` leaves it zeroed)."""
+        if self._sums is None or self._sums.shape != samples.shape:
+            self._sums = np.zeros(samples.shape)
+        return self._sums
+
     # -- shading -----------------------------------------------------------------------------
+    def chunks(self, fn: Callable[[slice], None], n: int) -> None:
+        """``fn(slice)`` over chunks of ``n`` hits on ``threads`` threads: the accelerator's
+        pool and queue of chunks (a late worker takes fewer chunks instead of stalling the
+        batch, as an OpenMP region's static split would on a busy machine)."""
+        self.accel._chunks(fn, n)
+
     def shade(self, rays: RayBatch, surf: Surface, samples: np.ndarray) -> RayBatch:
-        tab, o = self.table, self.opt
-        mat = surf.material
-        world = surf.point + self.origin
-        d = rays.direction
-        to_eye = -d
-        # Two-sided surfaces: turn the normals to the viewer's side of the geometric surface.
-        facing = np.where(dot(surf.geometric, to_eye) < 0, -1.0, 1.0)[:, None]
-        ng = surf.geometric * facing
-        ns = surf.shading * facing
-        opacity = tab.opacity[mat]
-        local = self.ambient * tab.color("ka", mat, world)
-        if self.emitters and tab.lit[mat].any():
-            local += self.direct_lighting(surf, mat, world, ns, to_eye, rays.origin)
-        add(samples, rays.sample, rays.weight * (opacity[:, None] * local))
+        """Add ``weight·t·I_local`` of every hit to its sample (t the opacity) and return the
+        children, with
 
-        # Children: reflection, refraction (or TIR), see-through.
-        children: list[RayBatch] = []
+            I_local = ka·Ia + Σ_l S_l·f_l·I_l·[kd·max(N·L, 0) + ks·spec]
+
+        N turned to the viewer (two-sided surfaces), V = −d.
+        """
+        n, new = len(rays), self.scratch
+        lights = self.direct_lighting(rays, surf) if self.lit else NO_LIGHT  # Σ_l S_l·f_l·…
+        # One pass over the hits: t·I_local, and each child's direction, weight and status.
+        local, r_dir, t_dir, w_r, w_t, w_s = (new(name, n, 3) for name in (
+            "local", "r_dir", "t_dir", "w_r", "w_t", "w_s"))
+        status, tir = new("status", n, 3, np.int8), new("tir", n, dtype=bool)
+        self.chunks(lambda s: K.hit_terms(
+            rays.direction[s], rays.weight[s], surf.geometric[s], surf.shading[s],
+            surf.material[s], surf.point[s], self.origin, self.table.arrays, self.ambient,
+            lights[s], self.opt.min_weight, local[s], r_dir[s],
+            t_dir[s], w_r[s], w_t[s], w_s[s], status[s], tir[s]), n)
+        add(samples, rays.sample, rays.weight, local, part=self.sums(samples))
         depth = rays.depth + 1
-        tw = rays.weight * opacity[:, None]
-        if tab.reflects[mat].any():
-            m = tab.reflects[mat]
-            kr = tab.color("kr", mat[m], world[m])
-            r = reflect(d[m], ns[m])
-            r = self._keep_side(r, d[m], ng[m], +1)
-            children.append(self._spawn(rays, surf, m, r, tw[m] * kr, REFLECTION))
-        if tab.transmits[mat].any():
-            m = tab.transmits[mat]
-            kt = tab.color("kt", mat[m], world[m])
-            entering = dot(d[m], surf.geometric[m]) < 0
-            eta = np.where(entering, 1.0 / tab.ior[mat[m]], tab.ior[mat[m]])
-            t_dir, tir = refract(d[m], ns[m], eta)
-            # Interpolated normals may bend the ray back to the wrong side: use the face.
-            wrong = np.where(tir, dot(t_dir, ng[m]) <= 0, dot(t_dir, ng[m]) >= 0)
-            if wrong.any():
-                t2, tir2 = refract(d[m][wrong], ng[m][wrong], eta[wrong])
-                t_dir[wrong], tir[wrong] = t2, tir2
-            if depth <= o.max_depth:
-                self.stats.total_internal_reflections += int(tir.sum())
-            children.append(self._spawn(rays, surf, m, t_dir, tw[m] * kt, REFRACTION))
-        if (opacity < 1).any():
-            m = opacity < 1
-            behind = rays.weight[m] * (1.0 - opacity[m])[:, None]
-            children.append(self._spawn(rays, surf, m, d[m], behind, SEE_THROUGH))
-        return self._prune(RayBatch.concatenate(children, depth))
-
-    @staticmethod
-    def _keep_side(r: np.ndarray, d: np.ndarray, ng: np.ndarray, side: float) -> np.ndarray:
-        """Reflect about the face normal where the shading normal sent ``r`` into the surface."""
-        wrong = side * dot(r, ng) <= 0
-        if wrong.any():
-            r[wrong] = reflect(d[wrong], ng[wrong])
-        return r
+        if depth <= self.opt.max_depth:
+            self.stats.total_internal_reflections += int(np.count_nonzero(tir))
+        # The next depth: reflected, refracted (or TIR) and see-through children.
+        kept = self._prune(status, depth)
+        return RayBatch.concatenate(
+            [self._spawn(rays, surf, rows, take_rows(d, rows), take_rows(w, rows), kind)
+             for rows, d, w, kind in zip(kept, (r_dir, t_dir, rays.direction), (w_r, w_t, w_s),
+                                         (REFLECTION, REFRACTION, SEE_THROUGH), strict=True)
+             if len(rows)], depth)
 
     @staticmethod
     def _spawn(parents: RayBatch, surf: Surface, m: np.ndarray, direction: np.ndarray,
                weight: np.ndarray, kind: int) -> RayBatch:
-        """Children of the hits selected by ``m``, leaving along ``direction``."""
-        origin = spawn_origins(surf.point[m], surf.geometric[m], surf.offset[m], direction)
+        """Children of the hits ``m`` (indices), leaving along ``direction``."""
+        origin = K.spawn_origins(m, surf.point, surf.geometric, surf.offset, direction)
         return RayBatch(origin, direction, parents.sample[m], weight, parents.depth + 1,
-                        surf.shape[m].copy(), np.full(len(origin), kind, np.int8))
+                        surf.shape[m], np.full(len(m), kind, np.int8))
 
-    def _prune(self, rays: RayBatch) -> RayBatch:
-        """Drop rays past ``max_depth`` or under ``min_weight`` (Hall & Greenberg 1983)."""
-        if not len(rays):
-            return rays
-        w = rays.weight.max(axis=1)
-        alive = w > 0
-        if rays.depth > self.opt.max_depth:
-            self.stats.pruned_depth += int(alive.sum())
-            return RayBatch.empty(rays.depth)
-        light = alive & (w < self.opt.min_weight)
-        self.stats.pruned_weight += int(light.sum())
-        return rays.take(alive & ~light)
+    def _prune(self, status: np.ndarray, depth: int) -> list[np.ndarray]:
+        """Rows of the children to keep, per kind (the columns of ``status``): none past
+        ``max_depth``, none under ``min_weight`` (Hall & Greenberg 1983); the dropped ones are
+        counted."""
+        if depth > self.opt.max_depth:
+            self.stats.pruned_depth += int(np.count_nonzero(status))
+            return [NO_ROWS] * status.shape[1]
+        self.stats.pruned_weight += int(np.count_nonzero(status == K.LIGHT))
+        return [np.flatnonzero(status[:, k] == K.KEEP) for k in range(status.shape[1])]
 
-    def direct_lighting(self, surf: Surface, mat: np.ndarray, world: np.ndarray,
-                        ns: np.ndarray, to_eye: np.ndarray, eye: np.ndarray) -> np.ndarray:
-        """Σ_l S_l · f_l · I_l · [kd·max(N·L, 0) + ks·spec] at every hit, (n, 3)."""
-        tab = self.table
-        n = len(mat)
-        out = np.zeros((n, 3))
-        lit = tab.lit[mat]
-        kd = tab.color("kd", mat, world)
-        ks = tab.color("ks", mat, world)
-        shin, model = tab.shininess[mat], tab.highlight[mat]
-        gour = surf.gouraud
-        if gour.any():
-            vert = self.accel.tri_corners[surf.triangle[gour]]
-            vnrm = self.accel.tri_vnormals[surf.triangle[gour]]
-            flip = np.where(dot(surf.geometric[gour], to_eye[gour]) < 0, -1.0, 1.0)
-            bary = np.column_stack([1 - surf.uv[gour].sum(1), surf.uv[gour]])
+    def direct_lighting(self, rays: RayBatch, surf: Surface) -> np.ndarray:
+        """Σ_l S_l · f_l · I_l · [kd·max(N·L, 0) + ks·spec] at every hit, (n, 3): per emitter,
+        the unshadowed term (:func:`raytrace.shading_kernels.light_hits`), then shadow rays
+        for the hits it lights."""
+        n, new, tab = len(rays), self.scratch, self.table
+        out = new("lights", n, 3)
+        out.fill(0.0)
+        term, to_light = new("term", n, 3), new("to_light", n, 3)
+        dist, candidate = new("dist", n), new("candidate", n, dtype=bool)
+        gour = np.flatnonzero(surf.gouraud)
+        if len(gour):
+            gouraud = self._gouraud_setup(rays, surf, gour)
         for em in self.emitters:
-            to_light, dist, f = em.incidence(surf.point)
-            term = direct(ns, to_light, to_eye, kd, ks, shin, model) * f[:, None]
-            if gour.any():
-                term[gour] = self._gouraud(em, vert, vnrm, flip, bary, eye[gour], kd[gour],
-                                           ks[gour], shin[gour], model[gour])
-            cand = lit & np.any(term > 0, axis=1)
-            if not cand.any():
-                continue
-            shadow = self.shadow(surf, cand, to_light[cand], dist[cand])
-            out[cand] += term[cand] * shadow * em.color
+            self.chunks(lambda s, packed=em.packed: K.light_hits(
+                surf.point[s], surf.geometric[s], surf.shading[s], rays.direction[s],
+                surf.material[s], self.origin, tab.arrays, packed, term[s], to_light[s],
+                dist[s], candidate[s]), n)
+            if len(gour):
+                term[gour] = self._gouraud(em, *gouraud)
+                candidate[gour] = tab.lit[surf.material[gour]] & np.any(term[gour] > 0, axis=1)
+            rows = np.flatnonzero(candidate)
+            if len(rows):
+                shadow = self.shadow(surf, rows, to_light, dist)
+                self._add_light(out, rows, term, shadow, np.asarray(em.color, np.float64))
         return out
+
+    def _add_light(self, out: np.ndarray, rows: np.ndarray, term: np.ndarray,
+                   shadow: np.ndarray, color: np.ndarray) -> None:
+        """``out[rows] += term[rows]·S·I_l`` (:func:`raytrace.shading_kernels.add_light`)."""
+        self.chunks(lambda s: K.add_light(out, rows[s], term, shadow[s], color), len(rows))
+
+    def _gouraud_setup(self, rays: RayBatch, surf: Surface, gour: np.ndarray) -> tuple:
+        """What :meth:`_gouraud` needs at the Gouraud-shaded hits ``gour``."""
+        tri, mat = surf.triangle[gour], surf.material[gour]
+        vert = self.accel.tri_corners[tri]
+        vnrm = self.accel.tri_vnormals[tri]
+        flip = np.where(dot(surf.geometric[gour], -rays.direction[gour]) < 0, -1.0, 1.0)
+        bary = np.column_stack([1 - surf.uv[gour].sum(1), surf.uv[gour]])
+        point = np.ascontiguousarray(surf.point[gour])
+        kd = self.table.color("kd", mat, point, self.origin)
+        ks = self.table.color("ks", mat, point, self.origin)
+        return (vert, vnrm, flip, bary, rays.origin[gour], kd, ks, self.table.shininess[mat],
+                self.table.highlight[mat])
 
     @staticmethod
     def _gouraud(em, vert, vnrm, flip, bary, eye, kd, ks, shin, model) -> np.ndarray:
@@ -306,45 +347,48 @@ class WhittedIntegrator:
             acc += bary[:, k:k + 1] * direct(nrm, to_light, v, kd, ks, shin, model) * f[:, None]
         return acc
 
-    def shadow(self, surf: Surface, m: np.ndarray, to_light: np.ndarray, dist: np.ndarray
+    def shadow(self, surf: Surface, rows: np.ndarray, to_light: np.ndarray, dist: np.ndarray
                ) -> np.ndarray:
-        """Shadow factor S (k, 3) for the hits selected by ``m`` towards a light.
+        """Shadow factor S (k, 3) of the hits ``rows`` towards a light (``to_light`` and
+        ``dist`` are per hit).
 
         Opaque-only scenes use the occlusion query. Otherwise the straight shadow ray walks
         through every surface before the light, multiplying ``t·kt + (1 − t)`` (seed 003).
         """
-        tab = self.table
-        origin = spawn_origins(surf.point[m], surf.geometric[m], surf.offset[m], to_light)
-        shape = surf.shape[m]
-        tmax = dist * (1.0 - SHADOW_SHORTEN)
-        self.stats.rays["shadow"] += len(origin)
+        k, new = len(rows), self.scratch
+        origin, direction = new("shadow_origin", k, 3), new("shadow_direction", k, 3)
+        tmax, shape = new("shadow_tmax", k), new("shadow_shape", k, dtype=np.int64)
+        self.chunks(lambda s: K.shadow_rays(
+            rows[s], surf.point, surf.geometric, surf.offset, surf.shape, to_light, dist,
+            SHADOW_SHORTEN, origin[s], direction[s], tmax[s], shape[s]), k)
+        self.stats.rays["shadow"] += k
+        factor = new("shadow", k, 3)
         t0 = time.perf_counter()
         if not self.any_transparent:
-            blocked = self.accel.occluded(origin, to_light, shape, tmax)
+            blocked = self.accel.occluded(origin, direction, shape, tmax)
             self.stats.trace_seconds += time.perf_counter() - t0
-            return np.where(blocked, 0.0, 1.0)[:, None] * np.ones(3)
-        factor = np.ones((len(origin), 3))
-        live = np.arange(len(origin))
+            factor[:] = (~blocked)[:, None]
+            return factor
+        factor.fill(1.0)
+        live = np.arange(len(rows))
         for _ in range(MAX_SHADOW_CROSSINGS):
-            hits = self.accel.intersect(origin, to_light[live], shape, tmax)
-            h = hits.hit
-            if not h.any():
+            hits = self.accel.intersect(origin, direction, shape, tmax)
+            crossed = np.flatnonzero(hits.hit)              # rows of the rays still going
+            if not len(crossed):
                 break
-            idx = np.flatnonzero(h)
-            for name in ("t", "shape", "triangle", "uv"):
-                setattr(hits, name, getattr(hits, name)[idx])
-            s2 = self.accel.surface(hits, origin[idx], to_light[live[idx]])
-            opac = tab.opacity[s2.material][:, None]
-            world = s2.point + self.origin
-            kt = tab.color("kt", s2.material, world)
-            factor[live[idx]] *= opac * kt + (1.0 - opac)
-            go = np.any(factor[live[idx]] > 0, axis=1)
-            live, idx = live[idx[go]], idx[go]
+            hits.t, hits.shape = hits.t[crossed], hits.shape[crossed]
+            hits.triangle, hits.uv = hits.triangle[crossed], take_rows(hits.uv, crossed)
+            direction = take_rows(direction, crossed)
+            s2 = self.accel.surface(hits, take_rows(origin, crossed), direction)
+            on = np.flatnonzero(K.cross_surfaces(factor, live[crossed], s2.material, s2.point,
+                                                 self.origin, self.table.arrays))  # let through
+            live = live[crossed[on]]
             if not len(live):
                 break
-            origin = spawn_origins(s2.point[go], s2.geometric[go], s2.offset[go], to_light[live])
-            shape = s2.shape[go]
-            tmax = tmax[idx] - hits.t[go]
+            direction = take_rows(direction, on)
+            origin = K.spawn_origins(on, s2.point, s2.geometric, s2.offset, direction)
+            shape = s2.shape[on]
+            tmax = tmax[crossed[on]] - hits.t[on]
             self.stats.rays["shadow"] += len(live)
         else:
             factor[live] = 0.0
@@ -376,8 +420,13 @@ class WhittedIntegrator:
                 "seed": o.seed, "renderer": "raytrace (Whitted, Embree)"}
 
 
-def add(samples: np.ndarray, index: np.ndarray, values: np.ndarray) -> None:
-    """``samples[index] += values`` with repeated indices summed in a fixed order."""
-    n = len(samples)
-    for c in range(3):
-        samples[:, c] += np.bincount(index, weights=values[:, c], minlength=n)
+def add(samples: np.ndarray, sample: np.ndarray, weight: np.ndarray, factor: np.ndarray,
+        rows: np.ndarray | None = None, part: np.ndarray | None = None) -> None:
+    """``samples[sample[r]] += weight[r]·factor[r]`` for the rays ``rows`` (all by default;
+    ``factor`` of one row applies to every ray), repeated samples summed in a fixed order
+    (:func:`raytrace.shading_kernels.accumulate`; ``part``: its zeroed scratch, like
+    ``samples``)."""
+    if rows is None:
+        rows = np.arange(len(sample))
+    K.accumulate(samples, sample, weight, factor, rows,
+                 np.zeros(samples.shape) if part is None else part)

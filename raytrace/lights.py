@@ -9,9 +9,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
+from . import shading_kernels as K
 from .scene import AreaLight, DirectionalLight, Light, SpotLight
 
 
@@ -35,26 +37,27 @@ class Emitter:
         attenuation ``f_radial · f_angular`` (n,) at ``points`` (n, 3).
 
         A point exactly at the light's position gets factor 0 (no direction is defined).
+        (:func:`raytrace.shading_kernels.incidence1`, row by row.)
         """
+        points = np.ascontiguousarray(np.asarray(points, np.float64).reshape(-1, 3))
         n = len(points)
-        if self.position is None:
-            to_light = np.broadcast_to(-self.direction, (n, 3))
-            return to_light, np.full(n, np.inf), np.ones(n)
-        delta = self.position - points
-        dist = np.linalg.norm(delta, axis=1)
-        at_light = dist == 0
-        to_light = delta / np.where(at_light, 1.0, dist)[:, None]
-        a0, a1, a2 = self.attenuation
-        with np.errstate(divide="ignore", over="ignore"):
-            factor = 1.0 / (a0 + dist * (a1 + a2 * dist))
-        factor = np.where(at_light | ~np.isfinite(factor), 0.0, factor)
-        if self.cos_cutoff is not None:
-            cos_a = -(to_light @ self.direction)  # light-to-point against the spot axis
-            inside = cos_a >= self.cos_cutoff
-            with np.errstate(invalid="ignore"):
-                ang = np.where(inside, np.maximum(cos_a, 0.0) ** self.exponent, 0.0)
-            factor = factor * ang
+        to_light, dist, factor = np.empty((n, 3)), np.empty(n), np.empty(n)
+        K.incidence_rows(points, self.packed, to_light, dist, factor)
         return to_light, dist, factor
+
+    @cached_property
+    def packed(self) -> np.ndarray:
+        """The emitter as the float64 row the kernels take: kind (POINT, SPOT, DIRECTIONAL),
+        position (3), direction (3), attenuation (3), cos θ, exponent."""
+        kind = (K.DIRECTIONAL if self.position is None else
+                K.POINT if self.cos_cutoff is None else K.SPOT)
+        zero = np.zeros(3)
+        return np.concatenate([
+            [kind], zero if self.position is None else self.position,
+            zero if self.direction is None else self.direction,
+            [1.0, 0.0, 0.0] if self.attenuation is None else self.attenuation,
+            [0.0 if self.cos_cutoff is None else self.cos_cutoff, self.exponent]]
+        ).astype(np.float64)
 
 
 def cos_cutoff(degrees: float) -> float:

@@ -1,17 +1,28 @@
 """Mirror reflection and Snell refraction on arrays of unit vectors.
 
 Conventions: ``d`` is the incoming unit direction, ``n`` the unit normal on the side the ray
-comes from (``d·n <= 0``). All arrays are (n, 3) float64.
+comes from (``d·n <= 0``). All arrays are (n, 3) float64 (a single row broadcasts). The per-ray
+arithmetic is :func:`raytrace.shading_kernels.reflect3` and ``refract3``, which the
+integrator's compiled passes call directly.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from . import shading_kernels as K
+
 
 def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row-wise dot product of (n, 3) arrays."""
     return np.einsum("ij,ij->i", a, b)
+
+
+def rows3(*arrays, n: int = 1) -> list[np.ndarray]:
+    """The arguments as C-contiguous float64 (k, 3) arrays, broadcast to a common k (with n)."""
+    arrays = [np.asarray(a, np.float64).reshape(-1, 3) for a in arrays]
+    k = np.broadcast_shapes((n,), *((len(a),) for a in arrays))[0]
+    return [np.ascontiguousarray(np.broadcast_to(a, (k, 3))) for a in arrays]
 
 
 def reflect(d: np.ndarray, n: np.ndarray) -> np.ndarray:
@@ -20,7 +31,10 @@ def reflect(d: np.ndarray, n: np.ndarray) -> np.ndarray:
     >>> reflect(np.array([[1.0, -1.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
     array([[1., 1., 0.]])
     """
-    return d - 2.0 * dot(d, n)[:, None] * n
+    d, n = rows3(d, n)
+    out = np.empty(d.shape)
+    K.reflect_rows(d, n, out)
+    return out
 
 
 def refract(d: np.ndarray, n: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -37,15 +51,12 @@ def refract(d: np.ndarray, n: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, 
     >>> t.tolist(), tir.tolist()
     ([[0.6, -0.8, 0.0]], [False])
     """
-    cos_i = np.clip(-dot(d, n), 0.0, 1.0)
-    sin2 = np.maximum(0.0, (1.0 - cos_i) * (1.0 + cos_i))
-    k = cos_i * cos_i - (eta - 1.0) * (eta + 1.0) * sin2
-    tir = k < 0.0
-    root = np.sqrt(np.where(tir, 0.0, k))
-    t = eta[:, None] * d + (eta * cos_i - root)[:, None] * n
-    if tir.any():
-        t[tir] = reflect(d[tir], n[tir])
-    return t, tir
+    eta = np.asarray(eta, np.float64).reshape(-1)
+    d, n = rows3(d, n, n=len(eta))
+    eta = np.ascontiguousarray(np.broadcast_to(eta, len(d)))
+    out, tir = np.empty(d.shape), np.empty(len(d), bool)
+    K.refract_rows(d, n, eta, out, tir)
+    return out, tir
 
 
 def critical_angle(ior: float) -> float:

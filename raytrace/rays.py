@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .jit import kernel
+
 #: Kinds of ray, for ``RayBatch.kind`` and the statistics.
 CAMERA, REFLECTION, REFRACTION, SEE_THROUGH = 0, 1, 2, 3
 KIND_NAMES = ("camera", "reflection", "refraction", "see_through")
@@ -55,17 +57,26 @@ class RayBatch:
     def __len__(self) -> int:
         return self.origin.shape[0]
 
-    def take(self, index: np.ndarray) -> RayBatch:
-        """The rays selected by a boolean mask or an index array (compaction)."""
-        return RayBatch(self.origin[index], self.direction[index], self.sample[index],
-                        self.weight[index], self.depth, self.origin_shape[index],
-                        self.kind[index])
+    def take(self, index: np.ndarray | slice) -> RayBatch:
+        """The rays selected by a boolean mask or an index array (compaction), or a slice
+        (views, no copy)."""
+        if isinstance(index, slice):
+            return RayBatch(self.origin[index], self.direction[index], self.sample[index],
+                            self.weight[index], self.depth, self.origin_shape[index],
+                            self.kind[index])
+        index = np.asarray(index)
+        rows = np.flatnonzero(index) if index.dtype == bool else index.astype(np.int64)
+        return RayBatch(take_rows(self.origin, rows), take_rows(self.direction, rows),
+                        self.sample[rows], take_rows(self.weight, rows), self.depth,
+                        self.origin_shape[rows], self.kind[rows])
 
     @staticmethod
     def concatenate(batches: list[RayBatch], depth: int) -> RayBatch:
         """One batch from several of the same depth (an empty list gives an empty batch)."""
         if not batches:
             return RayBatch.empty(depth)
+        if len(batches) == 1 and batches[0].depth == depth:
+            return batches[0]
         return RayBatch(
             np.concatenate([b.origin for b in batches]),
             np.concatenate([b.direction for b in batches]),
@@ -81,3 +92,14 @@ class RayBatch:
         z3 = np.zeros((0, 3))
         return RayBatch(z3, z3.copy(), np.zeros(0, np.int64), z3.copy(), depth,
                         np.zeros(0, np.int64), np.zeros(0, np.int8))
+
+
+@kernel
+def take_rows(a, rows):
+    """``a[rows]`` for a C-contiguous float64 (n, k) array and int64 ``rows`` (numpy's fancy
+    indexing of 3-element rows took 4× as long: 0.90 against 0.23 ms for 98 304 of 131 072)."""
+    out = np.empty((rows.shape[0], a.shape[1]))
+    for j in range(rows.shape[0]):
+        for c in range(a.shape[1]):
+            out[j, c] = a[rows[j], c]
+    return out

@@ -14,7 +14,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .optics import dot
+from . import shading_kernels as K
+from .optics import rows3
+
+
+def _scalars(x, n: int) -> np.ndarray:
+    """``x`` as a C-contiguous float64 (n,) array (a single value broadcasts)."""
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(x, np.float64).reshape(-1), n))
 
 
 def cosine_power(a: np.ndarray, b: np.ndarray, n: np.ndarray) -> np.ndarray:
@@ -24,52 +30,54 @@ def cosine_power(a: np.ndarray, b: np.ndarray, n: np.ndarray) -> np.ndarray:
     ``a·b = 1`` (a dot product there cancels to nothing), and the power as
     ``exp(n·log1p(−h))``. So an exponent of 1e8 still gives the right falloff. The value is 0
     where ``a·b <= 0`` (so ``0^0`` counts as 0 here) and 1 where ``a = b``.
+    (:func:`raytrace.shading_kernels.cosine_power1`, row by row.)
 
     >>> x = np.array([[1.0, 0.0, 0.0]]); y = np.array([[np.cos(1e-4), np.sin(1e-4), 0.0]])
     >>> float(cosine_power(x, y, np.array([1e8]))[0])  # exp(-1e8·(1e-8/2)) = exp(-0.5)
     0.6065306...
     """
-    diff = a - b
-    h = 0.5 * dot(diff, diff)  # 1 − cos
-    # h < 1 alone lets a·b = 0 through when |a − b|² rounds just below 2 (then 0^0 gave 1).
-    positive = (h < 1.0) & (dot(a, b) > 0)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        p = np.exp(n * np.log1p(-np.minimum(h, 1.0)))
-    p = np.where(n == 0, 1.0, p)
-    return np.where(positive, p, 0.0)
+    n = np.asarray(n, np.float64).reshape(-1)
+    a, b = rows3(a, b, n=len(n))
+    out = np.empty(len(a))
+    K.cosine_power_rows(a, b, _scalars(n, len(a)), out)
+    return out
+
+
+def _highlight(code: int, normal, to_light, to_eye, n) -> np.ndarray:
+    """The highlight of model ``code`` row by row (:func:`raytrace.shading_kernels.highlight1`)."""
+    n = np.asarray(n, np.float64).reshape(-1)
+    normal, to_light, to_eye = rows3(normal, to_light, to_eye, n=len(n))
+    out = np.empty(len(normal))
+    K.highlight_rows(code, normal, to_light, to_eye, _scalars(n, len(normal)), out)
+    return out
 
 
 def phong(normal: np.ndarray, to_light: np.ndarray, to_eye: np.ndarray, n: np.ndarray):
     """Phong's (V·R)^n with R = 2(N·L)N − L (Phong 1975)."""
-    r = 2.0 * dot(normal, to_light)[:, None] * normal - to_light
-    r /= np.maximum(np.linalg.norm(r, axis=1, keepdims=True), 1e-300)
-    return cosine_power(to_eye, r, n)
+    return _highlight(K.PHONG, normal, to_light, to_eye, n)
 
 
 def blinn(normal: np.ndarray, to_light: np.ndarray, to_eye: np.ndarray, n: np.ndarray):
     """Blinn's (N·H)^n with H = (L + V)/|L + V| (Blinn 1977); 0 where L = −V."""
-    h = to_light + to_eye
-    length = np.linalg.norm(h, axis=1, keepdims=True)
-    ok = length[:, 0] > 1e-12
-    h = np.where(ok[:, None], h / np.where(ok[:, None], length, 1.0), normal)
-    return np.where(ok, cosine_power(normal, h, n), 0.0)
+    return _highlight(K.BLINN, normal, to_light, to_eye, n)
 
 
-#: Highlight models by name (a registry, not a class hierarchy).
+#: Highlight models by name (a registry, not a class hierarchy), and their kernel codes.
 HIGHLIGHTS = {"phong": phong, "blinn": blinn}
-HIGHLIGHT_CODES = {name: i for i, name in enumerate(HIGHLIGHTS)}
+HIGHLIGHT_CODES = {"phong": K.PHONG, "blinn": K.BLINN}
 
 
 def direct(normal, to_light, to_eye, kd, ks, shininess, model) -> np.ndarray:
     """``kd·max(N·L, 0) + ks·spec`` per channel, (n, 3); zero where ``N·L <= 0``.
 
     ``model`` (n,) holds :data:`HIGHLIGHT_CODES`; ``kd``, ``ks`` are (n, 3); ``shininess`` (n,).
+    (:func:`raytrace.shading_kernels.direct1`, row by row.)
     """
-    ndl = dot(normal, to_light)
-    lit = ndl > 0
-    spec = np.zeros(len(ndl))
-    for name, code in HIGHLIGHT_CODES.items():
-        m = lit & (model == code)
-        if m.any():
-            spec[m] = HIGHLIGHTS[name](normal[m], to_light[m], to_eye[m], shininess[m])
-    return np.where(lit[:, None], kd * np.maximum(ndl, 0.0)[:, None] + ks * spec[:, None], 0.0)
+    shininess = np.asarray(shininess, np.float64).reshape(-1)
+    normal, to_light, to_eye, kd, ks = rows3(normal, to_light, to_eye, kd, ks,
+                                             n=len(shininess))
+    k = len(normal)
+    model = np.ascontiguousarray(np.broadcast_to(np.asarray(model, np.int64).reshape(-1), k))
+    out = np.empty((k, 3))
+    K.direct_rows(normal, to_light, to_eye, kd, ks, _scalars(shininess, k), model, out)
+    return out

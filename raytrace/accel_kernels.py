@@ -1,0 +1,402 @@
+"""Compiled per-ray kernels of the intersection stage, used by :mod:`raytrace.analytic` and
+:mod:`raytrace.accel`.
+
+In pipeline order: analytic spheres and planes (closest hit with the self-hit rules) → the
+float32 rays Embree takes → Embree's hits re-solved in float64 → the surfaces of all hits →
+spawned rays' origins; and, at build time, the triangle tables and vertex normals.
+
+Every kernel loops over rays and writes only that ray's rows, so no result depends on the
+number of threads or on how a batch is split into chunks (tests/test_threads.py). The
+whole-batch kernels (``closest_analytic``, ``hit_surfaces``) are parallel over rays
+(:data:`raytrace.jit.parallel_kernel`); the kernels around Embree's calls are serial
+``nogil`` kernels (:data:`raytrace.jit.kernel`) that the accelerator runs chunk by chunk in
+its thread pool, beside Embree. Their arguments are always C-contiguous float64 / int64
+arrays (Embree's own float32 / int32 outputs aside), so each kernel compiles once, into
+numba's cache. The kernels of both modules live in this one file because numba's cache only
+notices edits to the file of the kernel it compiled, not to the files of the functions that
+kernel inlines (``sphere_t``, ``_snap``…).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .jit import kernel, parallel_kernel, prange
+from .rays import NO_SHAPE
+
+#: Rounding tolerance of analytic shapes, relative to the coordinates' magnitude.
+TOL = 16.0 * float(np.finfo(np.float64).eps)
+#: The far limit Embree gets where a ray has none.
+F32_MAX = float(np.finfo(np.float32).max)
+TINY = float(np.finfo(np.float64).tiny)
+F32_TINY = float(np.finfo(np.float32).tiny)
+
+
+# -- analytic shapes ------------------------------------------------------------------------
+@kernel
+def sphere_t(ox, oy, oz, dx, dy, dz, cx, cy, cz, r, c_max, extent, on_it):
+    """Ray parameter of the hit of one ray with one sphere (inf on a miss), float64.
+
+    Haines et al. (Ray Tracing Gems, 2019, ch. 7): ``b = d·(o − c)``, the perpendicular offset
+    ``f = (o − c) − b·d``, discriminant ``r² − |f|²``, roots ``q = −b − sign(b)·√disc`` and
+    ``c/q``. ``on_it``: the ray starts on this sphere; ``extent``: the largest absolute
+    coordinate of the origin, ``c_max`` that of the centre (the rounding scale).
+    """
+    ocx, ocy, ocz = ox - cx, oy - cy, oz - cz
+    b = ocx * dx + ocy * dy + ocz * dz                    # d·(o − c), |d| = 1
+    fx, fy, fz = ocx - b * dx, ocy - b * dy, ocz - b * dz
+    disc = r * r - (fx * fx + fy * fy + fz * fz)          # r² − |f|² (no cancellation)
+    inward = on_it and b < 0
+    if not (disc >= 0 or inward):
+        return math.inf
+    if inward and disc < 0:
+        disc = 0.0                                        # it starts on the sphere
+    if not disc >= 0:
+        return math.inf
+    c = (ocx * ocx + ocy * ocy + ocz * ocz) - r * r
+    q = -b - math.copysign(math.sqrt(disc), b)
+    t1 = c / q
+    if math.isnan(t1):
+        near = far = math.nan
+    else:
+        near, far = min(q, t1), max(q, t1)
+    t = near if near > 0 else far
+    # A ray starting on this sphere (its small root t1 within the rounding of the coordinates)
+    # though spawned from another one (touching spheres) is treated like one spawned here:
+    # going in, it enters at t = 0; going out, it never hits. A rounding-sized root of either
+    # sign would otherwise bounce the ray between the two surfaces until max_depth.
+    touching = not on_it and abs(t1) <= TOL * ((extent + c_max) + r)
+    enters = touching and b < 0
+    if enters:
+        t = max(t1, 0.0)
+    elif touching:
+        t = math.inf
+    if inward:
+        t = q                                             # from the surface inward: far root
+    elif on_it:
+        t = math.inf                                      # leaving a convex shape
+    if (t > 0 or enters) and math.isfinite(t):
+        return t
+    return math.inf
+
+
+@kernel
+def plane_t(ox, oy, oz, dx, dy, dz, px, py, pz, nx, ny, nz, p_max, extent, spawned):
+    """Ray parameter of the hit of one ray with one plane (inf on a miss): ``(p − o)·n / d·n``.
+
+    A ray spawned on another analytic shape that touches this plane (a sphere resting on it)
+    starts on the plane within rounding: it crosses here, at t = 0.
+    """
+    denom = dx * nx + dy * ny + dz * nz
+    dist = (px - ox) * nx + (py - oy) * ny + (pz - oz) * nz
+    t = dist / denom
+    if spawned and abs(dist) <= TOL * (extent + p_max) and denom != 0:
+        t = 0.0
+    if (t > 0 or (t == 0 and spawned)) and math.isfinite(t):
+        return t
+    return math.inf
+
+
+@parallel_kernel
+def closest_analytic(o, d, origin_shape, tmax, has_tmax, shapes, t_out, shape_out):
+    """Closest analytic hit of each ray with ``0 < t < tmax`` into ``t_out`` (inf on a miss)
+    and ``shape_out`` (NO_SHAPE on a miss).
+
+    ``shapes`` = (centers (S, 3), radii (S,), center_max (S,), points (P, 3), normals (P, 3),
+    point_max (P,)), spheres numbered 0..S−1, planes S..S+P−1; ``tmax`` is read only when
+    ``has_tmax``. A ray never hits the plane it starts on; see :func:`sphere_t` for spheres.
+    """
+    centers, radii, center_max, points, normals, point_max = shapes
+    n_spheres = radii.shape[0]
+    for i in prange(o.shape[0]):
+        ox, oy, oz = o[i, 0], o[i, 1], o[i, 2]
+        dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
+        own = origin_shape[i]
+        extent = max(max(abs(ox), abs(oy)), abs(oz))     # scale of the rounding tolerances
+        best_t = tmax[i] if has_tmax else math.inf
+        best = NO_SHAPE
+        own_t = math.inf                                  # where it leaves its own sphere
+        for s in range(n_spheres):
+            t = sphere_t(ox, oy, oz, dx, dy, dz, centers[s, 0], centers[s, 1], centers[s, 2],
+                         radii[s], center_max[s], extent, own == s)
+            if own == s:
+                own_t = t
+            if t < best_t:
+                best_t, best = t, s
+        for p in range(points.shape[0]):
+            if own == n_spheres + p:                      # a ray leaving a plane never re-hits it
+                continue
+            t = plane_t(ox, oy, oz, dx, dy, dz, points[p, 0], points[p, 1], points[p, 2],
+                        normals[p, 0], normals[p, 1], normals[p, 2], point_max[p], extent,
+                        own != NO_SHAPE)
+            if t < best_t:
+                best_t, best = t, n_spheres + p
+        # Touching solids: leaving the ray's own sphere where another shape begins (equal t
+        # within rounding), the exit comes first, so the contact counts both crossings.
+        if best != NO_SHAPE and best != own and own_t <= best_t + TOL * (extent + best_t):
+            best_t, best = own_t, own
+        t_out[i] = best_t if best != NO_SHAPE else math.inf
+        shape_out[i] = best
+
+
+@kernel
+def analytic_surface(shape, point, analytic, point_out, normal_out):
+    """Rows with an analytic ``shape``: ``point`` snapped onto the surface into
+    ``point_out`` and the unit outward normal into ``normal_out``; other rows are left as they
+    are. ``analytic`` = (centers, radii, points, normals). A sphere's normal is the normalised
+    radial vector, the point ``c + r·n``; a plane's point is moved along its normal by its
+    signed distance."""
+    centers, radii, points, normals = analytic
+    n_spheres = radii.shape[0]
+    for i in range(shape.shape[0]):
+        s = shape[i]
+        if s == NO_SHAPE:
+            continue
+        (point_out[i, 0], point_out[i, 1], point_out[i, 2], normal_out[i, 0], normal_out[i, 1],
+         normal_out[i, 2]) = _snap(s, point[i, 0], point[i, 1], point[i, 2], n_spheres,
+                                   centers, radii, points, normals)
+
+
+@kernel
+def _snap(s, x, y, z, n_spheres, centers, radii, points, normals):
+    """One hit point (x, y, z) on analytic shape ``s``: the snapped point and the unit normal,
+    as a 6-tuple (scalars, not array views: a view per ray costs reference counting)."""
+    if s < n_spheres:
+        rx, ry, rz = x - centers[s, 0], y - centers[s, 1], z - centers[s, 2]
+        length = math.sqrt(rx * rx + ry * ry + rz * rz)
+        rx, ry, rz = rx / length, ry / length, rz / length
+        r = radii[s]
+        return (centers[s, 0] + r * rx, centers[s, 1] + r * ry, centers[s, 2] + r * rz,
+                rx, ry, rz)
+    k = s - n_spheres
+    nx, ny, nz = normals[k, 0], normals[k, 1], normals[k, 2]
+    off = (x - points[k, 0]) * nx + (y - points[k, 1]) * ny + (z - points[k, 2]) * nz
+    return x - off * nx, y - off * ny, z - off * nz, nx, ny, nz
+
+
+# -- Embree's rays ------------------------------------------------------------------------
+@kernel
+def embree_rays(o, d, t, tmax, has_tmax, o32, d32, far):
+    """Rays as Embree takes them: float32 origins and directions, and ``far`` = the closest
+    analytic hit ``t`` or ``tmax`` (float32 max where neither is finite)."""
+    for i in range(o.shape[0]):
+        for k in range(3):
+            o32[i, k] = np.float32(o[i, k])
+            d32[i, k] = np.float32(d[i, k])
+        bound = t[i]
+        if has_tmax and tmax[i] < bound:
+            bound = tmax[i]
+        f = np.float32(bound)
+        far[i] = f if math.isfinite(f) else np.float32(F32_MAX)
+
+
+@kernel
+def open_rays(o, d, tmax, t):
+    """The rays no analytic shape blocks (``t`` not finite), as Embree takes them for an
+    occlusion query: their indices, float32 origins, directions and ``min(tmax, f32 max)``."""
+    n = 0
+    for i in range(t.shape[0]):
+        if not math.isfinite(t[i]):
+            n += 1
+    idx = np.empty(n, np.int64)
+    o32 = np.empty((n, 3), np.float32)
+    d32 = np.empty((n, 3), np.float32)
+    far = np.empty(n, np.float32)
+    j = 0
+    for i in range(t.shape[0]):
+        if math.isfinite(t[i]):
+            continue
+        idx[j] = i
+        for k in range(3):
+            o32[j, k] = np.float32(o[i, k])
+            d32[j, k] = np.float32(d[i, k])
+        far[j] = np.float32(min(tmax[i], F32_MAX))
+        j += 1
+    return idx, o32, d32, far
+
+
+@kernel
+def occlusion(t, idx, embree_result, blocked):
+    """``blocked``: an analytic hit (finite ``t``), or Embree's OCCLUDED answer (0) for the
+    rays ``idx`` it was asked about."""
+    for i in range(t.shape[0]):
+        blocked[i] = math.isfinite(t[i])
+    for j in range(idx.shape[0]):
+        blocked[idx[j]] = embree_result[j] == 0
+
+
+# -- Embree's hits ------------------------------------------------------------------------
+@kernel
+def refine_hits(geom_id, prim_id, u32, v32, geom_first, corners, o, d, tmax, has_tmax,
+                t, shape, triangle, uv):
+    """Embree's hits re-solved in float64, written where they come before the analytic hit.
+
+    Embree's float32 ``u, v`` are off by ~1e-5 (measured), enough to move smooth normals and
+    hit points visibly between scales; solving ``o + t·d = a + u·e1 + v·e2`` again on the
+    float64 triangle (Möller & Trumbore 1997) makes them exact to ~1e-15. The result is
+    clamped onto the triangle (a float64 solve may land a hair outside an edge Embree hit);
+    rays (nearly) parallel to the plane keep Embree's values. ``t`` is then the distance to
+    the hit point rebuilt on the triangle's plane, and the hit counts if it is below the
+    analytic hit ``t`` and ``tmax``.
+    """
+    for i in range(o.shape[0]):
+        g = geom_id[i]
+        if g < 0:
+            continue
+        tri = geom_first[g] + prim_id[i]
+        ax, ay, az = corners[tri, 0, 0], corners[tri, 0, 1], corners[tri, 0, 2]
+        bx, by, bz = corners[tri, 1, 0], corners[tri, 1, 1], corners[tri, 1, 2]
+        cx, cy, cz = corners[tri, 2, 0], corners[tri, 2, 1], corners[tri, 2, 2]
+        ox, oy, oz = o[i, 0], o[i, 1], o[i, 2]
+        dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
+        e1x, e1y, e1z = bx - ax, by - ay, bz - az
+        e2x, e2y, e2z = cx - ax, cy - ay, cz - az
+        px, py, pz = dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x  # d × e2
+        det = e1x * px + e1y * py + e1z * pz
+        sx, sy, sz = ox - ax, oy - ay, oz - az
+        qx, qy, qz = sy * e1z - sz * e1y, sz * e1x - sx * e1z, sx * e1y - sy * e1x  # s × e1
+        u = (sx * px + sy * py + sz * pz) / det
+        v = (dx * qx + dy * qy + dz * qz) / det
+        if math.isfinite(u) and math.isfinite(v) and det != 0:
+            u, v = max(u, 0.0), max(v, 0.0)
+        else:
+            u, v = np.float64(u32[i]), np.float64(v32[i])
+        total = u + v
+        if total > 1.0:
+            u, v = u / total, v / total
+        w = 1.0 - u - v
+        tm = ((((w * ax + u * bx) + v * cx) - ox) * dx + (((w * ay + u * by) + v * cy) - oy) * dy
+              + (((w * az + u * bz) + v * cz) - oz) * dz)    # (hit point − o)·d
+        bound = t[i]
+        if has_tmax and tmax[i] < bound:
+            bound = tmax[i]
+        if tm < bound:
+            t[i] = max(tm, TINY)
+            shape[i] = NO_SHAPE
+            triangle[i] = tri
+            uv[i, 0], uv[i, 1] = u, v
+
+
+# -- surfaces -------------------------------------------------------------------------------
+@parallel_kernel
+def hit_surfaces(t, shape, triangle, uv, o, d, analytic, shape_material, mesh,
+                 point, geometric, shading, material, offset, gouraud):
+    """Everything the shading needs at each hit (see :class:`raytrace.accel.Surface`).
+
+    Analytic hits: the point ``o + t·d`` snapped onto the shape (:func:`_snap`), its normal
+    for both normals, offset 0. Triangle hits: the point at the barycentrics ``uv`` on the
+    float64 triangle, its unit face normal, and for smooth and Gouraud triangles the
+    interpolated vertex normals, normalised (the face normal where they cancel); the spawn
+    offset of the triangle. ``analytic`` = (centers, radii, points, normals); ``mesh`` =
+    (corners (T, 3, 3), face normals (T, 3), vertex normals (T, 3, 3), shading codes (T,)
+    int8, materials (T,), offsets (T,)).
+    """
+    centers, radii, points, normals = analytic
+    corners, face_normal, vnormals, code, tri_material, tri_offset = mesh
+    n_spheres = radii.shape[0]
+    for i in prange(t.shape[0]):
+        s = shape[i]
+        if s != NO_SHAPE:
+            px, py, pz, nx, ny, nz = _snap(s, o[i, 0] + t[i] * d[i, 0], o[i, 1] + t[i] * d[i, 1],
+                                           o[i, 2] + t[i] * d[i, 2], n_spheres, centers,
+                                           radii, points, normals)
+            point[i, 0], point[i, 1], point[i, 2] = px, py, pz
+            geometric[i, 0], geometric[i, 1], geometric[i, 2] = nx, ny, nz
+            shading[i, 0], shading[i, 1], shading[i, 2] = nx, ny, nz
+            material[i] = shape_material[s]
+            offset[i] = 0.0
+            gouraud[i] = False
+            continue
+        tri = triangle[i]
+        u, v = uv[i, 0], uv[i, 1]
+        w = 1.0 - u - v
+        for k in range(3):
+            point[i, k] = (w * corners[tri, 0, k] + u * corners[tri, 1, k]) + v * corners[tri, 2, k]
+            geometric[i, k] = face_normal[tri, k]
+            shading[i, k] = face_normal[tri, k]
+        if code[tri] != 0:  # smooth or Gouraud: interpolated vertex normals
+            nx = (w * vnormals[tri, 0, 0] + u * vnormals[tri, 1, 0]) + v * vnormals[tri, 2, 0]
+            ny = (w * vnormals[tri, 0, 1] + u * vnormals[tri, 1, 1]) + v * vnormals[tri, 2, 1]
+            nz = (w * vnormals[tri, 0, 2] + u * vnormals[tri, 1, 2]) + v * vnormals[tri, 2, 2]
+            length = math.sqrt(nx * nx + ny * ny + nz * nz)
+            if length > 1e-12:
+                shading[i, 0], shading[i, 1], shading[i, 2] = (nx / length, ny / length,
+                                                               nz / length)
+        material[i] = tri_material[tri]
+        offset[i] = tri_offset[tri]
+        gouraud[i] = code[tri] == 2
+
+
+# -- spawned rays ---------------------------------------------------------------------------
+@kernel
+def spawn_origins(point, geometric, offset, direction, out):
+    """``out = point + side·offset·geometric``, ``side`` = the sign of ``direction·geometric``
+    (+1 where 0): off the surface, on the side the new ray leaves on."""
+    for i in range(point.shape[0]):
+        dot = (direction[i, 0] * geometric[i, 0] + direction[i, 1] * geometric[i, 1]
+               + direction[i, 2] * geometric[i, 2])
+        step = -offset[i] if dot < 0 else offset[i]
+        for k in range(3):
+            out[i, k] = point[i, k] + step * geometric[i, k]
+
+
+# -- build ----------------------------------------------------------------------------------
+@kernel
+def vertex_normals(vertices, faces, out):
+    """Unit vertex normals ``N_V = Σ N_k / |Σ N_k|`` (seed 000, Gouraud) into ``out`` (V, 3);
+    0 where the face normals cancel. Sums face by face in face order, each face's unit normal
+    ``(b − a) × (c − a) / |…|`` added to its corners 0, then 1, then 2."""
+    nf = faces.shape[0]
+    fn = np.empty((nf, 3))
+    for f in range(nf):
+        a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+        e1x, e1y, e1z = (vertices[b, 0] - vertices[a, 0], vertices[b, 1] - vertices[a, 1],
+                         vertices[b, 2] - vertices[a, 2])
+        e2x, e2y, e2z = (vertices[c, 0] - vertices[a, 0], vertices[c, 1] - vertices[a, 1],
+                         vertices[c, 2] - vertices[a, 2])
+        x, y, z = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+        length = math.sqrt(x * x + y * y + z * z)
+        fn[f, 0], fn[f, 1], fn[f, 2] = x / length, y / length, z / length
+    out[:] = 0.0
+    for k in range(3):
+        for f in range(nf):
+            for j in range(3):
+                out[faces[f, k], j] += fn[f, j]
+    for i in range(out.shape[0]):
+        length = math.sqrt(out[i, 0] * out[i, 0] + out[i, 1] * out[i, 1] + out[i, 2] * out[i, 2])
+        for j in range(3):  # cancelling normals: shading falls back to the face's
+            out[i, j] = 0.0 if length < 1e-12 else out[i, j] / length
+
+
+@kernel
+def triangle_tables(vertices, faces, vnormal, offset_scale, corners, face_normal, vnormals,
+                    offset):
+    """The per-triangle tables of one mesh, written into (F, …) views of the scene's tables:
+    float64 ``corners`` (F, 3, 3); unit ``face_normal`` ``(b − a) × (c − a) / |…|``; the
+    unit vertex normals ``vnormal`` at the ``vnormals`` corners, the face normal at a vertex
+    whose face normals cancel (so Gouraud shading does not go dark there); and the spawn
+    ``offset``: ``offset_scale`` × the largest absolute float32 coordinate of the corners
+    (at least float32's smallest normal number)."""
+    for f in range(faces.shape[0]):
+        extent = 0.0
+        for k in range(3):
+            for j in range(3):
+                x = vertices[faces[f, k], j]
+                corners[f, k, j] = x
+                extent = max(extent, abs(np.float64(np.float32(x))))
+        e1x, e1y, e1z = (corners[f, 1, 0] - corners[f, 0, 0], corners[f, 1, 1] - corners[f, 0, 1],
+                         corners[f, 1, 2] - corners[f, 0, 2])
+        e2x, e2y, e2z = (corners[f, 2, 0] - corners[f, 0, 0], corners[f, 2, 1] - corners[f, 0, 1],
+                         corners[f, 2, 2] - corners[f, 0, 2])
+        x, y, z = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+        length = math.sqrt(x * x + y * y + z * z)
+        face_normal[f, 0], face_normal[f, 1], face_normal[f, 2] = x / length, y / length, z / length
+        for k in range(3):
+            v = faces[f, k]
+            cancel = vnormal[v, 0] == 0 and vnormal[v, 1] == 0 and vnormal[v, 2] == 0
+            for j in range(3):
+                vnormals[f, k, j] = face_normal[f, j] if cancel else vnormal[v, j]
+        offset[f] = offset_scale * max(extent, F32_TINY)
+

@@ -1,0 +1,449 @@
+"""Compiled per-ray arithmetic of the shading stage, used by :mod:`raytrace.integrator` and
+behind the array functions of :mod:`raytrace.optics`, :mod:`raytrace.lights` and
+:mod:`raytrace.shading`.
+
+Two layers, in pipeline order:
+
+* **one ray at a time**, a function per formula, on scalars: ``reflect3`` / ``refract3``
+  (law of reflection, Snell), ``incidence1`` (a light's L, distance and
+  ``f_radial·f_angular``, seed 000), ``cosine_power1`` / ``phong1`` / ``blinn1`` /
+  ``direct1`` (the seeds' local model, Phong 1975, Blinn 1977), ``checker1`` (the world-space
+  checker of SCENE_FORMAT.md) and ``leave1`` (where a spawned ray starts);
+* **one batch at a time**, the passes the integrator makes over its hits, each composed of the
+  functions above: ``light_hits`` (one emitter's unshadowed term and its shadow-ray
+  candidates), ``shadow_rays``, ``cross_surfaces`` (transparent shadows), ``add_light``,
+  ``hit_terms`` (what each hit adds to its sample; its reflected, refracted and see-through
+  children's directions, weights and pruning status) and ``spawn_origins``; plus
+  ``accumulate``, the fixed-order sum into the pixel samples.
+
+All are serial ``nogil`` kernels (``raytrace.jit.kernel``). The two heavy passes,
+``light_hits`` and ``hit_terms``, write only each ray's own rows, so the integrator runs them
+chunk by chunk on the accelerator's threads and no result depends on the number of threads;
+the others move little data per ray, and ``accumulate`` must be serial: the rays of one sample
+are summed in one fixed order. Arguments are always C-contiguous float64
+/ int64 (bool for flags) arrays, so each kernel compiles once, into numba's cache. Everything
+compiled for shading lives in this one file because numba's cache notices edits only to the
+file of the kernel it compiled, not to the files of the functions that kernel inlines.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .jit import kernel
+
+#: Highlight model codes (``raytrace.shading.HIGHLIGHT_CODES``).
+PHONG, BLINN = 0, 1
+#: Emitter kinds in :func:`incidence1`'s packed row.
+POINT, SPOT, DIRECTIONAL = 0, 1, 2
+#: First column of each colour in a material's row of colours (``raytrace.material.COLOR_KEYS``).
+KA, KD, KS, KR, KT = 0, 3, 6, 9, 12
+#: :func:`hit_terms`' status of a child ray.
+NONE, LIGHT, KEEP = 0, 1, 2
+
+
+# -- optics -----------------------------------------------------------------------------------
+@kernel
+def reflect3(dx, dy, dz, nx, ny, nz):
+    """Mirror direction ``r = d − 2(d·n)n`` (law of reflection)."""
+    k = 2.0 * (dx * nx + dy * ny + dz * nz)
+    return dx - k * nx, dy - k * ny, dz - k * nz
+
+
+@kernel
+def refract3(dx, dy, dz, nx, ny, nz, eta):
+    """Snell refraction ``η₁ sin θ₁ = η₂ sin θ₂`` with ``eta = η₁/η₂`` of a unit ``d`` at the
+    unit normal ``n`` on its side; returns ``(tx, ty, tz, tir)``.
+
+    ``cos θᵢ = clip(−d·n, 0, 1)``, radicand ``k = cos²θᵢ − (η² − 1)·sin²θᵢ`` (so η = 1 leaves
+    exactly undeviated), ``t = η·d + (η·cos θᵢ − √k)·n``; ``k < 0`` is total internal
+    reflection, where ``t`` is the mirror direction instead.
+    """
+    cos_i = min(max(-(dx * nx + dy * ny + dz * nz), 0.0), 1.0)
+    sin2 = max(0.0, (1.0 - cos_i) * (1.0 + cos_i))
+    k = cos_i * cos_i - (eta - 1.0) * (eta + 1.0) * sin2
+    if k < 0.0:
+        rx, ry, rz = reflect3(dx, dy, dz, nx, ny, nz)
+        return rx, ry, rz, True
+    c = eta * cos_i - math.sqrt(k)
+    return eta * dx + c * nx, eta * dy + c * ny, eta * dz + c * nz, False
+
+
+# -- lights -----------------------------------------------------------------------------------
+@kernel
+def incidence1(px, py, pz, em):
+    """Unit vector to the light, distance and attenuation ``f_radial·f_angular`` at a point.
+
+    ``em`` is an emitter packed by ``raytrace.lights.Emitter.packed``: kind, position (3),
+    direction (3), attenuation a0 a1 a2, cos θ of the cone, exponent a. Seed 000:
+    ``f_radial = 1/(a0 + a1·d + a2·d²)`` (0 where that is not finite, and at the light itself,
+    where L is undefined; L stays a unit vector however near or far the light); a spot
+    multiplies ``(cos α)^a`` inside its cone (``cos α >= cos θ``, edge included) and 0
+    outside. A directional light has L = −direction, d = ∞, f = 1.
+    """
+    if em[0] == DIRECTIONAL:
+        return -em[4], -em[5], -em[6], math.inf, 1.0
+    lx, ly, lz = em[1] - px, em[2] - py, em[3] - pz
+    if lx == 0.0 and ly == 0.0 and lz == 0.0:
+        return lx, ly, lz, 0.0, 0.0
+    square = lx * lx + ly * ly + lz * lz
+    if not 1e-290 < square < 1e290:  # |L|² under- or overflows: scale it first
+        big = max(max(abs(lx), abs(ly)), abs(lz))
+        lx, ly, lz = lx / big, ly / big, lz / big
+        unit = math.sqrt(lx * lx + ly * ly + lz * lz)
+        dist = big * unit
+        lx, ly, lz = lx / unit, ly / unit, lz / unit
+    else:
+        dist = math.sqrt(square)
+        lx, ly, lz = lx / dist, ly / dist, lz / dist
+    f = 1.0 / (em[7] + dist * (em[8] + em[9] * dist))
+    if not math.isfinite(f):
+        f = 0.0
+    if em[0] == SPOT:
+        cos_a = -(lx * em[4] + ly * em[5] + lz * em[6])  # light-to-point against the axis
+        f = f * (max(cos_a, 0.0) ** em[11] if cos_a >= em[10] else 0.0)
+    return lx, ly, lz, dist, f
+
+
+# -- highlights and the local model -----------------------------------------------------------
+@kernel
+def cosine_power1(ax, ay, az, bx, by, bz, n):
+    """``max(a·b, 0)^n`` for unit vectors as ``exp(n·log1p(−h))`` with ``h = 1 − a·b`` taken
+    as ``|a − b|²/2`` (no cancellation near a·b = 1, so n = 1e8 still falls off right);
+    0 where ``a·b <= 0`` (0^0 counts as 0), 1 where n = 0 otherwise."""
+    ex, ey, ez = ax - bx, ay - by, az - bz
+    h = 0.5 * (ex * ex + ey * ey + ez * ez)
+    # h < 1 alone lets a·b = 0 through where |a − b|² rounds just below 2 (0^0 would give 1).
+    if not (h < 1.0 and ax * bx + ay * by + az * bz > 0.0):
+        return 0.0
+    if n == 0.0:
+        return 1.0
+    return math.exp(n * math.log1p(-h))
+
+
+@kernel
+def phong1(nx, ny, nz, lx, ly, lz, vx, vy, vz, n):
+    """Phong's ``(V·R)^n``, ``R = 2(N·L)N − L`` normalised (Phong 1975)."""
+    k = 2.0 * (nx * lx + ny * ly + nz * lz)
+    rx, ry, rz = k * nx - lx, k * ny - ly, k * nz - lz
+    length = max(math.sqrt(rx * rx + ry * ry + rz * rz), 1e-300)
+    return cosine_power1(vx, vy, vz, rx / length, ry / length, rz / length, n)
+
+
+@kernel
+def blinn1(nx, ny, nz, lx, ly, lz, vx, vy, vz, n):
+    """Blinn's ``(N·H)^n``, ``H = (L + V)/|L + V|`` (Blinn 1977); 0 where L = −V."""
+    hx, hy, hz = lx + vx, ly + vy, lz + vz
+    length = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if not length > 1e-12:
+        return 0.0
+    return cosine_power1(nx, ny, nz, hx / length, hy / length, hz / length, n)
+
+
+@kernel
+def highlight1(model, nx, ny, nz, lx, ly, lz, vx, vy, vz, n):
+    """The highlight ``spec`` of model code ``model`` (PHONG or BLINN)."""
+    if model == BLINN:
+        return blinn1(nx, ny, nz, lx, ly, lz, vx, vy, vz, n)
+    return phong1(nx, ny, nz, lx, ly, lz, vx, vy, vz, n)
+
+
+@kernel
+def direct1(nx, ny, nz, lx, ly, lz, vx, vy, vz, kd, ks, n, model):
+    """``kd·max(N·L, 0) + ks·spec`` per channel for rows ``kd``, ``ks`` (3,); all zero where
+    ``N·L <= 0`` (the highlight too, whatever the exponent)."""
+    ndl = nx * lx + ny * ly + nz * lz
+    if not ndl > 0.0:
+        return 0.0, 0.0, 0.0
+    spec = highlight1(model, nx, ny, nz, lx, ly, lz, vx, vy, vz, n)
+    return kd[0] * ndl + ks[0] * spec, kd[1] * ndl + ks[1] * spec, kd[2] * ndl + ks[2] * spec
+
+
+# -- surfaces ---------------------------------------------------------------------------------
+@kernel
+def checker1(x, y, z, scale):
+    """1 where ``floor(x/s + 1e-4) + floor(y/s + 1e-4) + floor(z/s + 1e-4)`` is odd, else 0
+    (SCENE_FORMAT.md; the parity of the int64 cast, which is even beyond 2⁵³ and for NaN)."""
+    cells = (math.floor(x / scale + 1e-4) + math.floor(y / scale + 1e-4)
+             + math.floor(z / scale + 1e-4))
+    half = 0.5 * cells
+    return 1 if half - math.floor(half) == 0.5 else 0
+
+
+@kernel
+def color1(materials, m, slot, x, y, z):
+    """Colour ``slot`` (KA … KT) of material ``m`` at the world point (x, y, z): its constant,
+    or its checker pattern there. ``materials`` is ``raytrace.integrator.MaterialTable.arrays``
+    (colours (M, 15), pattern (M, 5) row of ``checkers`` or −1, checkers (P, 7): colour 0,
+    colour 1, scale, then the per-material scalars)."""
+    colors, pattern, checkers = materials[0], materials[1], materials[2]
+    p = pattern[m, slot // 3]
+    if p < 0:
+        return colors[m, slot], colors[m, slot + 1], colors[m, slot + 2]
+    c = 3 * checker1(x, y, z, checkers[p, 6])
+    return checkers[p, c], checkers[p, c + 1], checkers[p, c + 2]
+
+
+@kernel
+def facing1(gx, gy, gz, dx, dy, dz):
+    """+1 where the geometric normal faces the viewer (``N_g·(−d) >= 0``), else −1: surfaces
+    are two-sided, normals turn to the side the ray comes from."""
+    return -1.0 if gx * -dx + gy * -dy + gz * -dz < 0.0 else 1.0
+
+
+@kernel
+def leave1(px, py, pz, gx, gy, gz, offset, dx, dy, dz):
+    """Start of a ray leaving a surface point along ``d``: ``offset`` off the surface along the
+    geometric normal, on the side it leaves on (``raytrace.accel.spawn_origins``)."""
+    dot = dx * gx + dy * gy + dz * gz
+    side = 1.0 if dot >= 0.0 else (-1.0 if dot < 0.0 else math.nan)  # sign, +1 at 0
+    step = side * offset
+    return px + step * gx, py + step * gy, pz + step * gz
+
+
+# -- batch kernels of the integrator ----------------------------------------------------------
+@kernel
+def colors_at(material, point, origin, materials, slot, out):
+    """Colour ``slot`` (n, 3) of the hits' materials at the world points ``point + origin``."""
+    for i in range(material.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = color1(
+            materials, material[i], slot, point[i, 0] + origin[0], point[i, 1] + origin[1],
+            point[i, 2] + origin[2])
+
+
+@kernel
+def light_hits(point, geometric, shading, direction, material, origin, materials, em, term,
+               to_light, dist, candidate):
+    """One emitter at every hit: ``term = f·[kd·max(N·L, 0) + ks·spec]`` (n, 3) with N the
+    shading normal turned to the viewer and V = −d, the unit ``to_light`` and ``dist`` for the
+    shadow rays, and ``candidate`` where some channel of term is > 0 (only those need a shadow
+    ray; unlit materials get term 0 and no candidate)."""
+    shininess, highlight, lit = materials[3], materials[4], materials[7]
+    for i in range(point.shape[0]):
+        m = material[i]
+        if not lit[m]:
+            term[i, 0] = term[i, 1] = term[i, 2] = 0.0
+            candidate[i] = False
+            continue
+        dx, dy, dz = direction[i, 0], direction[i, 1], direction[i, 2]
+        s = facing1(geometric[i, 0], geometric[i, 1], geometric[i, 2], dx, dy, dz)
+        nx, ny, nz = shading[i, 0] * s, shading[i, 1] * s, shading[i, 2] * s
+        px, py, pz = point[i, 0], point[i, 1], point[i, 2]
+        lx, ly, lz, d, f = incidence1(px, py, pz, em)
+        to_light[i, 0], to_light[i, 1], to_light[i, 2] = lx, ly, lz
+        dist[i] = d
+        wx, wy, wz = px + origin[0], py + origin[1], pz + origin[2]
+        kd = color1(materials, m, KD, wx, wy, wz)
+        ks = color1(materials, m, KS, wx, wy, wz)
+        r, g, b = direct1(nx, ny, nz, lx, ly, lz, -dx, -dy, -dz, kd, ks, shininess[m],
+                          highlight[m])
+        r, g, b = r * f, g * f, b * f
+        term[i, 0], term[i, 1], term[i, 2] = r, g, b
+        candidate[i] = r > 0.0 or g > 0.0 or b > 0.0
+
+
+@kernel
+def shadow_rays(rows, point, geometric, offset, shape, to_light, dist, shorten, origin,
+                direction, tmax, start):
+    """Shadow rays of the hits ``rows`` into ``origin``, ``direction``, ``tmax`` and ``start``:
+    origins off the surface towards the light, ``tmax = dist·(1 − shorten)`` (they stop just
+    short of the light), the shapes they start on."""
+    keep = 1.0 - shorten
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        lx, ly, lz = to_light[i, 0], to_light[i, 1], to_light[i, 2]
+        origin[j, 0], origin[j, 1], origin[j, 2] = leave1(
+            point[i, 0], point[i, 1], point[i, 2], geometric[i, 0], geometric[i, 1],
+            geometric[i, 2], offset[i], lx, ly, lz)
+        direction[j, 0], direction[j, 1], direction[j, 2] = lx, ly, lz
+        tmax[j] = dist[i] * keep
+        start[j] = shape[i]
+
+
+@kernel
+def add_light(out, rows, term, shadow, color):
+    """``out[rows[j]] += term[rows[j]]·S[j]·I_l``: the emitter's share where the shadow
+    factor S (k, 3) lets it through (rows are distinct)."""
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        for c in range(3):
+            out[i, c] += term[i, c] * shadow[j, c] * color[c]
+
+
+@kernel
+def cross_surfaces(factor, rays, material, point, origin, materials):
+    """A transparent shadow ray crossing a surface: ``S *= t·kt + (1 − t)`` (seed 003) for the
+    rays ``rays`` (rows of ``factor``) at surfaces of ``material`` at ``point``; True where
+    some channel still lets light through."""
+    opacity = materials[6]
+    on = np.empty(rays.shape[0], np.bool_)
+    for j in range(rays.shape[0]):
+        t = opacity[material[j]]
+        kt = color1(materials, material[j], KT, point[j, 0] + origin[0],
+                    point[j, 1] + origin[1], point[j, 2] + origin[2])
+        r = rays[j]
+        for c in range(3):
+            factor[r, c] *= t * kt[c] + (1.0 - t)
+        on[j] = factor[r, 0] > 0.0 or factor[r, 1] > 0.0 or factor[r, 2] > 0.0
+    return on
+
+
+@kernel
+def hit_terms(direction, weight, geometric, shading, material, point, origin, materials,
+              ambient, lights, min_weight, local, r_dir, t_dir, w_r, w_t, w_s, status, tir):
+    """What every hit adds to its sample and the children it spawns (Whitted 1980; seed 003's
+    opacity blend), with t the opacity and N_s, N_g the shading and geometric normals turned
+    to the viewer:
+
+    * ``local = t·(ka·Ia + lights)`` (n, 3), per unit of ray weight; ``lights`` (n, 3) is
+      Σ_l S_l·f_l·I_l·[…], or has no rows in a scene without lights;
+    * reflected: ``reflect(d, N_s)`` with weight ``w·t·kr``; where the interpolated normal
+      sends it into the surface (``r·N_g <= 0``) it is mirrored about N_g instead;
+    * refracted: ``refract(d, N_s, η)`` with η = 1/ior entering (``d·N_g < 0`` for the outward
+      normal), ior leaving, weight ``w·t·kt``; TIR sends the kt share along the mirror
+      direction; where the direction lands on the wrong side of the face (a refracted ray
+      not crossing it, a TIR ray crossing it) it is refracted about N_g instead;
+    * see-through: straight on with weight ``w·(1 − t)``.
+
+    ``status`` (n, 3), columns reflected, refracted, see-through: NONE where the material has
+    no such child or its weight is 0, LIGHT where its largest channel is under ``min_weight``
+    (Hall & Greenberg 1983), else KEEP. ``tir`` is set on transmitting hits only.
+    """
+    ior, opacity, reflects, transmits = materials[5], materials[6], materials[8], materials[9]
+    lit = lights.shape[0] > 0
+    for i in range(direction.shape[0]):
+        m = material[i]
+        t = opacity[m]
+        wx, wy, wz = point[i, 0] + origin[0], point[i, 1] + origin[1], point[i, 2] + origin[2]
+        ka = color1(materials, m, KA, wx, wy, wz)
+        for c in range(3):
+            here = ambient[c] * ka[c]
+            if lit:
+                here += lights[i, c]
+            local[i, c] = t * here
+        status[i, 0] = status[i, 1] = status[i, 2] = NONE
+        tir[i] = False
+        dx, dy, dz = direction[i, 0], direction[i, 1], direction[i, 2]
+        gx, gy, gz = geometric[i, 0], geometric[i, 1], geometric[i, 2]
+        s = facing1(gx, gy, gz, dx, dy, dz)
+        nx, ny, nz = shading[i, 0] * s, shading[i, 1] * s, shading[i, 2] * s
+        fx, fy, fz = gx * s, gy * s, gz * s
+        if reflects[m]:
+            rx, ry, rz = reflect3(dx, dy, dz, nx, ny, nz)
+            if rx * fx + ry * fy + rz * fz <= 0.0:
+                rx, ry, rz = reflect3(dx, dy, dz, fx, fy, fz)
+            r_dir[i, 0], r_dir[i, 1], r_dir[i, 2] = rx, ry, rz
+            kr = color1(materials, m, KR, wx, wy, wz)
+            for c in range(3):
+                w_r[i, c] = weight[i, c] * t * kr[c]
+            status[i, 0] = _status(w_r[i], min_weight)
+        if transmits[m]:
+            eta = 1.0 / ior[m] if dx * gx + dy * gy + dz * gz < 0.0 else ior[m]
+            tx, ty, tz, total = refract3(dx, dy, dz, nx, ny, nz, eta)
+            side = tx * fx + ty * fy + tz * fz
+            if (side <= 0.0) if total else (side >= 0.0):
+                tx, ty, tz, total = refract3(dx, dy, dz, fx, fy, fz, eta)
+            t_dir[i, 0], t_dir[i, 1], t_dir[i, 2] = tx, ty, tz
+            tir[i] = total
+            kt = color1(materials, m, KT, wx, wy, wz)
+            for c in range(3):
+                w_t[i, c] = weight[i, c] * t * kt[c]
+            status[i, 1] = _status(w_t[i], min_weight)
+        if t < 1.0:
+            for c in range(3):
+                w_s[i, c] = weight[i, c] * (1.0 - t)
+            status[i, 2] = _status(w_s[i], min_weight)
+
+
+@kernel
+def _status(w, min_weight):
+    """NONE, LIGHT or KEEP for a child of weight ``w`` (3,) (its largest channel, NaN
+    propagating like numpy's max)."""
+    big = w[0]
+    for c in range(1, 3):
+        if not (big >= w[c] or big != big):
+            big = w[c]
+    if not big > 0.0:
+        return NONE
+    return LIGHT if big < min_weight else KEEP
+
+
+@kernel
+def spawn_origins(rows, point, geometric, offset, direction):
+    """Origins (k, 3) of rays leaving the hits ``rows`` along ``direction`` (k, 3)."""
+    k = rows.shape[0]
+    origin = np.empty((k, 3))
+    for j in range(k):
+        i = rows[j]
+        origin[j, 0], origin[j, 1], origin[j, 2] = leave1(
+            point[i, 0], point[i, 1], point[i, 2], geometric[i, 0], geometric[i, 1],
+            geometric[i, 2], offset[i], direction[j, 0], direction[j, 1], direction[j, 2])
+    return origin
+
+
+@kernel
+def accumulate(samples, sample, weight, factor, rows, part):
+    """``samples[sample[r]] += weight[r]·factor[r]`` for r in ``rows`` (``factor`` of one row
+    applies to all), as ``np.bincount`` would: the rays of one sample are summed first, in row
+    order, then added, so the result depends on nothing but the order of the rows. ``part``,
+    shaped like ``samples``, holds the sums: all zero on entry, left all zero."""
+    one = factor.shape[0] == 1
+    for j in range(rows.shape[0]):
+        r = rows[j]
+        s = sample[r]
+        f = 0 if one else r
+        for c in range(3):
+            part[s, c] += weight[r, c] * factor[f, c]
+    for j in range(rows.shape[0]):
+        s = sample[rows[j]]
+        for c in range(3):
+            samples[s, c] += part[s, c]
+            part[s, c] = 0.0  # a repeated sample adds its sum once
+
+
+# -- array versions of the per-ray functions (the public numpy-facing API) -----------------------
+@kernel
+def reflect_rows(d, n, out):
+    for i in range(d.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = reflect3(d[i, 0], d[i, 1], d[i, 2], n[i, 0], n[i, 1],
+                                                   n[i, 2])
+
+
+@kernel
+def refract_rows(d, n, eta, out, tir):
+    for i in range(d.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2], tir[i] = refract3(d[i, 0], d[i, 1], d[i, 2], n[i, 0],
+                                                           n[i, 1], n[i, 2], eta[i])
+
+
+@kernel
+def incidence_rows(points, em, to_light, dist, factor):
+    for i in range(points.shape[0]):
+        lx, ly, lz, dist[i], factor[i] = incidence1(points[i, 0], points[i, 1], points[i, 2],
+                                                    em)
+        to_light[i, 0], to_light[i, 1], to_light[i, 2] = lx, ly, lz
+
+
+@kernel
+def cosine_power_rows(a, b, n, out):
+    for i in range(a.shape[0]):
+        out[i] = cosine_power1(a[i, 0], a[i, 1], a[i, 2], b[i, 0], b[i, 1], b[i, 2], n[i])
+
+
+@kernel
+def highlight_rows(model, normal, to_light, to_eye, n, out):
+    for i in range(normal.shape[0]):
+        out[i] = highlight1(model, normal[i, 0], normal[i, 1], normal[i, 2], to_light[i, 0],
+                            to_light[i, 1], to_light[i, 2], to_eye[i, 0], to_eye[i, 1],
+                            to_eye[i, 2], n[i])
+
+
+@kernel
+def direct_rows(normal, to_light, to_eye, kd, ks, n, model, out):
+    for i in range(normal.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = direct1(
+            normal[i, 0], normal[i, 1], normal[i, 2], to_light[i, 0], to_light[i, 1],
+            to_light[i, 2], to_eye[i, 0], to_eye[i, 1], to_eye[i, 2], kd[i], ks[i], n[i],
+            model[i])
