@@ -70,8 +70,6 @@ from raytrace import accel  # noqa: E402
 from raytrace.scene import Mesh, Plane, Sphere  # noqa: E402
 
 PARTS = ("throughput", "povray", "profile", "scaling", "startup", "threads")
-#: Parts run only when named in --parts.
-EXTRA_PARTS = ("numba",)
 WHITTED = ROOT / "scenes" / "whitted.toml"
 #: (width, height) of each benchmark scene, full and --quick.
 SIZES = {"mesh": (1000, 1000), "whitted": (1280, 960)}
@@ -446,208 +444,6 @@ def profile_breakdown(path: Path, width: int, height: int) -> dict:
             "calls": dict(timers.calls)}
 
 
-# -- numba prototypes (the proposed next step) -----------------------------------------------
-def _numba_kernels():
-    """Prototype kernels for the three hottest numpy stages; compiled on first call."""
-    import math
-
-    import numba as nb
-
-    @nb.njit(parallel=True, cache=False)
-    def analytic(o, d, osh, centers, radii, points, normals, t_out, s_out):
-        # Spheres then planes, closest hit; self-hits skipped as in raytrace.analytic (the
-        # touching-solids tolerance is left out of this prototype).
-        ns, npl = centers.shape[0], points.shape[0]
-        for i in nb.prange(o.shape[0]):
-            bt, bs = np.inf, -1
-            for s in range(ns):
-                ox = o[i, 0] - centers[s, 0]
-                oy = o[i, 1] - centers[s, 1]
-                oz = o[i, 2] - centers[s, 2]
-                b = ox * d[i, 0] + oy * d[i, 1] + oz * d[i, 2]
-                fx, fy, fz = ox - b * d[i, 0], oy - b * d[i, 1], oz - b * d[i, 2]
-                r = radii[s]
-                disc = r * r - (fx * fx + fy * fy + fz * fz)
-                if osh[i] == s:  # leaving its own sphere: only the far root going in
-                    if b < 0:
-                        q = -b - math.copysign(math.sqrt(max(disc, 0.0)), b)
-                        if 0 < q < bt:
-                            bt, bs = q, s
-                    continue
-                if disc < 0:
-                    continue
-                q = -b - math.copysign(math.sqrt(disc), b)
-                t1 = (ox * ox + oy * oy + oz * oz - r * r) / q
-                near, far = min(q, t1), max(q, t1)
-                t = near if near > 0 else far
-                if 0 < t < bt:
-                    bt, bs = t, s
-            for p in range(npl):
-                if osh[i] == ns + p:
-                    continue
-                den = d[i, 0] * normals[p, 0] + d[i, 1] * normals[p, 1] + d[i, 2] * normals[p, 2]
-                t = ((points[p, 0] - o[i, 0]) * normals[p, 0] + (points[p, 1] - o[i, 1])
-                     * normals[p, 1] + (points[p, 2] - o[i, 2]) * normals[p, 2]) / den
-                if 0 < t < bt and math.isfinite(t):
-                    bt, bs = t, ns + p
-            t_out[i], s_out[i] = bt, bs
-
-    @nb.njit(parallel=True, cache=False)
-    def phong_point(p, nrm, eye, kd, ks, shin, lpos, att, out):
-        # kd·max(N·L, 0) + ks·max(V·R, 0)^n times 1/(a0 + a1·d + a2·d²), one point light.
-        for i in nb.prange(p.shape[0]):
-            lx, ly, lz = lpos[0] - p[i, 0], lpos[1] - p[i, 1], lpos[2] - p[i, 2]
-            dl = math.sqrt(lx * lx + ly * ly + lz * lz)
-            lx, ly, lz = lx / dl, ly / dl, lz / dl
-            f = 1.0 / (att[0] + dl * (att[1] + att[2] * dl))
-            ndl = nrm[i, 0] * lx + nrm[i, 1] * ly + nrm[i, 2] * lz
-            if ndl <= 0:
-                out[i, 0] = out[i, 1] = out[i, 2] = 0.0
-                continue
-            rx = 2 * ndl * nrm[i, 0] - lx
-            ry = 2 * ndl * nrm[i, 1] - ly
-            rz = 2 * ndl * nrm[i, 2] - lz
-            rl = max(math.sqrt(rx * rx + ry * ry + rz * rz), 1e-300)
-            rx, ry, rz = rx / rl, ry / rl, rz / rl
-            hx, hy, hz = eye[i, 0] - rx, eye[i, 1] - ry, eye[i, 2] - rz
-            h = 0.5 * (hx * hx + hy * hy + hz * hz)  # 1 − V·R, stable
-            spec = 0.0
-            if h < 1.0 and eye[i, 0] * rx + eye[i, 1] * ry + eye[i, 2] * rz > 0:
-                spec = math.exp(shin[i] * math.log1p(-h)) if shin[i] != 0 else 1.0
-            for c in range(3):
-                out[i, c] = f * (kd[i, c] * ndl + ks[i, c] * spec)
-
-    @nb.njit(parallel=True, cache=False)
-    def refine_surface(tri, corners, vnormals, fnormals, o, d, u32, v32, point, ns, t_out):
-        # Möller–Trumbore in float64 on Embree's triangle, clamped; point; smooth normal.
-        for i in nb.prange(o.shape[0]):
-            c, vn = corners[tri[i]], vnormals[tri[i]]
-            e1 = c[1] - c[0]
-            e2 = c[2] - c[0]
-            px = d[i, 1] * e2[2] - d[i, 2] * e2[1]
-            py = d[i, 2] * e2[0] - d[i, 0] * e2[2]
-            pz = d[i, 0] * e2[1] - d[i, 1] * e2[0]
-            det = e1[0] * px + e1[1] * py + e1[2] * pz
-            sx, sy, sz = o[i, 0] - c[0, 0], o[i, 1] - c[0, 1], o[i, 2] - c[0, 2]
-            qx, qy, qz = sy * e1[2] - sz * e1[1], sz * e1[0] - sx * e1[2], sx * e1[1] - sy * e1[0]
-            u = (sx * px + sy * py + sz * pz) / det
-            v = (d[i, 0] * qx + d[i, 1] * qy + d[i, 2] * qz) / det
-            if det == 0 or not (math.isfinite(u) and math.isfinite(v)):
-                u, v = u32[i], v32[i]
-            u, v = max(u, 0.0), max(v, 0.0)
-            if u + v > 1:
-                u, v = u / (u + v), v / (u + v)
-            w = 1 - u - v
-            t, l2 = 0.0, 0.0
-            for k in range(3):
-                point[i, k] = w * c[0, k] + u * c[1, k] + v * c[2, k]
-                t += (point[i, k] - o[i, k]) * d[i, k]
-                ns[i, k] = w * vn[0, k] + u * vn[1, k] + v * vn[2, k]
-                l2 += ns[i, k] * ns[i, k]
-            t_out[i] = t
-            length = math.sqrt(l2)
-            for k in range(3):
-                ns[i, k] = ns[i, k] / length if length > 1e-12 else fnormals[tri[i], k]
-
-    return analytic, phong_point, refine_surface
-
-
-def _best(fn, repeat: int = 3) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
-
-
-def numba_prototypes(mesh_path: Path, quick: bool) -> list[dict]:
-    """Prototype numba kernels against the numpy code they would replace, on the benchmark
-    scenes' camera rays: analytic intersection (Whitted), direct lighting and mesh-hit
-    refinement + surface (mesh). Evidence for docs/performance.md's next steps; not used by
-    the renderer."""
-    from raytrace.camera import camera_rays
-    from raytrace.integrator import RenderOptions, WhittedIntegrator
-    from raytrace.shading import direct
-
-    analytic, phong_point, refine_surface = _numba_kernels()
-    out = []
-    # Analytic: camera rays of the Whitted scene, and their mirror reflections.
-    w, h = QUICK_SIZES["whitted"] if quick else SIZES["whitted"]
-    scene = raytrace.load_scene(WHITTED)
-    opts = RenderOptions(w, h, 1, 5, 0.0, np.zeros(3), 0, 1)
-    sh = WhittedIntegrator(scene, opts).accel.shapes
-    cam = camera_rays(scene.camera, w, h, 1, 0, 0, w * h)
-    t, s = sh.intersect(cam.origin, cam.direction, cam.origin_shape)
-    hit = np.isfinite(t)
-    point, normal = sh.surface(s[hit], cam.origin[hit] + t[hit, None] * cam.direction[hit])
-    d = cam.direction[hit]
-    refl = d - 2.0 * np.einsum("ij,ij->i", d, normal)[:, None] * normal
-    for label, (o, d, osh) in {"camera": (cam.origin, cam.direction, cam.origin_shape),
-                               "reflection": (point, refl, s[hit])}.items():
-        to, so = np.empty(len(o)), np.empty(len(o), np.int64)
-        args = (o, d, osh, sh.centers, sh.radii, sh.points, sh.normals, to, so)
-        analytic(*args)
-        tn = _best(lambda o=o, d=d, osh=osh: sh.intersect(o, d, osh))
-        tb = _best(lambda args=args: analytic(*args))
-        rt, rs = sh.intersect(o, d, osh)
-        with np.errstate(invalid="ignore"):  # inf − inf on rays that miss in both
-            same = np.mean((so == rs) & ((to == rt) | (np.abs(to - rt) <= 1e-12 * np.abs(rt))))
-        out.append({"stage": f"analytic intersection, whitted {label} rays", "n": len(o),
-                    "numpy_seconds": tn, "numba_seconds": tb,
-                    "agreement": f"same hit for {same:.4%} of rays"})
-    # Mesh scene: Embree's hits of the camera rays.
-    w, h = QUICK_SIZES["mesh"] if quick else SIZES["mesh"]
-    scene = raytrace.load_scene(mesh_path)
-    integ = WhittedIntegrator(scene, RenderOptions(w, h, 1, 5, 0.0, np.zeros(3), 0, 1))
-    acc = integ.accel
-    cam = camera_rays(scene.camera, w, h, 1, 0, 0, w * h)
-    big = np.finfo(np.float32).max
-    e = acc.embree.run(cam.origin.astype(np.float32), cam.direction.astype(np.float32),
-                       dists=np.full(w * h, big, np.float32), output=1)
-    k = np.flatnonzero(e["geomID"] >= 0)
-    tri = acc.geom_first[e["geomID"][k]] + e["primID"][k]
-    o, d = cam.origin[k], cam.direction[k]
-    u32, v32 = e["u"][k], e["v"][k]
-    m = len(k)
-    pt, ns, tt = np.empty((m, 3)), np.empty((m, 3)), np.empty(m)
-    args = (tri, acc.tri_corners, acc.tri_vnormals, acc.tri_normal, o, d, u32, v32, pt, ns, tt)
-    refine_surface(*args)
-
-    def numpy_refine_surface():
-        corners = acc.tri_corners[tri]
-        uv = accel._refine_uv(corners, o, d, u32, v32)
-        np.einsum("ij,ij->i", accel._barycentric_point(corners, uv) - o, d)
-        hits = accel.Hits(np.ones(m), np.full(m, -1), tri, uv)
-        return acc.surface(hits, o, d)
-
-    surf = numpy_refine_surface()
-    out.append({"stage": "mesh hit refinement + surface (no Embree)", "n": m,
-                "numpy_seconds": _best(numpy_refine_surface),
-                "numba_seconds": _best(lambda: refine_surface(*args)),
-                "agreement": f"max |normal diff| {np.abs(ns - surf.shading).max():.1e}"})
-    mat = surf.material
-    kd = integ.table.color("kd", mat, surf.point)
-    ks = integ.table.color("ks", mat, surf.point)
-    shin, model = integ.table.shininess[mat], integ.table.highlight[mat]
-    em = integ.emitters[0]
-    eye = -d
-    res = np.empty((m, 3))
-    args2 = (surf.point, surf.shading, eye, kd, ks, shin, em.position, em.attenuation, res)
-    phong_point(*args2)
-
-    def numpy_direct():
-        to_light, _, f = em.incidence(surf.point)
-        return direct(surf.shading, to_light, eye, kd, ks, shin, model) * f[:, None]
-
-    ref = numpy_direct()
-    out.append({"stage": "direct lighting, 1 point light, Phong", "n": m,
-                "numpy_seconds": _best(numpy_direct),
-                "numba_seconds": _best(lambda: phong_point(*args2)),
-                "agreement": f"max |diff| {np.abs(res - ref).max():.1e}"})
-    return out
-
-
 # -- scaling, start-up, threads ----------------------------------------------------------------
 def linear_fit(samples: list[int], seconds: list[float]) -> dict:
     """Least-squares ``seconds = fixed + per_sample·samples`` and the largest relative
@@ -789,13 +585,6 @@ def report(results: dict) -> str:
                    f"residual {_f(sc['max_residual'], '{:.1%}')})\n"
                    + table(["pixels", "spp", "samples", "render s", "us/sample", "peak MiB"],
                            rows))
-    if results.get("numba"):
-        rows = [[r["stage"], str(r["n"]), _f(r["numpy_seconds"]), _f(r["numba_seconds"]),
-                 _f(r["numpy_seconds"] / r["numba_seconds"], "{:.0f}x"), r["agreement"]]
-                for r in results["numba"]]
-        out.append("numba prototypes (numpy: 1 thread; numba: parallel over all cores, "
-                   "compiled beforehand)\n" + table(
-                       ["stage", "n", "numpy s", "numba s", "speed-up", "agreement"], rows))
     if results.get("startup"):
         s = results["startup"]
         out.append(f"start-up: raytrace render whitted 64x48 to EXR, wall "
@@ -833,10 +622,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--workdir", help="folder for scenes and images (default: a temp folder)")
     a = p.parse_args(argv)
     parts = [x for x in a.parts.split(",") if x]
-    unknown = sorted(set(parts) - set(PARTS) - set(EXTRA_PARTS))
+    unknown = sorted(set(parts) - set(PARTS))
     if unknown:
         p.error(f"unknown part(s) {', '.join(unknown)} "
-                f"(choose from {', '.join(PARTS + EXTRA_PARTS)})")
+                f"(choose from {', '.join(PARTS)})")
     names = [x for x in a.scenes.split(",") if x]
     if set(names) - set(SIZES):
         p.error(f"unknown scene(s) in {a.scenes!r} (choose from {', '.join(SIZES)})")
@@ -867,9 +656,6 @@ def main(argv: list[str] | None = None) -> int:
         if "scaling" in parts:
             results["scaling"] = scaling(scene_files(workdir)["mesh"], a.threads, workdir,
                                          a.quick, big=not (a.quick or a.no_big))
-        if "numba" in parts:
-            results["numba"] = numba_prototypes(files.get("mesh") or scene_files(workdir)["mesh"],
-                                                a.quick)
         if "startup" in parts:
             results["startup"] = startup(workdir, a.threads, runs=2 if a.quick else 3)
         if "threads" in parts:

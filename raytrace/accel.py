@@ -191,7 +191,7 @@ class Accelerator:
         finally:
             set_threads(self.threads)
 
-    def _chunks(self, fn, n: int) -> None:
+    def map_chunks(self, fn, n: int) -> None:
         """Run ``fn(slice)`` over chunks of at most :data:`CHUNK` rays, on :attr:`threads`
         threads: this one and the pool's.
 
@@ -256,7 +256,7 @@ class Accelerator:
                 self._closest_triangles(origin[s], direction[s], lim[s] if has_tmax else lim,
                                         has_tmax, t[s], shape[s], triangle[s], uv[s])
 
-            self._chunks(run, n)
+            self.map_chunks(run, n)
         return Hits(t, shape, triangle, uv)
 
     def _closest_triangles(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray,
@@ -296,7 +296,7 @@ class Accelerator:
                    else NO_RESULT)
             K.occlusion(t[s], idx, res, blocked[s])
 
-        self._chunks(run, n)
+        self.map_chunks(run, n)
         return blocked
 
     def _record(self, query: str, origin: np.ndarray, direction: np.ndarray,

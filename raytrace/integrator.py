@@ -239,7 +239,7 @@ class WhittedIntegrator:
         """``fn(slice)`` over chunks of ``n`` hits on ``threads`` threads: the accelerator's
         pool and queue of chunks (a late worker takes fewer chunks instead of stalling the
         batch, as an OpenMP region's static split would on a busy machine)."""
-        self.accel._chunks(fn, n)
+        self.accel.map_chunks(fn, n)
 
     def shade(self, rays: RayBatch, surf: Surface, samples: np.ndarray) -> RayBatch:
         """Add ``weight·t·I_local`` of every hit to its sample (t the opacity) and return the
