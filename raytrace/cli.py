@@ -116,7 +116,7 @@ def _render(args: argparse.Namespace) -> int:
         key = (e.key or "").removeprefix("render.")
         raise SceneError(e.problem, flags.get(key, e.key)) from None
     t1 = time.perf_counter()
-    write_exr(out, image.rgb, image.metadata)
+    write_exr(out, image.rgb, image.metadata, args.threads)
     if args.png:
         write_png(args.png, image.rgb, args.exposure, args.tonemap)
     stats = image.stats

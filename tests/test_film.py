@@ -151,3 +151,19 @@ def test_bad_shapes_and_types_are_refused_before_writing(tmp_path):
     with pytest.raises(ValueError, match="unknown image type"):
         raytrace.Image(np.zeros((2, 2, 3), np.float32)).save(tmp_path / "x.jpg")
     assert os.listdir(tmp_path) == []
+
+
+def test_threaded_write_gives_the_same_bytes_and_restores_the_pool(tmp_path):
+    # Compression on OpenEXR's pool must not change the file, and the process-wide pool size
+    # must be put back (another library in the process may rely on it).
+    import OpenEXR
+
+    rng = np.random.default_rng(7)
+    rgb = rng.random((97, 131, 3)).astype(np.float32) * 10.0  # several 16-line ZIP blocks
+    before = OpenEXR.global_thread_count()
+    write_exr(tmp_path / "one.exr", rgb, {"spp": 1}, threads=1)
+    write_exr(tmp_path / "two.exr", rgb, {"spp": 1}, threads=2)
+    assert OpenEXR.global_thread_count() == before
+    assert (tmp_path / "one.exr").read_bytes() == (tmp_path / "two.exr").read_bytes()
+    back, _ = raytrace.read_exr(tmp_path / "two.exr")
+    assert np.array_equal(back, rgb)
