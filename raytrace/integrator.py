@@ -37,7 +37,7 @@ from .film import Image
 from .lights import Emitter, emitters
 from .material import COLOR_KEYS, Checker, Material
 from .optics import dot
-from .rays import KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH, RayBatch, take_rows
+from .rays import KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH, RayBatch, take_hits, take_rows
 from .scene import Scene
 from .shading import HIGHLIGHT_CODES, direct
 
@@ -46,7 +46,8 @@ PASS_SAMPLES = 1 << 17
 #: Most surfaces a transparent shadow ray passes through before it counts as blocked.
 MAX_SHADOW_CROSSINGS = 64
 ZERO3 = np.zeros(3)
-NO_ROWS = np.zeros(0, np.int64)
+#: Kinds of the children, in the order of :meth:`WhittedIntegrator._spawn`'s columns.
+CHILD_KINDS = np.array([REFLECTION, REFRACTION, SEE_THROUGH], np.int8)
 NO_LIGHT = np.zeros((0, 3))
 
 
@@ -204,8 +205,9 @@ class WhittedIntegrator:
     def trace(self, rays: RayBatch, samples: np.ndarray) -> RayBatch:
         """One depth: intersect, add background and local shading, return the next depth."""
         st, o = self.stats, self.opt
-        for kind, name in enumerate(KIND_NAMES):
-            st.rays[name] += int(np.count_nonzero(rays.kind == kind))
+        for name, count in zip(KIND_NAMES, np.bincount(rays.kind, minlength=len(KIND_NAMES)),
+                               strict=True):
+            st.rays[name] += int(count)
         t0 = time.perf_counter()
         hits = self.accel.intersect(rays.origin, rays.direction, rays.origin_shape)
         st.trace_seconds += time.perf_counter() - t0
@@ -218,11 +220,19 @@ class WhittedIntegrator:
             return RayBatch.empty(rays.depth + 1)
         t1 = time.perf_counter()
         trace_before = st.trace_seconds
-        if len(found) < len(rays):  # compaction: only the hits go on
-            rays = rays.take(found)
-            hits.t, hits.shape, hits.triangle = (hits.t[found], hits.shape[found],
-                                                 hits.triangle[found])
-            hits.uv = take_rows(hits.uv, found)
+        if len(found) < len(rays):  # compaction: only the hits go on, in one pass
+            k, new = len(found), self.scratch  # these rays and hits end with this call
+            out = tuple(new(f"hit_{i}", k, *shape) for i, shape in enumerate((
+                (3,), (3,), (0, rays.sample.dtype), (3,), (0, rays.origin_shape.dtype),
+                (0, rays.kind.dtype), (0, hits.t.dtype), (0, hits.shape.dtype),
+                (0, hits.triangle.dtype), (hits.uv.shape[1], hits.uv.dtype))))
+            self.chunks(lambda s: take_hits(
+                found[s], rays.origin, rays.direction, rays.sample, rays.weight,
+                rays.origin_shape, rays.kind, hits.t, hits.shape, hits.triangle, hits.uv,
+                tuple(a[s] for a in out)), k)
+            origin, direction, sample, weight, origin_shape, kind = out[:6]
+            hits.t, hits.shape, hits.triangle, hits.uv = out[6:]
+            rays = RayBatch(origin, direction, sample, weight, rays.depth, origin_shape, kind)
         surf = self.accel.surface(hits, rays.origin, rays.direction)
         children = self.shade(rays, surf, samples)
         st.shade_seconds += time.perf_counter() - t1 - (st.trace_seconds - trace_before)
@@ -265,30 +275,48 @@ class WhittedIntegrator:
         if depth <= self.opt.max_depth:
             self.stats.total_internal_reflections += int(np.count_nonzero(tir))
         # The next depth: reflected, refracted (or TIR) and see-through children.
-        kept = self._prune(status, depth)
-        return RayBatch.concatenate(
-            [self._spawn(rays, surf, rows, take_rows(d, rows), take_rows(w, rows), kind)
-             for rows, d, w, kind in zip(kept, (r_dir, t_dir, rays.direction), (w_r, w_t, w_s),
-                                         (REFLECTION, REFRACTION, SEE_THROUGH), strict=True)
-             if len(rows)], depth)
+        if not self._prune(status, depth):
+            return RayBatch.empty(depth)
+        return self._spawn(rays, surf, status, (r_dir, t_dir, rays.direction),
+                           (w_r, w_t, w_s))[0]
 
-    @staticmethod
-    def _spawn(parents: RayBatch, surf: Surface, m: np.ndarray, direction: np.ndarray,
-               weight: np.ndarray, kind: int) -> RayBatch:
-        """Children of the hits ``m`` (indices), leaving along ``direction``."""
-        origin = K.spawn_origins(m, surf.point, surf.geometric, surf.offset, direction)
-        return RayBatch(origin, direction, parents.sample[m], weight, parents.depth + 1,
-                        surf.shape[m], np.full(len(m), kind, np.int8))
+    def _spawn(self, parents: RayBatch, surf: Surface, status: np.ndarray, directions: tuple,
+               weights: tuple) -> tuple[RayBatch, np.ndarray]:
+        """The children of the hits whose ``status`` is KEEP, in one batch (reflected, then
+        refracted, then see-through, each in hit order), and the row of each one's parent
+        hit; ``directions`` and ``weights``: reflected, refracted, see-through. Two passes of
+        chunks: count each chunk's children (:func:`raytrace.shading_kernels.count_keep`),
+        then fill each chunk's rows from the prefix sums
+        (:func:`raytrace.shading_kernels.spawn_children`)."""
+        n, counts = len(status), {}
+        self.chunks(lambda s: counts.__setitem__(s.start, K.count_keep(status[s])), n)
+        starts = sorted(counts)
+        per_kind = np.sum([counts[a] for a in starts], axis=0)
+        running = np.concatenate([[0], np.cumsum(per_kind)[:-1]])  # where each kind starts
+        first = {}
+        for a in starts:
+            first[a], running = running, running + counts[a]
+        k = int(per_kind.sum())
+        origin, direction, weight = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
+        sample, shape = np.empty(k, np.int64), np.empty(k, np.int64)
+        kind, parent = np.empty(k, np.int8), np.empty(k, np.int64)
+        self.chunks(lambda s: K.spawn_children(
+            status[s], first[s.start], s.start, *(d[s] for d in directions),
+            *(w[s] for w in weights), surf.point[s], surf.geometric[s], surf.offset[s],
+            surf.shape[s], parents.sample[s], CHILD_KINDS, origin, direction, weight, sample,
+            shape, kind, parent), n)
+        return RayBatch(origin, direction, sample, weight, parents.depth + 1, shape,
+                        kind), parent
 
-    def _prune(self, status: np.ndarray, depth: int) -> list[np.ndarray]:
-        """Rows of the children to keep, per kind (the columns of ``status``): none past
+    def _prune(self, status: np.ndarray, depth: int) -> bool:
+        """Whether any children (the columns of ``status``) may go on: none past
         ``max_depth``, none under ``min_weight`` (Hall & Greenberg 1983); the dropped ones are
         counted."""
         if depth > self.opt.max_depth:
             self.stats.pruned_depth += int(np.count_nonzero(status))
-            return [NO_ROWS] * status.shape[1]
+            return False
         self.stats.pruned_weight += int(np.count_nonzero(status == K.LIGHT))
-        return [np.flatnonzero(status[:, k] == K.KEEP) for k in range(status.shape[1])]
+        return True
 
     def direct_lighting(self, rays: RayBatch, surf: Surface) -> np.ndarray:
         """Σ_l S_l · f_l · I_l · [kd·max(N·L, 0) + ks·spec] at every hit, (n, 3): per emitter,

@@ -103,3 +103,21 @@ def take_rows(a, rows):
         for c in range(a.shape[1]):
             out[j, c] = a[rows[j], c]
     return out
+
+
+@kernel
+def take_hits(rows, origin, direction, sample, weight, origin_shape, kind, t, shape, triangle,
+              uv, out):
+    """The rays ``rows`` of a batch (its columns ``origin`` … ``kind``) together with their
+    hits (``t``, ``shape``, ``triangle``, ``uv`` of ``raytrace.accel.Hits``), in one pass,
+    into ``out``: the same ten columns, ``len(rows)`` rows each (the compaction to the rays
+    that hit something; row-wise, so runs of ``rows`` can go to different threads)."""
+    o, d, s, w, os_, kd, tt, sh, tri, b = out
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        for c in range(3):
+            o[j, c], d[j, c], w[j, c] = origin[i, c], direction[i, c], weight[i, c]
+        s[j], os_[j], kd[j] = sample[i], origin_shape[i], kind[i]
+        tt[j], sh[j], tri[j] = t[i], shape[i], triangle[i]
+        for c in range(uv.shape[1]):
+            b[j, c] = uv[i, c]

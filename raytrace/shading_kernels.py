@@ -13,7 +13,9 @@ Two layers, in pipeline order:
   functions above: ``light_hits`` (one emitter's unshadowed term and its shadow-ray
   candidates), ``shadow_rays``, ``cross_surfaces`` (transparent shadows), ``add_light``,
   ``hit_terms`` (what each hit adds to its sample; its reflected, refracted and see-through
-  children's directions, weights and pruning status) and ``spawn_origins``; plus
+  children's directions, weights and pruning status), ``count_keep`` and
+  ``spawn_children`` (the next depth's batch from those, chunk by chunk) and
+  ``spawn_origins``; plus
   ``accumulate``, the fixed-order sum into the pixel samples.
 
 All are serial ``nogil`` kernels (``raytrace.jit.kernel``). The two heavy passes,
@@ -381,6 +383,47 @@ def spawn_origins(rows, point, geometric, offset, direction):
             point[i, 0], point[i, 1], point[i, 2], geometric[i, 0], geometric[i, 1],
             geometric[i, 2], offset[i], direction[j, 0], direction[j, 1], direction[j, 2])
     return origin
+
+
+@kernel
+def count_keep(status):
+    """How many rows of ``status`` (n, 3) are KEEP, per column (3,)."""
+    count = np.zeros(3, np.int64)
+    for i in range(status.shape[0]):
+        for c in range(3):
+            if status[i, c] == KEEP:
+                count[c] += 1
+    return count
+
+
+@kernel
+def spawn_children(status, first, row0, r_dir, t_dir, s_dir, w_r, w_t, w_s, point, geometric,
+                   offset, shape, sample, kinds, origin, direction, weight, child_sample,
+                   child_shape, kind, parent):
+    """The children of a run of hits (rows ``row0 …`` of the batch): every child whose
+    ``status`` (n, 3) is KEEP, column c's (reflected, refracted, see-through: directions
+    ``r_dir``, ``t_dir``, ``s_dir``, weights ``w_r``, ``w_t``, ``w_s``, kind ``kinds[c]``) in
+    hit order from row ``first[c]`` of the outputs on; the integrator sets ``first`` from
+    :func:`count_keep`'s prefix sums, so the batch is allocated once, all reflected children
+    first, and runs fill it in parallel. Writes origin (:func:`leave1` from the hit along
+    the child's direction), direction, weight, sample, start shape, kind and the row of each
+    child's parent hit."""
+    for c in range(3):
+        d = r_dir if c == 0 else (t_dir if c == 1 else s_dir)
+        w = w_r if c == 0 else (w_t if c == 1 else w_s)
+        j = first[c]
+        for i in range(status.shape[0]):
+            if status[i, c] != KEEP:
+                continue
+            dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
+            direction[j, 0], direction[j, 1], direction[j, 2] = dx, dy, dz
+            weight[j, 0], weight[j, 1], weight[j, 2] = w[i, 0], w[i, 1], w[i, 2]
+            origin[j, 0], origin[j, 1], origin[j, 2] = leave1(
+                point[i, 0], point[i, 1], point[i, 2], geometric[i, 0], geometric[i, 1],
+                geometric[i, 2], offset[i], dx, dy, dz)
+            child_sample[j], child_shape[j], kind[j] = sample[i], shape[i], kinds[c]
+            parent[j] = row0 + i
+            j += 1
 
 
 @kernel

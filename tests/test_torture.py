@@ -650,13 +650,17 @@ def test_shading_normals_never_send_rays_into_the_surface(monkeypatch):
     seen = []
     spawn = WhittedIntegrator._spawn
 
-    def spy(parents, surf, m, direction, weight, kind):
+    def spy(self, parents, surf, status, directions, weights):
+        children, parent = spawn(self, parents, surf, status, directions, weights)
         if parents.depth == 0:  # children of camera rays
-            seen.append((kind, parents.direction[m].copy(), surf.geometric[m].copy(),
-                         surf.shading[m].copy(), direction.copy()))
-        return spawn(parents, surf, m, direction, weight, kind)
+            for kind in (REFLECTION, REFRACTION):
+                mine = children.kind == kind
+                m = parent[mine]
+                seen.append((kind, parents.direction[m].copy(), surf.geometric[m].copy(),
+                             surf.shading[m].copy(), children.direction[mine].copy()))
+        return children, parent
 
-    monkeypatch.setattr(WhittedIntegrator, "_spawn", staticmethod(spy))
+    monkeypatch.setattr(WhittedIntegrator, "_spawn", spy)
     render_checked(scene, width=64, height=64)
     refl = [s for s in seen if s[0] == REFLECTION]
     refr = [s for s in seen if s[0] == REFRACTION]
