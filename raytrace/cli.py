@@ -3,7 +3,7 @@
     raytrace render SCENE [-o OUT.exr] [--width W] [--height H] [--spp N] [--max-depth D]
                           [--min-weight W] [--seed S] [--threads T] [--png PREVIEW.png]
                           [--exposure EV] [--tonemap clip|reinhard] [--stats STATS.json]
-                          [--quiet]
+                          [--compression none|rle|zips|zip|piz|zstd] [--quiet]
     raytrace compare TEST.exr REFERENCE.exr [--metric rmse|mae|max|relmse] [--threshold T]
     raytrace materials
 
@@ -37,6 +37,8 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _parser() -> argparse.ArgumentParser:
+    from .film import EXR_COMPRESSIONS
+
     p = _Parser(prog="raytrace", description="A Whitted ray tracer on Embree.")
     sub = p.add_subparsers(dest="command", required=True)
 
@@ -55,6 +57,10 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--exposure", type=float, default=0.0, help="preview exposure in stops")
     r.add_argument("--tonemap", default="clip", help="preview tone map: clip or reinhard")
     r.add_argument("--stats", help="write render statistics as JSON")
+    r.add_argument("--compression", default="zip", type=str.lower,
+                   choices=tuple(EXR_COMPRESSIONS),
+                   help="EXR compression, all lossless (default: zip; zstd files need "
+                        "OpenEXR >= 3.5 to read)")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
     c = sub.add_parser("compare", help="compare two EXR images; exit 1 when over threshold")
@@ -87,13 +93,17 @@ class Progress:
 
 
 def _render(args: argparse.Namespace) -> int:
-    from .film import TONEMAPS, write_exr, write_png
+    from .film import TONEMAPS, exr_compression, write_exr, write_png
     from .render import render
     from .scene_file import load_scene
 
     if args.tonemap not in TONEMAPS:
         raise SceneError(f"unknown tone map {args.tonemap!r} (choose from {', '.join(TONEMAPS)})",
                          "--tonemap")
+    try:  # the binding may lack a listed one (zstd before 3.5): found now, not after the render
+        exr_compression(args.compression)
+    except ValueError as e:
+        raise SceneError(str(e), "--compression") from None
     out = Path(args.output) if args.output else Path(Path(args.scene).stem + ".exr")
     if out.suffix.lower() != ".exr":
         raise SceneError(f"output must be an .exr file, got {str(out)!r}", "-o")
@@ -116,7 +126,7 @@ def _render(args: argparse.Namespace) -> int:
         key = (e.key or "").removeprefix("render.")
         raise SceneError(e.problem, flags.get(key, e.key)) from None
     t1 = time.perf_counter()
-    write_exr(out, image.rgb, image.metadata, args.threads)
+    write_exr(out, image.rgb, image.metadata, args.threads, args.compression)
     if args.png:
         write_png(args.png, image.rgb, args.exposure, args.tonemap)
     stats = image.stats

@@ -27,6 +27,28 @@ import numpy as np
 #: Rec. 709 / sRGB primaries and D65 white: (red xy, green xy, blue xy, white xy).
 SRGB_CHROMATICITIES = (0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290)
 
+#: The EXR compressions offered, by name → the OpenEXR binding's constant. All are lossless on
+#: float32 (bit-exact round trips); the lossy ones (PXR24, B44, DWAA/DWAB) are left out. ZSTD
+#: files need OpenEXR >= 3.5 to read them (and that binding to write them).
+EXR_COMPRESSIONS = {"none": "NO_COMPRESSION", "rle": "RLE_COMPRESSION",
+                    "zips": "ZIPS_COMPRESSION", "zip": "ZIP_COMPRESSION",
+                    "piz": "PIZ_COMPRESSION", "zstd": "ZSTD_COMPRESSION"}
+
+
+def exr_compression(name: str):
+    """The OpenEXR binding's compression constant for one of :data:`EXR_COMPRESSIONS`' names
+    (any case); a ValueError naming the valid ones otherwise."""
+    import OpenEXR
+
+    key = name.lower() if isinstance(name, str) else None
+    if key not in EXR_COMPRESSIONS:
+        raise ValueError(f"unknown EXR compression {name!r} "
+                         f"(choose from {', '.join(EXR_COMPRESSIONS)})")
+    if not hasattr(OpenEXR, EXR_COMPRESSIONS[key]):
+        raise ValueError(f"EXR compression {key!r} needs a newer OpenEXR module than "
+                         f"{getattr(OpenEXR, '__version__', 'the one installed')}")
+    return getattr(OpenEXR, EXR_COMPRESSIONS[key])
+
 
 @contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
@@ -47,20 +69,21 @@ def atomic_path(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
 
 
 def write_exr(path: str | os.PathLike, rgb: np.ndarray, metadata: dict | None = None,
-              threads: int = 1) -> None:
-    """Write (H, W, 3) linear RGB as float32 OpenEXR (ZIP: lossless zlib per 16 scanlines),
-    atomically. ``threads`` > 1 compresses the scanline blocks on OpenEXR's pool of that many
-    workers (process-wide, restored afterwards); the file's bytes do not depend on it. Whitted
-    1280×960 on 2 cores: 123 ms on 1 thread, 71 ms on 2, 7.3 MB either way. Measured against
-    it at 2 threads: ZIPS 74 ms/8.9 MB, PIZ 242 ms/6.9 MB, RLE 36 ms/14 MB, none 20 ms/15 MB,
-    ZSTD 72 ms/3.9 MB but unreadable before OpenEXR 3.5.
+              threads: int = 1, compression: str = "zip") -> None:
+    """Write (H, W, 3) linear RGB as float32 OpenEXR, atomically, with a lossless
+    ``compression`` from :data:`EXR_COMPRESSIONS` (default ``"zip"``: zlib per 16 scanlines).
+    ``threads`` > 1 compresses the scanline blocks on OpenEXR's pool of that many workers
+    (process-wide, restored afterwards); the file's bytes do not depend on it. Whitted
+    1280×960 on 2 cores: ZIP 123 ms on 1 thread, 71 ms on 2, 7.3 MB either way. At 2 threads:
+    ZIPS 74 ms/8.9 MB, PIZ 242 ms/6.9 MB, RLE 36 ms/14 MB, none 20 ms/15 MB, ZSTD 72 ms/3.9 MB
+    but unreadable before OpenEXR 3.5 (docs/performance.md).
     """
     import OpenEXR
 
     rgb = np.asarray(rgb, dtype=np.float32)
     if rgb.ndim != 3 or rgb.shape[2] != 3:
         raise ValueError(f"expected an (H, W, 3) image, got shape {rgb.shape}")
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+    header = {"compression": exr_compression(compression), "type": OpenEXR.scanlineimage,
               "chromaticities": SRGB_CHROMATICITIES}
     for k, v in (metadata or {}).items():
         header[f"raytrace:{k}"] = v if isinstance(v, (int, float)) else str(v)
@@ -161,12 +184,12 @@ class Image:
         return self.rgb.shape[0]
 
     def save(self, path: str | os.PathLike, exposure: float = 0.0, tonemap: str = "clip",
-             threads: int = 1) -> None:
-        """Write ``.exr`` (float, linear; compressed on ``threads`` threads) or ``.png``
-        (tone-mapped sRGB preview)."""
+             threads: int = 1, compression: str = "zip") -> None:
+        """Write ``.exr`` (float, linear; ``compression`` one of :data:`EXR_COMPRESSIONS`, run
+        on ``threads`` threads) or ``.png`` (tone-mapped sRGB preview; ``compression`` unused)."""
         suffix = Path(path).suffix.lower()
         if suffix == ".exr":
-            write_exr(path, self.rgb, self.metadata, threads)
+            write_exr(path, self.rgb, self.metadata, threads, compression)
         elif suffix == ".png":
             write_png(path, self.rgb, exposure, tonemap)
         else:

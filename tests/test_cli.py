@@ -212,3 +212,65 @@ def test_compare_in_a_subprocess(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "raytrace", "compare", test, ref],
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 1 and "over" in proc.stdout and proc.stderr == ""
+
+
+# -- --compression ---------------------------------------------------------------------------------
+
+def _header_compression(path):
+    import OpenEXR
+
+    with OpenEXR.File(str(path)) as f:
+        return f.header()["compression"]
+
+
+@pytest.mark.parametrize("flag,expected", [(None, "ZIP_COMPRESSION"),
+                                           ("none", "NO_COMPRESSION"),
+                                           ("piz", "PIZ_COMPRESSION"),
+                                           ("RLE", "RLE_COMPRESSION")])
+def test_compression_flag_reaches_the_file_header(tmp_path, capsys, flag, expected):
+    import OpenEXR
+
+    scene = _floor(tmp_path, 6, 4)
+    out = tmp_path / "o.exr"
+    rc, cap = _render([scene, "-o", out, *(["--compression", flag] if flag else [])], capsys)
+    assert rc == 0 and cap.err == ""
+    assert _header_compression(out) == getattr(OpenEXR, expected)
+    rgb, _ = raytrace.read_exr(out)                # lossless: the same pixels as the API's
+    np.testing.assert_array_equal(rgb, raytrace.render(raytrace.load_scene(scene)).rgb)
+
+
+def test_compression_choices_are_in_the_help(capsys):
+    with pytest.raises(SystemExit) as e:
+        cli.main(["render", "--help"])
+    assert e.value.code == 0
+    help_text = capsys.readouterr().out
+    assert "--compression {none,rle,zips,zip,piz,zstd}" in help_text
+
+
+@pytest.mark.parametrize("bad", ["fancy", "dwaa", "pxr24"])
+def test_bad_compression_is_one_line_and_writes_nothing(tmp_path, capsys, bad):
+    scene = _floor(tmp_path, 4, 2)
+    with pytest.raises(SystemExit) as e:
+        cli.main(["render", str(scene), "-o", str(tmp_path / "o.exr"), "--compression", bad,
+                  "--png", str(tmp_path / "p.png"), "--stats", str(tmp_path / "s.json")])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    lines = err.splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    assert "--compression" in lines[0] and bad in lines[0]
+    assert all(name in lines[0] for name in ("none", "rle", "zips", "zip", "piz", "zstd"))
+    assert sorted(os.listdir(tmp_path)) == ["floor.toml"]
+
+
+def test_compression_missing_from_the_binding_fails_before_the_render(tmp_path, capsys,
+                                                                      monkeypatch):
+    import OpenEXR
+
+    monkeypatch.delattr(OpenEXR, "ZSTD_COMPRESSION", raising=False)
+    monkeypatch.setattr(cli, "Progress", lambda *a: pytest.fail("rendered"))  # never reached
+    scene = _floor(tmp_path, 4, 2)
+    rc, cap = _render([scene, "-o", tmp_path / "o.exr", "--compression", "zstd"], capsys)
+    assert rc == 2
+    lines = cap.err.splitlines()
+    assert len(lines) == 1 and "--compression" in lines[0] and "zstd" in lines[0], cap.err
+    assert sorted(os.listdir(tmp_path)) == ["floor.toml"]

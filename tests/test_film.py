@@ -11,7 +11,14 @@ import pytest
 from helpers import aimed_camera, make_scene, read_png
 
 import raytrace
-from raytrace.film import SRGB_CHROMATICITIES, atomic_path, preview, write_exr, write_png
+from raytrace.film import (
+    EXR_COMPRESSIONS,
+    SRGB_CHROMATICITIES,
+    atomic_path,
+    preview,
+    write_exr,
+    write_png,
+)
 
 HDR = np.array([1e6, -3.5, 1e-30, 0.0, -0.0, 1.4e-45, 3.0e38, 0.5, 1.0 / 3.0, -1e-7, 65504.0,
                 123456.789], dtype=np.float32)
@@ -167,3 +174,119 @@ def test_threaded_write_gives_the_same_bytes_and_restores_the_pool(tmp_path):
     assert (tmp_path / "one.exr").read_bytes() == (tmp_path / "two.exr").read_bytes()
     back, _ = raytrace.read_exr(tmp_path / "two.exr")
     assert np.array_equal(back, rgb)
+
+
+# -- compression -----------------------------------------------------------------------------------
+
+#: Every offered name → the OpenEXR binding's constant, written out here (not taken from
+#: raytrace.film.EXR_COMPRESSIONS) so that a name mapped to the wrong compression fails.
+EXPECTED_COMPRESSION = {"none": OpenEXR.NO_COMPRESSION, "rle": OpenEXR.RLE_COMPRESSION,
+                        "zips": OpenEXR.ZIPS_COMPRESSION, "zip": OpenEXR.ZIP_COMPRESSION,
+                        "piz": OpenEXR.PIZ_COMPRESSION,
+                        "zstd": getattr(OpenEXR, "ZSTD_COMPRESSION", None)}  # binding >= 3.5
+HAS_ZSTD = EXPECTED_COMPRESSION["zstd"] is not None
+#: The compression attribute's byte in the file, from the OpenEXR file layout (ImfCompression.h):
+#: NO 0, RLE 1, ZIPS 2, ZIP 3, PIZ 4. Read from the raw bytes, independently of the binding.
+FILE_CODE = {"none": 0, "rle": 1, "zips": 2, "zip": 3, "piz": 4}
+
+
+def _file_compression_code(path) -> int:
+    """The one-byte value of the header attribute ``compression`` (name, type name, int32 size
+    1, then the byte), found in the raw file."""
+    data = path.read_bytes()
+    tag = b"compression\x00compression\x00\x01\x00\x00\x00"
+    assert data.count(tag) == 1
+    return data[data.index(tag) + len(tag)]
+
+
+def _awkward_image(h=40, w=37) -> np.ndarray:
+    """Negatives, 1e-30, 3e38, denormals, −0 and a ramp: several 16- and 32-line blocks."""
+    rgb = _hdr_image(h, w, seed=3)
+    rgb[h // 2:, :, 1] = np.linspace(-2.0, 3.0e38, (h - h // 2) * w, dtype=np.float32).reshape(
+        h - h // 2, w)
+    rgb[:, : w // 2, 2] = np.linspace(1e-30, 1.0, h * (w // 2), dtype=np.float32).reshape(
+        h, w // 2)
+    return rgb
+
+
+def _smooth_ramp(h=48, w=64) -> np.ndarray:
+    y, x = np.mgrid[0:h, 0:w].astype(np.float32)
+    return np.stack([x / w, y / h, (x + y) / (w + h)], axis=-1).astype(np.float32)
+
+
+def test_offered_compressions_are_the_lossless_ones():
+    assert set(EXR_COMPRESSIONS) == set(EXPECTED_COMPRESSION)
+    for lossy in ("pxr24", "b44", "b44a", "dwaa", "dwab"):
+        assert lossy not in EXR_COMPRESSIONS
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED_COMPRESSION))
+def test_every_compression_round_trips_bit_exactly_and_is_in_the_header(tmp_path, name):
+    if name == "zstd" and not HAS_ZSTD:
+        pytest.skip("this OpenEXR binding has no ZSTD (added in 3.5)")
+    rgb = _awkward_image()
+    path = tmp_path / f"{name}.exr"
+    write_exr(path, rgb, {"spp": 1}, compression=name)
+    back, header = raytrace.read_exr(path)
+    _same_bits(back, rgb)
+    assert header["compression"] == EXPECTED_COMPRESSION[name]
+    if name in FILE_CODE:
+        assert _file_compression_code(path) == FILE_CODE[name]
+    # Compressed on a pool of 2: the same bytes, the pool size put back.
+    before = OpenEXR.global_thread_count()
+    write_exr(tmp_path / "two.exr", rgb, {"spp": 1}, threads=2, compression=name.upper())
+    assert OpenEXR.global_thread_count() == before
+    assert (tmp_path / "two.exr").read_bytes() == path.read_bytes()
+
+
+def test_default_compression_is_zip_byte_for_byte(tmp_path):
+    rgb = _awkward_image()
+    write_exr(tmp_path / "default.exr", rgb, {"spp": 2})
+    write_exr(tmp_path / "zip.exr", rgb, {"spp": 2}, compression="zip")
+    assert _file_compression_code(tmp_path / "default.exr") == FILE_CODE["zip"]
+    assert (tmp_path / "default.exr").read_bytes() == (tmp_path / "zip.exr").read_bytes()
+
+
+def test_compressed_sizes_on_a_smooth_ramp(tmp_path):
+    # OpenEXR stores a block raw when compressing would not shrink it, so no compression makes
+    # a larger file than none; uncompressed float32 RGB holds at least H·W·3·4 bytes of pixels.
+    # On a smooth ramp zlib finds the repetition: ZIP (16 lines per block) is smaller than
+    # ZIPS (one line per block, so less context and more block overhead), ZIP smaller than raw.
+    rgb = _smooth_ramp()
+    size = {}
+    for name in [n for n in EXPECTED_COMPRESSION if HAS_ZSTD or n != "zstd"]:
+        write_exr(tmp_path / f"{name}.exr", rgb, compression=name)
+        size[name] = (tmp_path / f"{name}.exr").stat().st_size
+    raw = rgb.size * 4
+    assert size["none"] >= raw
+    assert all(size[name] <= size["none"] for name in size), size
+    assert size["zip"] < size["zips"] < size["none"], size
+    assert size["zip"] < 0.9 * raw and size.get("zstd", 0) < 0.9 * raw, size
+
+
+def test_image_save_passes_the_compression_through(tmp_path):
+    image = raytrace.Image(_awkward_image(6, 5), metadata={"spp": 1})
+    image.save(tmp_path / "piz.exr", compression="piz")
+    image.save(tmp_path / "default.exr")
+    assert _file_compression_code(tmp_path / "piz.exr") == FILE_CODE["piz"]
+    assert _file_compression_code(tmp_path / "default.exr") == FILE_CODE["zip"]
+    _same_bits(raytrace.read_exr(tmp_path / "piz.exr")[0], image.rgb)
+
+
+@pytest.mark.parametrize("bad", ["zip2", "dwaa", "pxr24", "", None])
+def test_unknown_compression_is_refused_before_writing(tmp_path, bad):
+    with pytest.raises(ValueError) as e:
+        write_exr(tmp_path / "x.exr", _hdr_image(), compression=bad)
+    message = str(e.value)
+    assert len(message.splitlines()) == 1 and repr(bad) in message
+    assert all(name in message for name in EXPECTED_COMPRESSION), message
+    with pytest.raises(ValueError, match="unknown EXR compression"):
+        raytrace.Image(_hdr_image()).save(tmp_path / "y.exr", compression=bad)
+    assert os.listdir(tmp_path) == []
+
+
+def test_compression_missing_from_an_older_binding_is_a_clear_error(tmp_path, monkeypatch):
+    monkeypatch.delattr(OpenEXR, "ZSTD_COMPRESSION", raising=False)
+    with pytest.raises(ValueError, match="'zstd' needs a newer OpenEXR"):
+        write_exr(tmp_path / "x.exr", _hdr_image(), compression="zstd")
+    assert os.listdir(tmp_path) == []
