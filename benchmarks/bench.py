@@ -78,6 +78,9 @@ QUICK_SIZES = {"mesh": (160, 160), "whitted": (160, 120)}
 BASELINE_SPHERE_SUBDIVISIONS = 5
 #: Half-size of the 2-triangle quad standing in for an analytic plane in the baseline.
 BASELINE_PLANE_HALF = 1e4
+#: Rays per embreex call in the raw replay, on a pool of threads: 16k–64k is Embree's
+#: measured sweet spot (EMBREEX_NOTES.md).
+RAW_CHUNK = 32768
 
 MESH_SCENE = """\
 # Benchmark scene of issue 6: an 81 920-triangle icosphere (smooth, brass) on a 2-triangle
@@ -237,8 +240,9 @@ def embree_scene(geometry: list[tuple[np.ndarray, np.ndarray]]):
     return es
 
 
-def replay(es, batches, threads: int, chunk: int = accel.CHUNK) -> dict:
-    """Time the batches through embreex alone, chunked and threaded as the renderer does."""
+def replay(es, batches, threads: int, chunk: int = RAW_CHUNK) -> dict:
+    """Time the batches through embreex alone, each cut into chunks of ``chunk`` rays run on
+    ``threads`` threads (the embreex notes' fastest way to drive it from Python)."""
     pool = ThreadPoolExecutor(threads) if threads > 1 else None
     seconds = {"INTERSECT": 0.0, "OCCLUDED": 0.0}
     try:
@@ -285,7 +289,7 @@ def raw_embree(scene: raytrace.Scene, rec: Recorder, threads: int) -> dict:
             "baseline": ("analytic shapes tessellated (icosphere subdivision "
                          f"{BASELINE_SPHERE_SUBDIVISIONS}, plane quad half-size "
                          f"{BASELINE_PLANE_HALF:g})") if analytic else "the scene's own meshes",
-            "chunk": accel.CHUNK, "threads": threads}
+            "chunk": RAW_CHUNK, "threads": threads}
 
 
 def throughput(name: str, path: Path, size: tuple[int, int], threads: int, workdir: Path,

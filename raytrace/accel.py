@@ -9,36 +9,26 @@ This is the only module that imports ``embreex``. Embree works in float32 with `
 * a ray spawned from a mesh hit starts off the surface along the geometric normal, on the side
   it leaves on, by :data:`OFFSET_ULPS` float32 ulps of the hit triangle's largest coordinate
   (scale-aware, unlike a fixed epsilon);
-* a query runs the analytic shapes on the whole batch (a compiled kernel parallel over rays),
-  then Embree chunk by chunk in a thread pool, each chunk bounded by its rays' closest
-  analytic hits and followed by the float64 refinement of Embree's hits. Embree and the
-  kernels of :mod:`raytrace.accel_kernels` release the GIL, so the chunks run in parallel.
+* a query runs the analytic shapes on the batch (a compiled kernel), then Embree, bounded by
+  the rays' closest analytic hits, then the float64 refinement of Embree's hits.
 
-``threads`` sets both: the pool's threads (the calling one included) and numba's.
+A query runs on the calling thread. Embree and the kernels of :mod:`raytrace.accel_kernels`
+release the GIL and the accelerator is read-only after construction, so the integrator's
+threads query it concurrently, each with batches of its own.
 """
 
 from __future__ import annotations
 
-import threading
-from concurrent.futures import ThreadPoolExecutor
-from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import accel_kernels as K
 from .analytic import NO_TMAX, AnalyticShapes, f64, i64
-from .jit import set_threads
 from .scene import Mesh, Plane, Scene, Sphere
 
 #: Spawned-ray offset in float32 ulps (2⁻²³ relative) of the triangle's largest coordinate.
 OFFSET_ULPS = 3.0
-#: Rays per chunk of a query in the thread pool (16k–64k is Embree's measured sweet spot).
-CHUNK = 32768
-#: With several threads, a batch is split into this many chunks per thread…
-CHUNKS_PER_THREAD = 4
-#: …but none smaller than this many rays; smaller batches run on one thread.
-MIN_CHUNK = 8192
 #: Shadow rays stop this relative fraction short of the light.
 SHADOW_SHORTEN = 1e-7
 
@@ -104,9 +94,6 @@ class Accelerator:
         Its objects' materials must be resolved (``Scene`` does so on construction).
     materials : list of Material
         The table that ``Surface.material`` indexes; objects' materials are looked up in it.
-    threads : int
-        Threads for the queries: the calling one and ``threads − 1`` pool workers run
-        Embree's chunks; numba runs the whole-batch kernels on as many.
     """
 
     #: Benchmark hook (off by default): when set, ``recorder(query, origins, directions, tfar)``
@@ -115,9 +102,8 @@ class Accelerator:
     #: ``benchmarks/bench.py`` replays them through embreex alone. None costs one test a batch.
     recorder = None
 
-    def __init__(self, scene: Scene, materials: list, threads: int = 1):
+    def __init__(self, scene: Scene, materials: list):
         self.origin = np.asarray(scene.camera.position, dtype=np.float64)
-        self.threads = max(1, int(threads))
         mat_index = {id(m): i for i, m in enumerate(materials)}
         spheres = [o for o in scene.objects if isinstance(o, Sphere)]
         planes = [o for o in scene.objects if isinstance(o, Plane)]
@@ -128,7 +114,6 @@ class Accelerator:
         self.shape_material = np.array(
             [mat_index[id(o.material)] for o in (*spheres, *planes)], dtype=np.int64)
         self.degenerate = sum(m.degenerate for m in meshes)
-        self._pool = ThreadPoolExecutor(self.threads - 1) if self.threads > 1 else None
         self._build_meshes(meshes, mat_index)
         #: The triangle tables as :func:`raytrace.accel_kernels.hit_surfaces` takes them.
         self.mesh_table = (self.tri_corners, self.tri_normal, self.tri_vnormals,
@@ -173,97 +158,32 @@ class Accelerator:
         one = np.zeros((1, 3), np.float32)
         self.embree.run(one, np.array([[0, 0, 1]], np.float32), output=0)
 
-    def close(self) -> None:
-        if self._pool is not None:
-            self._pool.shutdown()
-            self._pool = None
-
     # -- queries -------------------------------------------------------------------------
-    @contextmanager
-    def _parallel(self, n: int):
-        """numba's threads for a whole-batch kernel of ``n`` rays: :attr:`threads`, or one
-        below :data:`MIN_CHUNK` rays, where a parallel launch costs more than it saves (and
-        stalls for milliseconds while another process holds the second core: every thread of
-        an OpenMP region must get to run). Back to :attr:`threads` afterwards."""
-        set_threads(self.threads if n >= MIN_CHUNK else 1)
-        try:
-            yield
-        finally:
-            set_threads(self.threads)
-
-    def map_chunks(self, fn, n: int) -> None:
-        """Run ``fn(slice)`` over chunks of at most :data:`CHUNK` rays, on :attr:`threads`
-        threads: this one and the pool's.
-
-        With a pool, a batch is cut into at least :data:`CHUNKS_PER_THREAD` chunks per thread
-        (none below :data:`MIN_CHUNK` rays), which the threads take one after another from a
-        shared queue: the calling thread starts at once, and a worker that wakes late (waking
-        a thread took ~0.1 ms on the 2-core test machine, as long as 5000 analytic rays take)
-        takes fewer, or none and is cancelled. Every step of a chunk is row-wise, so the result
-        does not depend on the chunking or on which thread runs which chunk.
-        """
-        if not n:
-            return
-        count = -(-n // CHUNK)
-        if self._pool is not None:
-            count = max(count, min(CHUNKS_PER_THREAD * self.threads, n // MIN_CHUNK))
-        size = -(-n // count)
-        slices = [slice(i, min(i + size, n)) for i in range(0, n, size)]
-        if self._pool is None or len(slices) < 2:
-            for s in slices:
-                fn(s)
-            return
-        queue = iter(slices)
-        lock = threading.Lock()
-
-        def work() -> None:
-            while True:
-                with lock:
-                    s = next(queue, None)
-                if s is None:
-                    return
-                fn(s)
-
-        workers = [self._pool.submit(work) for _ in range(min(self.threads, len(slices)) - 1)]
-        try:
-            work()
-        finally:
-            for w in workers:  # one that has not woken yet has nothing left to do
-                if not w.cancel():
-                    w.result()
-
     def intersect(self, origin: np.ndarray, direction: np.ndarray, origin_shape: np.ndarray,
                   tmax: np.ndarray | None = None) -> Hits:
         """Closest hit of each ray with ``0 < t < tmax`` (mesh and analytic).
 
-        The analytic shapes first, for the whole batch (a kernel parallel over rays); then,
-        chunk by chunk in the pool, Embree bounded by the closest analytic hit and the float64
-        refinement of Embree's hits.
+        The analytic shapes first; then Embree, bounded by the closest analytic hit, and the
+        float64 refinement of Embree's hits.
         """
         origin, direction, origin_shape = f64(origin), f64(direction), i64(origin_shape)
         tmax = None if tmax is None else f64(tmax)
         n = len(origin)
         if self.recorder is not None:
             self._record("INTERSECT", origin, direction, tmax)
-        with self._parallel(n):
-            t, shape = self.shapes.intersect(origin, direction, origin_shape, tmax)
+        t, shape = self.shapes.intersect(origin, direction, origin_shape, tmax)
         triangle = np.full(n, -1, dtype=np.int64)
         uv = np.zeros((n, 2))
-        if self.embree is not None:
+        if self.embree is not None and n:
             has_tmax, lim = (False, NO_TMAX) if tmax is None else (True, tmax)
-
-            def run(s: slice) -> None:
-                self._closest_triangles(origin[s], direction[s], lim[s] if has_tmax else lim,
-                                        has_tmax, t[s], shape[s], triangle[s], uv[s])
-
-            self.map_chunks(run, n)
+            self._closest_triangles(origin, direction, lim, has_tmax, t, shape, triangle, uv)
         return Hits(t, shape, triangle, uv)
 
     def _closest_triangles(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray,
                            has_tmax: bool, t: np.ndarray, shape: np.ndarray,
                            triangle: np.ndarray, uv: np.ndarray) -> None:
-        """Embree's closest hits of one chunk, written into the views ``t``, ``shape``,
-        ``triangle``, ``uv`` where a triangle comes before the analytic hit (and ``tmax``)."""
+        """Embree's closest hits, written into ``t``, ``shape``, ``triangle``, ``uv`` where a
+        triangle comes before the analytic hit (and ``tmax``)."""
         n = len(o)
         o32, d32 = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
         far = np.empty(n, np.float32)  # a fresh array: Embree overwrites it
@@ -276,27 +196,20 @@ class Accelerator:
                  tmax: np.ndarray) -> np.ndarray:
         """True where something opaque or not lies in ``(0, tmax)`` (any-hit query).
 
-        The analytic shapes first, like :meth:`intersect`; Embree, chunk by chunk, only sees
-        the rays they do not block.
+        The analytic shapes first, like :meth:`intersect`; Embree only sees the rays they do
+        not block.
         """
         origin, direction, origin_shape = f64(origin), f64(direction), i64(origin_shape)
         tmax = f64(tmax)
-        n = len(origin)
         if self.recorder is not None:
             self._record("OCCLUDED", origin, direction, tmax)
-        with self._parallel(n):
-            t, _ = self.shapes.intersect(origin, direction, origin_shape, tmax)
+        t, _ = self.shapes.intersect(origin, direction, origin_shape, tmax)
         if self.embree is None:
             return np.isfinite(t)
-        blocked = np.empty(n, dtype=bool)
-
-        def run(s: slice) -> None:
-            idx, o32, d32, far = K.open_rays(origin[s], direction[s], tmax[s], t[s])
-            res = (self.embree.run(o32, d32, dists=far, query="OCCLUDED") if len(idx)
-                   else NO_RESULT)
-            K.occlusion(t[s], idx, res, blocked[s])
-
-        self.map_chunks(run, n)
+        blocked = np.empty(len(origin), dtype=bool)
+        idx, o32, d32, far = K.open_rays(origin, direction, tmax, t)
+        res = self.embree.run(o32, d32, dists=far, query="OCCLUDED") if len(idx) else NO_RESULT
+        K.occlusion(t, idx, res, blocked)
         return blocked
 
     def _record(self, query: str, origin: np.ndarray, direction: np.ndarray,
@@ -312,16 +225,15 @@ class Accelerator:
     def surface(self, hits: Hits, origin: np.ndarray, direction: np.ndarray) -> Surface:
         """Points, normals and materials at the hits (every row of ``hits`` must be a hit).
 
-        One kernel parallel over the hits: :func:`raytrace.accel_kernels.hit_surfaces`.
+        One kernel over the hits: :func:`raytrace.accel_kernels.hit_surfaces`.
         """
         n = len(hits.t)
         point, geometric, shading = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
         material, offset, gouraud = np.empty(n, np.int64), np.empty(n), np.empty(n, bool)
-        with self._parallel(n):
-            K.hit_surfaces(f64(hits.t), i64(hits.shape), i64(hits.triangle), f64(hits.uv),
-                           f64(origin), f64(direction), self.shapes.surface_table,
-                           self.shape_material, self.mesh_table, point, geometric, shading,
-                           material, offset, gouraud)
+        K.hit_surfaces(f64(hits.t), i64(hits.shape), i64(hits.triangle), f64(hits.uv),
+                       f64(origin), f64(direction), self.shapes.surface_table,
+                       self.shape_material, self.mesh_table, point, geometric, shading,
+                       material, offset, gouraud)
         return Surface(point, geometric, shading, material, offset, hits.shape, hits.triangle,
                        hits.uv, gouraud)
 

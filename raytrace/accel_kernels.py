@@ -6,15 +6,13 @@ float32 rays Embree takes → Embree's hits re-solved in float64 → the surface
 spawned rays' origins; and, at build time, the triangle tables and vertex normals.
 
 Every kernel loops over rays and writes only that ray's rows, so no result depends on the
-number of threads or on how a batch is split into chunks (tests/test_threads.py). The
-whole-batch kernels (``closest_analytic``, ``hit_surfaces``) are parallel over rays
-(:data:`raytrace.jit.parallel_kernel`); the kernels around Embree's calls are serial
-``nogil`` kernels (:data:`raytrace.jit.kernel`) that the accelerator runs chunk by chunk in
-its thread pool, beside Embree. Their arguments are always C-contiguous float64 / int64
-arrays (Embree's own float32 / int32 outputs aside), so each kernel compiles once, into
-numba's cache. The kernels of both modules live in this one file because numba's cache only
-notices edits to the file of the kernel it compiled, not to the files of the functions that
-kernel inlines (``sphere_t``, ``_snap``…).
+number of threads or on how a batch is split (tests/test_threads.py). All are serial
+``nogil`` kernels (:data:`raytrace.jit.kernel`): the integrator's threads run them side by
+side on batches of their own, beside Embree. Their arguments are always C-contiguous
+float64 / int64 arrays (Embree's own float32 / int32 outputs aside), so each kernel compiles
+once, into numba's cache. The kernels of both modules live in this one file because numba's
+cache only notices edits to the file of the kernel it compiled, not to the files of the
+functions that kernel inlines (``sphere_t``, ``_snap``…).
 """
 
 from __future__ import annotations
@@ -23,7 +21,7 @@ import math
 
 import numpy as np
 
-from .jit import kernel, parallel_kernel, prange
+from .jit import kernel
 from .rays import NO_SHAPE
 
 #: Rounding tolerance of analytic shapes, relative to the coordinates' magnitude.
@@ -99,7 +97,7 @@ def plane_t(ox, oy, oz, dx, dy, dz, px, py, pz, nx, ny, nz, p_max, extent, spawn
     return math.inf
 
 
-@parallel_kernel
+@kernel
 def closest_analytic(o, d, origin_shape, tmax, has_tmax, shapes, t_out, shape_out):
     """Closest analytic hit of each ray with ``0 < t < tmax`` into ``t_out`` (inf on a miss)
     and ``shape_out`` (NO_SHAPE on a miss).
@@ -110,7 +108,7 @@ def closest_analytic(o, d, origin_shape, tmax, has_tmax, shapes, t_out, shape_ou
     """
     centers, radii, center_max, points, normals, point_max = shapes
     n_spheres = radii.shape[0]
-    for i in prange(o.shape[0]):
+    for i in range(o.shape[0]):
         ox, oy, oz = o[i, 0], o[i, 1], o[i, 2]
         dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
         own = origin_shape[i]
@@ -280,7 +278,7 @@ def refine_hits(geom_id, prim_id, u32, v32, geom_first, corners, o, d, tmax, has
 
 
 # -- surfaces -------------------------------------------------------------------------------
-@parallel_kernel
+@kernel
 def hit_surfaces(t, shape, triangle, uv, o, d, analytic, shape_material, mesh,
                  point, geometric, shading, material, offset, gouraud):
     """Everything the shading needs at each hit (see :class:`raytrace.accel.Surface`).
@@ -296,7 +294,7 @@ def hit_surfaces(t, shape, triangle, uv, o, d, analytic, shape_material, mesh,
     centers, radii, points, normals = analytic
     corners, face_normal, vnormals, code, tri_material, tri_offset = mesh
     n_spheres = radii.shape[0]
-    for i in prange(t.shape[0]):
+    for i in range(t.shape[0]):
         s = shape[i]
         if s != NO_SHAPE:
             px, py, pz, nx, ny, nz = _snap(s, o[i, 0] + t[i] * d[i, 0], o[i, 1] + t[i] * d[i, 1],

@@ -17,15 +17,20 @@ an occlusion query unless something is transparent, no reflection or refraction 
 unless some material reflects or transmits.
 
 This module is the loop; the per-ray arithmetic of each step is a compiled pass over the batch
-in :mod:`raytrace.shading_kernels` (the heavy ones run chunk by chunk on ``threads`` threads),
-and the contributions are summed into the samples in a fixed order, so an image does not
-depend on the number of threads.
+in :mod:`raytrace.shading_kernels`. With ``threads`` > 1 the passes run side by side, one
+thread a pass (the kernels and Embree release the GIL), like the image tiles of pbrt or
+Mitsuba: a pass touches only its own samples, each thread has its own scratch arrays and
+counters, and every sample's contributions are summed in a fixed order (depth by depth, in
+batch order), so the image does not depend on the number of threads or on which thread
+rendered which pass.
 """
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -41,8 +46,9 @@ from .rays import KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH, RayBatch, tak
 from .scene import Scene
 from .shading import HIGHLIGHT_CODES, direct
 
-#: Camera samples per pass (whole pixels): bounds memory independently of resolution.
-PASS_SAMPLES = 1 << 17
+#: Camera samples per pass (whole pixels): the unit of work of a thread. Memory is bounded by
+#: threads × pass size, independently of the resolution.
+PASS_SAMPLES = 1 << 16
 #: Most surfaces a transparent shadow ray passes through before it counts as blocked.
 MAX_SHADOW_CROSSINGS = 64
 ZERO3 = np.zeros(3)
@@ -135,6 +141,30 @@ class Stats:
     total_internal_reflections: int = 0
     trace_seconds: float = 0.0
     shade_seconds: float = 0.0
+    pass_seconds: float = 0.0
+
+    def merge(self, other: Stats) -> None:
+        """Add ``other``'s counts and seconds to these."""
+        for k, v in other.rays.items():
+            self.rays[k] += v
+        self.pruned_depth += other.pruned_depth
+        self.pruned_weight += other.pruned_weight
+        self.total_internal_reflections += other.total_internal_reflections
+        self.trace_seconds += other.trace_seconds
+        self.shade_seconds += other.shade_seconds
+        self.pass_seconds += other.pass_seconds
+
+
+class Worker(threading.local):
+    """What each rendering thread keeps to itself: scratch arrays, the zeroed sums of
+    :func:`add`, and its counters (merged after the render, in a fixed order)."""
+
+    def __init__(self, registry: list[Stats], lock: threading.Lock):
+        self.scratch = Scratch()
+        self.sums: np.ndarray | None = None
+        self.stats = Stats()
+        with lock:
+            registry.append(self.stats)
 
 
 class WhittedIntegrator:
@@ -148,7 +178,7 @@ class WhittedIntegrator:
         self.materials = list(seen.values())
         self.table = MaterialTable(self.materials)
         t0 = time.perf_counter()
-        self.accel = Accelerator(scene, self.materials, options.threads)
+        self.accel = Accelerator(scene, self.materials)
         self.build_seconds = time.perf_counter() - t0
         self.origin = self.accel.origin
         self.emitters: list[Emitter] = emitters(scene.lights, self.origin, options.seed)
@@ -156,42 +186,38 @@ class WhittedIntegrator:
         self.background = np.asarray(options.background, np.float64).reshape(1, 3).copy()
         self.any_transparent = bool(self.table.transparent.any()) if self.materials else False
         self.lit = bool(self.emitters) and bool(self.table.lit.any())
-        self.scratch = Scratch()
-        self._sums: np.ndarray | None = None
-        self.stats = Stats()
+        self._lock = threading.Lock()
+        self._stats_per_thread: list[Stats] = []
+        self._worker = Worker(self._stats_per_thread, self._lock)
+
+    @property
+    def scratch(self) -> Scratch:
+        """This thread's scratch arrays."""
+        return self._worker.scratch
+
+    @property
+    def stats(self) -> Stats:
+        """This thread's counters."""
+        return self._worker.stats
+
+    @property
+    def pass_size(self) -> int:
+        """Camera samples per pass: ``pass_samples`` rounded down to whole pixels."""
+        o = self.opt
+        return max(o.spp, (o.pass_samples // o.spp) * o.spp)
 
     # -- the loop ----------------------------------------------------------------------------
     def render(self, progress: Callable[[int, int], None] | None = None) -> Image:
+        """The image, pass by pass on ``threads`` threads (the calling one included);
+        ``progress(done, total)`` is called, one thread at a time, after each pass."""
         o = self.opt
         t_start = time.perf_counter()
         total = o.width * o.height * o.spp
-        per_pass = max(o.spp, (o.pass_samples // o.spp) * o.spp)
+        per_pass = self.pass_size
+        passes = [(a, min(a + per_pass, total)) for a in range(0, total, per_pass)]
         pixels = np.zeros((o.width * o.height, 3), dtype=np.float64)
-        try:
-            for start in range(0, total, per_pass):
-                stop = min(start + per_pass, total)
-                samples = np.zeros((stop - start, 3))
-                rays = camera_rays(self.scene.camera, o.width, o.height, o.spp, o.seed,
-                                   start, stop)
-                # Depth by depth; a batch grown past the pass size (2 children per glass hit)
-                # is split and its chunks finished one after another, so memory stays
-                # bounded by the pass size × max_depth rather than growing as 2^depth.
-                pending = [rays]
-                while pending:
-                    rays = pending.pop()
-                    if len(rays) > per_pass:
-                        pending.extend(rays.take(slice(i, i + per_pass)) for i in
-                                       reversed(range(0, len(rays), per_pass)))
-                        continue
-                    children = self.trace(rays, samples)
-                    if len(children):
-                        pending.append(children)
-                pixels[start // o.spp: stop // o.spp] = (
-                    samples if o.spp == 1 else samples.reshape(-1, o.spp, 3).mean(1))
-                if progress is not None:
-                    progress(stop, total)
-        finally:
-            self.accel.close()
+        self._run(passes, pixels, progress, total)
+        t_passes = time.perf_counter() - t_start
         with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
             rgb = pixels.reshape(o.height, o.width, 3).astype(np.float32)
         bad = ~np.isfinite(rgb)
@@ -200,7 +226,70 @@ class WhittedIntegrator:
             nonfinite = int(bad.any(axis=2).sum())
             rgb[bad] = 0.0
         seconds = time.perf_counter() - t_start + self.build_seconds
-        return Image(rgb, self._stats(nonfinite, seconds), self._metadata())
+        return Image(rgb, self._stats(nonfinite, seconds, t_passes), self._metadata())
+
+    def _run(self, passes: list[tuple[int, int]], pixels: np.ndarray,
+             progress: Callable[[int, int], None] | None, total: int) -> None:
+        """Render ``passes`` into ``pixels``: the threads take the next pass from a shared
+        queue until none is left. After an exception in any thread (Ctrl-C included), no
+        thread starts another pass, and the first exception is raised once all have
+        stopped."""
+        queue, stop, done = iter(passes), threading.Event(), [0]
+
+        def work() -> None:
+            while not stop.is_set():
+                with self._lock:
+                    item = next(queue, None)
+                if item is None:
+                    return
+                try:
+                    self._render_pass(*item, pixels)
+                except BaseException:
+                    stop.set()
+                    raise
+                if progress is not None:
+                    with self._lock:
+                        done[0] += item[1] - item[0]
+                        progress(done[0], total)
+
+        threads = min(self.opt.threads, len(passes))
+        if threads <= 1:
+            work()
+            return
+        with ThreadPoolExecutor(threads - 1, thread_name_prefix="raytrace") as pool:
+            others = [pool.submit(work) for _ in range(threads - 1)]
+            try:
+                work()
+            finally:
+                for f in others:  # each finishes the pass it is on
+                    f.exception()
+            for f in others:
+                f.result()
+
+    def _render_pass(self, start: int, stop: int, pixels: np.ndarray) -> None:
+        """Camera samples ``start`` to ``stop`` (whole pixels), depth by depth, into their
+        pixels."""
+        o = self.opt
+        t0 = time.perf_counter()
+        samples = np.zeros((stop - start, 3))
+        rays = camera_rays(self.scene.camera, o.width, o.height, o.spp, o.seed, start, stop)
+        # Depth by depth; a batch grown past the pass size (2 children per glass hit) is split
+        # and its chunks finished one after another, so memory stays bounded by the pass size
+        # × max_depth rather than growing as 2^depth.
+        per_pass = self.pass_size
+        pending = [rays]
+        while pending:
+            rays = pending.pop()
+            if len(rays) > per_pass:
+                pending.extend(rays.take(slice(i, i + per_pass)) for i in
+                               reversed(range(0, len(rays), per_pass)))
+                continue
+            children = self.trace(rays, samples)
+            if len(children):
+                pending.append(children)
+        pixels[start // o.spp: stop // o.spp] = (
+            samples if o.spp == 1 else samples.reshape(-1, o.spp, 3).mean(1))
+        self.stats.pass_seconds += time.perf_counter() - t0
 
     def trace(self, rays: RayBatch, samples: np.ndarray) -> RayBatch:
         """One depth: intersect, add background and local shading, return the next depth."""
@@ -226,10 +315,9 @@ class WhittedIntegrator:
                 (3,), (3,), (0, rays.sample.dtype), (3,), (0, rays.origin_shape.dtype),
                 (0, rays.kind.dtype), (0, hits.t.dtype), (0, hits.shape.dtype),
                 (0, hits.triangle.dtype), (hits.uv.shape[1], hits.uv.dtype))))
-            self.chunks(lambda s: take_hits(
-                found[s], rays.origin, rays.direction, rays.sample, rays.weight,
-                rays.origin_shape, rays.kind, hits.t, hits.shape, hits.triangle, hits.uv,
-                tuple(a[s] for a in out)), k)
+            take_hits(found, rays.origin, rays.direction, rays.sample, rays.weight,
+                      rays.origin_shape, rays.kind, hits.t, hits.shape, hits.triangle, hits.uv,
+                      out)
             origin, direction, sample, weight, origin_shape, kind = out[:6]
             hits.t, hits.shape, hits.triangle, hits.uv = out[6:]
             rays = RayBatch(origin, direction, sample, weight, rays.depth, origin_shape, kind)
@@ -240,16 +328,12 @@ class WhittedIntegrator:
 
     def sums(self, samples: np.ndarray) -> np.ndarray:
         """Zeroed scratch for :func:`add` into ``samples`` (``add`` leaves it zeroed)."""
-        if self._sums is None or self._sums.shape != samples.shape:
-            self._sums = np.zeros(samples.shape)
-        return self._sums
+        w = self._worker
+        if w.sums is None or w.sums.shape != samples.shape:
+            w.sums = np.zeros(samples.shape)
+        return w.sums
 
     # -- shading -----------------------------------------------------------------------------
-    def chunks(self, fn: Callable[[slice], None], n: int) -> None:
-        """``fn(slice)`` over chunks of ``n`` hits on ``threads`` threads: the accelerator's
-        pool and queue of chunks (a late worker takes fewer chunks instead of stalling the
-        batch, as an OpenMP region's static split would on a busy machine)."""
-        self.accel.map_chunks(fn, n)
 
     def shade(self, rays: RayBatch, surf: Surface, samples: np.ndarray) -> RayBatch:
         """Add ``weight·t·I_local`` of every hit to its sample (t the opacity) and return the
@@ -265,11 +349,9 @@ class WhittedIntegrator:
         local, r_dir, t_dir, w_r, w_t, w_s = (new(name, n, 3) for name in (
             "local", "r_dir", "t_dir", "w_r", "w_t", "w_s"))
         status, tir = new("status", n, 3, np.int8), new("tir", n, dtype=bool)
-        self.chunks(lambda s: K.hit_terms(
-            rays.direction[s], rays.weight[s], surf.geometric[s], surf.shading[s],
-            surf.material[s], surf.point[s], self.origin, self.table.arrays, self.ambient,
-            lights[s], self.opt.min_weight, local[s], r_dir[s],
-            t_dir[s], w_r[s], w_t[s], w_s[s], status[s], tir[s]), n)
+        K.hit_terms(rays.direction, rays.weight, surf.geometric, surf.shading, surf.material,
+                    surf.point, self.origin, self.table.arrays, self.ambient, lights,
+                    self.opt.min_weight, local, r_dir, t_dir, w_r, w_t, w_s, status, tir)
         add(samples, rays.sample, rays.weight, local, part=self.sums(samples))
         depth = rays.depth + 1
         if depth <= self.opt.max_depth:
@@ -284,27 +366,19 @@ class WhittedIntegrator:
                weights: tuple) -> tuple[RayBatch, np.ndarray]:
         """The children of the hits whose ``status`` is KEEP, in one batch (reflected, then
         refracted, then see-through, each in hit order), and the row of each one's parent
-        hit; ``directions`` and ``weights``: reflected, refracted, see-through. Two passes of
-        chunks: count each chunk's children (:func:`raytrace.shading_kernels.count_keep`),
-        then fill each chunk's rows from the prefix sums
+        hit; ``directions`` and ``weights``: reflected, refracted, see-through. Two passes:
+        count the children of each kind (:func:`raytrace.shading_kernels.count_keep`), then
+        fill the rows from where each kind starts
         (:func:`raytrace.shading_kernels.spawn_children`)."""
-        n, counts = len(status), {}
-        self.chunks(lambda s: counts.__setitem__(s.start, K.count_keep(status[s])), n)
-        starts = sorted(counts)
-        per_kind = np.sum([counts[a] for a in starts], axis=0)
-        running = np.concatenate([[0], np.cumsum(per_kind)[:-1]])  # where each kind starts
-        first = {}
-        for a in starts:
-            first[a], running = running, running + counts[a]
+        per_kind = K.count_keep(status)
+        first = np.concatenate([[0], np.cumsum(per_kind)[:-1]])  # where each kind starts
         k = int(per_kind.sum())
         origin, direction, weight = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
         sample, shape = np.empty(k, np.int64), np.empty(k, np.int64)
         kind, parent = np.empty(k, np.int8), np.empty(k, np.int64)
-        self.chunks(lambda s: K.spawn_children(
-            status[s], first[s.start], s.start, *(d[s] for d in directions),
-            *(w[s] for w in weights), surf.point[s], surf.geometric[s], surf.offset[s],
-            surf.shape[s], parents.sample[s], CHILD_KINDS, origin, direction, weight, sample,
-            shape, kind, parent), n)
+        K.spawn_children(status, first, *directions, *weights, surf.point, surf.geometric,
+                         surf.offset, surf.shape, parents.sample, CHILD_KINDS, origin,
+                         direction, weight, sample, shape, kind, parent)
         return RayBatch(origin, direction, sample, weight, parents.depth + 1, shape,
                         kind), parent
 
@@ -331,10 +405,9 @@ class WhittedIntegrator:
         if len(gour):
             gouraud = self._gouraud_setup(rays, surf, gour)
         for em in self.emitters:
-            self.chunks(lambda s, packed=em.packed: K.light_hits(
-                surf.point[s], surf.geometric[s], surf.shading[s], rays.direction[s],
-                surf.material[s], self.origin, tab.arrays, packed, term[s], to_light[s],
-                dist[s], candidate[s]), n)
+            K.light_hits(surf.point, surf.geometric, surf.shading, rays.direction,
+                         surf.material, self.origin, tab.arrays, em.packed, term, to_light,
+                         dist, candidate)
             if len(gour):
                 term[gour] = self._gouraud(em, *gouraud)
                 candidate[gour] = tab.lit[surf.material[gour]] & np.any(term[gour] > 0, axis=1)
@@ -347,7 +420,7 @@ class WhittedIntegrator:
     def _add_light(self, out: np.ndarray, rows: np.ndarray, term: np.ndarray,
                    shadow: np.ndarray, color: np.ndarray) -> None:
         """``out[rows] += term[rows]·S·I_l`` (:func:`raytrace.shading_kernels.add_light`)."""
-        self.chunks(lambda s: K.add_light(out, rows[s], term, shadow[s], color), len(rows))
+        K.add_light(out, rows, term, shadow, color)
 
     def _gouraud_setup(self, rays: RayBatch, surf: Surface, gour: np.ndarray) -> tuple:
         """What :meth:`_gouraud` needs at the Gouraud-shaded hits ``gour``."""
@@ -386,9 +459,8 @@ class WhittedIntegrator:
         k, new = len(rows), self.scratch
         origin, direction = new("shadow_origin", k, 3), new("shadow_direction", k, 3)
         tmax, shape = new("shadow_tmax", k), new("shadow_shape", k, dtype=np.int64)
-        self.chunks(lambda s: K.shadow_rays(
-            rows[s], surf.point, surf.geometric, surf.offset, surf.shape, to_light, dist,
-            SHADOW_SHORTEN, origin[s], direction[s], tmax[s], shape[s]), k)
+        K.shadow_rays(rows, surf.point, surf.geometric, surf.offset, surf.shape, to_light, dist,
+                      SHADOW_SHORTEN, origin, direction, tmax, shape)
         self.stats.rays["shadow"] += k
         factor = new("shadow", k, 3)
         t0 = time.perf_counter()
@@ -424,8 +496,15 @@ class WhittedIntegrator:
         return factor
 
     # -- reporting ---------------------------------------------------------------------------
-    def _stats(self, nonfinite: int, seconds: float) -> dict:
-        st, o = self.stats, self.opt
+    def _stats(self, nonfinite: int, seconds: float, pass_wall: float) -> dict:
+        """The ``--stats`` dictionary. Counts are summed over the threads. ``trace`` and
+        ``shade`` are wall seconds: the passes' wall time split in proportion to the thread
+        time spent tracing and shading, so build + trace + shade ≤ total with any number of
+        threads."""
+        st, o = Stats(), self.opt
+        for part in self._stats_per_thread:
+            st.merge(part)
+        share = pass_wall / st.pass_seconds if st.pass_seconds > 0 else 0.0
         rays = dict(st.rays)
         rays["total"] = sum(rays.values())
         return {
@@ -435,8 +514,8 @@ class WhittedIntegrator:
             "nonfinite_pixels": nonfinite,
             "degenerate_triangles": self.accel.degenerate,
             "triangles": self.accel.n_triangles,
-            "seconds": {"build": self.build_seconds, "trace": st.trace_seconds,
-                        "shade": st.shade_seconds, "total": seconds},
+            "seconds": {"build": self.build_seconds, "trace": st.trace_seconds * share,
+                        "shade": st.shade_seconds * share, "total": seconds},
             "width": o.width, "height": o.height, "spp": o.spp, "max_depth": o.max_depth,
             "min_weight": o.min_weight, "threads": o.threads,
         }

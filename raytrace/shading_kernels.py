@@ -14,18 +14,17 @@ Two layers, in pipeline order:
   candidates), ``shadow_rays``, ``cross_surfaces`` (transparent shadows), ``add_light``,
   ``hit_terms`` (what each hit adds to its sample; its reflected, refracted and see-through
   children's directions, weights and pruning status), ``count_keep`` and
-  ``spawn_children`` (the next depth's batch from those, chunk by chunk) and
+  ``spawn_children`` (the next depth's batch from those) and
   ``spawn_origins``; plus
   ``accumulate``, the fixed-order sum into the pixel samples.
 
-All are serial ``nogil`` kernels (``raytrace.jit.kernel``). The two heavy passes,
-``light_hits`` and ``hit_terms``, write only each ray's own rows, so the integrator runs them
-chunk by chunk on the accelerator's threads and no result depends on the number of threads;
-the others move little data per ray, and ``accumulate`` must be serial: the rays of one sample
-are summed in one fixed order. Arguments are always C-contiguous float64
-/ int64 (bool for flags) arrays, so each kernel compiles once, into numba's cache. Everything
-compiled for shading lives in this one file because numba's cache notices edits only to the
-file of the kernel it compiled, not to the files of the functions that kernel inlines.
+All are serial ``nogil`` kernels (``raytrace.jit.kernel``): the integrator's threads run them
+side by side, each on the batches of its own pass, and ``accumulate`` sums the rays of one
+sample in one fixed order, so no result depends on the number of threads. Arguments are
+always C-contiguous float64 / int64 (bool for flags) arrays, so each kernel compiles once,
+into numba's cache. Everything compiled for shading lives in this one file because numba's
+cache notices edits only to the file of the kernel it compiled, not to the files of the
+functions that kernel inlines.
 """
 
 from __future__ import annotations
@@ -397,17 +396,16 @@ def count_keep(status):
 
 
 @kernel
-def spawn_children(status, first, row0, r_dir, t_dir, s_dir, w_r, w_t, w_s, point, geometric,
+def spawn_children(status, first, r_dir, t_dir, s_dir, w_r, w_t, w_s, point, geometric,
                    offset, shape, sample, kinds, origin, direction, weight, child_sample,
                    child_shape, kind, parent):
-    """The children of a run of hits (rows ``row0 …`` of the batch): every child whose
-    ``status`` (n, 3) is KEEP, column c's (reflected, refracted, see-through: directions
-    ``r_dir``, ``t_dir``, ``s_dir``, weights ``w_r``, ``w_t``, ``w_s``, kind ``kinds[c]``) in
-    hit order from row ``first[c]`` of the outputs on; the integrator sets ``first`` from
-    :func:`count_keep`'s prefix sums, so the batch is allocated once, all reflected children
-    first, and runs fill it in parallel. Writes origin (:func:`leave1` from the hit along
-    the child's direction), direction, weight, sample, start shape, kind and the row of each
-    child's parent hit."""
+    """The children of a batch of hits: every child whose ``status`` (n, 3) is KEEP, column
+    c's (reflected, refracted, see-through: directions ``r_dir``, ``t_dir``, ``s_dir``,
+    weights ``w_r``, ``w_t``, ``w_s``, kind ``kinds[c]``) in hit order from row ``first[c]``
+    of the outputs on; the integrator sets ``first`` from :func:`count_keep`'s prefix sums,
+    so the batch is allocated once, all reflected children first. Writes origin
+    (:func:`leave1` from the hit along the child's direction), direction, weight, sample,
+    start shape, kind and the row of each child's parent hit."""
     for c in range(3):
         d = r_dir if c == 0 else (t_dir if c == 1 else s_dir)
         w = w_r if c == 0 else (w_t if c == 1 else w_s)
@@ -422,7 +420,7 @@ def spawn_children(status, first, row0, r_dir, t_dir, s_dir, w_r, w_t, w_s, poin
                 point[i, 0], point[i, 1], point[i, 2], geometric[i, 0], geometric[i, 1],
                 geometric[i, 2], offset[i], dx, dy, dz)
             child_sample[j], child_shape[j], kind[j] = sample[i], shape[i], kinds[c]
-            parent[j] = row0 + i
+            parent[j] = i
             j += 1
 
 

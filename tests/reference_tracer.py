@@ -96,7 +96,7 @@ class ReferenceTracer:
         for o in scene.objects:
             if all(o.material is not m for m in self.materials):
                 self.materials.append(o.material)
-        self.accel = Accelerator(scene, self.materials, threads=1)
+        self.accel = Accelerator(scene, self.materials)
         if np.any(getattr(self.accel, "tri_shading", np.zeros(0)) == 2):
             raise NotImplementedError("the reference tracer has no Gouraud shading")
         self.origin = self.accel.origin
@@ -121,14 +121,11 @@ class ReferenceTracer:
     def render(self, width: int, height: int) -> np.ndarray:
         """(height, width, 3) float64 linear RGB."""
         out = np.zeros((height, width, 3))
-        try:
-            for row in range(height):
-                for col in range(width):
-                    self.counts.camera += 1
-                    d = self.camera_ray(row, col, width, height)
-                    out[row, col] = self.trace(np.zeros(3), d, NO_SHAPE, 0)
-        finally:
-            self.accel.close()
+        for row in range(height):
+            for col in range(width):
+                self.counts.camera += 1
+                d = self.camera_ray(row, col, width, height)
+                out[row, col] = self.trace(np.zeros(3), d, NO_SHAPE, 0)
         return out
 
     # -- the recursion -----------------------------------------------------------------------

@@ -1,9 +1,9 @@
 """``threads=N`` changes speed, never pixels: renders are bit-identical for any thread count.
 
-Every query in raytrace.accel runs chunk by chunk (analytic shapes, Embree, float64
-refinement, surfaces), each step row-wise, and the integrator accumulates in a fixed order;
-so the image cannot depend on which worker took which chunk. The chunk size is shrunk here so
-that a small image is split into many chunks that really do run concurrently.
+The threads render passes of whole pixels side by side, each with its own scratch arrays and
+counters, and every sample's contributions are summed in a fixed order; so the image cannot
+depend on which thread took which pass. The pass size is shrunk here so that a small image is
+split into many passes that really do run concurrently.
 """
 
 from __future__ import annotations
@@ -13,9 +13,10 @@ import pytest
 import trimesh
 
 import raytrace
-from raytrace import accel
 
 W, H = 48, 36
+#: 1728 pixels → 18 passes.
+SMALL_PASS = 97
 
 
 def scene() -> raytrace.Scene:
@@ -46,13 +47,9 @@ def scene() -> raytrace.Scene:
 @pytest.fixture(scope="module")
 def renders() -> dict:
     s = scene()
-    mp = pytest.MonkeyPatch()
-    mp.setattr(accel, "CHUNK", 97)  # 1728 camera rays → 18 chunks per query
-    try:
-        out = {t: raytrace.render(s, width=W, height=H, threads=t) for t in (1, 2, 3)}
-        out["passes"] = raytrace.render(s, width=W, height=H, threads=2, pass_samples=500)
-    finally:
-        mp.undo()
+    out = {t: raytrace.render(s, width=W, height=H, threads=t, pass_samples=SMALL_PASS)
+           for t in (1, 2, 3)}
+    out["one pass"] = raytrace.render(s, width=W, height=H, threads=1)
     return out
 
 
@@ -74,11 +71,45 @@ def test_bit_identical_for_any_thread_count(renders, threads):
 
 
 def test_bit_identical_when_rendered_in_passes(renders):
-    # 500 samples per pass: the 1728-pixel image in 4 passes, split mid-row.
-    assert np.array_equal(renders[1].rgb.view(np.uint32), renders["passes"].rgb.view(np.uint32))
+    # 97 samples per pass: the 1728-pixel image in 18 passes, split mid-row, against one pass.
+    one = renders["one pass"]
+    assert np.array_equal(renders[1].rgb.view(np.uint32), one.rgb.view(np.uint32))
+    assert renders[1].stats["rays"] == one.stats["rays"]
 
 
-def test_default_chunking_matches_small_chunks(renders):
-    # The chunk size is a performance knob too: it must not change a pixel either.
-    default = raytrace.render(scene(), width=W, height=H, threads=2)
-    assert np.array_equal(default.rgb.view(np.uint32), renders[1].rgb.view(np.uint32))
+def test_counters_are_summed_over_threads(renders):
+    # Every thread counts its own rays; the totals must not lose a thread's share.
+    for t in (2, 3):
+        assert renders[t].stats["rays"] == renders[1].stats["rays"]
+        assert (renders[t].stats["total_internal_reflections"]
+                == renders[1].stats["total_internal_reflections"])
+
+
+def test_phase_seconds_fit_in_the_total(renders):
+    # trace and shade are wall seconds (the passes' wall time shared out), not thread-seconds
+    # summed over threads, so with any thread count they fit in the render's total.
+    for t in (1, 2, 3):
+        sec = renders[t].stats["seconds"]
+        assert 0 < sec["trace"] and 0 < sec["shade"]
+        assert sec["build"] + sec["trace"] + sec["shade"] <= sec["total"]
+
+
+def test_an_error_in_a_pass_stops_the_render_and_is_raised(monkeypatch):
+    # A failure in any thread's pass reaches the caller (not swallowed by the pool), and the
+    # other threads take no further passes.
+    from raytrace import integrator
+
+    calls = []
+    real = integrator.WhittedIntegrator.trace
+
+    def failing(self, rays, samples):
+        calls.append(1)
+        if len(calls) == 3:
+            raise RuntimeError("boom")
+        return real(self, rays, samples)
+
+    monkeypatch.setattr(integrator.WhittedIntegrator, "trace", failing)
+    with pytest.raises(RuntimeError, match="boom"):
+        raytrace.render(scene(), width=W, height=H, threads=2, pass_samples=SMALL_PASS)
+    # 18 passes of about 4 depths each would be ~70 trace calls; stopping early leaves far fewer.
+    assert len(calls) < 20

@@ -141,7 +141,6 @@ def hit_ids(scene: Scene, width: int, height: int) -> np.ndarray:
     integ = WhittedIntegrator(scene, RenderOptions(width, height, 1, 0, 0.0, np.zeros(3), 0))
     rays = camera_rays(scene.camera, width, height, 1, 0, 0, width * height)
     hits = integ.accel.intersect(rays.origin, rays.direction, rays.origin_shape)
-    integ.accel.close()
     ids = np.where(hits.triangle >= 0, 1000, hits.shape)
     return np.where(hits.hit, ids, -1).reshape(height, width)
 
