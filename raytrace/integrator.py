@@ -49,6 +49,10 @@ from .shading import HIGHLIGHT_CODES, direct
 #: Camera samples per pass (whole pixels): the unit of work of a thread. Memory is bounded by
 #: threads × pass size, independently of the resolution.
 PASS_SAMPLES = 1 << 16
+#: A smaller image is cut into this many passes, so that every thread gets some…
+MIN_PASSES = 16
+#: …but no pass is smaller than this (per-batch Python work would dominate).
+MIN_PASS_SAMPLES = 4096
 #: Most surfaces a transparent shadow ray passes through before it counts as blocked.
 MAX_SHADOW_CROSSINGS = 64
 ZERO3 = np.zeros(3)
@@ -202,9 +206,14 @@ class WhittedIntegrator:
 
     @property
     def pass_size(self) -> int:
-        """Camera samples per pass: ``pass_samples`` rounded down to whole pixels."""
+        """Camera samples per pass, in whole pixels: at most ``pass_samples``, and for images
+        of fewer than :data:`MIN_PASSES` full passes, a :data:`MIN_PASSES`-th of the image
+        (not below :data:`MIN_PASS_SAMPLES`), so small images still use every thread. It
+        depends on the image and the options, never on the number of threads."""
         o = self.opt
-        return max(o.spp, (o.pass_samples // o.spp) * o.spp)
+        total = o.width * o.height * o.spp
+        size = min(o.pass_samples, max(MIN_PASS_SAMPLES, -(-total // MIN_PASSES)))
+        return max(o.spp, (size // o.spp) * o.spp)
 
     # -- the loop ----------------------------------------------------------------------------
     def render(self, progress: Callable[[int, int], None] | None = None) -> Image:

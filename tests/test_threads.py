@@ -113,3 +113,21 @@ def test_an_error_in_a_pass_stops_the_render_and_is_raised(monkeypatch):
         raytrace.render(scene(), width=W, height=H, threads=2, pass_samples=SMALL_PASS)
     # 18 passes of about 4 depths each would be ~70 trace calls; stopping early leaves far fewer.
     assert len(calls) < 20
+
+
+@pytest.mark.parametrize(("width", "height", "spp", "expected"), [
+    (2000, 2000, 1, 65536),   # large: the full pass (PASS_SAMPLES)
+    (1000, 1000, 1, 62500),   # 16 passes of 62 500, just under PASS_SAMPLES
+    (250, 250, 1, 4096),      # 62 500 / 16 = 3907 → raised to MIN_PASS_SAMPLES: 16 passes
+    (500, 500, 1, 15625),     # 250 000 / 16 = 15 625: exactly 16 passes
+    (500, 500, 3, 46875),     # 750 000 / 16 = 46 875 = 15 625 whole pixels of 3 samples
+    (10, 10, 5, 4095),        # MIN_PASS_SAMPLES rounded down to whole pixels of 5 samples
+])
+def test_pass_size_depends_on_the_image_never_on_the_threads(width, height, spp, expected):
+    from raytrace.integrator import RenderOptions, WhittedIntegrator
+
+    sizes = {WhittedIntegrator(scene(), RenderOptions(width, height, spp, 2, 0.0, np.zeros(3),
+                                                      0, threads=t)).pass_size
+             for t in (1, 2, 7)}
+    assert sizes == {expected}
+    assert expected % spp == 0
