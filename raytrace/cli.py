@@ -127,8 +127,10 @@ def _render(args: argparse.Namespace) -> int:
         raise SceneError(e.problem, flags.get(key, e.key)) from None
     t1 = time.perf_counter()
     write_exr(out, image.rgb, image.metadata, args.threads, args.compression)
+    args.written.append(str(out))
     if args.png:
         write_png(args.png, image.rgb, args.exposure, args.tonemap)
+        args.written.append(str(args.png))
     stats = image.stats
     stats["seconds"]["load"] = load_seconds
     stats["seconds"]["write"] = time.perf_counter() - t1
@@ -188,6 +190,7 @@ def _materials(args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    args.written = []  # outputs complete so far (each is written atomically)
     handler = {"render": _render, "compare": _compare, "materials": _materials}[args.command]
     try:
         return handler(args)
@@ -199,7 +202,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     except KeyboardInterrupt:
         end_bar = "\n" if sys.stderr.isatty() else ""  # leave the progress bar's line
-        print(f"{end_bar}raytrace: interrupted; no output written", file=sys.stderr)
+        done = f"wrote {', '.join(args.written)} only" if args.written else "no output written"
+        print(f"{end_bar}raytrace: interrupted; {done}", file=sys.stderr)
         return 130
     except OSError as e:  # e.g. no permission or no space left writing an output
         print(f"raytrace: error: {e.filename or ''}: {e.strerror or e}", file=sys.stderr)

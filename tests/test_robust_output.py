@@ -268,6 +268,7 @@ def test_interrupted_exr_write_keeps_the_old_file(tmp_path, capsys, monkeypatch)
     rc, _, err = run_cli(tmp_path, ["render", scene, "-o", tmp_path / "out.exr", "--png",
                                     tmp_path / "out.png", "-q"], capsys)
     assert rc == 130 and "interrupted" in err and len(err.splitlines()) == 1
+    assert "no output written" in err
     assert {n: (tmp_path / n).read_bytes() for n in old} == old
     assert sorted(os.listdir(tmp_path)) == sorted([*old, "ok.toml"])
 
@@ -286,10 +287,12 @@ def test_interrupted_png_or_stats_write_keeps_the_old_file(tmp_path, capsys, mon
         raise KeyboardInterrupt
 
     monkeypatch.setattr(Path, method, half_then_interrupt)
-    rc, _, _ = run_cli(tmp_path, ["render", scene, "-o", tmp_path / "new.exr", flag,
-                                  tmp_path / name, "-q"], capsys)
+    rc, _, err = run_cli(tmp_path, ["render", scene, "-o", tmp_path / "new.exr", flag,
+                                    tmp_path / name, "-q"], capsys)
     monkeypatch.undo()
     assert rc == 130
+    # The one line says what was written: the EXR, and not the interrupted file.
+    assert len(err.splitlines()) == 1 and f"wrote {tmp_path / 'new.exr'} only" in err
     assert (tmp_path / name).read_bytes() == old[name]
     # The EXR came first and is complete; nothing else was left behind.
     assert read_exr(tmp_path / "new.exr")[0].shape == (6, 8, 3)
