@@ -61,9 +61,10 @@ PATTERN_KEYS = ("pattern", "colors", "scale")
 
 
 def parse_color(value: Any, key: str, *, hi: float | None = None) -> Color:
-    """A colour, or an inline pattern table ``{ pattern = "checker", colors, scale }``."""
+    """A colour, or an inline pattern table ``{ pattern = "checker", colors, scale }``; a
+    :class:`Checker` built in Python is checked by the same rules."""
     if isinstance(value, Checker):
-        return value
+        value = {"pattern": "checker", "colors": list(value.colors), "scale": value.scale}
     if isinstance(value, Mapping):
         values.check_keys(value, PATTERN_KEYS, key)
         values.string(value.get("pattern"), f"{key}.pattern", ["checker"])

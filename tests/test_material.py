@@ -184,6 +184,25 @@ def test_bad_checker_tables_name_the_key():
         Material(kd={"pattern": "stripes", "colors": [1.0, 0.0]})
 
 
+@pytest.mark.parametrize(("kwargs", "key"), [
+    ({"kd": Checker(([0.5, 0.5, 0.5], [-1.0, 0.0, 0.0]))}, "kd.colors[1]"),   # negative
+    ({"kd": Checker(([0.5, 0.5, 0.5], [np.nan, 0.0, 0.0]))}, "kd.colors[1]"),  # NaN
+    ({"kr": Checker((0.5, 1.5))}, "kr.colors[1]"),                            # kr above 1
+    ({"ks": Checker((0.5, 0.2), scale=0.0)}, "ks.scale"),                     # no cell size
+])
+def test_a_checker_built_in_python_is_validated_like_a_table(kwargs, key):
+    with pytest.raises(raytrace.SceneError) as e:
+        Material(**kwargs)
+    assert key in str(e.value)
+
+
+def test_a_valid_python_checker_is_kept_with_rgb_colours():
+    m = Material(kd=Checker((0.25, [0.1, 0.2, 0.3]), scale=2.0))
+    assert isinstance(m.kd, Checker) and m.kd.scale == 2.0
+    np.testing.assert_array_equal(m.kd.colors[0], [0.25, 0.25, 0.25])
+    np.testing.assert_array_equal(m.kd.colors[1], [0.1, 0.2, 0.3])
+
+
 # -- `raytrace materials` -------------------------------------------------------------------------
 
 def test_materials_command_lists_the_library(capsys):
