@@ -59,6 +59,7 @@ ZERO3 = np.zeros(3)
 #: Kinds of the children, in the order of :meth:`WhittedIntegrator._spawn`'s columns.
 CHILD_KINDS = np.array([REFLECTION, REFRACTION, SEE_THROUGH], np.int8)
 NO_LIGHT = np.zeros((0, 3))
+NO_KEY = np.zeros(0, np.int64)
 
 
 @dataclass
@@ -166,6 +167,7 @@ class Worker(threading.local):
     def __init__(self, registry: list[Stats], lock: threading.Lock):
         self.scratch = Scratch()
         self.sums: np.ndarray | None = None
+        self.first_sample = 0  # global index of the current pass's first camera sample
         self.stats = Stats()
         with lock:
             registry.append(self.stats)
@@ -190,6 +192,7 @@ class WhittedIntegrator:
         self.background = np.asarray(options.background, np.float64).reshape(1, 3).copy()
         self.any_transparent = bool(self.table.transparent.any()) if self.materials else False
         self.lit = bool(self.emitters) and bool(self.table.lit.any())
+        self.jittered = any(em.jittered for em in self.emitters)
         self._lock = threading.Lock()
         self._stats_per_thread: list[Stats] = []
         self._worker = Worker(self._stats_per_thread, self._lock)
@@ -280,6 +283,7 @@ class WhittedIntegrator:
         pixels."""
         o = self.opt
         t0 = time.perf_counter()
+        self._worker.first_sample = start
         samples = np.zeros((stop - start, 3))
         rays = camera_rays(self.scene.camera, o.width, o.height, o.spp, o.seed, start, stop)
         # Depth by depth; a batch grown past the pass size (2 children per glass hit) is split
@@ -413,10 +417,12 @@ class WhittedIntegrator:
         gour = np.flatnonzero(surf.gouraud)
         if len(gour):
             gouraud = self._gouraud_setup(rays, surf, gour)
+        # Jittered area lights draw a point per hit from its global camera sample and depth.
+        key = rays.sample + self._worker.first_sample if self.jittered else NO_KEY
         for em in self.emitters:
             K.light_hits(surf.point, surf.geometric, surf.shading, rays.direction,
-                         surf.material, self.origin, tab.arrays, em.packed, term, to_light,
-                         dist, candidate)
+                         surf.material, self.origin, tab.arrays, em.packed, key, rays.depth,
+                         term, to_light, dist, candidate)
             if len(gour):
                 term[gour] = self._gouraud(em, *gouraud)
                 candidate[gour] = tab.lit[surf.material[gour]] & np.any(term[gour] > 0, axis=1)

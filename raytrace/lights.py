@@ -2,7 +2,11 @@
 
 Seed 000: ``f_radial(d) = 1/(a0 + a1·d + a2·d²)`` for local sources, 1 at infinity;
 ``f_angular = 0`` where ``cos α < cos θ`` (outside the cone), else ``(cos α)^a``. Area lights
-(seed 001, "distributed sources") are a k×k grid of point samples sharing the colour.
+(seed 001, "distributed sources") are a k×k grid of point samples sharing the colour: at the
+cell centres, or, jittered, at a point drawn inside its cell anew for every shading point
+(stratified sampling of the light, as in Cook, Porter & Carpenter, "Distributed Ray
+Tracing", SIGGRAPH 1984), so that the penumbra's steps become noise that more pixel samples
+average away.
 """
 
 from __future__ import annotations
@@ -22,7 +26,9 @@ class Emitter:
     """One point-like sample of a light (camera-relative).
 
     ``position`` is None for a directional light, whose ``direction`` is the way the light
-    travels. ``cos_cutoff`` is None unless it is a spot light.
+    travels. ``cos_cutoff`` is None unless it is a spot light. A jittered cell of an area light
+    has its centre as ``position``, its edges ``cell_u``, ``cell_v`` and a ``stream`` ≥ 0 that
+    seeds the point drawn in the cell for each hit; ``stream`` is −1 for every other emitter.
     """
 
     color: np.ndarray
@@ -31,13 +37,21 @@ class Emitter:
     attenuation: np.ndarray | None = None
     cos_cutoff: float | None = None
     exponent: float = 0.0
+    cell_u: np.ndarray | None = None
+    cell_v: np.ndarray | None = None
+    stream: int = -1
+
+    @property
+    def jittered(self) -> bool:
+        return self.stream >= 0
 
     def incidence(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Unit vectors to the light L (n, 3), distances (n,) (inf for directional) and the
         attenuation ``f_radial · f_angular`` (n,) at ``points`` (n, 3).
 
-        A point exactly at the light's position gets factor 0 (no direction is defined).
-        (:func:`raytrace.shading_kernels.incidence1`, row by row.)
+        A point exactly at the light's position gets factor 0 (no direction is defined). A
+        jittered area-light cell is taken at its centre here (the integrator draws a point
+        per hit). (:func:`raytrace.shading_kernels.incidence1`, row by row.)
         """
         points = np.ascontiguousarray(np.asarray(points, np.float64).reshape(-1, 3))
         n = len(points)
@@ -48,7 +62,8 @@ class Emitter:
     @cached_property
     def packed(self) -> np.ndarray:
         """The emitter as the float64 row the kernels take: kind (POINT, SPOT, DIRECTIONAL),
-        position (3), direction (3), attenuation (3), cos θ, exponent."""
+        position (3), direction (3), attenuation (3), cos θ, exponent, cell edges u (3) and
+        v (3), stream (below 2⁵², so exact in a float64)."""
         kind = (K.DIRECTIONAL if self.position is None else
                 K.POINT if self.cos_cutoff is None else K.SPOT)
         zero = np.zeros(3)
@@ -56,7 +71,9 @@ class Emitter:
             [kind], zero if self.position is None else self.position,
             zero if self.direction is None else self.direction,
             [1.0, 0.0, 0.0] if self.attenuation is None else self.attenuation,
-            [0.0 if self.cos_cutoff is None else self.cos_cutoff, self.exponent]]
+            [0.0 if self.cos_cutoff is None else self.cos_cutoff, self.exponent],
+            zero if self.cell_u is None else self.cell_u,
+            zero if self.cell_v is None else self.cell_v, [self.stream]]
         ).astype(np.float64)
 
 
@@ -72,9 +89,17 @@ def emitters(lights: list[Light], origin: np.ndarray, seed: int) -> list[Emitter
         if isinstance(light, DirectionalLight):
             out.append(Emitter(light.color, direction=light.direction))
         elif isinstance(light, AreaLight):
-            pts = light.sample_points(seed + 7919 * (i + 1)) - origin
+            pts = light.sample_points() - origin
             col = light.color / len(pts)
-            out.extend(Emitter(col, position=p, attenuation=light.attenuation) for p in pts)
+            if not light.jitter:
+                out.extend(Emitter(col, position=p, attenuation=light.attenuation)
+                           for p in pts)
+                continue
+            k = math.isqrt(light.samples)
+            streams = np.random.default_rng([seed, i]).integers(0, 2**52, len(pts))
+            out.extend(Emitter(col, position=p, attenuation=light.attenuation,
+                               cell_u=light.edge_u / k, cell_v=light.edge_v / k,
+                               stream=int(st)) for p, st in zip(pts, streams, strict=True))
         elif isinstance(light, SpotLight):
             out.append(Emitter(light.color, light.position - origin, light.direction,
                                light.attenuation, cos_cutoff(light.cutoff), light.exponent))

@@ -154,8 +154,9 @@ class SpotLight:
 class AreaLight:
     """A two-sided rectangle ``position ± edge_u/2 ± edge_v/2``, sampled by k×k point lights.
 
-    ``color`` is the total over all samples; ``jitter`` places each sample at a seeded random
-    spot in its cell (stratified), otherwise at the cell centre.
+    ``color`` is the total over all samples; ``jitter`` places each sample at a random spot
+    in its cell, drawn anew for every shading point from ``[render] seed`` (stratified
+    sampling of the light), otherwise at the cell centre.
     """
 
     position: Any
@@ -183,17 +184,14 @@ class AreaLight:
         self.color = values.color(self.color, "color")
         self.attenuation = _attenuation(self.attenuation, "attenuation")
 
-    def sample_points(self, seed: int) -> np.ndarray:
-        """The k² sample positions (k², 3): cell centres, or jittered within cells."""
+    def sample_points(self) -> np.ndarray:
+        """The k² cell centres (k², 3), cell (i, j) at ``position + ((i + ½)/k − ½)·edge_u +
+        ((j + ½)/k − ½)·edge_v``; with ``jitter`` the renderer draws each sample inside its
+        cell anew for every shading point."""
         k = math.isqrt(self.samples)
         i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")
-        if self.jitter:
-            rng = np.random.default_rng(seed)
-            su, sv = rng.random((2, k, k))
-        else:
-            su = sv = np.full((k, k), 0.5)
-        fu = ((i + su) / k - 0.5).ravel()
-        fv = ((j + sv) / k - 0.5).ravel()
+        fu = ((i + 0.5) / k - 0.5).ravel()
+        fv = ((j + 0.5) / k - 0.5).ravel()
         return self.position + fu[:, None] * self.edge_u + fv[:, None] * self.edge_v
 
 

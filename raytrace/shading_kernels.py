@@ -73,12 +73,34 @@ def refract3(dx, dy, dz, nx, ny, nz, eta):
 
 
 # -- lights -----------------------------------------------------------------------------------
+_MIX1, _MIX2, _MIX3 = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xBF58476D1CE4E5B9),
+                       np.uint64(0x94D049BB133111EB))
+_R30, _R27, _R31, _R11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(11)
+
+
 @kernel
-def incidence1(px, py, pz, em):
+def jitter1(key, stream, index):
+    """A uniform float in [0, 1) for (key, stream, index): SplitMix64's finalizer (Steele et
+    al. 2014) of ``key·M1 + stream·M3 + index·M2`` modulo 2⁶⁴, top 53 bits. (The camera's
+    hash in ``raytrace.camera`` is the same mixer; it is not shared because numba's cache only
+    notices edits to the file of the kernel it compiled.)"""
+    z = np.uint64(key) * _MIX1 + np.uint64(stream) * _MIX3 + np.uint64(index) * _MIX2
+    z = (z ^ (z >> _R30)) * _MIX2
+    z = (z ^ (z >> _R27)) * _MIX3
+    z = z ^ (z >> _R31)
+    return float(z >> _R11) * 2.0**-53
+
+
+@kernel
+def incidence1(px, py, pz, em, key, depth):
     """Unit vector to the light, distance and attenuation ``f_radial·f_angular`` at a point.
 
     ``em`` is an emitter packed by ``raytrace.lights.Emitter.packed``: kind, position (3),
-    direction (3), attenuation a0 a1 a2, cos θ of the cone, exponent a. Seed 000:
+    direction (3), attenuation a0 a1 a2, cos θ of the cone, exponent a, cell edges u (3) and
+    v (3), stream. A jittered area-light cell (stream ≥ 0) is sampled at
+    ``position + (ξ₁ − ½)·u + (ξ₂ − ½)·v``, ξ = :func:`jitter1` of (``key``, stream, depth):
+    a point of its own for each shading point (``key`` ≥ 0, the hit's camera sample) and
+    depth; with ``key`` < 0, at the cell centre. Seed 000:
     ``f_radial = 1/(a0 + a1·d + a2·d²)`` (0 where that is not finite, and at the light itself,
     where L is undefined; L stays a unit vector however near or far the light); a spot
     multiplies ``(cos α)^a`` inside its cone (``cos α >= cos θ``, edge included) and 0
@@ -86,7 +108,13 @@ def incidence1(px, py, pz, em):
     """
     if em[0] == DIRECTIONAL:
         return -em[4], -em[5], -em[6], math.inf, 1.0
-    lx, ly, lz = em[1] - px, em[2] - py, em[3] - pz
+    sx, sy, sz = em[1], em[2], em[3]
+    if em[18] >= 0.0 and key >= 0:
+        u = jitter1(key, np.int64(em[18]), 2 * depth) - 0.5
+        v = jitter1(key, np.int64(em[18]), 2 * depth + 1) - 0.5
+        sx, sy, sz = (sx + u * em[12] + v * em[15], sy + u * em[13] + v * em[16],
+                      sz + u * em[14] + v * em[17])
+    lx, ly, lz = sx - px, sy - py, sz - pz
     if lx == 0.0 and ly == 0.0 and lz == 0.0:
         return lx, ly, lz, 0.0, 0.0
     square = lx * lx + ly * ly + lz * lz
@@ -215,12 +243,14 @@ def colors_at(material, point, origin, materials, slot, out):
 
 
 @kernel
-def light_hits(point, geometric, shading, direction, material, origin, materials, em, term,
-               to_light, dist, candidate):
+def light_hits(point, geometric, shading, direction, material, origin, materials, em, key,
+               depth, term, to_light, dist, candidate):
     """One emitter at every hit: ``term = f·[kd·max(N·L, 0) + ks·spec]`` (n, 3) with N the
     shading normal turned to the viewer and V = −d, the unit ``to_light`` and ``dist`` for the
     shadow rays, and ``candidate`` where some channel of term is > 0 (only those need a shadow
-    ray; unlit materials get term 0 and no candidate)."""
+    ray; unlit materials get term 0 and no candidate). ``key`` (n,): each hit's global camera
+    sample, read only for a jittered emitter (:func:`incidence1`)."""
+    jittered = em[18] >= 0.0
     shininess, highlight, lit = materials[3], materials[4], materials[7]
     for i in range(point.shape[0]):
         m = material[i]
@@ -232,7 +262,7 @@ def light_hits(point, geometric, shading, direction, material, origin, materials
         s = facing1(geometric[i, 0], geometric[i, 1], geometric[i, 2], dx, dy, dz)
         nx, ny, nz = shading[i, 0] * s, shading[i, 1] * s, shading[i, 2] * s
         px, py, pz = point[i, 0], point[i, 1], point[i, 2]
-        lx, ly, lz, d, f = incidence1(px, py, pz, em)
+        lx, ly, lz, d, f = incidence1(px, py, pz, em, key[i] if jittered else -1, depth)
         to_light[i, 0], to_light[i, 1], to_light[i, 2] = lx, ly, lz
         dist[i] = d
         wx, wy, wz = px + origin[0], py + origin[1], pz + origin[2]
@@ -463,7 +493,7 @@ def refract_rows(d, n, eta, out, tir):
 def incidence_rows(points, em, to_light, dist, factor):
     for i in range(points.shape[0]):
         lx, ly, lz, dist[i], factor[i] = incidence1(points[i, 0], points[i, 1], points[i, 2],
-                                                    em)
+                                                    em, -1, 0)
         to_light[i, 0], to_light[i, 1], to_light[i, 2] = lx, ly, lz
 
 

@@ -11,6 +11,7 @@ import pytest
 from helpers import RTOL, aimed_camera, make_scene, pixel
 
 import raytrace
+from raytrace import shading_kernels as K
 from raytrace.lights import cos_cutoff, emitters
 
 FLOOR = dict(point=[0.0, 0.0, 0.0], normal=[0.0, 1.0, 0.0])
@@ -119,17 +120,92 @@ def test_spot_cos_cutoff_at_90_degrees_is_exactly_zero():
     np.testing.assert_allclose(f, [1.0, 1.0, 0.0])
 
 
-def test_area_light_samples_jittered_stay_in_their_cells():
-    area = raytrace.AreaLight([0, 5, 0], [2, 0, 0], [0, 0, 2], samples=9, jitter=True, color=9.0)
-    ems = emitters([area], np.zeros(3), seed=3)
-    assert len(ems) == 9
-    pos = np.array([e.position for e in ems])
+def _jittered_cells(samples=9, seed=3):
+    area = raytrace.AreaLight([0, 5, 0], [2, 0, 0], [0, 0, 2], samples=samples, jitter=True,
+                              color=9.0)
+    return emitters([area], np.zeros(3), seed=seed)
+
+
+def _sample_point(em, key: int, depth: int = 0) -> np.ndarray:
+    """Where a shading point at the origin samples the emitter: P + L·d."""
+    lx, ly, lz, d, _ = K.incidence1(0.0, 0.0, 0.0, em.packed, key, depth)
+    return np.array([lx, ly, lz]) * d
+
+
+def test_jittered_area_light_draws_a_point_per_hit_inside_its_cell():
+    ems = _jittered_cells()
+    assert len(ems) == 9 and all(e.jittered for e in ems)
     np.testing.assert_allclose(sum(e.color for e in ems), np.full(3, 9.0))
-    assert np.all(np.abs(pos[:, [0, 2]]) <= 1.0) and np.all(pos[:, 1] == 5.0)
-    cells = np.floor((pos[:, [0, 2]] + 1.0) / (2.0 / 3.0)).astype(int)
-    assert len({tuple(c) for c in cells}) == 9            # one sample per cell (stratified)
-    again = np.array([e.position for e in emitters([area], np.zeros(3), seed=3)])
-    np.testing.assert_array_equal(pos, again)             # seeded: reproducible
+    for em in ems:
+        half = (em.cell_u + em.cell_v) / 2
+        lo, hi = em.position - half, em.position + half
+        pts = np.array([_sample_point(em, key) for key in range(200)])
+        assert np.all(pts[:, [0, 2]] >= lo[[0, 2]] - 1e-12)      # inside its 2/3 × 2/3 cell
+        assert np.all(pts[:, [0, 2]] <= hi[[0, 2]] + 1e-12)
+        np.testing.assert_allclose(pts[:, 1], 5.0)
+        # spread over the cell (uniform: mean near the centre, both halves used)
+        assert len({tuple(p) for p in pts}) == 200
+        np.testing.assert_allclose(pts.mean(0)[[0, 2]], em.position[[0, 2]], atol=0.06)
+        # key < 0 (Python-side incidence, Gouraud vertices): the cell centre
+        np.testing.assert_allclose(_sample_point(em, -1), em.position, atol=1e-12)
+    em = ems[4]
+    np.testing.assert_array_equal(_sample_point(em, 17), _sample_point(em, 17))  # reproducible
+    assert not np.array_equal(_sample_point(em, 17, depth=0), _sample_point(em, 17, depth=1))
+    # another seed draws other points; the cells (and centres) stay
+    other = _jittered_cells(seed=4)[4]
+    np.testing.assert_array_equal(other.position, em.position)
+    assert not np.array_equal(_sample_point(other, 17), _sample_point(em, 17))
+
+
+def test_unjittered_area_light_samples_the_cell_centres():
+    area = raytrace.AreaLight([0, 5, 0], [2, 0, 0], [0, 0, 2], samples=9)
+    ems = emitters([area], np.zeros(3), seed=3)
+    assert not any(e.jittered for e in ems)
+    centres = {(round(e.position[0], 12), round(e.position[2], 12)) for e in ems}
+    third = round(2 / 3, 12)
+    assert centres == {(x, z) for x in (-third, 0.0, third) for z in (-third, 0.0, third)}
+
+
+def test_jittered_area_light_converges_to_the_rectangle_integral():
+    # A white floor point straight below a w × w light at height h (no falloff, colour C,
+    # kd): each hit's value is C·kd·mean over the k² cells of N·L to its drawn point, whose
+    # expectation is C·kd·(1/w²)∫∫ h/√(x² + z² + h²) dx dz over the rectangle. With 4096
+    # pixel samples, each drawing its own points, the pixel must approach that integral much
+    # more closely than the 4 cell centres do (their midpoint rule is biased by ~3 %; the
+    # jittered estimate's standard error here is ~8e-4, measured over seeds 0–3).
+    w, h, C, kd, k = 2.0, 1.0, 2.0, 0.5, 2
+    n = 2000  # midpoint rule on an n × n grid: error ~1e-8
+    x = (np.arange(n) + 0.5) / n * w - w / 2
+    xx, zz = np.meshgrid(x, x)
+    exact = C * kd * np.mean(h / np.sqrt(xx**2 + zz**2 + h**2))
+
+    def render(jitter: bool) -> float:
+        area = raytrace.AreaLight([0.0, h, 0.0], [w, 0, 0], [0, 0, w], samples=k * k,
+                                  jitter=jitter, color=C)
+        scene = make_scene([raytrace.Plane(**FLOOR, material=raytrace.Material(kd=kd, ka=0.0))],
+                           [area], camera=aimed_camera([0, 3, 0.5], [0, 0, 0], fov=0.001))
+        image = raytrace.render(scene, width=1, height=1, spp=4096, seed=11)
+        return float(image.rgb[0, 0, 0])
+
+    centres, jittered = render(False), render(True)
+    assert abs(centres - exact) > 5e-3                    # the grid's bias at k = 2 (~1 %)
+    assert abs(jittered - exact) < 0.1 * abs(centres - exact)
+
+
+def test_jittered_area_light_is_noise_not_the_same_for_every_pixel():
+    # Eight neighbouring floor pixels, 1e-5 apart, see the light almost identically: from
+    # fixed sample points (the cell centres, or points drawn once per render) they would
+    # differ by ~1e-6. Per-hit jitter gives each its own draw: a spread of percent.
+    def row(jitter: bool, threads: int = 1) -> np.ndarray:
+        area = raytrace.AreaLight([0.0, 1.0, 0.0], [2, 0, 0], [0, 0, 2], samples=4,
+                                  jitter=jitter)
+        scene = make_scene([raytrace.Plane(**FLOOR, material=raytrace.Material(kd=0.5, ka=0.0))],
+                           [area], camera=aimed_camera([0, 3, 0.01], [0, 0, 0], fov=0.001))
+        return raytrace.render(scene, width=8, height=1, spp=1, threads=threads).rgb[0, :, 0]
+
+    fixed, jittered = np.ptp(row(False)), np.ptp(row(True))
+    assert fixed < 1e-5 and jittered > 1e-3
+    np.testing.assert_array_equal(row(True), row(True, threads=2))  # still deterministic
 
 
 def test_area_light_samples_must_be_a_square():
