@@ -193,6 +193,9 @@ class WhittedIntegrator:
         self.any_transparent = bool(self.table.transparent.any()) if self.materials else False
         self.lit = bool(self.emitters) and bool(self.table.lit.any())
         self.jittered = any(em.jittered for em in self.emitters)
+        #: What :func:`raytrace.shading_kernels.shadow_rays` needs of smooth triangles.
+        self.smooth_table = (self.accel.tri_corners, self.accel.tri_vnormals,
+                             self.accel.tri_shading)
         self._lock = threading.Lock()
         self._stats_per_thread: list[Stats] = []
         self._worker = Worker(self._stats_per_thread, self._lock)
@@ -428,7 +431,7 @@ class WhittedIntegrator:
                 candidate[gour] = tab.lit[surf.material[gour]] & np.any(term[gour] > 0, axis=1)
             rows = np.flatnonzero(candidate)
             if len(rows):
-                shadow = self.shadow(surf, rows, to_light, dist)
+                shadow = self.shadow(surf, rows, to_light, dist, rays.direction)
                 self._add_light(out, rows, term, shadow, np.asarray(em.color, np.float64))
         return out
 
@@ -463,10 +466,10 @@ class WhittedIntegrator:
             acc += bary[:, k:k + 1] * direct(nrm, to_light, v, kd, ks, shin, model) * f[:, None]
         return acc
 
-    def shadow(self, surf: Surface, rows: np.ndarray, to_light: np.ndarray, dist: np.ndarray
-               ) -> np.ndarray:
+    def shadow(self, surf: Surface, rows: np.ndarray, to_light: np.ndarray, dist: np.ndarray,
+               view: np.ndarray) -> np.ndarray:
         """Shadow factor S (k, 3) of the hits ``rows`` towards a light (``to_light`` and
-        ``dist`` are per hit).
+        ``dist`` are per hit, ``view`` the directions of the rays that made the hits).
 
         Opaque-only scenes use the occlusion query. Otherwise the straight shadow ray walks
         through every surface before the light, multiplying ``t·kt + (1 − t)`` (seed 003).
@@ -474,8 +477,9 @@ class WhittedIntegrator:
         k, new = len(rows), self.scratch
         origin, direction = new("shadow_origin", k, 3), new("shadow_direction", k, 3)
         tmax, shape = new("shadow_tmax", k), new("shadow_shape", k, dtype=np.int64)
-        K.shadow_rays(rows, surf.point, surf.geometric, surf.offset, surf.shape, to_light, dist,
-                      SHADOW_SHORTEN, origin, direction, tmax, shape)
+        K.shadow_rays(rows, surf.point, surf.geometric, surf.offset, surf.shape, surf.triangle,
+                      surf.uv, view, self.smooth_table, to_light, dist, SHADOW_SHORTEN, origin,
+                      direction, tmax, shape)
         self.stats.rays["shadow"] += k
         factor = new("shadow", k, 3)
         t0 = time.perf_counter()

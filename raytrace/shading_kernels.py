@@ -276,18 +276,53 @@ def light_hits(point, geometric, shading, direction, material, origin, materials
 
 
 @kernel
-def shadow_rays(rows, point, geometric, offset, shape, to_light, dist, shorten, origin,
-                direction, tmax, start):
+def bulge1(px, py, pz, tri, u, v, side, corners, vnormals):
+    """Hanika's shading point for a ray leaving a smooth-shaded triangle ("Hacking the Shadow
+    Terminator", Ray Tracing Gems II, 2021, ch. 4): ``P' = Σ_k b_k·P_k`` with ``P_k`` the hit
+    point ``P`` lifted onto the tangent plane of vertex k where it lies below it, ``P_k = P −
+    min(0, (P − V_k)·n_k)·n_k``, for barycentrics ``b = (1 − u − v, u, v)`` and the vertex
+    normals turned to ``side`` (+1 outward, −1 inward). On a convex patch P' rises to about
+    the smooth surface the normals describe, so a shadow ray near the terminator does not
+    start inside the neighbouring facets; where P is above every tangent plane (concave), P'
+    = P."""
+    w = 1.0 - u - v
+    qx = qy = qz = 0.0
+    for k in range(3):
+        b = w if k == 0 else (u if k == 1 else v)
+        nx, ny, nz = side * vnormals[tri, k, 0], side * vnormals[tri, k, 1], side * vnormals[
+            tri, k, 2]
+        lift = min(0.0, (px - corners[tri, k, 0]) * nx + (py - corners[tri, k, 1]) * ny
+                   + (pz - corners[tri, k, 2]) * nz)
+        qx += b * (px - lift * nx)
+        qy += b * (py - lift * ny)
+        qz += b * (pz - lift * nz)
+    return qx, qy, qz
+
+
+@kernel
+def shadow_rays(rows, point, geometric, offset, shape, triangle, uv, view, mesh, to_light,
+                dist, shorten, origin, direction, tmax, start):
     """Shadow rays of the hits ``rows`` into ``origin``, ``direction``, ``tmax`` and ``start``:
     origins off the surface towards the light, ``tmax = dist·(1 − shorten)`` (they stop just
-    short of the light), the shapes they start on."""
+    short of the light), the shapes they start on. A hit on a smooth or Gouraud triangle
+    starts from :func:`bulge1`'s point, lifted on the side its viewer (``view``: the rays'
+    directions) sees; ``mesh`` = (corners (T, 3, 3), vertex normals (T, 3, 3), shading codes
+    (T,)). Its direction and tmax stay those of the hit point: the ray is moved by the lift,
+    a fraction of the triangle's size, and still ends just short of the light."""
+    corners, vnormals, code = mesh
     keep = 1.0 - shorten
     for j in range(rows.shape[0]):
         i = rows[j]
         lx, ly, lz = to_light[i, 0], to_light[i, 1], to_light[i, 2]
+        px, py, pz = point[i, 0], point[i, 1], point[i, 2]
+        tri = triangle[i]
+        if tri >= 0 and code[tri] != 0:
+            side = facing1(geometric[i, 0], geometric[i, 1], geometric[i, 2], view[i, 0],
+                           view[i, 1], view[i, 2])
+            px, py, pz = bulge1(px, py, pz, tri, uv[i, 0], uv[i, 1], side, corners, vnormals)
         origin[j, 0], origin[j, 1], origin[j, 2] = leave1(
-            point[i, 0], point[i, 1], point[i, 2], geometric[i, 0], geometric[i, 1],
-            geometric[i, 2], offset[i], lx, ly, lz)
+            px, py, pz, geometric[i, 0], geometric[i, 1], geometric[i, 2], offset[i], lx, ly,
+            lz)
         direction[j, 0], direction[j, 1], direction[j, 2] = lx, ly, lz
         tmax[j] = dist[i] * keep
         start[j] = shape[i]
