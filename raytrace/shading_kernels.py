@@ -373,6 +373,12 @@ def hit_terms(direction, weight, geometric, shading, material, point, origin, ma
       not crossing it, a TIR ray crossing it) it is refracted about N_g instead;
     * see-through: straight on with weight ``w·(1 − t)``.
 
+    Under TIR the kt share and the reflection leave along the same mirror direction from the
+    same point: the two rays would trace the same path. Where there is a reflected child and
+    the directions are equal (bit for bit) they become one reflected ray of weight
+    ``w·t·(kr + kt)`` (the recursion is linear in the child's weight), so a glass scene does
+    not trace its trapped light twice; ``min_weight`` then sees the sum.
+
     ``status`` (n, 3), columns reflected, refracted, see-through: NONE where the material has
     no such child or its weight is 0, LIGHT where its largest channel is under ``min_weight``
     (Hall & Greenberg 1983), else KEEP. ``tir`` is set on transmitting hits only.
@@ -416,6 +422,12 @@ def hit_terms(direction, weight, geometric, shading, material, point, origin, ma
             kt = color1(materials, m, KT, wx, wy, wz)
             for c in range(3):
                 w_t[i, c] = weight[i, c] * t * kt[c]
+            if (total and reflects[m] and status[i, 0] != NONE and tx == r_dir[i, 0]
+                    and ty == r_dir[i, 1] and tz == r_dir[i, 2]):  # one path, one ray
+                for c in range(3):
+                    w_r[i, c] = weight[i, c] * t * (kr[c] + kt[c])
+                    w_t[i, c] = 0.0
+                status[i, 0] = _status(w_r[i], min_weight)
             status[i, 1] = _status(w_t[i], min_weight)
         if t < 1.0:
             for c in range(3):

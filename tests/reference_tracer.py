@@ -13,6 +13,8 @@ It follows seed 003's pseudocode one ray at a time, in the contract's form
         I     ← local + kr·trace(reflected, depth+1) + kt·trace(refracted or TIR, depth+1)
         return t·I + (1 − t)·trace(straight through, depth+1)
 
+(a TIR ray on the reflected ray's exact path is traced once, as (kr + kt)·trace(reflected)),
+
 where a child is traced only while its depth ≤ max_depth and its path weight (the product of
 the t·kr, t·kt, 1 − t factors, max over RGB) is ≥ min_weight, and S_l is the product of
 ``t·kt + (1 − t)`` over every surface the straight shadow ray crosses before the light.
@@ -189,11 +191,11 @@ class ReferenceTracer:
                     * light.color
 
         kr, kt = coefficient(mat.kr, world), coefficient(mat.kt, world)
+        r = refracted = None
         if t > 0 and np.any(kr > 0):
             r = mirror(d, ns)
             if float(r @ ng) <= 0:  # the shading normal sent it inside: use the face
                 r = mirror(d, ng)
-            color = color + kr * self.child(surf, r, depth + 1, weight * t * kr, "reflection")
         if t > 0 and np.any(kt > 0):
             entering = float(d @ outward) < 0  # decided by the outward geometric normal
             eta = 1.0 / mat.ior if entering else mat.ior
@@ -206,6 +208,14 @@ class ReferenceTracer:
                     refracted = mirror(d, ng)
                 if depth + 1 <= self.max_depth:
                     self.counts.tir += 1
+                if (r is not None and np.array_equal(refracted, r)
+                        and (weight * t * kr).max() > 0):
+                    # The reflection and the kt share leave on the same path: one ray,
+                    # I_r·(kr + kt), of weight w·t·(kr + kt) (the contract's sum is linear).
+                    kr, refracted = kr + kt, None
+        if r is not None:
+            color = color + kr * self.child(surf, r, depth + 1, weight * t * kr, "reflection")
+        if refracted is not None:
             color = color + kt * self.child(surf, refracted, depth + 1, weight * t * kt,
                                             "refraction")
         out = t * color

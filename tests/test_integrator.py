@@ -496,6 +496,34 @@ def test_tir_count_of_a_ray_trapped_in_a_glass_cube(depth):
     np.testing.assert_array_equal(image.rgb, 0.0)
 
 
+@pytest.mark.parametrize("depth", [1, 3, 6])
+def test_tir_and_reflection_on_one_path_are_one_ray(depth):
+    # The same trapped ray, now in glass that also reflects (kr = 0.1, kt = 0.8) and glows
+    # (ka = 0.5 under Ia = 0.2). At every wall the reflection and the TIR share leave along
+    # the same mirror direction: the recursion I_k = ka·Ia + kr·I_{k+1} + kt·I_{k+1} traced as
+    # one ray of weight (kr + kt)^k per depth (not 2^k rays), so
+    #   pixel = ka·Ia·Σ_{k=0..D} (kr + kt)^k,
+    # D reflection-kind rays, no refraction-kind ray, still D TIRs, and the depth-D hit's one
+    # child pruned.
+    kr, kt, ka, ia = 0.1, 0.8, 0.5, 0.2
+    mat = Material(kd=0.0, ka=ka, ks=0.0, kr=kr, kt=kt, ior=1.5)
+    cube = box((2.0, 2.0, 2.0), material=mat)
+    cam = aimed_camera([0.2, -0.1, 0.0], [1.2, 0.9, 0.0], up=[0, 0, 1])
+    image = raytrace.render(make_scene([cube], [], cam, ambient=ia), width=1, height=1,
+                            max_depth=depth)
+    expected = ka * ia * sum((kr + kt) ** k for k in range(depth + 1))
+    np.testing.assert_allclose(image.rgb[0, 0], np.full(3, expected), rtol=RTOL)
+    st = image.stats
+    assert st["rays"]["reflection"] == depth and st["rays"]["refraction"] == 0
+    assert st["total_internal_reflections"] == depth
+    assert st["pruned"]["depth"] == 1
+    # min_weight sees the merged weight: (kr + kt)^k = 0.9^k stays above 0.5 for k ≤ 6,
+    # although the reflection share alone (0.1) would be pruned at once.
+    pruned = raytrace.render(make_scene([cube], [], cam, ambient=ia), width=1, height=1,
+                             max_depth=depth, min_weight=0.5)
+    np.testing.assert_allclose(pruned.rgb[0, 0], np.full(3, expected), rtol=RTOL)
+
+
 # -- analytic spheres without an epsilon ------------------------------------------------------
 @pytest.mark.parametrize("scale", [1e-4, 1.0, 1e4])
 def test_refracted_ray_finds_the_far_side_of_a_sphere(scale):
