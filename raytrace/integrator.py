@@ -230,11 +230,12 @@ class WhittedIntegrator:
         total = o.width * o.height * o.spp
         per_pass = self.pass_size
         passes = [(a, min(a + per_pass, total)) for a in range(0, total, per_pass)]
-        pixels = np.zeros((o.width * o.height, 3), dtype=np.float64)
+        # Each pass rounds its pixels to float32 as it ends (the same rounding as at the end
+        # would be), so no float64 copy of the whole image is held.
+        pixels = np.empty((o.width * o.height, 3), dtype=np.float32)
         self._run(passes, pixels, progress, total)
         t_passes = time.perf_counter() - t_start
-        with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
-            rgb = pixels.reshape(o.height, o.width, 3).astype(np.float32)
+        rgb = pixels.reshape(o.height, o.width, 3)
         bad = ~np.isfinite(rgb)
         nonfinite = 0
         if bad.any():
@@ -303,8 +304,9 @@ class WhittedIntegrator:
             children = self.trace(rays, samples)
             if len(children):
                 pending.append(children)
-        pixels[start // o.spp: stop // o.spp] = (
-            samples if o.spp == 1 else samples.reshape(-1, o.spp, 3).mean(1))
+        with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
+            pixels[start // o.spp: stop // o.spp] = (
+                samples if o.spp == 1 else samples.reshape(-1, o.spp, 3).mean(1))
         self.stats.pass_seconds += time.perf_counter() - t0
 
     def trace(self, rays: RayBatch, samples: np.ndarray) -> RayBatch:
