@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 
 from . import values
@@ -13,13 +14,14 @@ from .scene import RenderSettings, Scene
 
 def render(scene: Scene, *, width: int | None = None, height: int | None = None,
            spp: int | None = None, max_depth: int | None = None,
-           min_weight: float | None = None, seed: int | None = None, threads: int = 1,
+           min_weight: float | None = None, seed: int | None = None, threads: int | None = None,
            progress: Callable[[int, int], None] | None = None,
            pass_samples: int = PASS_SAMPLES) -> Image:
     """Render ``scene``; keyword arguments override its ``[render]`` settings.
 
     Returns an :class:`Image` whose ``rgb`` is (height, width, 3) float32 linear RGB and whose
-    ``stats`` is the ``--stats`` dictionary.
+    ``stats`` is the ``--stats`` dictionary. ``threads`` defaults to every core, like the
+    command line; the image does not depend on it.
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"render() needs a raytrace.Scene, got {type(scene).__name__}")
@@ -32,6 +34,8 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
             max_depth=r.max_depth if max_depth is None else max_depth,
             min_weight=r.min_weight if min_weight is None else min_weight,
             background=r.background, seed=r.seed if seed is None else seed)
+        if threads is None:
+            threads = os.cpu_count() or 1
         threads = values.number(threads, "threads", lo=1, hi=256, integer=True)
     except SceneError as e:
         raise SceneError(e.problem, e.key, scene.path) from None

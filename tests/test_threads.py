@@ -131,3 +131,13 @@ def test_pass_size_depends_on_the_image_never_on_the_threads(width, height, spp,
              for t in (1, 2, 7)}
     assert sizes == {expected}
     assert expected % spp == 0
+
+
+def test_threads_default_to_every_core_and_an_explicit_count_is_kept():
+    import os
+
+    small = raytrace.Scene(camera=raytrace.Camera(), objects=[], lights=[])
+    assert raytrace.render(small, width=4, height=3).stats["threads"] == (os.cpu_count() or 1)
+    assert raytrace.render(small, width=4, height=3, threads=3).stats["threads"] == 3
+    with pytest.raises(raytrace.SceneError, match="threads"):
+        raytrace.render(small, width=4, height=3, threads=0)
