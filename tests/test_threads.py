@@ -141,3 +141,18 @@ def test_threads_default_to_every_core_and_an_explicit_count_is_kept():
     assert raytrace.render(small, width=4, height=3, threads=3).stats["threads"] == 3
     with pytest.raises(raytrace.SceneError, match="threads"):
         raytrace.render(small, width=4, height=3, threads=0)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_progress_reports_every_pass_once_in_increasing_order(threads):
+    # 48×36 = 1728 samples in passes of 97 (the last one 79): the callback sees the running
+    # total after each pass, one call at a time, ending exactly at the total.
+    calls = []
+    raytrace.render(scene(), width=W, height=H, threads=threads, pass_samples=SMALL_PASS,
+                    progress=lambda done, total: calls.append((done, total)))
+    assert len(calls) == -(-W * H // SMALL_PASS)
+    assert all(total == W * H for _, total in calls)
+    done = [d for d, _ in calls]
+    assert done == sorted(done) and done[-1] == W * H
+    steps = np.diff([0, *done])
+    assert set(steps.tolist()) <= {SMALL_PASS, W * H % SMALL_PASS}
