@@ -21,7 +21,8 @@ SMALL_PASS = 97
 
 def scene() -> raytrace.Scene:
     """Meshes (a smooth glass icosphere, a flat box), a mirror sphere, a reflective checker
-    floor, a point and a spot light: every kind of ray, transparent shadows."""
+    floor, a point, a spot and a jittered area light: every kind of ray, transparent shadows,
+    lifted shadow-ray origins on the smooth mesh, per-hit light samples."""
     glass = raytrace.Material(kd=0.0, ks=0.5, shininess=200, highlight="blinn", kr=0.1, kt=0.9,
                               ior=1.5)
     floor = raytrace.Material(
@@ -40,7 +41,10 @@ def scene() -> raytrace.Scene:
         ],
         lights=[raytrace.PointLight([4.0, 6.0, 4.0]),
                 raytrace.SpotLight([0.0, 4.0, 2.0], [0.0, -1.0, -0.3], cutoff=40.0,
-                                   exponent=4.0, color=0.5)],
+                                   exponent=4.0, color=0.5),
+                # jittered: a point per hit, drawn from the global sample index and depth
+                raytrace.AreaLight([-2.0, 4.0, 3.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0],
+                                   samples=4, jitter=True, color=0.4)],
         ambient=0.1, render=raytrace.RenderSettings(background=[0.2, 0.3, 0.5]))
 
 
