@@ -286,17 +286,17 @@ def bulge1(px, py, pz, tri, u, v, side, corners, vnormals):
     start inside the neighbouring facets; where P is above every tangent plane (concave), P'
     = P."""
     w = 1.0 - u - v
-    qx = qy = qz = 0.0
+    dx = dy = dz = 0.0  # Σ_k b_k·(P_k − P): exactly P where nothing lifts
     for k in range(3):
         b = w if k == 0 else (u if k == 1 else v)
         nx, ny, nz = side * vnormals[tri, k, 0], side * vnormals[tri, k, 1], side * vnormals[
             tri, k, 2]
         lift = min(0.0, (px - corners[tri, k, 0]) * nx + (py - corners[tri, k, 1]) * ny
                    + (pz - corners[tri, k, 2]) * nz)
-        qx += b * (px - lift * nx)
-        qy += b * (py - lift * ny)
-        qz += b * (pz - lift * nz)
-    return qx, qy, qz
+        dx -= b * lift * nx
+        dy -= b * lift * ny
+        dz -= b * lift * nz
+    return px + dx, py + dy, pz + dz
 
 
 @kernel

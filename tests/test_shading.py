@@ -204,3 +204,42 @@ def test_occluder_beyond_the_light_casts_no_shadow_in_a_scene_with_glass():
                             ceiling, *extra], [raytrace.PointLight([0, 4, 0])],
                            camera=aimed_camera([3, 1, 3], [0, 0, 0]))
         np.testing.assert_allclose(pixel(scene), np.full(3, 0.5), rtol=RTOL)
+
+
+# -- Hanika's lifted shadow-ray origin (shading_kernels.bulge1) ----------------------------------
+def _patch(bend: float):
+    """One triangle of a patch whose vertex normals lean outward by ``bend`` (convex, > 0) or
+    inward (concave, < 0): corners on z = 0, normals (±bend·x̂, ±bend·ŷ) + ẑ, normalised."""
+    corners = np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]])
+    centre = corners[0].mean(0)
+    normals = np.array([[np.r_[bend * (c - centre)[:2], 1.0] for c in corners[0]]])
+    normals /= np.linalg.norm(normals, axis=2, keepdims=True)
+    return corners, normals
+
+
+def test_lifted_origin_rises_on_a_convex_patch_and_stays_on_a_concave_one():
+    from raytrace.shading_kernels import bulge1
+
+    u, v = 0.3, 0.3
+    corners, normals = _patch(0.5)
+    # P = (0.3, 0.3, 0) lies below each vertex's tangent plane (n_k·(P − V_k) < 0 where n_k
+    # leans away from P): P_k = P − (n_k·(P − V_k))·n_k, blended with (0.4, 0.3, 0.3).
+    p = np.array([u, v, 0.0])
+    w = np.array([1 - u - v, u, v])
+    expected = sum(w[k] * (p - min(0.0, normals[0, k] @ (p - corners[0, k])) * normals[0, k])
+                   for k in range(3))
+    got = np.array(bulge1(*p, 0, u, v, 1.0, corners, normals))
+    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-15)
+    assert got[2] > 1e-3                                   # lifted off the flat facet
+    # seen from the other side (side −1) the same patch is concave: no lift
+    np.testing.assert_array_equal(bulge1(*p, 0, u, v, -1.0, corners, normals), p)
+    # a concave patch (normals leaning inward) seen from the front: no lift either
+    corners, inward = _patch(-0.5)
+    np.testing.assert_array_equal(bulge1(*p, 0, u, v, 1.0, corners, inward), p)
+    # flat normals: nothing to lift
+    corners, flat = _patch(0.0)
+    np.testing.assert_allclose(bulge1(*p, 0, u, v, 1.0, corners, flat), p, atol=1e-15)
+    # at a vertex the point is that vertex (its own tangent plane passes through it)
+    corners, normals = _patch(0.5)
+    np.testing.assert_allclose(bulge1(*corners[0, 1], 0, 1.0, 0.0, 1.0, corners, normals),
+                               corners[0, 1], atol=1e-15)
