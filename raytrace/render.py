@@ -8,7 +8,6 @@ from collections.abc import Callable
 from . import values
 from .errors import SceneError
 from .film import Image
-from .integrator import PASS_SAMPLES, RenderOptions, WhittedIntegrator
 from .scene import RenderSettings, Scene
 
 
@@ -16,13 +15,19 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
            spp: int | None = None, max_depth: int | None = None,
            min_weight: float | None = None, seed: int | None = None, threads: int | None = None,
            progress: Callable[[int, int], None] | None = None,
-           pass_samples: int = PASS_SAMPLES) -> Image:
+           pass_samples: int | None = None) -> Image:
     """Render ``scene``; keyword arguments override its ``[render]`` settings.
 
     Returns an :class:`Image` whose ``rgb`` is (height, width, 3) float32 linear RGB and whose
     ``stats`` is the ``--stats`` dictionary. ``threads`` defaults to every core, like the
-    command line; the image does not depend on it.
+    command line; the image does not depend on it. ``pass_samples`` caps the camera samples
+    per pass (default :data:`raytrace.integrator.PASS_SAMPLES`).
+
+    The integrator, and with it numba, is imported on the first call, so ``import raytrace``
+    (loading and checking scenes, reading EXRs) does not pay for the compiler.
     """
+    from .integrator import PASS_SAMPLES, RenderOptions, WhittedIntegrator
+
     if not isinstance(scene, Scene):
         raise TypeError(f"render() needs a raytrace.Scene, got {type(scene).__name__}")
     r = scene.render
@@ -41,5 +46,5 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
         raise SceneError(e.problem, e.key, scene.path) from None
     options = RenderOptions(settings.width, settings.height, settings.spp, settings.max_depth,
                             settings.min_weight, settings.background, settings.seed, threads,
-                            pass_samples)
+                            PASS_SAMPLES if pass_samples is None else pass_samples)
     return WhittedIntegrator(scene, options).render(progress)

@@ -7,6 +7,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -274,3 +275,37 @@ def test_compression_missing_from_the_binding_fails_before_the_render(tmp_path, 
     lines = cap.err.splitlines()
     assert len(lines) == 1 and "--compression" in lines[0] and "zstd" in lines[0], cap.err
     assert sorted(os.listdir(tmp_path)) == ["floor.toml"]
+
+
+# -- heavy imports only where they are used ------------------------------------------------------
+ROOT = Path(__file__).resolve().parents[1]
+HEAVY = ("numba", "trimesh", "colour", "scipy", "matplotlib", "embreex")
+
+
+def _imported_after(code: str) -> set[str]:
+    """The heavy top-level modules a fresh interpreter has imported after running ``code``."""
+    probe = (f"import sys\n{code}\n"
+             f"print('HEAVY:' + ','.join(m for m in {HEAVY!r} if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True, cwd=ROOT).stdout
+    line = next(x for x in out.splitlines() if x.startswith("HEAVY:"))
+    return set(filter(None, line.removeprefix("HEAVY:").split(",")))
+
+
+def test_loading_checking_and_comparing_import_no_renderer_machinery(tmp_path):
+    # Loading and validating an analytic scene, listing materials and comparing EXRs need
+    # neither the compiler (numba), Embree, trimesh, colour-science nor SciPy.
+    a = tmp_path / "a.exr"
+    write_exr(a, np.zeros((2, 3, 3), np.float32))
+    assert _imported_after("import raytrace; raytrace.load_scene('scenes/whitted.toml')") == set()
+    assert _imported_after("from raytrace import cli; cli.main(['materials'])") == set()
+    assert _imported_after(f"from raytrace import cli; cli.main(['compare', {str(a)!r}, "
+                           f"{str(a)!r}])") == set()
+
+
+def test_rendering_imports_numba_but_not_the_preview_or_mesh_libraries():
+    # An analytic render to EXR needs numba; trimesh (mesh files) and colour-science (PNG
+    # previews) stay out. (numba itself imports SciPy for its BLAS check where it is installed.)
+    got = _imported_after("import raytrace; raytrace.render(raytrace.load_scene("
+                          "'scenes/whitted.toml'), width=4, height=3)")
+    assert "numba" in got and not {"trimesh", "colour", "matplotlib", "embreex"} & got
