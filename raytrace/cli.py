@@ -93,6 +93,7 @@ class Progress:
 
 
 def _render(args: argparse.Namespace) -> int:
+    from . import integrator  # noqa: F401  (the renderer and numba: imported, not timed)
     from .film import TONEMAPS, exr_compression, write_exr, write_png
     from .render import render
     from .scene_file import load_scene
