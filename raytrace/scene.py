@@ -28,10 +28,6 @@ MAX_PIXELS = 100_000_000
 MAX_SIDE = 100_000
 
 
-def _err(e: SceneError, where: str) -> SceneError:
-    return e.at(key_prefix=where)
-
-
 @dataclass
 class RenderSettings:
     """``[render]``: image size, sampling and recursion limits."""
