@@ -63,19 +63,37 @@ def _offset_rows(spp, k, seed, sample, sx, sy):
 def _directions(start, width, height, spp, k, seed, tan_half, right, up, forward, out):
     """Unit directions of global samples ``start …`` into ``out`` (n, 3): through
     ``x = (2(col + sx)/W − 1)·tan(fov/2)·W/H``, ``y = (1 − 2(row + sy)/H)·tan(fov/2)`` on the
-    image plane one unit along ``forward``."""
+    image plane one unit along ``forward``. The pixel (row, col) and the sample's cell within
+    it are counted along, not divided out of the sample index for every sample."""
+    rx, ry, rz = right[0], right[1], right[2]
+    ux, uy, uz = up[0], up[1], up[2]
+    fx, fy, fz = forward[0], forward[1], forward[2]
+    aspect = width / height
+    pixel, cell = start // spp, start % spp
+    row, col = pixel // width, pixel % width
     for j in range(out.shape[0]):
-        sample = start + j
-        pixel = sample // spp
-        row, col = pixel // width, pixel % width
-        sx, sy = offset1(spp, k, seed, sample)
-        x = (2.0 * (col + sx) / width - 1.0) * tan_half * (width / height)
+        if spp == 1:
+            sx = sy = 0.5
+        else:
+            u1, u2 = uniform1(seed, start + j, 0), uniform1(seed, start + j, 1)
+            if k == 0:
+                sx, sy = u1, u2
+            else:
+                sx, sy = (cell % k + u1) / k, (cell // k + u2) / k
+        x = (2.0 * (col + sx) / width - 1.0) * tan_half * aspect
         y = (1.0 - 2.0 * (row + sy) / height) * tan_half
-        dx = x * right[0] + y * up[0] + forward[0]
-        dy = x * right[1] + y * up[1] + forward[1]
-        dz = x * right[2] + y * up[2] + forward[2]
+        dx = x * rx + y * ux + fx
+        dy = x * ry + y * uy + fy
+        dz = x * rz + y * uz + fz
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
         out[j, 0], out[j, 1], out[j, 2] = dx / length, dy / length, dz / length
+        cell += 1
+        if cell == spp:
+            cell = 0
+            col += 1
+            if col == width:
+                col = 0
+                row += 1
 
 
 def _grid(spp: int) -> int:
