@@ -186,6 +186,8 @@ def direct1(nx, ny, nz, lx, ly, lz, vx, vy, vz, kd, ks, n, model):
     ndl = nx * lx + ny * ly + nz * lz
     if not ndl > 0.0:
         return 0.0, 0.0, 0.0
+    if ks[0] == 0.0 and ks[1] == 0.0 and ks[2] == 0.0:  # no highlight: skip its exp and log
+        return kd[0] * ndl, kd[1] * ndl, kd[2] * ndl
     spec = highlight1(model, nx, ny, nz, lx, ly, lz, vx, vy, vz, n)
     return kd[0] * ndl + ks[0] * spec, kd[1] * ndl + ks[1] * spec, kd[2] * ndl + ks[2] * spec
 
@@ -410,7 +412,7 @@ def hit_terms(direction, weight, geometric, shading, material, point, origin, ma
             kr = color1(materials, m, KR, wx, wy, wz)
             for c in range(3):
                 w_r[i, c] = weight[i, c] * t * kr[c]
-            status[i, 0] = _status(w_r[i], min_weight)
+            status[i, 0] = _status((w_r[i, 0], w_r[i, 1], w_r[i, 2]), min_weight)
         if transmits[m]:
             eta = 1.0 / ior[m] if dx * gx + dy * gy + dz * gz < 0.0 else ior[m]
             tx, ty, tz, total = refract3(dx, dy, dz, nx, ny, nz, eta)
@@ -427,20 +429,21 @@ def hit_terms(direction, weight, geometric, shading, material, point, origin, ma
                 for c in range(3):
                     w_r[i, c] = weight[i, c] * t * (kr[c] + kt[c])
                     w_t[i, c] = 0.0
-                status[i, 0] = _status(w_r[i], min_weight)
-            status[i, 1] = _status(w_t[i], min_weight)
+                status[i, 0] = _status((w_r[i, 0], w_r[i, 1], w_r[i, 2]), min_weight)
+            status[i, 1] = _status((w_t[i, 0], w_t[i, 1], w_t[i, 2]), min_weight)
         if t < 1.0:
             for c in range(3):
                 w_s[i, c] = weight[i, c] * (1.0 - t)
-            status[i, 2] = _status(w_s[i], min_weight)
+            status[i, 2] = _status((w_s[i, 0], w_s[i, 1], w_s[i, 2]), min_weight)
 
 
 @kernel
 def _status(w, min_weight):
     """NONE, LIGHT or KEEP for a child of weight ``w`` (3,) (its largest channel, NaN
-    propagating like numpy's max)."""
+    propagating like numpy's max). ``w`` is a tuple: a row of an array would cost a
+    reference count per call."""
     big = w[0]
-    for c in range(1, 3):
+    for c in (1, 2):
         if not (big >= w[c] or big != big):
             big = w[c]
     if not big > 0.0:
