@@ -42,7 +42,8 @@ from .film import Image
 from .lights import Emitter, emitters
 from .material import COLOR_KEYS, Checker, Material
 from .optics import dot
-from .rays import KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH, RayBatch, take_hits, take_rows
+from .rays import (KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH, RayBatch, count_kinds,
+                   split_hits, take_hits, take_rows)
 from .scene import Scene
 from .shading import HIGHLIGHT_CODES, direct
 
@@ -311,18 +312,19 @@ class WhittedIntegrator:
 
     def trace(self, rays: RayBatch, samples: np.ndarray) -> RayBatch:
         """One depth: intersect, add background and local shading, return the next depth."""
-        st, o = self.stats, self.opt
-        for name, count in zip(KIND_NAMES, np.bincount(rays.kind, minlength=len(KIND_NAMES)),
-                               strict=True):
-            st.rays[name] += int(count)
+        st, o, n = self.stats, self.opt, len(rays)
+        counts = np.zeros(len(KIND_NAMES), np.int64)
+        count_kinds(rays.kind, counts)
+        for name, count in zip(KIND_NAMES, counts.tolist(), strict=True):
+            st.rays[name] += count
         t0 = time.perf_counter()
         hits = self.accel.intersect(rays.origin, rays.direction, rays.origin_shape)
         st.trace_seconds += time.perf_counter() - t0
-        hit = hits.hit
-        found = np.flatnonzero(hit)
-        if len(found) < len(rays) and np.any(o.background):
-            add(samples, rays.sample, rays.weight, self.background, np.flatnonzero(~hit),
-                self.sums(samples))
+        found, missed = (self.scratch(name, n, dtype=np.int64) for name in ("found", "missed"))
+        k = split_hits(hits.t, found, missed)
+        found, missed = found[:k], missed[:n - k]
+        if len(missed) and np.any(o.background):
+            add(samples, rays.sample, rays.weight, self.background, missed, self.sums(samples))
         if not len(found):
             return RayBatch.empty(rays.depth + 1)
         t1 = time.perf_counter()
@@ -488,7 +490,7 @@ class WhittedIntegrator:
         if not self.any_transparent:
             blocked = self.accel.occluded(origin, direction, shape, tmax)
             self.stats.trace_seconds += time.perf_counter() - t0
-            factor[:] = (~blocked)[:, None]
+            K.unblocked(blocked, factor)
             return factor
         factor.fill(1.0)
         live = np.arange(len(rows))

@@ -9,6 +9,7 @@ added to that sample (Whitted 1980, in wavefront form as in pbrt-v4's wavefront 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -92,6 +93,39 @@ class RayBatch:
         z3 = np.zeros((0, 3))
         return RayBatch(z3, z3.copy(), np.zeros(0, np.int64), z3.copy(), depth,
                         np.zeros(0, np.int64), np.zeros(0, np.int8))
+
+
+@kernel
+def count_kinds(kind, counts):
+    """``counts[k] +=`` the number of rays of kind k (``np.bincount`` of an int8 column
+    first converts it to int64: 180 µs against 15 µs for 65 536 rays)."""
+    camera = reflection = refraction = see_through = 0  # locals: no store-to-load chain
+    for i in range(kind.shape[0]):
+        k = kind[i]
+        camera += k == CAMERA
+        reflection += k == REFLECTION
+        refraction += k == REFRACTION
+        see_through += k == SEE_THROUGH
+    counts[CAMERA] += camera
+    counts[REFLECTION] += reflection
+    counts[REFRACTION] += refraction
+    counts[SEE_THROUGH] += see_through
+
+
+@kernel
+def split_hits(t, found, missed):
+    """The rows of the rays that hit something (finite ``t``) into the first rows of
+    ``found``, the others into ``missed``, each in row order; returns how many hit (one pass
+    instead of ``np.flatnonzero`` twice)."""
+    k = m = 0
+    for i in range(t.shape[0]):
+        if math.isfinite(t[i]):
+            found[k] = i
+            k += 1
+        else:
+            missed[m] = i
+            m += 1
+    return k
 
 
 @kernel

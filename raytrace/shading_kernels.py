@@ -11,7 +11,8 @@ Two layers, in pipeline order:
   checker of SCENE_FORMAT.md) and ``leave1`` (where a spawned ray starts);
 * **one batch at a time**, the passes the integrator makes over its hits, each composed of the
   functions above: ``light_hits`` (one emitter's unshadowed term and its shadow-ray
-  candidates), ``shadow_rays``, ``cross_surfaces`` (transparent shadows), ``add_light``,
+  candidates), ``shadow_rays``, ``unblocked`` (opaque shadows), ``cross_surfaces``
+  (transparent shadows), ``add_light``,
   ``hit_terms`` (what each hit adds to its sample; its reflected, refracted and see-through
   children's directions, weights and pruning status), ``count_keep`` and
   ``spawn_children`` (the next depth's batch from those) and
@@ -338,6 +339,15 @@ def add_light(out, rows, term, shadow, color):
         i = rows[j]
         for c in range(3):
             out[i, c] += term[i, c] * shadow[j, c] * color[c]
+
+
+@kernel
+def unblocked(blocked, factor):
+    """Shadow factor S (k, 3) of opaque-only scenes: 0 where the shadow ray is ``blocked``,
+    else 1 (numpy's broadcast ``factor[:] = ~blocked[:, None]`` took 20× as long)."""
+    for j in range(blocked.shape[0]):
+        s = 0.0 if blocked[j] else 1.0
+        factor[j, 0] = factor[j, 1] = factor[j, 2] = s
 
 
 @kernel
