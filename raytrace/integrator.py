@@ -162,12 +162,11 @@ class Stats:
 
 
 class Worker(threading.local):
-    """What each rendering thread keeps to itself: scratch arrays, the zeroed sums of
-    :func:`add`, and its counters (merged after the render, in a fixed order)."""
+    """What each rendering thread keeps to itself: scratch arrays and its counters (merged
+    after the render, in a fixed order)."""
 
     def __init__(self, registry: list[Stats], lock: threading.Lock):
         self.scratch = Scratch()
-        self.sums: np.ndarray | None = None
         self.first_sample = 0  # global index of the current pass's first camera sample
         self.stats = Stats()
         with lock:
@@ -289,7 +288,8 @@ class WhittedIntegrator:
         o = self.opt
         t0 = time.perf_counter()
         self._worker.first_sample = start
-        samples = np.zeros((stop - start, 3))
+        samples = self.scratch("samples", stop - start, 3)
+        samples.fill(0.0)
         rays = camera_rays(self.scene.camera, o.width, o.height, o.spp, o.seed, start, stop)
         # Depth by depth; a batch grown past the pass size (2 children per glass hit) is split
         # and its chunks finished one after another, so memory stays bounded by the pass size
@@ -324,7 +324,7 @@ class WhittedIntegrator:
         k = split_hits(hits.t, found, missed)
         found, missed = found[:k], missed[:n - k]
         if len(missed) and np.any(o.background):
-            add(samples, rays.sample, rays.weight, self.background, missed, self.sums(samples))
+            add(samples, rays.sample, rays.weight, self.background, missed)
         if not len(found):
             return RayBatch.empty(rays.depth + 1)
         t1 = time.perf_counter()
@@ -346,13 +346,6 @@ class WhittedIntegrator:
         st.shade_seconds += time.perf_counter() - t1 - (st.trace_seconds - trace_before)
         return children
 
-    def sums(self, samples: np.ndarray) -> np.ndarray:
-        """Zeroed scratch for :func:`add` into ``samples`` (``add`` leaves it zeroed)."""
-        w = self._worker
-        if w.sums is None or w.sums.shape != samples.shape:
-            w.sums = np.zeros(samples.shape)
-        return w.sums
-
     # -- shading -----------------------------------------------------------------------------
 
     def shade(self, rays: RayBatch, surf: Surface, samples: np.ndarray) -> RayBatch:
@@ -372,7 +365,7 @@ class WhittedIntegrator:
         K.hit_terms(rays.direction, rays.weight, surf.geometric, surf.shading, surf.material,
                     surf.point, self.origin, self.table.arrays, self.ambient, lights,
                     self.opt.min_weight, local, r_dir, t_dir, w_r, w_t, w_s, status, tir)
-        add(samples, rays.sample, rays.weight, local, part=self.sums(samples))
+        add(samples, rays.sample, rays.weight, local)
         depth = rays.depth + 1
         if depth <= self.opt.max_depth:
             self.stats.total_internal_reflections += int(np.count_nonzero(tir))
@@ -551,12 +544,13 @@ class WhittedIntegrator:
 
 
 def add(samples: np.ndarray, sample: np.ndarray, weight: np.ndarray, factor: np.ndarray,
-        rows: np.ndarray | None = None, part: np.ndarray | None = None) -> None:
+        rows: np.ndarray | None = None) -> None:
     """``samples[sample[r]] += weight[r]·factor[r]`` for the rays ``rows`` (all by default;
-    ``factor`` of one row applies to every ray), repeated samples summed in a fixed order
-    (:func:`raytrace.shading_kernels.accumulate`; ``part``: its zeroed scratch, like
-    ``samples``)."""
+    ``factor`` of one row applies to every ray), one ray after another in batch order
+    (:func:`raytrace.shading_kernels.accumulate`)."""
+    if rows is None and len(factor) == len(sample):
+        K.accumulate_all(samples, sample, weight, factor)
+        return
     if rows is None:
         rows = np.arange(len(sample))
-    K.accumulate(samples, sample, weight, factor, rows,
-                 np.zeros(samples.shape) if part is None else part)
+    K.accumulate(samples, sample, weight, factor, rows)

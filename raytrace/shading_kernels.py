@@ -515,23 +515,27 @@ def spawn_children(status, first, r_dir, t_dir, s_dir, w_r, w_t, w_s, point, geo
 
 
 @kernel
-def accumulate(samples, sample, weight, factor, rows, part):
-    """``samples[sample[r]] += weight[r]·factor[r]`` for r in ``rows`` (``factor`` of one row
-    applies to all), as ``np.bincount`` would: the rays of one sample are summed first, in row
-    order, then added, so the result depends on nothing but the order of the rows. ``part``,
-    shaped like ``samples``, holds the sums: all zero on entry, left all zero."""
+def accumulate(samples, sample, weight, factor, rows):
+    """``samples[sample[r]] += weight[r]·factor[r]`` for r in ``rows``, one after another in
+    the order of ``rows`` (``factor`` of one row applies to all). The order of the additions
+    is the batch's, so the sums depend on nothing but how the pass is cut into batches, never
+    on the threads."""
     one = factor.shape[0] == 1
     for j in range(rows.shape[0]):
         r = rows[j]
         s = sample[r]
         f = 0 if one else r
         for c in range(3):
-            part[s, c] += weight[r, c] * factor[f, c]
-    for j in range(rows.shape[0]):
-        s = sample[rows[j]]
+            samples[s, c] += weight[r, c] * factor[f, c]
+
+
+@kernel
+def accumulate_all(samples, sample, weight, factor):
+    """:func:`accumulate` over every row, in row order, ``factor`` (n, 3)."""
+    for r in range(sample.shape[0]):
+        s = sample[r]
         for c in range(3):
-            samples[s, c] += part[s, c]
-            part[s, c] = 0.0  # a repeated sample adds its sum once
+            samples[s, c] += weight[r, c] * factor[r, c]
 
 
 # -- array versions of the per-ray functions (the public numpy-facing API) -----------------------
