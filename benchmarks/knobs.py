@@ -592,6 +592,24 @@ def plot(result: dict, folder: Path) -> list[Path]:
             ax.annotate(fmt_label(vi), (xi, yi), textcoords="offset points", xytext=(4, 4),
                         fontsize=7)
 
+    def spread_labels(fig, ax):
+        """Move each point's label, in drawing order, to the first free place (above right,
+        below right, above left, below left of its point) where it overlaps no earlier label:
+        two settings giving nearly the same render (TIR at min_weight 1e-4 and 1e-3) must
+        both read. Positions are in display units, so this runs after the layout."""
+        renderer = fig.canvas.get_renderer()
+        placed = []
+        for ann in (t for t in ax.texts if isinstance(t, matplotlib.text.Annotation)):
+            for dx, dy, ha, va in ((4, 4, "left", "bottom"), (4, -4, "left", "top"),
+                                   (-4, 4, "right", "bottom"), (-4, -4, "right", "top")):
+                ann.xyann = (dx, dy)
+                ann.set_horizontalalignment(ha)
+                ann.set_verticalalignment(va)
+                box = ann.get_window_extent(renderer)
+                if not any(box.overlaps(b) for b in placed):
+                    break
+            placed.append(ann.get_window_extent(renderer))
+
     def figure(name, title, draw):
         fig, axes = plt.subplots(1, 2, figsize=(11, 5.4))
         for ax, key, ylabel in zip(axes, ("rmse", "max_error"),
@@ -610,6 +628,8 @@ def plot(result: dict, folder: Path) -> list[Path]:
         fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8, frameon=False)
         fig.suptitle(title, fontsize=10)
         fig.tight_layout(rect=(0, 0.04 + 0.035 * ((len(labels) + 1) // 2), 1, 1))
+        for ax in axes:
+            spread_labels(fig, ax)
         path = folder / f"{name}.png"
         fig.savefig(path, dpi=110)
         plt.close(fig)

@@ -42,8 +42,17 @@ from .film import Image
 from .lights import Emitter, emitters
 from .material import COLOR_KEYS, Checker, Material
 from .optics import dot
-from .rays import (KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH, RayBatch, count_kinds,
-                   split_hits, take_hits, take_rows)
+from .rays import (
+    KIND_NAMES,
+    REFLECTION,
+    REFRACTION,
+    SEE_THROUGH,
+    RayBatch,
+    count_kinds,
+    split_hits,
+    take_hits,
+    take_rows,
+)
 from .scene import Scene
 from .shading import HIGHLIGHT_CODES, direct
 

@@ -386,10 +386,14 @@ def hit_terms(direction, weight, geometric, shading, material, point, origin, ma
     * see-through: straight on with weight ``w·(1 − t)``.
 
     Under TIR the kt share and the reflection leave along the same mirror direction from the
-    same point: the two rays would trace the same path. Where there is a reflected child and
-    the directions are equal (bit for bit) they become one reflected ray of weight
-    ``w·t·(kr + kt)`` (the recursion is linear in the child's weight), so a glass scene does
-    not trace its trapped light twice; ``min_weight`` then sees the sum.
+    same point: the two rays would trace the same path. With ``min_weight`` 0, where there is
+    a reflected child and the directions are equal (bit for bit), they become one reflected
+    ray of weight ``w·t·(kr + kt)``, so a glass scene does not trace its trapped light twice.
+    That is exact: the recursion is linear in a child's weight, both children have the same
+    depth, and with no weight pruning only ``max_depth``, which treats them alike, stops a
+    path. With ``min_weight`` > 0 they stay two rays, the reflected one (``w·t·kr``) and the
+    TIR one (``w·t·kt``, refracted column, along the mirror direction), each kept or pruned by
+    its own path weight as the contract says: a merged ray would be pruned by the sum.
 
     ``status`` (n, 3), columns reflected, refracted, see-through: NONE where the material has
     no such child or its weight is 0, LIGHT where its largest channel is under ``min_weight``
@@ -434,8 +438,9 @@ def hit_terms(direction, weight, geometric, shading, material, point, origin, ma
             kt = color1(materials, m, KT, wx, wy, wz)
             for c in range(3):
                 w_t[i, c] = weight[i, c] * t * kt[c]
-            if (total and reflects[m] and status[i, 0] != NONE and tx == r_dir[i, 0]
-                    and ty == r_dir[i, 1] and tz == r_dir[i, 2]):  # one path, one ray
+            if (total and not min_weight > 0.0 and reflects[m] and status[i, 0] != NONE
+                    and tx == r_dir[i, 0] and ty == r_dir[i, 1]
+                    and tz == r_dir[i, 2]):  # one path, one ray (no weight pruning)
                 for c in range(3):
                     w_r[i, c] = weight[i, c] * t * (kr[c] + kt[c])
                     w_t[i, c] = 0.0

@@ -13,11 +13,15 @@ It follows seed 003's pseudocode one ray at a time, in the contract's form
         I     ← local + kr·trace(reflected, depth+1) + kt·trace(refracted or TIR, depth+1)
         return t·I + (1 − t)·trace(straight through, depth+1)
 
-(a TIR ray on the reflected ray's exact path is traced once, as (kr + kt)·trace(reflected)),
-
 where a child is traced only while its depth ≤ max_depth and its path weight (the product of
 the t·kr, t·kt, 1 − t factors, max over RGB) is ≥ min_weight, and S_l is the product of
 ``t·kt + (1 − t)`` over every surface the straight shadow ray crosses before the light.
+
+Under TIR the kt share leaves along the mirror direction. With min_weight 0 a TIR ray on the
+reflected ray's exact path is traced once, as (kr + kt)·trace(reflected): exact, since the sum
+is linear in the children and both have the same depth, and only max_depth stops a path. With
+min_weight > 0 the two stay separate rays (weights w·t·kr and w·t·kt), each pruned by its own
+path weight, as the contract says.
 
 Written independently of :mod:`raytrace.integrator`: it shares only the intersection code
 (:class:`raytrace.accel.Accelerator`, its spawn rule and shadow-ray shortening) and the local
@@ -208,10 +212,11 @@ class ReferenceTracer:
                     refracted = mirror(d, ng)
                 if depth + 1 <= self.max_depth:
                     self.counts.tir += 1
-                if (r is not None and np.array_equal(refracted, r)
+                if (self.min_weight <= 0 and r is not None and np.array_equal(refracted, r)
                         and (weight * t * kr).max() > 0):
                     # The reflection and the kt share leave on the same path: one ray,
                     # I_r·(kr + kt), of weight w·t·(kr + kt) (the contract's sum is linear).
+                    # Only without weight pruning: min_weight must see each path's own weight.
                     kr, refracted = kr + kt, None
         if r is not None:
             color = color + kr * self.child(surf, r, depth + 1, weight * t * kr, "reflection")

@@ -517,11 +517,57 @@ def test_tir_and_reflection_on_one_path_are_one_ray(depth):
     assert st["rays"]["reflection"] == depth and st["rays"]["refraction"] == 0
     assert st["total_internal_reflections"] == depth
     assert st["pruned"]["depth"] == 1
-    # min_weight sees the merged weight: (kr + kt)^k = 0.9^k stays above 0.5 for k ≤ 6,
-    # although the reflection share alone (0.1) would be pruned at once.
+    # With min_weight 0.5 the contract prunes each path by its own weight, so the two shares
+    # are two rays again. The depth-k hit has weight 0.8^k (only TIR shares reach it); its
+    # reflection share 0.1·0.8^k < 0.5 is pruned by weight at every hit, its TIR share 0.8^(k+1)
+    # is traced while ≥ 0.5: 0.8, 0.64, 0.512 are, 0.4096 is not. So hits at depths
+    # 0 … M = min(D, 3), and
+    #   pixel = ka·Ia·Σ_{k=0..M} 0.8^k,
+    # M refraction-kind rays, no reflection-kind ray. The hits at depths 0 … min(D − 1, 3) have
+    # their children within max_depth: min(D, 4) TIRs, and each prunes its reflection by weight,
+    # the depth-3 one (if D ≥ 4) its TIR share too: min(D, 4) + [D ≥ 4] pruned by weight. If
+    # D ≤ 3 the depth-D hit's two children (0.1·0.8^D and 0.8^(D+1), both > 0) are pruned by
+    # depth; else none.
     pruned = raytrace.render(make_scene([cube], [], cam, ambient=ia), width=1, height=1,
                              max_depth=depth, min_weight=0.5)
+    m = min(depth, 3)
+    expected = ka * ia * sum(kt**k for k in range(m + 1))
     np.testing.assert_allclose(pruned.rgb[0, 0], np.full(3, expected), rtol=RTOL)
+    st = pruned.stats
+    assert st["rays"]["reflection"] == 0 and st["rays"]["refraction"] == m
+    assert st["total_internal_reflections"] == min(depth, 4)
+    assert st["pruned"] == {"depth": 2 if depth <= 3 else 0,
+                            "weight": min(depth, 4) + (depth >= 4)}
+
+
+@pytest.mark.parametrize("depth", [2, 3, 5])
+def test_min_weight_keeps_tir_and_reflection_as_two_rays(depth):
+    # The trapped ray again, in glass with kr = 0.7, kt = 0.75 (ka = 0.5, Ia = 0.2), and
+    # min_weight 0.33. Every hit is a TIR: both shares leave along the mirror direction, as
+    # two rays (a reflection-kind one of weight w·0.7 and a refraction-kind one of w·0.75),
+    # so depth k holds 2^k rays of weights 0.7^a·0.75^(k−a). At depth 3 the smallest is
+    # 0.7^3 = 0.343 ≥ 0.33: all 8 traced; at depth 4 the largest is 0.75^4 = 0.316 < 0.33: all
+    # 16 pruned by weight. With M = min(D, 3):
+    #   pixel = ka·Ia·Σ_{k=0..M} Σ_a C(k, a)·0.7^a·0.75^(k−a) = ka·Ia·Σ_{k=0..M} 1.45^k,
+    #   reflection = refraction = Σ_{k=1..M} 2^(k−1) = 2^M − 1 rays,
+    #   TIRs = hits at depths 0 … min(D − 1, 3) = Σ 2^k = 2^min(D, 4) − 1,
+    #   pruned: by depth 2·2^D (the depth-D hits' children) if D ≤ 3, else 16 by weight.
+    # One merged ray per depth (weight 1.45^k, never under 0.33) would give D rays and
+    # ka·Ia·Σ_{k=0..D} 1.45^k instead.
+    kr, kt, ka, ia = 0.7, 0.75, 0.5, 0.2
+    mat = Material(kd=0.0, ka=ka, ks=0.0, kr=kr, kt=kt, ior=1.5)
+    cube = box((2.0, 2.0, 2.0), material=mat)
+    cam = aimed_camera([0.2, -0.1, 0.0], [1.2, 0.9, 0.0], up=[0, 0, 1])
+    image = raytrace.render(make_scene([cube], [], cam, ambient=ia), width=1, height=1,
+                            max_depth=depth, min_weight=0.33)
+    m = min(depth, 3)
+    expected = ka * ia * sum((kr + kt) ** k for k in range(m + 1))
+    np.testing.assert_allclose(image.rgb[0, 0], np.full(3, expected), rtol=RTOL)
+    st = image.stats
+    assert st["rays"]["reflection"] == st["rays"]["refraction"] == 2**m - 1
+    assert st["total_internal_reflections"] == 2 ** min(depth, 4) - 1
+    assert st["pruned"] == ({"depth": 2 * 2**depth, "weight": 0} if depth <= 3
+                            else {"depth": 0, "weight": 16})
 
 
 # -- analytic spheres without an epsilon ------------------------------------------------------
