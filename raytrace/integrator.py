@@ -202,6 +202,7 @@ class WhittedIntegrator:
         self.any_transparent = bool(self.table.transparent.any()) if self.materials else False
         self.lit = bool(self.emitters) and bool(self.table.lit.any())
         self.jittered = any(em.jittered for em in self.emitters)
+        self.any_gouraud = bool((self.accel.tri_shading == 2).any())
         #: What :func:`raytrace.shading_kernels.shadow_rays` needs of smooth triangles.
         self.smooth_table = (self.accel.tri_corners, self.accel.tri_vnormals,
                              self.accel.tri_shading)
@@ -423,7 +424,7 @@ class WhittedIntegrator:
         out.fill(0.0)
         term, to_light = new("term", n, 3), new("to_light", n, 3)
         dist, candidate = new("dist", n), new("candidate", n, dtype=bool)
-        gour = np.flatnonzero(surf.gouraud)
+        gour = np.flatnonzero(surf.gouraud) if self.any_gouraud else NO_KEY
         if len(gour):
             gouraud = self._gouraud_setup(rays, surf, gour)
         # Jittered area lights draw a point per hit from its global camera sample and depth.
