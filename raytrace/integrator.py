@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import shading_kernels as K
-from .accel import SHADOW_SHORTEN, Accelerator, Surface
+from .accel import SHADOW_SHORTEN, Accelerator, Hits, Surface
 from .camera import camera_rays
 from .film import Image
 from .lights import Emitter, emitters
@@ -51,7 +51,6 @@ from .rays import (
     count_kinds,
     split_hits,
     take_hits,
-    take_rows,
 )
 from .scene import Scene
 from .shading import HIGHLIGHT_CODES, direct
@@ -496,25 +495,20 @@ class WhittedIntegrator:
             K.unblocked(blocked, factor)
             return factor
         factor.fill(1.0)
-        live = np.arange(len(rows))
+        live = np.arange(len(rows))  # the row of factor each walking ray multiplies
+        tab = self.table.arrays
         for _ in range(MAX_SHADOW_CROSSINGS):
             hits = self.accel.intersect(origin, direction, shape, tmax)
-            crossed = np.flatnonzero(hits.hit)              # rows of the rays still going
-            if not len(crossed):
-                break
-            hits.t, hits.shape = hits.t[crossed], hits.shape[crossed]
-            hits.triangle, hits.uv = hits.triangle[crossed], take_rows(hits.uv, crossed)
-            direction = take_rows(direction, crossed)
-            s2 = self.accel.surface(hits, take_rows(origin, crossed), direction)
-            on = np.flatnonzero(K.cross_surfaces(factor, live[crossed], s2.material, s2.point,
-                                                 self.origin, self.table.arrays))  # let through
-            live = live[crossed[on]]
+            t, hit_shape, triangle, uv, origin, direction, tmax, live = K.crossing_rays(
+                hits.t, hits.shape, hits.triangle, hits.uv, origin, direction, tmax, live)
             if not len(live):
                 break
-            direction = take_rows(direction, on)
-            origin = K.spawn_origins(on, s2.point, s2.geometric, s2.offset, direction)
-            shape = s2.shape[on]
-            tmax = tmax[crossed[on]] - hits.t[on]
+            s2 = self.accel.surface(Hits(t, hit_shape, triangle, uv), origin, direction)
+            origin, direction, shape, tmax, live = K.cross_surfaces(
+                factor, live, s2.material, s2.point, s2.geometric, s2.offset, s2.shape,
+                direction, t, tmax, self.origin, tab)
+            if not len(live):
+                break
             self.stats.rays["shadow"] += len(live)
         else:
             factor[live] = 0.0

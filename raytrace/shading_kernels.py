@@ -11,13 +11,12 @@ Two layers, in pipeline order:
   checker of SCENE_FORMAT.md) and ``leave1`` (where a spawned ray starts);
 * **one batch at a time**, the passes the integrator makes over its hits, each composed of the
   functions above: ``light_hits`` (one emitter's unshadowed term and its shadow-ray
-  candidates), ``shadow_rays``, ``unblocked`` (opaque shadows), ``cross_surfaces``
-  (transparent shadows), ``add_light``,
+  candidates), ``shadow_rays``, ``unblocked`` (opaque shadows), ``crossing_rays`` and
+  ``cross_surfaces`` (the walk of transparent shadows), ``add_light``,
   ``hit_terms`` (what each hit adds to its sample; its reflected, refracted and see-through
   children's directions, weights and pruning status), ``count_keep`` and
-  ``spawn_children`` (the next depth's batch from those) and
-  ``spawn_origins``; plus
-  ``accumulate``, the fixed-order sum into the pixel samples.
+  ``spawn_children`` (the next depth's batch from those); plus ``accumulate``, the
+  fixed-order sum into the pixel samples.
 
 All are serial ``nogil`` kernels (``raytrace.jit.kernel``): the integrator's threads run them
 side by side, each on the batches of its own pass, and ``accumulate`` sums the rays of one
@@ -351,21 +350,65 @@ def unblocked(blocked, factor):
 
 
 @kernel
-def cross_surfaces(factor, rays, material, point, origin, materials):
-    """A transparent shadow ray crossing a surface: ``S *= t·kt + (1 − t)`` (seed 003) for the
-    rays ``rays`` (rows of ``factor``) at surfaces of ``material`` at ``point``; True where
-    some channel still lets light through."""
+def crossing_rays(t, shape, triangle, uv, origin, direction, tmax, live):
+    """The walking shadow rays that hit a surface before the light (finite ``t``), in row
+    order: their hits (``t``, ``shape``, ``triangle``, ``uv``), ``origin``, ``direction``,
+    ``tmax`` and ``live`` (the row of the shadow factor each one multiplies), as a tuple of
+    new arrays (one pass for what was eight numpy gathers)."""
+    n = 0
+    for i in range(t.shape[0]):
+        if math.isfinite(t[i]):
+            n += 1
+    t_out, shape_out, triangle_out = np.empty(n), np.empty(n, np.int64), np.empty(n, np.int64)
+    uv_out, origin_out, direction_out = np.empty((n, 2)), np.empty((n, 3)), np.empty((n, 3))
+    tmax_out, live_out = np.empty(n), np.empty(n, np.int64)
+    j = 0
+    for i in range(t.shape[0]):
+        if not math.isfinite(t[i]):
+            continue
+        t_out[j], shape_out[j], triangle_out[j] = t[i], shape[i], triangle[i]
+        uv_out[j, 0], uv_out[j, 1] = uv[i, 0], uv[i, 1]
+        for c in range(3):
+            origin_out[j, c], direction_out[j, c] = origin[i, c], direction[i, c]
+        tmax_out[j], live_out[j] = tmax[i], live[i]
+        j += 1
+    return t_out, shape_out, triangle_out, uv_out, origin_out, direction_out, tmax_out, live_out
+
+
+@kernel
+def cross_surfaces(factor, live, material, point, geometric, offset, shape, direction, t, tmax,
+                   origin, materials):
+    """Transparent shadow rays crossing the surfaces they hit (``material`` at ``point``):
+    ``S *= t·kt + (1 − t)`` (seed 003, t the opacity) on row ``live[j]`` of ``factor``. Those
+    that still let some channel through go on from the far side (:func:`leave1` along their
+    ``direction``) for the rest of their ``tmax`` (minus the hit's ``t``): returns their
+    (origin, direction, start shape, tmax, live) as new arrays."""
     opacity = materials[6]
-    on = np.empty(rays.shape[0], np.bool_)
-    for j in range(rays.shape[0]):
-        t = opacity[material[j]]
+    n, on = live.shape[0], 0
+    through = np.empty(n, np.bool_)
+    for j in range(n):
+        op = opacity[material[j]]
         kt = color1(materials, material[j], KT, point[j, 0] + origin[0],
                     point[j, 1] + origin[1], point[j, 2] + origin[2])
-        r = rays[j]
+        r = live[j]
         for c in range(3):
-            factor[r, c] *= t * kt[c] + (1.0 - t)
-        on[j] = factor[r, 0] > 0.0 or factor[r, 1] > 0.0 or factor[r, 2] > 0.0
-    return on
+            factor[r, c] *= op * kt[c] + (1.0 - op)
+        through[j] = factor[r, 0] > 0.0 or factor[r, 1] > 0.0 or factor[r, 2] > 0.0
+        on += through[j]
+    origin_out, direction_out = np.empty((on, 3)), np.empty((on, 3))
+    shape_out, tmax_out, live_out = np.empty(on, np.int64), np.empty(on), np.empty(on, np.int64)
+    k = 0
+    for j in range(n):
+        if not through[j]:
+            continue
+        dx, dy, dz = direction[j, 0], direction[j, 1], direction[j, 2]
+        origin_out[k, 0], origin_out[k, 1], origin_out[k, 2] = leave1(
+            point[j, 0], point[j, 1], point[j, 2], geometric[j, 0], geometric[j, 1],
+            geometric[j, 2], offset[j], dx, dy, dz)
+        direction_out[k, 0], direction_out[k, 1], direction_out[k, 2] = dx, dy, dz
+        shape_out[k], tmax_out[k], live_out[k] = shape[j], tmax[j] - t[j], live[j]
+        k += 1
+    return origin_out, direction_out, shape_out, tmax_out, live_out
 
 
 @kernel
@@ -464,19 +507,6 @@ def _status(w, min_weight):
     if not big > 0.0:
         return NONE
     return LIGHT if big < min_weight else KEEP
-
-
-@kernel
-def spawn_origins(rows, point, geometric, offset, direction):
-    """Origins (k, 3) of rays leaving the hits ``rows`` along ``direction`` (k, 3)."""
-    k = rows.shape[0]
-    origin = np.empty((k, 3))
-    for j in range(k):
-        i = rows[j]
-        origin[j, 0], origin[j, 1], origin[j, 2] = leave1(
-            point[i, 0], point[i, 1], point[i, 2], geometric[i, 0], geometric[i, 1],
-            geometric[i, 2], offset[i], direction[j, 0], direction[j, 1], direction[j, 2])
-    return origin
 
 
 @kernel
