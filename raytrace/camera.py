@@ -119,17 +119,41 @@ def sample_offsets(spp: int, seed: int, sample: np.ndarray) -> tuple[np.ndarray,
 
 
 def camera_rays(camera: Camera, width: int, height: int, spp: int, seed: int,
-                start: int, stop: int) -> RayBatch:
+                start: int, stop: int, columns: RayBatch | None = None,
+                direction: np.ndarray | None = None) -> RayBatch:
     """Rays of global samples ``start..stop-1`` (sample = pixel·spp + k), from the origin:
     the scene is camera-relative.
+
+    ``columns``: a batch of at least ``stop − start`` rows from :func:`camera_columns` whose
+    columns other than the direction are reused (views of its first rows); ``direction``: an
+    (n, 3) float64 array to write the directions into. Both new when not given.
     """
     n = stop - start
+    if direction is None:
+        direction = np.empty((n, 3))
+    camera_directions(camera, width, height, spp, seed, start, direction)
+    if columns is None:
+        columns = camera_columns(n)
+    return RayBatch(origin=columns.origin[:n], direction=direction, sample=columns.sample[:n],
+                    weight=columns.weight[:n], depth=0, origin_shape=columns.origin_shape[:n],
+                    kind=columns.kind[:n])
+
+
+def camera_directions(camera: Camera, width: int, height: int, spp: int, seed: int,
+                      start: int, out: np.ndarray) -> None:
+    """Unit directions (n, 3) of global samples ``start …`` into ``out``."""
     tan_half = math.tan(math.radians(camera.fov) / 2.0)
     right, up, forward = (np.ascontiguousarray(v, dtype=np.float64) for v in camera.basis())
-    direction = np.empty((n, 3))
-    _directions(start, width, height, spp, _grid(spp), seed, tan_half, right, up, forward,
-                direction)
-    return RayBatch(origin=np.zeros((n, 3)), direction=direction,
+    _directions(start, width, height, spp, _grid(spp), seed, tan_half, right, up, forward, out)
+
+
+def camera_columns(n: int) -> RayBatch:
+    """The columns every pass's camera rays share, for ``n`` rays: origin 0 (the scene is
+    camera-relative), sample 0…n−1 within the pass, weight 1, no start shape, kind CAMERA; the
+    direction column is empty. Nothing writes into a batch's columns once it is made (each
+    step writes new arrays), so the integrator keeps one of these per thread for all its
+    passes instead of filling 65 bytes a ray anew."""
+    return RayBatch(origin=np.zeros((n, 3)), direction=np.zeros((0, 3)),
                     sample=np.arange(n, dtype=np.int64), weight=np.ones((n, 3)), depth=0,
                     origin_shape=np.full(n, NO_SHAPE, np.int64),
                     kind=np.full(n, CAMERA, np.int8))

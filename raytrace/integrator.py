@@ -37,7 +37,7 @@ import numpy as np
 
 from . import shading_kernels as K
 from .accel import SHADOW_SHORTEN, Accelerator, Hits, Surface
-from .camera import camera_rays
+from .camera import camera_columns, camera_rays
 from .film import Image
 from .lights import Emitter, emitters
 from .material import COLOR_KEYS, Checker, Material
@@ -170,11 +170,12 @@ class Stats:
 
 
 class Worker(threading.local):
-    """What each rendering thread keeps to itself: scratch arrays and its counters (merged
-    after the render, in a fixed order)."""
+    """What each rendering thread keeps to itself: scratch arrays, the constant columns of
+    its camera rays, and its counters (merged after the render, in a fixed order)."""
 
     def __init__(self, registry: list[Stats], lock: threading.Lock):
         self.scratch = Scratch()
+        self.camera_columns: RayBatch | None = None  # raytrace.camera.camera_columns
         self.first_sample = 0  # global index of the current pass's first camera sample
         self.stats = Stats()
         with lock:
@@ -294,12 +295,15 @@ class WhittedIntegrator:
     def _render_pass(self, start: int, stop: int, pixels: np.ndarray) -> None:
         """Camera samples ``start`` to ``stop`` (whole pixels), depth by depth, into their
         pixels."""
-        o = self.opt
+        o, w, n = self.opt, self._worker, stop - start
         t0 = time.perf_counter()
-        self._worker.first_sample = start
-        samples = self.scratch("samples", stop - start, 3)
+        w.first_sample = start
+        samples = self.scratch("samples", n, 3)
         samples.fill(0.0)
-        rays = camera_rays(self.scene.camera, o.width, o.height, o.spp, o.seed, start, stop)
+        if w.camera_columns is None or len(w.camera_columns.origin) < n:
+            w.camera_columns = camera_columns(n)
+        rays = camera_rays(self.scene.camera, o.width, o.height, o.spp, o.seed, start, stop,
+                           w.camera_columns, self.scratch("camera_direction", n, 3))
         # Depth by depth; a batch grown past the pass size (2 children per glass hit) is split
         # and its chunks finished one after another, so memory stays bounded by the pass size
         # × max_depth rather than growing as 2^depth.
