@@ -69,6 +69,7 @@ ZERO3 = np.zeros(3)
 CHILD_KINDS = np.array([REFLECTION, REFRACTION, SEE_THROUGH], np.int8)
 NO_LIGHT = np.zeros((0, 3))
 NO_KEY = np.zeros(0, np.int64)
+NO_ROWS = np.zeros(0, np.int64)
 
 
 @dataclass
@@ -427,7 +428,7 @@ class WhittedIntegrator:
         out.fill(0.0)
         term, to_light = new("term", n, 3), new("to_light", n, 3)
         dist, candidate = new("dist", n), new("candidate", n, dtype=bool)
-        gour = np.flatnonzero(surf.gouraud) if self.any_gouraud else NO_KEY
+        gour = np.flatnonzero(surf.gouraud) if self.any_gouraud else NO_ROWS
         if len(gour):
             gouraud = self._gouraud_setup(rays, surf, gour)
         # Jittered area lights draw a point per hit from its global camera sample and depth.
