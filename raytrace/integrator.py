@@ -428,17 +428,17 @@ class WhittedIntegrator:
         out.fill(0.0)
         term, to_light = new("term", n, 3), new("to_light", n, 3)
         dist, candidate = new("dist", n), new("candidate", n, dtype=bool)
-        gour = np.flatnonzero(surf.gouraud) if self.any_gouraud else NO_ROWS
-        if len(gour):
-            gouraud = self._gouraud_setup(rays, surf, gour)
         # Jittered area lights draw a point per hit from its global camera sample and depth.
         key = rays.sample + self._worker.first_sample if self.jittered else NO_KEY
+        gour = np.flatnonzero(surf.gouraud) if self.any_gouraud else NO_ROWS
+        if len(gour):
+            gouraud = self._gouraud_setup(rays, surf, gour, key)
         for em in self.emitters:
             K.light_hits(surf.point, surf.geometric, surf.shading, rays.direction,
                          surf.material, self.origin, tab.arrays, em.packed, key, rays.depth,
                          term, to_light, dist, candidate)
             if len(gour):
-                term[gour] = self._gouraud(em, *gouraud)
+                term[gour] = self._gouraud(em, rays.depth, *gouraud)
                 candidate[gour] = tab.lit[surf.material[gour]] & np.any(term[gour] > 0, axis=1)
             rows = np.flatnonzero(candidate)
             if len(rows):
@@ -451,8 +451,10 @@ class WhittedIntegrator:
         """``out[rows] += term[rows]·S·I_l`` (:func:`raytrace.shading_kernels.add_light`)."""
         K.add_light(out, rows, term, shadow, color)
 
-    def _gouraud_setup(self, rays: RayBatch, surf: Surface, gour: np.ndarray) -> tuple:
-        """What :meth:`_gouraud` needs at the Gouraud-shaded hits ``gour``."""
+    def _gouraud_setup(self, rays: RayBatch, surf: Surface, gour: np.ndarray,
+                       key: np.ndarray) -> tuple:
+        """What :meth:`_gouraud` needs at the Gouraud-shaded hits ``gour`` (``key``: the
+        jitter keys of all hits, or none)."""
         tri, mat = surf.triangle[gour], surf.material[gour]
         vert = self.accel.tri_corners[tri]
         vnrm = self.accel.tri_vnormals[tri]
@@ -461,19 +463,21 @@ class WhittedIntegrator:
         point = np.ascontiguousarray(surf.point[gour])
         kd = self.table.color("kd", mat, point, self.origin)
         ks = self.table.color("ks", mat, point, self.origin)
-        return (vert, vnrm, flip, bary, rays.origin[gour], kd, ks, self.table.shininess[mat],
-                self.table.highlight[mat])
+        return (key[gour] if len(key) else NO_KEY, vert, vnrm, flip, bary, rays.origin[gour], kd,
+                ks, self.table.shininess[mat], self.table.highlight[mat])
 
     @staticmethod
-    def _gouraud(em, vert, vnrm, flip, bary, eye, kd, ks, shin, model) -> np.ndarray:
-        """Seed 000's Gouraud shading: the local model at the three vertices, interpolated."""
+    def _gouraud(em, depth, key, vert, vnrm, flip, bary, eye, kd, ks, shin, model) -> np.ndarray:
+        """Seed 000's Gouraud shading: the local model at the three vertices, interpolated.
+        A jittered area light is seen at each hit's own drawn point (``key``, ``depth``) from
+        all three vertices: the point its shadow ray aims at."""
         acc = np.zeros((len(vert), 3))
         for k in range(3):
             p = vert[:, k]
             nrm = vnrm[:, k] * flip[:, None]
             v = eye - p
             v /= np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
-            to_light, _, f = em.incidence(p)
+            to_light, _, f = em.incidence(p, key, depth)
             acc += bary[:, k:k + 1] * direct(nrm, to_light, v, kd, ks, shin, model) * f[:, None]
         return acc
 

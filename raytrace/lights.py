@@ -20,6 +20,9 @@ import numpy as np
 from . import shading_kernels as K
 from .scene import AreaLight, DirectionalLight, Light, SpotLight
 
+#: ``Emitter.incidence`` without keys: every jittered cell at its centre.
+NO_KEY = np.zeros(0, np.int64)
+
 
 @dataclass(frozen=True)
 class Emitter:
@@ -45,18 +48,22 @@ class Emitter:
     def jittered(self) -> bool:
         return self.stream >= 0
 
-    def incidence(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def incidence(self, points: np.ndarray, key: np.ndarray | None = None,
+                  depth: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Unit vectors to the light L (n, 3), distances (n,) (inf for directional) and the
         attenuation ``f_radial · f_angular`` (n,) at ``points`` (n, 3).
 
         A point exactly at the light's position gets factor 0 (no direction is defined). A
-        jittered area-light cell is taken at its centre here (the integrator draws a point
-        per hit). (:func:`raytrace.shading_kernels.incidence1`, row by row.)
+        jittered area-light cell is taken at the point drawn for each ``key`` (n,) (the
+        global camera sample of the hit the point belongs to) and ``depth``, the point the
+        integrator's shadow rays of that hit aim at; without ``key``, at the cell centre.
+        (:func:`raytrace.shading_kernels.incidence_rows`.)
         """
         points = np.ascontiguousarray(np.asarray(points, np.float64).reshape(-1, 3))
         n = len(points)
+        key = NO_KEY if key is None else np.ascontiguousarray(key, dtype=np.int64)
         to_light, dist, factor = np.empty((n, 3)), np.empty(n), np.empty(n)
-        K.incidence_rows(points, self.packed, to_light, dist, factor)
+        K.incidence_rows(points, self.packed, key, depth, to_light, dist, factor)
         return to_light, dist, factor
 
     @cached_property

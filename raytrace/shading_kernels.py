@@ -589,10 +589,13 @@ def refract_rows(d, n, eta, out, tir):
 
 
 @kernel
-def incidence_rows(points, em, to_light, dist, factor):
+def incidence_rows(points, em, key, depth, to_light, dist, factor):
+    """:func:`incidence1` at each point; ``key`` (n,) the jitter key of each (or no rows: the
+    cell centre)."""
+    keyed = key.shape[0] > 0
     for i in range(points.shape[0]):
         lx, ly, lz, dist[i], factor[i] = incidence1(points[i, 0], points[i, 1], points[i, 2],
-                                                    em, -1, 0)
+                                                    em, key[i] if keyed else -1, depth)
         to_light[i, 0], to_light[i, 1], to_light[i, 2] = lx, ly, lz
 
 

@@ -192,6 +192,47 @@ def test_jittered_area_light_converges_to_the_rectangle_integral():
     assert abs(jittered - exact) < 0.1 * abs(centres - exact)
 
 
+def test_jittered_area_light_on_a_gouraud_floor_converges_to_the_vertex_integrals():
+    # Gouraud shading evaluates the local model at the triangle's vertices V_k and
+    # interpolates it with the hit's barycentrics b_k (seed 000). Under a jittered area light
+    # each hit draws its own point in every cell, and its three vertices must see that same
+    # point, the one the hit's shadow ray aims at. With N = +y, no falloff and ks = 0 the
+    # pixel's expectation is then each vertex's own rectangle integral,
+    #   C·kd·Σ_k b_k·(1/w²)∫∫ h/|(x, h, z) − V_k| dx dz,
+    # while the cell centres c_j give the midpoint rule C·kd·Σ_k b_k·mean_j h/|c_j − V_k|.
+    w, h, C, kd, k = 2.0, 1.0, 2.0, 0.5, 2
+    corners = np.array([[-1.0, 0.0, -1.0], [1.0, 0.0, -1.0], [1.0, 0.0, 1.0], [-1.0, 0.0, 1.0]])
+    target = np.array([0.3, 0.0, -0.2])  # inside face (V0, V2, V1): z < x
+    tri = corners[[0, 2, 1]]
+    bary = np.linalg.solve(np.vstack([tri[:, 0], tri[:, 2], np.ones(3)]),
+                           [target[0], target[2], 1.0])
+    assert np.all(bary > 0.05)
+
+    def seen(xs, zs):  # Σ_k b_k · mean of h/|p − V_k| over the light points (xs, h, zs)
+        return sum(b * np.mean(h / np.sqrt((xs - v[0]) ** 2 + h**2 + (zs - v[2]) ** 2))
+                   for b, v in zip(bary, tri, strict=True))
+
+    n = 1000  # midpoint rule on an n × n grid: error ~1e-7
+    x = (np.arange(n) + 0.5) / n * w - w / 2
+    exact = C * kd * seen(*np.meshgrid(x, x))
+    half = np.array([-w / 4, w / 4])
+    at_centres = C * kd * seen(*np.meshgrid(half, half))
+    assert abs(at_centres - exact) > 5e-3
+
+    def render(jitter: bool) -> float:
+        area = raytrace.AreaLight([0.0, h, 0.0], [w, 0, 0], [0, 0, w], samples=k * k,
+                                  jitter=jitter, color=C)
+        floor = raytrace.Mesh(vertices=corners, faces=[[0, 2, 1], [0, 3, 2]],
+                              shading="gouraud", material=raytrace.Material(kd=kd, ka=0.0))
+        scene = make_scene([floor], [area],
+                           camera=aimed_camera(target + [0.0, 3.0, 0.5], target, fov=0.001))
+        return float(raytrace.render(scene, width=1, height=1, spp=4096, seed=11).rgb[0, 0, 0])
+
+    centres, jittered = render(False), render(True)
+    assert centres == pytest.approx(at_centres, rel=1e-5)
+    assert abs(jittered - exact) < 0.1 * abs(at_centres - exact)
+
+
 def test_jittered_area_light_is_noise_not_the_same_for_every_pixel():
     # Eight neighbouring floor pixels, 1e-5 apart, see the light almost identically: from
     # fixed sample points (the cell centres, or points drawn once per render) they would
