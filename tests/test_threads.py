@@ -160,3 +160,26 @@ def test_progress_reports_every_pass_once_in_increasing_order(threads):
     assert done == sorted(done) and done[-1] == W * H
     steps = np.diff([0, *done])
     assert set(steps.tolist()) <= {SMALL_PASS, W * H % SMALL_PASS}
+
+
+def test_kept_camera_columns_are_never_written_to():
+    # Each thread keeps the constant columns of its camera batches (origin 0, sample index
+    # within the pass, weight 1, no start shape, kind CAMERA) for all its passes and writes
+    # only the directions anew: right only while no step of the render writes into a batch it
+    # was handed. After renders with every kind of ray (and a background for the misses) the
+    # kept columns must still hold their constants, and a second render reusing them must
+    # give the same image.
+    from raytrace.integrator import RenderOptions, WhittedIntegrator
+    from raytrace.rays import CAMERA, NO_SHAPE
+
+    integ = WhittedIntegrator(scene(), RenderOptions(W, H, 2, 5, 0.0, np.full(3, 0.2), 0,
+                                                     threads=1, pass_samples=SMALL_PASS))
+    first = integ.render().rgb
+    cols = integ._worker.camera_columns
+    n = len(cols.origin)
+    assert n == integ.pass_size == 96  # 97 rounded down to whole pixels of 2 samples
+    np.testing.assert_array_equal(cols.origin, np.zeros((n, 3)))
+    np.testing.assert_array_equal(cols.weight, np.ones((n, 3)))
+    np.testing.assert_array_equal(cols.sample, np.arange(n))
+    assert np.all(cols.origin_shape == NO_SHAPE) and np.all(cols.kind == CAMERA)
+    np.testing.assert_array_equal(integ.render().rgb, first)
