@@ -186,8 +186,9 @@ class Accelerator:
     def _no_triangles(self, n: int) -> tuple[np.ndarray, np.ndarray]:
         """Views of ``n`` rows of a −1 triangle column and a zero uv column, kept between
         calls (a scene without meshes filled the two anew for every query: 19 ms of a
-        1280×960 Whitted frame). Nothing writes into a ``Hits`` it is handed. Safe with threads: a thread that needs more rows
-        makes bigger ones and returns its own, whatever another thread stores meanwhile."""
+        1280×960 Whitted frame). Nothing writes into a ``Hits`` it is handed. Safe with
+        threads: a thread that needs more rows makes bigger ones and returns its own,
+        whatever another thread stores meanwhile."""
         triangle, uv = self._none_columns
         if len(triangle) < n:
             triangle, uv = np.full(n, -1, np.int64), np.zeros((n, 2))

@@ -172,15 +172,14 @@ class Stats:
 
 class Worker(threading.local):
     """What each rendering thread keeps to itself: scratch arrays, the constant columns of
-    its camera rays, and its counters (merged after the render, in a fixed order)."""
+    its camera rays, and its counters for one render (merged after it, in a fixed order)."""
 
-    def __init__(self, registry: list[Stats], lock: threading.Lock):
+    def __init__(self):
         self.scratch = Scratch()
         self.camera_columns: RayBatch | None = None  # raytrace.camera.camera_columns
         self.first_sample = 0  # global index of the current pass's first camera sample
-        self.stats = Stats()
-        with lock:
-            registry.append(self.stats)
+        self.stats: Stats | None = None
+        self.render = -1  # the render (WhittedIntegrator._renders) the stats count
 
 
 class WhittedIntegrator:
@@ -208,8 +207,9 @@ class WhittedIntegrator:
         self.smooth_table = (self.accel.tri_corners, self.accel.tri_vnormals,
                              self.accel.tri_shading)
         self._lock = threading.Lock()
+        self._renders = 0  # renders started: each counts its rays afresh
         self._stats_per_thread: list[Stats] = []
-        self._worker = Worker(self._stats_per_thread, self._lock)
+        self._worker = Worker()
 
     @property
     def scratch(self) -> Scratch:
@@ -218,8 +218,14 @@ class WhittedIntegrator:
 
     @property
     def stats(self) -> Stats:
-        """This thread's counters."""
-        return self._worker.stats
+        """This thread's counters for the current render: new ones, registered for the
+        merge, the first time a thread asks in a render."""
+        w = self._worker
+        if w.render != self._renders:
+            w.stats, w.render = Stats(), self._renders
+            with self._lock:
+                self._stats_per_thread.append(w.stats)
+        return w.stats
 
     @property
     def pass_size(self) -> int:
@@ -238,6 +244,9 @@ class WhittedIntegrator:
         ``progress(done, total)`` is called, one thread at a time, after each pass."""
         o = self.opt
         t_start = time.perf_counter()
+        with self._lock:  # a second render of this integrator counts from zero
+            self._renders += 1
+            self._stats_per_thread = []
         total = o.width * o.height * o.spp
         per_pass = self.pass_size
         passes = [(a, min(a + per_pass, total)) for a in range(0, total, per_pass)]

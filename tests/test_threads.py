@@ -174,7 +174,8 @@ def test_kept_camera_columns_are_never_written_to():
 
     integ = WhittedIntegrator(scene(), RenderOptions(W, H, 2, 5, 0.0, np.full(3, 0.2), 0,
                                                      threads=1, pass_samples=SMALL_PASS))
-    first = integ.render().rgb
+    first_image = integ.render()
+    first = first_image.rgb
     cols = integ._worker.camera_columns
     n = len(cols.origin)
     assert n == integ.pass_size == 96  # 97 rounded down to whole pixels of 2 samples
@@ -182,4 +183,23 @@ def test_kept_camera_columns_are_never_written_to():
     np.testing.assert_array_equal(cols.weight, np.ones((n, 3)))
     np.testing.assert_array_equal(cols.sample, np.arange(n))
     assert np.all(cols.origin_shape == NO_SHAPE) and np.all(cols.kind == CAMERA)
-    np.testing.assert_array_equal(integ.render().rgb, first)
+    again = integ.render()
+    np.testing.assert_array_equal(again.rgb, first)
+    # ...and counts its rays from zero: W·H·2 camera rays, as many of each kind as the first.
+    assert first_image.stats["rays"]["camera"] == W * H * 2
+    assert again.stats["rays"] == first_image.stats["rays"]
+    assert again.stats["pruned"] == first_image.stats["pruned"]
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_second_render_of_one_integrator_counts_from_zero(threads):
+    # The counters live per thread; the calling thread's outlive a render. Each render must
+    # still report its own rays only: W·H camera rays, not the sum over renders.
+    from raytrace.integrator import RenderOptions, WhittedIntegrator
+
+    integ = WhittedIntegrator(scene(), RenderOptions(W, H, 1, 3, 0.0, np.zeros(3), 0,
+                                                     threads=threads))
+    first, second = integ.render().stats, integ.render().stats
+    assert first["rays"]["camera"] == second["rays"]["camera"] == W * H
+    assert first["rays"] == second["rays"]
+    assert first["total_internal_reflections"] == second["total_internal_reflections"]
