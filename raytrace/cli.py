@@ -61,7 +61,7 @@ def _parser() -> argparse.ArgumentParser:
                    choices=tuple(EXR_COMPRESSIONS),
                    help="EXR compression, all lossless (default: zip; zstd files need "
                         "OpenEXR >= 3.5 to read)")
-    r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    r.add_argument("-q", "--quiet", action="store_true", help="no progress bar and no summary line (both only on a terminal)")
 
     c = sub.add_parser("compare", help="compare two EXR images; exit 1 when over threshold")
     c.add_argument("test")
@@ -89,6 +89,16 @@ class Progress:
         sys.stderr.write(f"\r[{bar:<30}] {100 * frac:5.1f}%  {elapsed:6.1f}s")
         if done >= total:
             sys.stderr.write("\n")
+        sys.stderr.flush()
+
+    def summary(self, written: list[str], stats: dict) -> None:
+        """One line after the bar: what was written, the size, the rays and the seconds
+        from loading the scene to the last file written (``--stats``' ``seconds.total``)."""
+        if not self.enabled:
+            return
+        sys.stderr.write(f"wrote {', '.join(written)}: {stats['width']}×{stats['height']}, "
+                         f"{stats['spp']} spp, {stats['rays']['total'] / 1e6:.2f} M rays, "
+                         f"{stats['seconds']['total']:.2f} s\n")
         sys.stderr.flush()
 
 
@@ -119,10 +129,11 @@ def _render(args: argparse.Namespace) -> int:
     flags = {"width": "--width", "height": "--height", "spp": "--spp",
              "max_depth": "--max-depth", "min_weight": "--min-weight", "seed": "--seed",
              "threads": "--threads"}
+    progress = Progress(not args.quiet)
     try:
         image = render(scene, width=args.width, height=args.height, spp=args.spp,
                        max_depth=args.max_depth, min_weight=args.min_weight, seed=args.seed,
-                       threads=args.threads, progress=Progress(not args.quiet))
+                       threads=args.threads, progress=progress)
     except SceneError as e:  # a flag's value: name the flag, not the scene key
         key = (e.key or "").removeprefix("render.")
         raise SceneError(e.problem, flags.get(key, e.key)) from None
@@ -142,6 +153,7 @@ def _render(args: argparse.Namespace) -> int:
 
         with atomic_path(args.stats, ".json") as tmp:
             tmp.write_text(json.dumps(stats, indent=2) + "\n")
+    progress.summary(args.written + ([args.stats] if args.stats else []), stats)
     return 0
 
 

@@ -3,6 +3,7 @@ flag values."""
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import subprocess
@@ -309,3 +310,26 @@ def test_rendering_imports_numba_but_not_the_preview_or_mesh_libraries():
     got = _imported_after("import raytrace; raytrace.render(raytrace.load_scene("
                           "'scenes/whitted.toml'), width=4, height=3)")
     assert "numba" in got and not {"trimesh", "colour", "matplotlib", "embreex"} & got
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_a_terminal_gets_the_bar_and_one_summary_line_and_a_pipe_gets_nothing(
+        tmp_path, monkeypatch):
+    scene = Path(__file__).resolve().parents[1] / "scenes" / "whitted.toml"
+    out, png = tmp_path / "w.exr", tmp_path / "w.png"
+    for stream, quiet in ((_Terminal(), []), (io.StringIO(), []), (_Terminal(), ["-q"])):
+        monkeypatch.setattr(sys, "stderr", stream)
+        assert cli.main(["render", str(scene), "-o", str(out), "--png", str(png), "--width", "8",
+                     "--height", "6", *quiet]) == 0
+        text = stream.getvalue()
+        if stream.isatty() and not quiet:
+            lines = text.replace("\r", "\n").strip().splitlines()
+            assert lines[-2].startswith("[") and "100.0%" in lines[-2]  # the finished bar
+            assert lines[-1].startswith(f"wrote {out}, {png}: 8×6, 1 spp, ")
+            assert lines[-1].endswith(" s")
+        else:
+            assert text == ""
