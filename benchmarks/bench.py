@@ -397,7 +397,7 @@ def _targets():
         (analytic.AnalyticShapes, "surface", "analytic"),
         (integrator, "camera_rays", "camera"),
         (integrator, "add", "accumulation"),
-        (rays.RayBatch, "take", "compaction"), (rays.RayBatch, "concatenate", "compaction"),
+        (rays.RayBatch, "take", "compaction"),
         (W, "_prune", "compaction"), (integrator, "take_hits", "compaction"),
         (W, "trace", "integrator"), (W, "render", "integrator"),
         (W, "shade", "shading"), (W, "direct_lighting", "shading"), (W, "shadow", "shading"),

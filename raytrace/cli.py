@@ -61,7 +61,8 @@ def _parser() -> argparse.ArgumentParser:
                    choices=tuple(EXR_COMPRESSIONS),
                    help="EXR compression, all lossless (default: zip; zstd files need "
                         "OpenEXR >= 3.5 to read)")
-    r.add_argument("-q", "--quiet", action="store_true", help="no progress bar and no summary line (both only on a terminal)")
+    r.add_argument("-q", "--quiet", action="store_true",
+                   help="no progress bar and no summary line (both only on a terminal)")
 
     c = sub.add_parser("compare", help="compare two EXR images; exit 1 when over threshold")
     c.add_argument("test")

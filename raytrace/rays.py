@@ -72,23 +72,6 @@ class RayBatch:
                         self.origin_shape[rows], self.kind[rows])
 
     @staticmethod
-    def concatenate(batches: list[RayBatch], depth: int) -> RayBatch:
-        """One batch from several of the same depth (an empty list gives an empty batch)."""
-        if not batches:
-            return RayBatch.empty(depth)
-        if len(batches) == 1 and batches[0].depth == depth:
-            return batches[0]
-        return RayBatch(
-            np.concatenate([b.origin for b in batches]),
-            np.concatenate([b.direction for b in batches]),
-            np.concatenate([b.sample for b in batches]),
-            np.concatenate([b.weight for b in batches]),
-            depth,
-            np.concatenate([b.origin_shape for b in batches]),
-            np.concatenate([b.kind for b in batches]),
-        )
-
-    @staticmethod
     def empty(depth: int = 0) -> RayBatch:
         z3 = np.zeros((0, 3))
         return RayBatch(z3, z3.copy(), np.zeros(0, np.int64), z3.copy(), depth,
