@@ -34,9 +34,6 @@ SHADOW_SHORTEN = 1e-7
 
 SHADING_CODES = {"flat": 0, "smooth": 1, "gouraud": 2}
 
-#: Embree's answer for an occlusion query of no rays.
-NO_RESULT = np.empty(0, np.int32)
-
 
 @dataclass
 class Hits:
@@ -212,20 +209,23 @@ class Accelerator:
                  tmax: np.ndarray) -> np.ndarray:
         """True where something opaque or not lies in ``(0, tmax)`` (any-hit query).
 
-        The analytic shapes first, like :meth:`intersect`; Embree only sees the rays they do
-        not block.
+        The analytic shapes first (any hit, :func:`raytrace.accel_kernels.shadow_prepass`);
+        Embree only sees the rays they do not block.
         """
         origin, direction, origin_shape = f64(origin), f64(direction), i64(origin_shape)
         tmax = f64(tmax)
         if self.recorder is not None:
             self._record("OCCLUDED", origin, direction, tmax)
-        t, _ = self.shapes.intersect(origin, direction, origin_shape, tmax)
-        if self.embree is None:
-            return np.isfinite(t)
-        blocked = np.empty(len(origin), dtype=bool)
-        idx, o32, d32, far = K.open_rays(origin, direction, tmax, t)
-        res = self.embree.run(o32, d32, dists=far, query="OCCLUDED") if len(idx) else NO_RESULT
-        K.occlusion(t, idx, res, blocked)
+        n, meshes = len(origin), self.embree is not None
+        blocked = np.empty(n, dtype=bool)
+        m = n if meshes else 0
+        idx, far = np.empty(m, np.int64), np.empty(m, np.float32)
+        o32, d32 = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
+        k = K.shadow_prepass(origin, direction, origin_shape, tmax, self.shapes.table, meshes,
+                             blocked, idx, o32, d32, far)
+        if k:
+            res = self.embree.run(o32[:k], d32[:k], dists=far[:k], query="OCCLUDED")
+            K.occlusion(idx[:k], res, blocked)
         return blocked
 
     def _record(self, query: str, origin: np.ndarray, direction: np.ndarray,

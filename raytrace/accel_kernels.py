@@ -191,36 +191,52 @@ def embree_rays(o, d, t, tmax, has_tmax, o32, d32, far):
 
 
 @kernel
-def open_rays(o, d, tmax, t):
-    """The rays no analytic shape blocks (``t`` not finite), as Embree takes them for an
-    occlusion query: their indices, float32 origins, directions and ``min(tmax, f32 max)``."""
-    n = 0
-    for i in range(t.shape[0]):
-        if not math.isfinite(t[i]):
-            n += 1
-    idx = np.empty(n, np.int64)
-    o32 = np.empty((n, 3), np.float32)
-    d32 = np.empty((n, 3), np.float32)
-    far = np.empty(n, np.float32)
-    j = 0
-    for i in range(t.shape[0]):
-        if math.isfinite(t[i]):
+def shadow_prepass(o, d, origin_shape, tmax, shapes, to_embree, blocked, idx, o32, d32, far):
+    """The first half of an occlusion query: ``blocked[i]`` where an analytic shape lies in
+    ``(0, tmax[i])``, found as any hit (the first one ends the search), with
+    :func:`closest_analytic`'s self-hit rules, so ``blocked`` is exactly "its closest
+    analytic hit is finite". With ``to_embree``, the rays it does not block are written, as
+    Embree takes them, into the first rows of ``idx`` (their indices), ``o32``, ``d32``
+    (float32 origins and directions) and ``far`` (``min(tmax, f32 max)``); returns how many.
+    One pass where a closest-hit pass, a column of t and a gathering pass were."""
+    centers, radii, center_max, points, normals, point_max = shapes
+    n_spheres = radii.shape[0]
+    k = 0
+    for i in range(o.shape[0]):
+        ox, oy, oz = o[i, 0], o[i, 1], o[i, 2]
+        dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
+        own, limit = origin_shape[i], tmax[i]
+        extent = max(max(abs(ox), abs(oy)), abs(oz))
+        hit = False
+        for s in range(n_spheres):
+            if sphere_t(ox, oy, oz, dx, dy, dz, centers[s, 0], centers[s, 1], centers[s, 2],
+                        radii[s], center_max[s], extent, own == s) < limit:
+                hit = True
+                break
+        if not hit:
+            for p in range(points.shape[0]):
+                if own == n_spheres + p:                  # a ray leaving a plane never re-hits it
+                    continue
+                if plane_t(ox, oy, oz, dx, dy, dz, points[p, 0], points[p, 1], points[p, 2],
+                           normals[p, 0], normals[p, 1], normals[p, 2], point_max[p], extent,
+                           own != NO_SHAPE) < limit:
+                    hit = True
+                    break
+        blocked[i] = hit
+        if hit or not to_embree:
             continue
-        idx[j] = i
-        for k in range(3):
-            o32[j, k] = np.float32(o[i, k])
-            d32[j, k] = np.float32(d[i, k])
-        far[j] = np.float32(min(tmax[i], F32_MAX))
-        j += 1
-    return idx, o32, d32, far
+        idx[k] = i
+        for c in range(3):
+            o32[k, c] = np.float32(o[i, c])
+            d32[k, c] = np.float32(d[i, c])
+        far[k] = np.float32(min(limit, F32_MAX))
+        k += 1
+    return k
 
 
 @kernel
-def occlusion(t, idx, embree_result, blocked):
-    """``blocked``: an analytic hit (finite ``t``), or Embree's OCCLUDED answer (0) for the
-    rays ``idx`` it was asked about."""
-    for i in range(t.shape[0]):
-        blocked[i] = math.isfinite(t[i])
+def occlusion(idx, embree_result, blocked):
+    """``blocked[idx[j]]``: Embree's OCCLUDED answer (0) for the rays it was asked about."""
     for j in range(idx.shape[0]):
         blocked[idx[j]] = embree_result[j] == 0
 
