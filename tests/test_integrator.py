@@ -496,6 +496,16 @@ def test_tir_count_of_a_ray_trapped_in_a_glass_cube(depth):
     np.testing.assert_array_equal(image.rgb, 0.0)
 
 
+def _trapped_in_glowing_glass(kr, kt, ka, ia, depth, min_weight):
+    """The one-pixel render of the trapped ray of the test above, in glass that reflects
+    (kr), transmits (kt, ior 1.5) and glows (ka under ambient Ia)."""
+    mat = Material(kd=0.0, ka=ka, ks=0.0, kr=kr, kt=kt, ior=1.5)
+    cube = box((2.0, 2.0, 2.0), material=mat)
+    cam = aimed_camera([0.2, -0.1, 0.0], [1.2, 0.9, 0.0], up=[0, 0, 1])
+    return raytrace.render(make_scene([cube], [], cam, ambient=ia), width=1, height=1,
+                           max_depth=depth, min_weight=min_weight)
+
+
 @pytest.mark.parametrize("depth", [1, 3, 6])
 def test_tir_and_reflection_on_one_path_are_one_ray(depth):
     # The same trapped ray, now in glass that also reflects (kr = 0.1, kt = 0.8) and glows
@@ -506,11 +516,7 @@ def test_tir_and_reflection_on_one_path_are_one_ray(depth):
     # D reflection-kind rays, no refraction-kind ray, still D TIRs, and the depth-D hit's one
     # child pruned.
     kr, kt, ka, ia = 0.1, 0.8, 0.5, 0.2
-    mat = Material(kd=0.0, ka=ka, ks=0.0, kr=kr, kt=kt, ior=1.5)
-    cube = box((2.0, 2.0, 2.0), material=mat)
-    cam = aimed_camera([0.2, -0.1, 0.0], [1.2, 0.9, 0.0], up=[0, 0, 1])
-    image = raytrace.render(make_scene([cube], [], cam, ambient=ia), width=1, height=1,
-                            max_depth=depth)
+    image = _trapped_in_glowing_glass(kr, kt, ka, ia, depth, 0.0)
     expected = ka * ia * sum((kr + kt) ** k for k in range(depth + 1))
     np.testing.assert_allclose(image.rgb[0, 0], np.full(3, expected), rtol=RTOL)
     st = image.stats
@@ -528,8 +534,7 @@ def test_tir_and_reflection_on_one_path_are_one_ray(depth):
     # the depth-3 one (if D ≥ 4) its TIR share too: min(D, 4) + [D ≥ 4] pruned by weight. If
     # D ≤ 3 the depth-D hit's two children (0.1·0.8^D and 0.8^(D+1), both > 0) are pruned by
     # depth; else none.
-    pruned = raytrace.render(make_scene([cube], [], cam, ambient=ia), width=1, height=1,
-                             max_depth=depth, min_weight=0.5)
+    pruned = _trapped_in_glowing_glass(kr, kt, ka, ia, depth, 0.5)
     m = min(depth, 3)
     expected = ka * ia * sum(kt**k for k in range(m + 1))
     np.testing.assert_allclose(pruned.rgb[0, 0], np.full(3, expected), rtol=RTOL)
@@ -555,11 +560,7 @@ def test_min_weight_keeps_tir_and_reflection_as_two_rays(depth):
     # One merged ray per depth (weight 1.45^k, never under 0.33) would give D rays and
     # ka·Ia·Σ_{k=0..D} 1.45^k instead.
     kr, kt, ka, ia = 0.7, 0.75, 0.5, 0.2
-    mat = Material(kd=0.0, ka=ka, ks=0.0, kr=kr, kt=kt, ior=1.5)
-    cube = box((2.0, 2.0, 2.0), material=mat)
-    cam = aimed_camera([0.2, -0.1, 0.0], [1.2, 0.9, 0.0], up=[0, 0, 1])
-    image = raytrace.render(make_scene([cube], [], cam, ambient=ia), width=1, height=1,
-                            max_depth=depth, min_weight=0.33)
+    image = _trapped_in_glowing_glass(kr, kt, ka, ia, depth, 0.33)
     m = min(depth, 3)
     expected = ka * ia * sum((kr + kt) ** k for k in range(m + 1))
     np.testing.assert_allclose(image.rgb[0, 0], np.full(3, expected), rtol=RTOL)
