@@ -41,7 +41,6 @@ from .camera import camera_columns, camera_rays
 from .film import Image
 from .lights import Emitter, emitters
 from .material import COLOR_KEYS, Checker, Material
-from .optics import dot
 from .rays import (
     KIND_NAMES,
     REFLECTION,
@@ -53,7 +52,7 @@ from .rays import (
     take_hits,
 )
 from .scene import Scene
-from .shading import HIGHLIGHT_CODES, direct
+from .shading import HIGHLIGHT_CODES
 
 #: Camera samples per pass (whole pixels): the unit of work of a thread. Memory is bounded by
 #: threads × pass size, independently of the resolution.
@@ -69,7 +68,6 @@ ZERO3 = np.zeros(3)
 CHILD_KINDS = np.array([REFLECTION, REFRACTION, SEE_THROUGH], np.int8)
 NO_LIGHT = np.zeros((0, 3))
 NO_KEY = np.zeros(0, np.int64)
-NO_ROWS = np.zeros(0, np.int64)
 
 
 @dataclass
@@ -202,8 +200,8 @@ class WhittedIntegrator:
         self.any_transparent = bool(self.table.transparent.any()) if self.materials else False
         self.lit = bool(self.emitters) and bool(self.table.lit.any())
         self.jittered = any(em.jittered for em in self.emitters)
-        self.any_gouraud = bool((self.accel.tri_shading == 2).any())
-        #: What :func:`raytrace.shading_kernels.shadow_rays` needs of smooth triangles.
+        #: What :func:`raytrace.shading_kernels.light_pass` needs of smooth and Gouraud
+        #: triangles.
         self.smooth_table = (self.accel.tri_corners, self.accel.tri_vnormals,
                              self.accel.tri_shading)
         self._lock = threading.Lock()
@@ -430,88 +428,45 @@ class WhittedIntegrator:
 
     def direct_lighting(self, rays: RayBatch, surf: Surface) -> np.ndarray:
         """Σ_l S_l · f_l · I_l · [kd·max(N·L, 0) + ks·spec] at every hit, (n, 3): per emitter,
-        the unshadowed term (:func:`raytrace.shading_kernels.light_hits`), then shadow rays
-        for the hits it lights."""
-        n, new, tab = len(rays), self.scratch, self.table
+        one pass for the unshadowed term and the shadow rays of the hits it lights
+        (:func:`raytrace.shading_kernels.light_pass`), then their shadow factors."""
+        n, new = len(rays), self.scratch
         out = new("lights", n, 3)
         out.fill(0.0)
-        term, to_light = new("term", n, 3), new("to_light", n, 3)
-        dist, candidate = new("dist", n), new("candidate", n, dtype=bool)
+        term, rows = new("term", n, 3), new("shadow_rows", n, dtype=np.int64)
+        origin, direction = new("shadow_origin", n, 3), new("shadow_direction", n, 3)
+        tmax, shape = new("shadow_tmax", n), new("shadow_shape", n, dtype=np.int64)
         # Jittered area lights draw a point per hit from its global camera sample and depth.
         key = rays.sample + self._worker.first_sample if self.jittered else NO_KEY
-        gour = np.flatnonzero(surf.gouraud) if self.any_gouraud else NO_ROWS
-        if len(gour):
-            gouraud = self._gouraud_setup(rays, surf, gour, key)
         for em in self.emitters:
-            K.light_hits(surf.point, surf.geometric, surf.shading, rays.direction,
-                         surf.material, self.origin, tab.arrays, em.packed, key, rays.depth,
-                         term, to_light, dist, candidate)
-            if len(gour):
-                term[gour] = self._gouraud(em, rays.depth, *gouraud)
-                candidate[gour] = tab.lit[surf.material[gour]] & np.any(term[gour] > 0, axis=1)
-            rows = np.flatnonzero(candidate)
-            if len(rows):
-                shadow = self.shadow(surf, rows, to_light, dist, rays.direction)
-                self._add_light(out, rows, term, shadow, np.asarray(em.color, np.float64))
+            k = K.light_pass(surf.point, surf.geometric, surf.shading, rays.direction,
+                             rays.origin, surf.material, surf.offset, surf.shape, surf.triangle,
+                             surf.uv, self.origin, self.table.arrays, self.smooth_table,
+                             em.packed, key, rays.depth, SHADOW_SHORTEN, term, rows, origin,
+                             direction, tmax, shape)
+            if k:
+                self.shadow(out, term, np.asarray(em.color, np.float64), rows[:k], origin[:k],
+                            direction[:k], tmax[:k], shape[:k])
         return out
 
-    def _add_light(self, out: np.ndarray, rows: np.ndarray, term: np.ndarray,
-                   shadow: np.ndarray, color: np.ndarray) -> None:
-        """``out[rows] += term[rows]·S·I_l`` (:func:`raytrace.shading_kernels.add_light`)."""
-        K.add_light(out, rows, term, shadow, color)
+    def shadow(self, out: np.ndarray, term: np.ndarray, color: np.ndarray, rows: np.ndarray,
+               origin: np.ndarray, direction: np.ndarray, tmax: np.ndarray,
+               shape: np.ndarray) -> None:
+        """``out[rows] += term[rows]·S·I_l``, with S (k, 3) the shadow factor of the shadow
+        rays (``origin``, ``direction``, ``tmax``, starting on ``shape``) of the hits ``rows``.
 
-    def _gouraud_setup(self, rays: RayBatch, surf: Surface, gour: np.ndarray,
-                       key: np.ndarray) -> tuple:
-        """What :meth:`_gouraud` needs at the Gouraud-shaded hits ``gour`` (``key``: the
-        jitter keys of all hits, or none)."""
-        tri, mat = surf.triangle[gour], surf.material[gour]
-        vert = self.accel.tri_corners[tri]
-        vnrm = self.accel.tri_vnormals[tri]
-        flip = np.where(dot(surf.geometric[gour], -rays.direction[gour]) < 0, -1.0, 1.0)
-        bary = np.column_stack([1 - surf.uv[gour].sum(1), surf.uv[gour]])
-        point = np.ascontiguousarray(surf.point[gour])
-        kd = self.table.color("kd", mat, point, self.origin)
-        ks = self.table.color("ks", mat, point, self.origin)
-        return (key[gour] if len(key) else NO_KEY, vert, vnrm, flip, bary, rays.origin[gour], kd,
-                ks, self.table.shininess[mat], self.table.highlight[mat])
-
-    @staticmethod
-    def _gouraud(em, depth, key, vert, vnrm, flip, bary, eye, kd, ks, shin, model) -> np.ndarray:
-        """Seed 000's Gouraud shading: the local model at the three vertices, interpolated.
-        A jittered area light is seen at each hit's own drawn point (``key``, ``depth``) from
-        all three vertices: the point its shadow ray aims at."""
-        acc = np.zeros((len(vert), 3))
-        for k in range(3):
-            p = vert[:, k]
-            nrm = vnrm[:, k] * flip[:, None]
-            v = eye - p
-            v /= np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
-            to_light, _, f = em.incidence(p, key, depth)
-            acc += bary[:, k:k + 1] * direct(nrm, to_light, v, kd, ks, shin, model) * f[:, None]
-        return acc
-
-    def shadow(self, surf: Surface, rows: np.ndarray, to_light: np.ndarray, dist: np.ndarray,
-               view: np.ndarray) -> np.ndarray:
-        """Shadow factor S (k, 3) of the hits ``rows`` towards a light (``to_light`` and
-        ``dist`` are per hit, ``view`` the directions of the rays that made the hits).
-
-        Opaque-only scenes use the occlusion query. Otherwise the straight shadow ray walks
-        through every surface before the light, multiplying ``t·kt + (1 − t)`` (seed 003).
+        Opaque-only scenes use the occlusion query: S is 0 or 1. Otherwise the straight
+        shadow ray walks through every surface before the light, multiplying
+        ``t·kt + (1 − t)`` (seed 003).
         """
-        k, new = len(rows), self.scratch
-        origin, direction = new("shadow_origin", k, 3), new("shadow_direction", k, 3)
-        tmax, shape = new("shadow_tmax", k), new("shadow_shape", k, dtype=np.int64)
-        K.shadow_rays(rows, surf.point, surf.geometric, surf.offset, surf.shape, surf.triangle,
-                      surf.uv, view, self.smooth_table, to_light, dist, SHADOW_SHORTEN, origin,
-                      direction, tmax, shape)
-        self.stats.rays["shadow"] += k
-        factor = new("shadow", k, 3)
+        self.stats.rays["shadow"] += len(rows)
         t0 = time.perf_counter()
         if not self.any_transparent:
             blocked = self.accel.occluded(origin, direction, shape, tmax)
             self.stats.trace_seconds += time.perf_counter() - t0
-            K.unblocked(blocked, factor)
-            return factor
+            K.add_unblocked(out, rows, term, blocked, color)
+            return
+        factor = self.scratch("shadow", len(rows), 3)
         factor.fill(1.0)
         live = np.arange(len(rows))  # the row of factor each walking ray multiplies
         tab = self.table.arrays
@@ -531,7 +486,7 @@ class WhittedIntegrator:
         else:
             factor[live] = 0.0
         self.stats.trace_seconds += time.perf_counter() - t0
-        return factor
+        K.add_light(out, rows, term, factor, color)
 
     # -- reporting ---------------------------------------------------------------------------
     def _stats(self, nonfinite: int, seconds: float, pass_wall: float) -> dict:

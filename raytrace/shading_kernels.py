@@ -10,9 +10,9 @@ Two layers, in pipeline order:
   ``direct1`` (the seeds' local model, Phong 1975, Blinn 1977), ``checker1`` (the world-space
   checker of SCENE_FORMAT.md) and ``leave1`` (where a spawned ray starts);
 * **one batch at a time**, the passes the integrator makes over its hits, each composed of the
-  functions above: ``light_hits`` (one emitter's unshadowed term and its shadow-ray
-  candidates), ``shadow_rays``, ``unblocked`` (opaque shadows), ``crossing_rays`` and
-  ``cross_surfaces`` (the walk of transparent shadows), ``add_light``,
+  functions above: ``light_pass`` (one emitter's unshadowed term at every hit, Gouraud's
+  included, and the shadow rays of the hits it lights), ``add_unblocked`` (opaque shadows),
+  ``crossing_rays``, ``cross_surfaces`` (the walk of transparent shadows) and ``add_light``,
   ``hit_terms`` (what each hit adds to its sample; its reflected, refracted and see-through
   children's directions, weights and pruning status), ``count_keep`` and
   ``spawn_children`` (the next depth's batch from those); plus ``accumulate``, the
@@ -245,39 +245,6 @@ def colors_at(material, point, origin, materials, slot, out):
 
 
 @kernel
-def light_hits(point, geometric, shading, direction, material, origin, materials, em, key,
-               depth, term, to_light, dist, candidate):
-    """One emitter at every hit: ``term = f·[kd·max(N·L, 0) + ks·spec]`` (n, 3) with N the
-    shading normal turned to the viewer and V = −d, the unit ``to_light`` and ``dist`` for the
-    shadow rays, and ``candidate`` where some channel of term is > 0 (only those need a shadow
-    ray; unlit materials get term 0 and no candidate). ``key`` (n,): each hit's global camera
-    sample, read only for a jittered emitter (:func:`incidence1`)."""
-    jittered = em[18] >= 0.0
-    shininess, highlight, lit = materials[3], materials[4], materials[7]
-    for i in range(point.shape[0]):
-        m = material[i]
-        if not lit[m]:
-            term[i, 0] = term[i, 1] = term[i, 2] = 0.0
-            candidate[i] = False
-            continue
-        dx, dy, dz = direction[i, 0], direction[i, 1], direction[i, 2]
-        s = facing1(geometric[i, 0], geometric[i, 1], geometric[i, 2], dx, dy, dz)
-        nx, ny, nz = shading[i, 0] * s, shading[i, 1] * s, shading[i, 2] * s
-        px, py, pz = point[i, 0], point[i, 1], point[i, 2]
-        lx, ly, lz, d, f = incidence1(px, py, pz, em, key[i] if jittered else -1, depth)
-        to_light[i, 0], to_light[i, 1], to_light[i, 2] = lx, ly, lz
-        dist[i] = d
-        wx, wy, wz = px + origin[0], py + origin[1], pz + origin[2]
-        kd = color1(materials, m, KD, wx, wy, wz)
-        ks = color1(materials, m, KS, wx, wy, wz)
-        r, g, b = direct1(nx, ny, nz, lx, ly, lz, -dx, -dy, -dz, kd, ks, shininess[m],
-                          highlight[m])
-        r, g, b = r * f, g * f, b * f
-        term[i, 0], term[i, 1], term[i, 2] = r, g, b
-        candidate[i] = r > 0.0 or g > 0.0 or b > 0.0
-
-
-@kernel
 def bulge1(px, py, pz, tri, u, v, side, corners, vnormals):
     """Hanika's shading point for a ray leaving a smooth-shaded triangle ("Hacking the Shadow
     Terminator", Ray Tracing Gems II, 2021, ch. 4): ``P' = Σ_k b_k·P_k`` with ``P_k`` the hit
@@ -302,32 +269,91 @@ def bulge1(px, py, pz, tri, u, v, side, corners, vnormals):
 
 
 @kernel
-def shadow_rays(rows, point, geometric, offset, shape, triangle, uv, view, mesh, to_light,
-                dist, shorten, origin, direction, tmax, start):
-    """Shadow rays of the hits ``rows`` into ``origin``, ``direction``, ``tmax`` and ``start``:
-    origins off the surface towards the light, ``tmax = dist·(1 − shorten)`` (they stop just
-    short of the light), the shapes they start on. A hit on a smooth or Gouraud triangle
-    starts from :func:`bulge1`'s point, lifted on the side its viewer (``view``: the rays'
-    directions) sees; ``mesh`` = (corners (T, 3, 3), vertex normals (T, 3, 3), shading codes
-    (T,)). Its direction and tmax stay those of the hit point: the ray is moved by the lift,
-    a fraction of the triangle's size, and still ends just short of the light."""
+def gouraud1(tri, u, v, s, ex, ey, ez, corners, vnormals, em, key, depth, kd, ks, n, model):
+    """Seed 000's Gouraud shading at a hit on triangle ``tri`` (barycentrics ``1 − (u + v)``,
+    ``u``, ``v``): the unshadowed ``f·[kd·max(N·L, 0) + ks·spec]`` of one emitter evaluated at
+    the three corners, with their vertex normals turned by ``s`` (+1 outward, −1 inward) and V
+    towards the eye (ex, ey, ez), then interpolated. Every corner sees a jittered area light
+    at the one point drawn for this hit (``key``, ``depth``): the point its shadow ray aims
+    at. ``kd``, ``ks`` are the colours at the hit."""
+    r = g = b = 0.0
+    for k in range(3):
+        w = 1.0 - (u + v) if k == 0 else (u if k == 1 else v)
+        px, py, pz = corners[tri, k, 0], corners[tri, k, 1], corners[tri, k, 2]
+        nx, ny, nz = vnormals[tri, k, 0] * s, vnormals[tri, k, 1] * s, vnormals[tri, k, 2] * s
+        vx, vy, vz = ex - px, ey - py, ez - pz
+        length = max(math.sqrt(vx * vx + vy * vy + vz * vz), 1e-300)
+        vx, vy, vz = vx / length, vy / length, vz / length
+        lx, ly, lz, _, f = incidence1(px, py, pz, em, key, depth)
+        dr, dg, db = direct1(nx, ny, nz, lx, ly, lz, vx, vy, vz, kd, ks, n, model)
+        r += w * dr * f
+        g += w * dg * f
+        b += w * db * f
+    return r, g, b
+
+
+@kernel
+def light_pass(point, geometric, shading, direction, eye, material, offset, shape, triangle, uv,
+               origin, materials, mesh, em, key, depth, shorten, term, rows, s_origin,
+               s_direction, s_tmax, s_shape):
+    """One emitter at every hit, in one pass: its unshadowed term and the shadow rays that
+    must decide it. Returns k, the number of shadow rays.
+
+    ``term = f·[kd·max(N·L, 0) + ks·spec]`` (n, 3) with N the shading normal turned to the
+    viewer and V = −d (a Gouraud triangle's, :func:`gouraud1`, is interpolated from its
+    corners); 0 for unlit materials. Only hits where some channel of term is > 0 need a shadow
+    ray: the first k rows of ``rows`` (which hit), ``s_origin``, ``s_direction``, ``s_tmax``
+    and ``s_shape`` (the shape it starts on) hold them, in hit order. A shadow ray leaves the
+    hit towards the light (:func:`leave1`) and stops ``shorten`` (relative) short of it; from
+    a smooth or Gouraud triangle it leaves from :func:`bulge1`'s lifted point on the side the
+    viewer sees, keeping the hit point's direction and length (the lift is a fraction of the
+    triangle's size). ``eye`` (n, 3): the rays' origins, for Gouraud's V at the corners;
+    ``mesh`` = (corners (T, 3, 3), vertex normals (T, 3, 3), shading codes (T,)); ``key``
+    (n,): each hit's global camera sample, read only for a jittered emitter
+    (:func:`incidence1`)."""
     corners, vnormals, code = mesh
+    jittered = em[18] >= 0.0
+    shininess, highlight, lit = materials[3], materials[4], materials[7]
     keep = 1.0 - shorten
-    for j in range(rows.shape[0]):
-        i = rows[j]
-        lx, ly, lz = to_light[i, 0], to_light[i, 1], to_light[i, 2]
+    k = 0
+    for i in range(point.shape[0]):
+        m = material[i]
+        if not lit[m]:
+            term[i, 0] = term[i, 1] = term[i, 2] = 0.0
+            continue
+        dx, dy, dz = direction[i, 0], direction[i, 1], direction[i, 2]
+        gx, gy, gz = geometric[i, 0], geometric[i, 1], geometric[i, 2]
+        s = facing1(gx, gy, gz, dx, dy, dz)
         px, py, pz = point[i, 0], point[i, 1], point[i, 2]
+        hit_key = key[i] if jittered else -1
+        lx, ly, lz, d, f = incidence1(px, py, pz, em, hit_key, depth)
+        wx, wy, wz = px + origin[0], py + origin[1], pz + origin[2]
+        kd = color1(materials, m, KD, wx, wy, wz)
+        ks = color1(materials, m, KS, wx, wy, wz)
         tri = triangle[i]
-        if tri >= 0 and code[tri] != 0:
-            side = facing1(geometric[i, 0], geometric[i, 1], geometric[i, 2], view[i, 0],
-                           view[i, 1], view[i, 2])
-            px, py, pz = bulge1(px, py, pz, tri, uv[i, 0], uv[i, 1], side, corners, vnormals)
-        origin[j, 0], origin[j, 1], origin[j, 2] = leave1(
-            px, py, pz, geometric[i, 0], geometric[i, 1], geometric[i, 2], offset[i], lx, ly,
-            lz)
-        direction[j, 0], direction[j, 1], direction[j, 2] = lx, ly, lz
-        tmax[j] = dist[i] * keep
-        start[j] = shape[i]
+        smooth = tri >= 0 and code[tri] != 0
+        if smooth and code[tri] == 2:  # Gouraud
+            r, g, b = gouraud1(tri, uv[i, 0], uv[i, 1], s, eye[i, 0], eye[i, 1], eye[i, 2],
+                               corners, vnormals, em, hit_key, depth, kd, ks, shininess[m],
+                               highlight[m])
+        else:
+            nx, ny, nz = shading[i, 0] * s, shading[i, 1] * s, shading[i, 2] * s
+            r, g, b = direct1(nx, ny, nz, lx, ly, lz, -dx, -dy, -dz, kd, ks, shininess[m],
+                              highlight[m])
+            r, g, b = r * f, g * f, b * f
+        term[i, 0], term[i, 1], term[i, 2] = r, g, b
+        if not (r > 0.0 or g > 0.0 or b > 0.0):
+            continue
+        if smooth:
+            px, py, pz = bulge1(px, py, pz, tri, uv[i, 0], uv[i, 1], s, corners, vnormals)
+        s_origin[k, 0], s_origin[k, 1], s_origin[k, 2] = leave1(px, py, pz, gx, gy, gz,
+                                                               offset[i], lx, ly, lz)
+        s_direction[k, 0], s_direction[k, 1], s_direction[k, 2] = lx, ly, lz
+        s_tmax[k] = d * keep
+        s_shape[k] = shape[i]
+        rows[k] = i
+        k += 1
+    return k
 
 
 @kernel
@@ -341,12 +367,15 @@ def add_light(out, rows, term, shadow, color):
 
 
 @kernel
-def unblocked(blocked, factor):
-    """Shadow factor S (k, 3) of opaque-only scenes: 0 where the shadow ray is ``blocked``,
-    else 1 (numpy's broadcast ``factor[:] = ~blocked[:, None]`` took 20× as long)."""
-    for j in range(blocked.shape[0]):
-        s = 0.0 if blocked[j] else 1.0
-        factor[j, 0] = factor[j, 1] = factor[j, 2] = s
+def add_unblocked(out, rows, term, blocked, color):
+    """``out[rows[j]] += term[rows[j]]·I_l`` where shadow ray j is not ``blocked`` (opaque
+    scenes: S is 0 or 1, and ``x·1`` is exact)."""
+    for j in range(rows.shape[0]):
+        if blocked[j]:
+            continue
+        i = rows[j]
+        for c in range(3):
+            out[i, c] += term[i, c] * color[c]
 
 
 @kernel

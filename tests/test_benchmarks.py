@@ -134,6 +134,13 @@ def test_parse_times_and_counts():
 
 
 # -- the recorder hook ------------------------------------------------------------------------
+def test_profile_targets_exist():
+    # The profile wraps these by name: a stage renamed in the renderer must be renamed here.
+    missing = [(owner, name) for owner, name, _ in bench._targets()
+               if not hasattr(owner, name)]
+    assert not missing
+
+
 def test_recorder_is_off_by_default():
     assert accel.Accelerator.recorder is None
 
