@@ -68,7 +68,7 @@ class Surface:
     ``point`` (n, 3); ``geometric`` (n, 3) unit outward normal; ``shading`` (n, 3) unit shading
     normal on the same side as ``geometric``; ``material`` (n,) int64; ``offset`` (n,) the
     spawn offset (0 for analytic shapes); ``shape`` (n,) analytic shape or NO_SHAPE;
-    ``triangle`` (n,) or −1; ``uv`` (n, 2) barycentrics; ``gouraud`` (n,) bool.
+    ``triangle`` (n,) or −1; ``uv`` (n, 2) barycentrics.
     """
 
     point: np.ndarray
@@ -79,7 +79,6 @@ class Surface:
     shape: np.ndarray
     triangle: np.ndarray
     uv: np.ndarray
-    gouraud: np.ndarray
 
 
 class Accelerator:
@@ -245,13 +244,13 @@ class Accelerator:
         """
         n = len(hits.t)
         point, geometric, shading = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
-        material, offset, gouraud = np.empty(n, np.int64), np.empty(n), np.empty(n, bool)
+        material, offset = np.empty(n, np.int64), np.empty(n)
         K.hit_surfaces(f64(hits.t), i64(hits.shape), i64(hits.triangle), f64(hits.uv),
                        f64(origin), f64(direction), self.shapes.surface_table,
                        self.shape_material, self.mesh_table, point, geometric, shading,
-                       material, offset, gouraud)
+                       material, offset)
         return Surface(point, geometric, shading, material, offset, hits.shape, hits.triangle,
-                       hits.uv, gouraud)
+                       hits.uv)
 
 
 def spawn_origins(point: np.ndarray, geometric: np.ndarray, offset: np.ndarray,

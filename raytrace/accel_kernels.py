@@ -299,7 +299,7 @@ def refine_hits(geom_id, prim_id, u32, v32, geom_first, corners, o, d, tmax, has
 # -- surfaces -------------------------------------------------------------------------------
 @kernel
 def hit_surfaces(t, shape, triangle, uv, o, d, analytic, shape_material, mesh,
-                 point, geometric, shading, material, offset, gouraud):
+                 point, geometric, shading, material, offset):
     """Everything the shading needs at each hit (see :class:`raytrace.accel.Surface`).
 
     Analytic hits: the point ``o + t·d`` snapped onto the shape (:func:`_snap`), its normal
@@ -324,7 +324,6 @@ def hit_surfaces(t, shape, triangle, uv, o, d, analytic, shape_material, mesh,
             shading[i, 0], shading[i, 1], shading[i, 2] = nx, ny, nz
             material[i] = shape_material[s]
             offset[i] = 0.0
-            gouraud[i] = False
             continue
         tri = triangle[i]
         u, v = uv[i, 0], uv[i, 1]
@@ -343,7 +342,6 @@ def hit_surfaces(t, shape, triangle, uv, o, d, analytic, shape_material, mesh,
                                                                nz / length)
         material[i] = tri_material[tri]
         offset[i] = tri_offset[tri]
-        gouraud[i] = code[tri] == 2
 
 
 # -- spawned rays ---------------------------------------------------------------------------
