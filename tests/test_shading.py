@@ -243,3 +243,66 @@ def test_lifted_origin_rises_on_a_convex_patch_and_stays_on_a_concave_one():
     corners, normals = _patch(0.5)
     np.testing.assert_allclose(bulge1(*corners[0, 1], 0, 1.0, 0.0, 1.0, corners, normals),
                                corners[0, 1], atol=1e-15)
+
+
+# -- one emitter's pass over the hits (shading_kernels.light_pass) ---------------------------
+def test_light_pass_terms_and_the_shadow_rays_of_the_lit_hits_only():
+    """Four hits on the plane y = 0 (N = ŷ, V from above), a point light at (0, 4, 0) with
+    f = 1/(1 + 0.5·d²): a lit matte hit, an unlit material, a hit on a Gouraud triangle whose
+    corners see the light at their own angles, and a hit seen from below (the light is then
+    behind the surface the viewer sees). Only the lit ones get a shadow ray, in hit order."""
+    from raytrace.integrator import MaterialTable
+    from raytrace.lights import Emitter
+    from raytrace.shading_kernels import light_pass
+
+    kd = np.array([0.5, 0.25, 1.0])
+    table = MaterialTable([raytrace.Material(kd=kd, ks=0.0),
+                           raytrace.Material(ka=0.3, kd=0.0, ks=0.0)])  # unlit
+    em = Emitter(np.ones(3), position=np.array([0.0, 4.0, 0.0]),
+                 attenuation=np.array([1.0, 0.0, 0.5]))
+    corners = np.array([[[-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 0.0, -1.0]]])
+    vnormals = np.array([[[0.0, 1.0, 0.0]] * 3])
+    mesh = (corners, vnormals, np.array([2], np.int8))            # one Gouraud triangle
+    point = np.array([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 1.0 / 3.0],
+                      [0.5, 0.0, 0.5]])
+    up = np.tile([0.0, 1.0, 0.0], (4, 1))
+    eye = np.array([[1.0, 3.0, 0.0], [2.0, 3.0, 0.0], [0.0, 3.0, 1.0 / 3.0],
+                    [0.5, -3.0, 0.5]])
+    direction = (point - eye) / 3.0
+    material = np.array([0, 1, 0, 0])
+    offset, shape = np.full(4, 1e-6), np.full(4, -1, np.int64)
+    triangle, uv = np.array([-1, -1, 0, -1]), np.zeros((4, 2))
+    uv[2] = [1.0 / 3.0, 1.0 / 3.0]                               # the centroid
+    n = len(point)
+    term, rows = np.empty((n, 3)), np.empty(n, np.int64)
+    s_origin, s_direction = np.empty((n, 3)), np.empty((n, 3))
+    s_tmax, s_shape = np.empty(n), np.empty(n, np.int64)
+    shorten = 1e-7
+    k = light_pass(point, up, up, direction, eye, material, offset, shape, triangle, uv,
+                   np.zeros(3), table.arrays, mesh, em.packed, np.zeros(0, np.int64), 0,
+                   shorten, term, rows, s_origin, s_direction, s_tmax, s_shape)
+
+    def lambert(p, normal):
+        to_light = np.array([0.0, 4.0, 0.0]) - p
+        d = np.linalg.norm(to_light)
+        return kd * max(normal @ to_light / d, 0.0) / (1.0 + 0.5 * d * d)
+
+    # hit 0: kd·N·L·f at the hit; hit 1: unlit; hit 3: from below N turns to −ŷ, N·L < 0
+    np.testing.assert_allclose(term[0], lambert(point[0], up[0]), rtol=1e-14)
+    np.testing.assert_array_equal(term[1], 0.0)
+    np.testing.assert_array_equal(term[3], 0.0)
+    # hit 2: Gouraud, the corners' terms (each with its own L and d) averaged at the centroid
+    gouraud = sum(lambert(c, up[0]) for c in corners[0]) / 3.0
+    np.testing.assert_allclose(term[2], gouraud, rtol=1e-14)
+    assert abs(term[2] - lambert(point[2], up[0])).max() > 1e-3   # not the hit's own term
+    # shadow rays: hits 0 and 2, in that order, leaving on the lit side towards the light
+    assert k == 2
+    np.testing.assert_array_equal(rows[:k], [0, 2])
+    for j, i in enumerate(rows[:k]):
+        to_light = np.array([0.0, 4.0, 0.0]) - point[i]
+        d = np.linalg.norm(to_light)
+        np.testing.assert_allclose(s_direction[j], to_light / d, rtol=1e-15)
+        np.testing.assert_allclose(s_tmax[j], d * (1 - shorten), rtol=1e-15)
+        np.testing.assert_allclose(s_origin[j], point[i] + [0.0, 1e-6, 0.0], rtol=1e-15,
+                                   atol=1e-15)
+        assert s_shape[j] == -1
