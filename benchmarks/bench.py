@@ -387,7 +387,7 @@ class TimedEmbree:
 
 #: (module or class, attribute, category) timed by :func:`profile_breakdown`.
 def _targets():
-    from raytrace import analytic, integrator, lights, rays
+    from raytrace import analytic, integrator, rays
 
     W, A = integrator.WhittedIntegrator, accel.Accelerator
     return [
@@ -400,8 +400,7 @@ def _targets():
         (W, "_prune", "compaction"), (integrator, "take_hits", "compaction"),
         (W, "trace", "integrator"), (W, "render", "integrator"),
         (W, "shade", "shading"), (W, "direct_lighting", "shading"), (W, "shadow", "shading"),
-        (W, "_spawn", "compaction"), (lights.Emitter, "incidence", "shading"),
-        (integrator.MaterialTable, "color", "shading"),
+        (W, "_spawn", "compaction"),
     ]
 
 

@@ -63,7 +63,6 @@ MIN_PASSES = 16
 MIN_PASS_SAMPLES = 4096
 #: Most surfaces a transparent shadow ray passes through before it counts as blocked.
 MAX_SHADOW_CROSSINGS = 64
-ZERO3 = np.zeros(3)
 #: Kinds of the children, in the order of :meth:`WhittedIntegrator._spawn`'s columns.
 CHILD_KINDS = np.array([REFLECTION, REFRACTION, SEE_THROUGH], np.int8)
 NO_LIGHT = np.zeros((0, 3))
@@ -119,14 +118,6 @@ class MaterialTable:
         self.transparent = np.array([m.transparent for m in materials], dtype=bool)
         self.arrays = (self.colors, self.pattern, self.checkers, self.shininess, self.highlight,
                        self.ior, self.opacity, self.lit, self.reflects, self.transmits)
-
-    def color(self, key: str, material: np.ndarray, world: np.ndarray,
-              origin: np.ndarray = ZERO3) -> np.ndarray:
-        """Coefficient ``key`` (n, 3) for hits with material indices (n,) at world points
-        ``world + origin``."""
-        out = np.empty((len(material), 3))
-        K.colors_at(material, world, origin, self.arrays, 3 * COLOR_KEYS.index(key), out)
-        return out
 
 
 class Scratch:

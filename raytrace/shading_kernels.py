@@ -236,15 +236,6 @@ def leave1(px, py, pz, gx, gy, gz, offset, dx, dy, dz):
 
 # -- batch kernels of the integrator ----------------------------------------------------------
 @kernel
-def colors_at(material, point, origin, materials, slot, out):
-    """Colour ``slot`` (n, 3) of the hits' materials at the world points ``point + origin``."""
-    for i in range(material.shape[0]):
-        out[i, 0], out[i, 1], out[i, 2] = color1(
-            materials, material[i], slot, point[i, 0] + origin[0], point[i, 1] + origin[1],
-            point[i, 2] + origin[2])
-
-
-@kernel
 def bulge1(px, py, pz, tri, u, v, side, corners, vnormals):
     """Hanika's shading point for a ray leaving a smooth-shaded triangle ("Hacking the Shadow
     Terminator", Ray Tracing Gems II, 2021, ch. 4): ``P' = Σ_k b_k·P_k`` with ``P_k`` the hit
