@@ -27,6 +27,14 @@ Parts (``--parts``, comma-separated; default all):
     wrapped in a timer (exclusive seconds): Embree's ``run`` calls, analytic intersection, the
     rest of raytrace.accel, camera rays, shading, compaction, accumulation, the integrator's
     loop, the BVH build, the scene load and the EXR write.
+``kernels``
+    Each scene rendered once more in this process on one thread (after a render that loads
+    every kernel) with each compiled kernel and Embree's ``run`` timed: seconds and calls per
+    kernel, their sum (the BVH build's kernels apart), and the rest of the render (Python and
+    numpy between the kernels). With ``throughput`` in the same run it also gives the *warm
+    ceiling*: the warm ratio the render would reach with no Python at all and a perfect
+    speed-up from every thread, raw build + run over ``build + (Embree + kernels) /
+    threads``: the most that removing overhead could buy.
 ``scaling``
     The mesh scene at growing pixel counts and spp, with a least-squares fit
     ``seconds = fixed + per_sample·samples`` and its largest residual; the full run also
@@ -71,7 +79,7 @@ import raytrace  # noqa: E402
 from raytrace import accel  # noqa: E402
 from raytrace.scene import Mesh, Plane, Sphere  # noqa: E402
 
-PARTS = ("throughput", "povray", "profile", "scaling", "startup", "threads")
+PARTS = ("throughput", "povray", "profile", "kernels", "scaling", "startup", "threads")
 WHITTED = ROOT / "scenes" / "whitted.toml"
 #: (width, height) of each benchmark scene, full and --quick.
 SIZES = {"mesh": (1000, 1000), "whitted": (1280, 960)}
@@ -455,6 +463,71 @@ def profile_breakdown(path: Path, width: int, height: int) -> dict:
             "calls": dict(timers.calls)}
 
 
+def kernel_breakdown(path: Path, width: int, height: int) -> dict:
+    """Seconds and calls of every compiled kernel and of Embree's ``run`` in one
+    single-threaded render, after a first render that loads every kernel from numba's cache.
+    Kernels run during the BVH build are reported apart (``build_kernels``)."""
+    from raytrace import accel_kernels, analytic, camera, integrator, rays, shading_kernels
+
+    scene = raytrace.load_scene(path)
+    raytrace.render(scene, width=width, height=height, threads=1)
+    timers = Timers()
+    saved = []
+    owners = (accel_kernels, shading_kernels, camera, rays, integrator, accel, analytic)
+    for module in (accel_kernels, shading_kernels, camera, rays):
+        for name, fn in list(vars(module).items()):
+            if not hasattr(fn, "py_func") or fn.__module__ != module.__name__:
+                continue
+            wrapped = timers.wrap(name, fn)
+            for owner in owners:  # the module itself and every module that imported the name
+                if getattr(owner, name, None) is fn:
+                    saved.append((owner, name, fn))
+                    setattr(owner, name, wrapped)
+    build = accel.Accelerator._build_meshes
+    during_build: dict[str, float] = {}
+
+    def timed_build(self, *args, **kwargs):
+        before = dict(timers.seconds)
+        t0 = time.perf_counter()
+        build(self, *args, **kwargs)
+        during_build["seconds"] = time.perf_counter() - t0
+        during_build.update({k: v - before.get(k, 0.0) for k, v in timers.seconds.items()
+                             if v != before.get(k, 0.0)})
+        if self.embree is not None:
+            self.embree = TimedEmbree(self.embree, timers)
+
+    accel.Accelerator._build_meshes = timed_build
+    try:
+        t0 = time.perf_counter()
+        image = raytrace.render(scene, width=width, height=height, threads=1)
+        render = time.perf_counter() - t0
+    finally:
+        accel.Accelerator._build_meshes = build
+        for owner, name, fn in saved:
+            setattr(owner, name, fn)
+    build_seconds = during_build.pop("seconds", 0.0)
+    seconds = {k: v - during_build.get(k, 0.0) for k, v in timers.seconds.items()}
+    embree = seconds.pop("embree", 0.0)
+    kernels = {k: v for k, v in sorted(seconds.items(), key=lambda kv: -kv[1]) if v > 0}
+    total = sum(kernels.values())
+    return {"scene": Path(path).stem, "width": width, "height": height, "threads": 1,
+            "rays": image.stats["rays"]["total"], "render_seconds": render,
+            "build_seconds": build_seconds, "build_kernels": during_build,
+            "embree_seconds": embree, "kernel_seconds": total,
+            "python_seconds": render - build_seconds - embree - total,
+            "kernels": kernels, "calls": {k: timers.calls[k] for k in kernels}}
+
+
+def warm_ceiling(kernels: dict, throughput_row: dict) -> float:
+    """The warm ratio with no Python between the kernels and a perfect speed-up from every
+    thread: raw build + run over ``build + (Embree + kernels) / threads`` of the
+    single-threaded render (the BVH build is serial on both sides)."""
+    raw = throughput_row["raw_embree"]["seconds"]
+    best = kernels["build_seconds"] + (kernels["embree_seconds"] + kernels["kernel_seconds"]) \
+        / throughput_row["threads"]
+    return (raw["build"] + raw["trace"]) / best
+
+
 # -- scaling, start-up, threads ----------------------------------------------------------------
 def linear_fit(samples: list[int], seconds: list[float]) -> dict:
     """Least-squares ``seconds = fixed + per_sample·samples`` and the largest relative
@@ -589,6 +662,15 @@ def report(results: dict) -> str:
             out.append(f"where the time goes: {r['scene']} {r['width']}x{r['height']}, 1 thread, "
                        f"{r['rays']['total'] / 1e6:.2f}M rays, {total:.2f} s\n"
                        + table(["stage", "seconds", "share"], rows))
+    for r in results.get("kernels", []):
+        rows = [[k, _f(1e3 * v, "{:.1f}"), str(r["calls"][k])] for k, v in r["kernels"].items()]
+        ceiling = (f"; warm ceiling with no Python and perfect threads: "
+                   f"{r['warm_ceiling']:.2f}" if r.get("warm_ceiling") is not None else "")
+        out.append(f"kernels: {r['scene']} {r['width']}x{r['height']}, 1 thread, render "
+                   f"{r['render_seconds']:.3f} s = build {r['build_seconds']:.3f} + Embree "
+                   f"{r['embree_seconds']:.3f} + kernels {r['kernel_seconds']:.3f} + Python "
+                   f"{r['python_seconds']:.3f}{ceiling}\n"
+                   + table(["kernel", "ms", "calls"], rows))
     if results.get("scaling"):
         sc = results["scaling"]
         rows = [[f"{r['width']}x{r['height']}", str(r["spp"]), str(r["samples"]),
@@ -676,6 +758,11 @@ def main(argv: list[str] | None = None) -> int:
                 results["povray_missing"] = "povray not found (apt-get install povray)"
         if "profile" in parts:
             results["profile"] = [profile_breakdown(f, *sizes[n]) for n, f in files.items()]
+        if "kernels" in parts:
+            results["kernels"] = [kernel_breakdown(f, *sizes[n]) for n, f in files.items()]
+            for row in results["kernels"]:
+                if row["scene"] in rt_rows:
+                    row["warm_ceiling"] = warm_ceiling(row, rt_rows[row["scene"]])
         if "scaling" in parts:
             results["scaling"] = scaling(scene_files(workdir)["mesh"], a.threads, workdir,
                                          a.quick, big=not (a.quick or a.no_big))

@@ -200,7 +200,8 @@ def test_quick_benchmark_json(tmp_path):
     assert p.returncode == 0, p.stderr[-3000:]
     assert "throughput" in p.stdout
     res = json.loads(out.read_text())
-    assert {"machine", "settings", "throughput", "scaling", "startup", "threads"} <= set(res)
+    assert {"machine", "settings", "throughput", "kernels", "scaling", "startup",
+            "threads"} <= set(res)
     assert [r["scene"] for r in res["throughput"]] == ["mesh", "whitted"]
     for r in res["throughput"]:
         assert {"camera", "shadow", "reflection", "refraction", "total"} <= set(r["rays"])
@@ -215,6 +216,18 @@ def test_quick_benchmark_json(tmp_path):
     assert whitted["rays"]["refraction"] > 0 and whitted["rays"]["reflection"] > 0
     assert all(r["identical"] for r in res["threads"])
     assert {"runs", "fixed_seconds", "microseconds_per_sample"} <= set(res["scaling"])
+    # per-kernel part: the render is build + Embree + kernels + Python, the kernels are the
+    # compiled ones (the mesh scene's light pass and Embree's run calls among them)
+    mesh, whitted = res["kernels"]
+    for r in (mesh, whitted):
+        assert r["render_seconds"] == pytest.approx(
+            r["build_seconds"] + r["embree_seconds"] + r["kernel_seconds"]
+            + r["python_seconds"])
+        assert r["kernel_seconds"] == pytest.approx(sum(r["kernels"].values()))
+        assert 0 < r["warm_ceiling"] < math.inf
+    assert "light_pass" in mesh["kernels"] and mesh["embree_seconds"] > 0
+    assert {"triangle_tables", "vertex_normals"} <= set(mesh["build_kernels"])
+    assert whitted["embree_seconds"] == 0 and "closest_analytic" in whitted["kernels"]
     assert res["startup"]["best"] > 0
     if povray.available():
         assert [r["scene"] for r in res["povray"]] == ["mesh", "whitted"]
