@@ -370,14 +370,15 @@ class WhittedIntegrator:
         """
         n, new = len(rays), self.scratch
         lights = self.direct_lighting(rays, surf) if self.lit else NO_LIGHT  # Σ_l S_l·f_l·…
-        # One pass over the hits: t·I_local, and each child's direction, weight and status.
-        local, r_dir, t_dir, w_r, w_t, w_s = (new(name, n, 3) for name in (
-            "local", "r_dir", "t_dir", "w_r", "w_t", "w_s"))
+        # One pass over the hits: w·t·I_local into their samples, and each child's direction,
+        # weight and status.
+        r_dir, t_dir, w_r, w_t, w_s = (new(name, n, 3) for name in (
+            "r_dir", "t_dir", "w_r", "w_t", "w_s"))
         status, tir = new("status", n, 3, np.int8), new("tir", n, dtype=bool)
         K.hit_terms(rays.direction, rays.weight, surf.geometric, surf.shading, surf.material,
                     surf.point, self.origin, self.table.arrays, self.ambient, lights,
-                    self.opt.min_weight, local, r_dir, t_dir, w_r, w_t, w_s, status, tir)
-        add(samples, rays.sample, rays.weight, local)
+                    self.opt.min_weight, samples, rays.sample, r_dir, t_dir, w_r, w_t, w_s, status,
+                    tir)
         depth = rays.depth + 1
         if depth <= self.opt.max_depth:
             self.stats.total_internal_reflections += int(np.count_nonzero(tir))
@@ -512,13 +513,8 @@ class WhittedIntegrator:
 
 
 def add(samples: np.ndarray, sample: np.ndarray, weight: np.ndarray, factor: np.ndarray,
-        rows: np.ndarray | None = None) -> None:
-    """``samples[sample[r]] += weight[r]·factor[r]`` for the rays ``rows`` (all by default;
-    ``factor`` of one row applies to every ray), one ray after another in batch order
+        rows: np.ndarray) -> None:
+    """``samples[sample[r]] += weight[r]·factor[r]`` for the rays ``rows`` (``factor`` of one
+    row applies to every ray), one ray after another in batch order
     (:func:`raytrace.shading_kernels.accumulate`)."""
-    if rows is None and len(factor) == len(sample):
-        K.accumulate_all(samples, sample, weight, factor)
-        return
-    if rows is None:
-        rows = np.arange(len(sample))
     K.accumulate(samples, sample, weight, factor, rows)

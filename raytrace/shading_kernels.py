@@ -16,11 +16,12 @@ Two layers, in pipeline order:
   ``hit_terms`` (what each hit adds to its sample; its reflected, refracted and see-through
   children's directions, weights and pruning status), ``count_keep`` and
   ``spawn_children`` (the next depth's batch from those); plus ``accumulate``, the
-  fixed-order sum into the pixel samples.
+  fixed-order sum of the background into the pixel samples of the rays that miss.
 
 All are serial ``nogil`` kernels (``raytrace.jit.kernel``): the integrator's threads run them
-side by side, each on the batches of its own pass, and ``accumulate`` sums the rays of one
-sample in one fixed order, so no result depends on the number of threads. Arguments are
+side by side, each on the batches of its own pass, and ``hit_terms`` and ``accumulate`` add
+into a pixel sample in batch order, one fixed order, so no result depends on the number of
+threads. Arguments are
 always C-contiguous float64 / int64 (bool for flags) arrays, so each kernel compiles once,
 into numba's cache. Everything compiled for shading lives in this one file because numba's
 cache notices edits only to the file of the kernel it compiled, not to the files of the
@@ -433,12 +434,14 @@ def cross_surfaces(factor, live, material, point, geometric, offset, shape, dire
 
 @kernel
 def hit_terms(direction, weight, geometric, shading, material, point, origin, materials,
-              ambient, lights, min_weight, local, r_dir, t_dir, w_r, w_t, w_s, status, tir):
+              ambient, lights, min_weight, samples, sample, r_dir, t_dir, w_r, w_t, w_s, status,
+              tir):
     """What every hit adds to its sample and the children it spawns (Whitted 1980; seed 003's
     opacity blend), with t the opacity and N_s, N_g the shading and geometric normals turned
     to the viewer:
 
-    * ``local = t·(ka·Ia + lights)`` (n, 3), per unit of ray weight; ``lights`` (n, 3) is
+    * ``w·t·(ka·Ia + lights)`` added to the hit's pixel sample, ``samples[sample[i]]``, one
+      hit after another in batch order (as :func:`accumulate` adds); ``lights`` (n, 3) is
       Σ_l S_l·f_l·I_l·[…], or has no rows in a scene without lights;
     * reflected: ``reflect(d, N_s)`` with weight ``w·t·kr``; where the interpolated normal
       sends it into the surface (``r·N_g <= 0``) it is mirrored about N_g instead;
@@ -473,7 +476,7 @@ def hit_terms(direction, weight, geometric, shading, material, point, origin, ma
             here = ambient[c] * ka[c]
             if lit:
                 here += lights[i, c]
-            local[i, c] = t * here
+            samples[sample[i], c] += weight[i, c] * (t * here)
         status[i, 0] = status[i, 1] = status[i, 2] = NONE
         tir[i] = False
         dx, dy, dz = direction[i, 0], direction[i, 1], direction[i, 2]
@@ -582,15 +585,6 @@ def accumulate(samples, sample, weight, factor, rows):
         f = 0 if one else r
         for c in range(3):
             samples[s, c] += weight[r, c] * factor[f, c]
-
-
-@kernel
-def accumulate_all(samples, sample, weight, factor):
-    """:func:`accumulate` over every row, in row order, ``factor`` (n, 3)."""
-    for r in range(sample.shape[0]):
-        s = sample[r]
-        for c in range(3):
-            samples[s, c] += weight[r, c] * factor[r, c]
 
 
 # -- array versions of the per-ray functions (the public numpy-facing API) -----------------------
