@@ -216,14 +216,18 @@ def test_quick_benchmark_json(tmp_path):
     assert whitted["rays"]["refraction"] > 0 and whitted["rays"]["reflection"] > 0
     assert all(r["identical"] for r in res["threads"])
     assert {"runs", "fixed_seconds", "microseconds_per_sample"} <= set(res["scaling"])
-    # per-kernel part: the render is build + Embree + kernels + Python, the kernels are the
-    # compiled ones (the mesh scene's light pass and Embree's run calls among them)
+    # per-kernel part: the timers are exclusive, so build + Embree + kernels fit inside the
+    # render (what is left, Python, is not negative); every timed name is a compiled kernel
+    # of the package (the mesh scene's light pass and Embree's run calls among them)
+    from raytrace import accel_kernels, camera, rays, shading_kernels
+
+    compiled = {name for m in (accel_kernels, shading_kernels, camera, rays)
+                for name, fn in vars(m).items() if hasattr(fn, "py_func")}
     mesh, whitted = res["kernels"]
     for r in (mesh, whitted):
-        assert r["render_seconds"] == pytest.approx(
-            r["build_seconds"] + r["embree_seconds"] + r["kernel_seconds"]
-            + r["python_seconds"])
-        assert r["kernel_seconds"] == pytest.approx(sum(r["kernels"].values()))
+        assert r["build_seconds"] + r["embree_seconds"] + r["kernel_seconds"] \
+            <= r["render_seconds"]
+        assert set(r["kernels"]) <= compiled and set(r["build_kernels"]) <= compiled
         assert 0 < r["warm_ceiling"] < math.inf
     assert "light_pass" in mesh["kernels"] and mesh["embree_seconds"] > 0
     assert {"triangle_tables", "vertex_normals"} <= set(mesh["build_kernels"])
