@@ -57,13 +57,17 @@ def reflect3(dx, dy, dz, nx, ny, nz):
 @kernel
 def refract3(dx, dy, dz, nx, ny, nz, eta):
     """Snell refraction ``η₁ sin θ₁ = η₂ sin θ₂`` with ``eta = η₁/η₂`` of a unit ``d`` at the
-    unit normal ``n`` on its side; returns ``(tx, ty, tz, tir)``.
+    unit normal ``n``; returns ``(tx, ty, tz, tir)``.
 
-    ``cos θᵢ = clip(−d·n, 0, 1)``, radicand ``k = cos²θᵢ − (η² − 1)·sin²θᵢ`` (so η = 1 leaves
-    exactly undeviated), ``t = η·d + (η·cos θᵢ − √k)·n``; ``k < 0`` is total internal
-    reflection, where ``t`` is the mirror direction instead.
+    ``cos θᵢ = −d·n`` (clipped to [−1, 1] against rounding), radicand
+    ``k = cos²θᵢ − (η² − 1)·sin²θᵢ`` (so η = 1 leaves exactly undeviated),
+    ``t = η·d + (η·cos θᵢ − √k)·n``; ``k < 0`` is total internal reflection, where ``t`` is
+    the mirror direction instead. ``|t|² = η²·sin²θᵢ + k = 1`` for either sign of the cosine,
+    so ``t`` is a unit vector also where ``n`` faces away from the ray (an interpolated normal
+    at a smooth mesh's silhouette, docs/shading.md): the cosine keeps its sign, and the
+    integrator then checks the side ``t`` leaves on against the face normal.
     """
-    cos_i = min(max(-(dx * nx + dy * ny + dz * nz), 0.0), 1.0)
+    cos_i = min(max(-(dx * nx + dy * ny + dz * nz), -1.0), 1.0)
     sin2 = max(0.0, (1.0 - cos_i) * (1.0 + cos_i))
     k = cos_i * cos_i - (eta - 1.0) * (eta + 1.0) * sin2
     if k < 0.0:
