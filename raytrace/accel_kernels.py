@@ -244,7 +244,7 @@ def shadow_prepass(o, d, origin_shape, tmax, shapes, to_embree, blocked, idx, o3
 def occlusion(idx, embree_result, origin_shape, blocked, recheck):
     """``blocked[idx[j]]``: Embree's OCCLUDED answer (0) for the rays it was asked about.
     The blocked ones that start on a triangle (no analytic ``origin_shape``), where the
-    blocker may be a float32 artefact of their own surface, go to ``recheck``; returns how
+    blocker may be a float32 artefact (:func:`refine_hits`), go to ``recheck``; returns how
     many."""
     k = 0
     for j in range(idx.shape[0]):
@@ -385,14 +385,18 @@ def hit_surfaces(t, shape, triangle, uv, o, d, analytic, shape_material, mesh,
     for both normals, offset 0. Triangle hits: the point at the barycentrics ``uv`` on the
     float64 triangle, its unit face normal, and for smooth and Gouraud triangles the
     interpolated vertex normals, normalised (the face normal where they cancel); the spawn
-    offset :data:`SPAWN_OFFSET` × the hit point's largest absolute (camera-relative)
-    coordinate: the rounding scale of the point itself, not of its triangle (a hit next to
-    the camera on a floor ±1e5 wide gets an offset of ~1e-6, not 0.036). ``analytic`` =
-    (centers, radii, points, normals); ``mesh`` = (corners (T, 3, 3), face normals (T, 3),
-    vertex normals (T, 3, 3), shading codes (T,) int8, materials (T,)).
+    offset: the rounding scale of the point itself, :data:`SPAWN_OFFSET` × the hit point's
+    largest absolute (camera-relative) coordinate, not of its triangle (a hit next to the
+    camera on a floor ±1e5 wide gets an offset of ~1e-6, not 0.036). Where the triangle's
+    error band (:func:`triangle_tables`) is at most twice that, the offset is the band itself
+    (a small triangle: Embree never reports it again to such a ray). Elsewhere a ray leaving
+    the hit may meet its own triangle as a float32 artefact, which the queries discard
+    (:func:`refine_hits`). ``analytic`` = (centers, radii, points, normals); ``mesh``
+    = (corners (T, 3, 3), face normals (T, 3), vertex normals (T, 3, 3), shading codes (T,)
+    int8, materials (T,), error bands (T,)).
     """
     centers, radii, points, normals = analytic
-    corners, face_normal, vnormals, code, tri_material = mesh
+    corners, face_normal, vnormals, code, tri_material, band = mesh
     n_spheres = radii.shape[0]
     for i in range(t.shape[0]):
         s = shape[i]
@@ -422,8 +426,9 @@ def hit_surfaces(t, shape, triangle, uv, o, d, analytic, shape_material, mesh,
                 shading[i, 0], shading[i, 1], shading[i, 2] = (nx / length, ny / length,
                                                                nz / length)
         material[i] = tri_material[tri]
-        offset[i] = SPAWN_OFFSET * max(max(max(abs(point[i, 0]), abs(point[i, 1])),
-                                           abs(point[i, 2])), F32_TINY)
+        own = SPAWN_OFFSET * max(max(max(abs(point[i, 0]), abs(point[i, 1])),
+                                     abs(point[i, 2])), F32_TINY)
+        offset[i] = band[tri] if band[tri] <= 2.0 * own else own
 
 
 # -- spawned rays ---------------------------------------------------------------------------

@@ -27,6 +27,7 @@ rendered which pass.
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 from collections.abc import Callable
@@ -65,6 +66,9 @@ MIN_PASS_SAMPLES = 4096
 MAX_SHADOW_CROSSINGS = 64
 #: Kinds of the children, in the order of :meth:`WhittedIntegrator._spawn`'s columns.
 CHILD_KINDS = np.array([REFLECTION, REFRACTION, SEE_THROUGH], np.int8)
+#: Check invariants of every spawned batch (unit directions, finite origins): set
+#: ``RAYTRACE_DEBUG=1`` in the environment. Off by default (it costs a pass over each batch).
+DEBUG = os.environ.get("RAYTRACE_DEBUG", "") not in ("", "0")
 NO_LIGHT = np.zeros((0, 3))
 NO_KEY = np.zeros(0, np.int64)
 
@@ -405,8 +409,10 @@ class WhittedIntegrator:
         K.spawn_children(status, first, *directions, *weights, surf.point, surf.geometric,
                          surf.offset, surf.shape, parents.sample, CHILD_KINDS, origin,
                          direction, weight, sample, shape, kind, parent)
-        return RayBatch(origin, direction, sample, weight, parents.depth + 1, shape,
-                        kind), parent
+        children = RayBatch(origin, direction, sample, weight, parents.depth + 1, shape, kind)
+        if DEBUG:
+            check_spawned(children)
+        return children, parent
 
     def _prune(self, status: np.ndarray, depth: int) -> bool:
         """Whether any children (the columns of ``status``) may go on: none past
@@ -428,17 +434,18 @@ class WhittedIntegrator:
         term, rows = new("term", n, 3), new("shadow_rows", n, dtype=np.int64)
         origin, direction = new("shadow_origin", n, 3), new("shadow_direction", n, 3)
         tmax, shape = new("shadow_tmax", n), new("shadow_shape", n, dtype=np.int64)
+        shadow = (rows, origin, direction, tmax, shape)
         # Jittered area lights draw a point per hit from its global camera sample and depth.
         key = rays.sample + self._worker.first_sample if self.jittered else NO_KEY
         for em in self.emitters:
             k = K.light_pass(surf.point, surf.geometric, surf.shading, rays.direction,
                              rays.origin, surf.material, surf.offset, surf.shape, surf.triangle,
-                             surf.uv, self.origin, self.table.arrays, self.smooth_table,
-                             em.packed, key, rays.depth, SHADOW_SHORTEN, term, rows, origin,
-                             direction, tmax, shape)
+                             surf.uv, self.origin, self.table.arrays,
+                             self.smooth_table, em.packed, key, rays.depth, SHADOW_SHORTEN, term,
+                             shadow)
             if k:
-                self.shadow(out, term, np.asarray(em.color, np.float64), rows[:k], origin[:k],
-                            direction[:k], tmax[:k], shape[:k])
+                self.shadow(out, term, np.asarray(em.color, np.float64),
+                            *(column[:k] for column in shadow))
         return out
 
     def shadow(self, out: np.ndarray, term: np.ndarray, color: np.ndarray, rows: np.ndarray,
@@ -510,6 +517,16 @@ class WhittedIntegrator:
         return {"scene": self.scene.path or "<python>", "width": o.width, "height": o.height,
                 "spp": o.spp, "max_depth": o.max_depth, "min_weight": o.min_weight,
                 "seed": o.seed, "renderer": "raytrace (Whitted, Embree)"}
+
+
+def check_spawned(rays: RayBatch) -> None:
+    """The debug path's invariants of a spawned batch (:data:`DEBUG`): every direction a unit
+    vector (to 1e-9; SCENE_FORMAT.md's smooth-mesh rules) and every origin finite."""
+    length = np.linalg.norm(rays.direction, axis=1)
+    bad = np.flatnonzero(~(np.abs(length - 1.0) <= 1e-9))
+    assert not len(bad), (f"{len(bad)} spawned directions are not a unit vector, e.g. "
+                          f"{rays.direction[bad[0]].tolist()} of length {length[bad[0]]!r}")
+    assert np.isfinite(rays.origin).all(), "a spawned ray has a non-finite origin"
 
 
 def add(samples: np.ndarray, sample: np.ndarray, weight: np.ndarray, factor: np.ndarray,

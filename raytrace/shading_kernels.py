@@ -290,16 +290,16 @@ def gouraud1(tri, u, v, s, ex, ey, ez, corners, vnormals, em, key, depth, kd, ks
 
 @kernel
 def light_pass(point, geometric, shading, direction, eye, material, offset, shape, triangle, uv,
-               origin, materials, mesh, em, key, depth, shorten, term, rows, s_origin,
-               s_direction, s_tmax, s_shape):
+               origin, materials, mesh, em, key, depth, shorten, term, shadow):
     """One emitter at every hit, in one pass: its unshadowed term and the shadow rays that
     must decide it. Returns k, the number of shadow rays.
 
     ``term = f·[kd·max(N·L, 0) + ks·spec]`` (n, 3) with N the shading normal turned to the
     viewer and V = −d (a Gouraud triangle's, :func:`gouraud1`, is interpolated from its
     corners); 0 for unlit materials. Only hits where some channel of term is > 0 need a shadow
-    ray: the first k rows of ``rows`` (which hit), ``s_origin``, ``s_direction``, ``s_tmax``
-    and ``s_shape`` (the shape it starts on) hold them, in hit order. A shadow ray leaves the
+    ray: the first k rows of ``shadow`` = (``rows`` (which hit), ``s_origin``,
+    ``s_direction``, ``s_tmax``, ``s_shape`` (the shape it starts on)) hold them, in hit
+    order. A shadow ray leaves the
     hit towards the light (:func:`leave1`) and stops ``shorten`` (relative) short of it; from
     a smooth or Gouraud triangle it leaves from :func:`bulge1`'s lifted point on the side the
     viewer sees, keeping the hit point's direction and length (the lift is a fraction of the
@@ -308,6 +308,7 @@ def light_pass(point, geometric, shading, direction, eye, material, offset, shap
     (n,): each hit's global camera sample, read only for a jittered emitter
     (:func:`incidence1`)."""
     corners, vnormals, code = mesh
+    rows, s_origin, s_direction, s_tmax, s_shape = shadow
     jittered = em[18] >= 0.0
     shininess, highlight, lit = materials[3], materials[4], materials[7]
     keep = 1.0 - shorten
