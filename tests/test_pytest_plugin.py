@@ -8,7 +8,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+# numba, loaded once here: pytester's in-process runs drop the modules they import, and
+# would import the renderer anew in each run.
 import raytrace
+import raytrace.integrator  # noqa: F401
 
 SCENE = """\
 [camera]
