@@ -5,13 +5,13 @@ plugin imports nothing heavy. Run with pytest's own ``pytester``."""
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 
-# numba, loaded once here: pytester's in-process runs drop the modules they import, and
-# would import the renderer anew in each run.
 import raytrace
-import raytrace.integrator  # noqa: F401
 
 SCENE = """\
 [camera]
@@ -51,6 +51,15 @@ def test_two_sizes(raytrace_golden):
     scene = raytrace.load_scene("ball.toml")
     raytrace_golden(scene, name="wide", width=12, height=6, threads=1)
 """
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _renderer_loaded():
+    """One render in this process before pytester's in-process runs: each of those runs drops
+    the modules it imported, and numba's first kernel call imports modules that register
+    types globally, which a second import would register twice (KeyError)."""
+    raytrace.render(raytrace.load_scene(Path(__file__).resolve().parents[1] / "scenes" /
+                                        "whitted.toml"), width=2, height=2, threads=1)
 
 
 @pytest.fixture
@@ -152,3 +161,27 @@ def test_loading_the_plugin_imports_neither_numpy_nor_raytrace(pytester: pytest.
     """)
     result = pytester.runpytest_subprocess("-p", "no:cacheprovider")
     result.assert_outcomes(passed=1)
+
+
+def test_the_example_in_docs_testing_md_works_as_documented(pytester: pytest.Pytester,
+                                                            monkeypatch):
+    monkeypatch.delenv("RAYTRACE_ARTEFACTS", raising=False)
+    root = Path(__file__).resolve().parents[1]
+    doc = (root / "docs" / "testing.md").read_text(encoding="utf-8")
+    code = re.search(r"```python\n(# tests/test_pictures\.py\n.*?)```", doc, re.S).group(1)
+    (pytester.path / "scenes").mkdir()
+    (pytester.path / "scenes" / "whitted.toml").write_bytes(
+        (root / "scenes" / "whitted.toml").read_bytes())
+    (pytester.path / "tests").mkdir()
+    (pytester.path / "tests" / "test_pictures.py").write_text(code, encoding="utf-8")
+    first = pytester.runpytest("-p", "no:cacheprovider")
+    first.assert_outcomes(failed=2, passed=1)
+    first.stdout.fnmatch_lines(["golden image tests/goldens/test_pictures/test_whitted.exr "
+                                "does not exist.*"])
+    update = pytester.runpytest("-p", "no:cacheprovider", "--raytrace-update-goldens")
+    update.assert_outcomes(passed=3)
+    update.stdout.fnmatch_lines(["new      tests/goldens/test_pictures/test_whitted.exr",
+                                 "new      tests/goldens/test_pictures/whitted_depth1.exr",
+                                 "new      tests/goldens/test_pictures/whitted_depth5.exr",
+                                 "3 written, 0 unchanged*"])
+    pytester.runpytest("-p", "no:cacheprovider").assert_outcomes(passed=3)
