@@ -4,11 +4,13 @@
                           [--min-weight W] [--seed S] [--threads T] [--png PREVIEW.png]
                           [--exposure EV] [--tonemap clip|reinhard] [--stats STATS.json]
                           [--compression none|rle|zips|zip|piz|zstd] [--quiet]
-    raytrace compare TEST.exr REFERENCE.exr [--metric rmse|mae|max|relmse] [--threshold T]
+    raytrace compare TEST.exr REFERENCE.exr [--metric rmse|mae|max|relmse|psnr|flip]
+                     [--threshold T] [--diff DIFF.png] [--json]
     raytrace materials
 
 Bad input prints one line ``raytrace: error: FILE: KEY: problem`` and exits with status 2;
-``compare`` exits 1 when the difference is over the threshold.
+``compare`` exits 1 when the difference is worse than the threshold (over it; under it for
+PSNR). The metrics are :data:`raytrace.metrics.METRICS`.
 """
 
 from __future__ import annotations
@@ -67,8 +69,13 @@ def _parser() -> argparse.ArgumentParser:
     c = sub.add_parser("compare", help="compare two EXR images; exit 1 when over threshold")
     c.add_argument("test")
     c.add_argument("reference")
-    c.add_argument("--metric", default="rmse", help="rmse, mae, max or relmse")
-    c.add_argument("--threshold", type=float, default=1e-3)
+    c.add_argument("--metric", default="rmse",
+                   help="rmse, mae, max, relmse, psnr or flip (flip needs raytrace[flip])")
+    c.add_argument("--threshold", type=float,
+                   help="worst value that passes (default 1e-3; psnr 60 dB, flip 0.01)")
+    c.add_argument("--diff", help="write a diff heatmap PNG (white: the largest difference)")
+    c.add_argument("--json", action="store_true",
+                   help="print the whole report (every metric, worst pixels) as JSON")
 
     sub.add_parser("materials", help="list the named materials of the library")
     return p
@@ -158,22 +165,33 @@ def _render(args: argparse.Namespace) -> int:
     return 0
 
 
-METRICS = {
-    "rmse": lambda a, b: float(np.sqrt(np.mean((a - b) ** 2))),
-    "mae": lambda a, b: float(np.mean(np.abs(a - b))),
-    "max": lambda a, b: float(np.max(np.abs(a - b))),
-    "relmse": lambda a, b: float(np.mean((a - b) ** 2 / (b * b + 1e-2))),
-}
-
-
 def _compare(args: argparse.Namespace) -> int:
+    from . import metrics
     from .film import read_exr
+    from .testing import compare_images, write_diff
 
-    if args.metric not in METRICS:
-        raise SceneError(f"unknown metric {args.metric!r} (choose from {', '.join(METRICS)})",
-                         "--metric")
+    try:
+        metric = metrics.get(args.metric)
+    except ValueError as e:
+        raise SceneError(str(e), "--metric") from None
+    threshold = metric.default_threshold if args.threshold is None else args.threshold
+    try:
+        threshold = metrics.check_threshold(threshold)
+    except ValueError as e:
+        raise SceneError(str(e), "--threshold") from None
+    inputs = (args.test, args.reference)
+    if args.diff:
+        diff = Path(args.diff)
+        if diff.suffix.lower() != ".png":
+            raise SceneError(f"must be a .png file, got {args.diff!r}", "--diff")
+        if not diff.resolve().parent.is_dir():
+            raise SceneError(f"folder does not exist: {diff.parent}", "--diff")
+        if diff.is_dir():
+            raise SceneError(f"is a folder, not a file: {args.diff}", "--diff")
+        if any(diff.resolve() == Path(p).resolve() for p in inputs):
+            raise SceneError(f"would overwrite the input {args.diff}", "--diff")
     images = []
-    for path in (args.test, args.reference):
+    for path in inputs:
         if not Path(path).is_file():
             raise SceneError("file not found", file=path)
         try:
@@ -184,11 +202,26 @@ def _compare(args: argparse.Namespace) -> int:
     if a.shape != b.shape:
         raise SceneError(f"size {a.shape[1]}x{a.shape[0]} differs from the reference's "
                          f"{b.shape[1]}x{b.shape[0]}", file=args.test)
-    value = METRICS[args.metric](a, b)
-    over = not value <= args.threshold
-    print(f"{args.metric} = {value:.6g} ({'over' if over else 'within'} threshold "
-          f"{args.threshold:g})")
-    return EXIT_OVER_THRESHOLD if over else 0
+    names = [*metrics.BASIC, *([metric.name] if metric.name not in metrics.BASIC else [])]
+    try:
+        report = compare_images(a, b, metrics=names)
+    except (ImportError, ValueError) as e:  # FLIP: not installed, or undefined here
+        raise SceneError(str(e), "--metric") from None
+    value = report.metrics[metric.name]
+    within = metric.within(value, threshold)
+    if args.diff:
+        write_diff(args.diff, a, b)
+    if args.json:
+        d = report.to_dict()
+        print(json.dumps({"test": args.test, "reference": args.reference,
+                          "metric": metric.name, "value": d["metrics"][metric.name],
+                          "threshold": threshold, "within": within, "diff": args.diff, **d},
+                         indent=2))
+    else:
+        verdict = "within" if within else ("below" if metric.higher_is_better else "over")
+        print(f"{metric.name} = {value:.6g}{metric.unit} ({verdict} threshold "
+              f"{threshold:g}{metric.unit})")
+    return 0 if within else EXIT_OVER_THRESHOLD
 
 
 def _materials(args: argparse.Namespace) -> int:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 import struct
+import sys
 import tempfile
 import warnings
 import zlib
@@ -137,6 +138,11 @@ def preview(rgb: np.ndarray, exposure: float = 0.0, tonemap: str = "clip") -> np
     with warnings.catch_warnings():  # colour warns that matplotlib is absent: not needed
         warnings.simplefilter("ignore")
         import colour
+    # Without SciPy, colour puts a MagicMock in sys.modules["scipy"] (keeping its own
+    # reference); numba, imported later by a render, would read the mock's __version__ and fail.
+    for name in ("scipy", "scipy.interpolate"):
+        if type(sys.modules.get(name)).__module__ == "unittest.mock":
+            del sys.modules[name]
 
     if tonemap not in TONEMAPS:
         raise ValueError(f"unknown tone map {tonemap!r} (choose from {', '.join(TONEMAPS)})")
