@@ -134,7 +134,8 @@ class Progress:
         from loading the scene to the last file written (``--stats``' ``seconds.total``)."""
         if not self.enabled:
             return
-        sys.stderr.write(f"wrote {', '.join(written)}: {stats['width']}×{stats['height']}, "
+        crop = " crop {} {} {} {} of".format(*stats["crop"]) if "crop" in stats else ""
+        sys.stderr.write(f"wrote {', '.join(written)}:{crop} {stats['width']}×{stats['height']}, "
                          f"{stats['spp']} spp, {stats['rays']['total'] / 1e6:.2f} M rays, "
                          f"{stats['seconds']['total']:.2f} s\n")
         sys.stderr.flush()

@@ -113,3 +113,18 @@ def test_a_bad_crop_flag_is_one_line_and_writes_nothing(tmp_path, capsys, bounds
     assert rc == 2 and len(err.splitlines()) == 1, err
     assert "floor.toml" in err and "--crop" in err and "12x8" in err
     assert sorted(os.listdir(tmp_path)) == ["floor.toml"]
+
+
+def test_the_terminal_summary_names_the_crop(tmp_path, monkeypatch):
+    import io
+    import sys
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    scene, out = write_text(tmp_path / "floor.toml", FLOOR), tmp_path / "c.exr"
+    monkeypatch.setattr(sys, "stderr", Terminal())
+    assert cli.main(["render", str(scene), "-o", str(out), "--crop", "1", "2", "5", "7"]) == 0
+    last = sys.stderr.getvalue().replace("\r", "\n").strip().splitlines()[-1]
+    assert last.startswith(f"wrote {out}: crop 1 2 5 7 of 12×8, 1 spp, ")
