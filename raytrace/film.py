@@ -96,6 +96,8 @@ def write_exr(path: str | os.PathLike, rgb: np.ndarray, metadata: dict | None = 
     header = {"compression": exr_compression(compression), "type": OpenEXR.scanlineimage,
               "chromaticities": SRGB_CHROMATICITIES}
     if crop is not None:
+        if frame is None:
+            raise ValueError("a crop needs the frame (width, height) it is a window of")
         x0, y0, x1, y1 = crop
         width, height = frame
         if (y1 - y0, x1 - x0) != rgb.shape[:2]:

@@ -19,6 +19,23 @@ W, H, SPP = 48, 36, 4
 #: Small passes (rounded down to whole pixels: 36 samples, 9 pixels), so a crop's passes
 #: split its rows, and a glass pixel's rays outgrow a pass.
 SMALL_PASS = 37
+#: A 12×8 frame of a lit floor.
+FLOOR = """
+[render]
+width = 12
+height = 8
+[camera]
+position = [0.0, 1.0, 3.0]
+look_at = [0.0, 0.0, 0.0]
+[[lights]]
+type = "point"
+position = [1.0, 4.0, 2.0]
+[[objects]]
+type = "plane"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+material = "green_plastic"
+"""
 
 
 @pytest.fixture(scope="module")
@@ -69,24 +86,6 @@ def test_the_exr_data_window_is_the_crop_in_the_full_display_window(full, tmp_pa
     back = raytrace.Image.from_exr(out)
     assert back.crop == (3, 2, 9, 5) and back.frame == (12, 8)
     assert back.aov("depth").shape == (3, 6)
-
-
-FLOOR = """
-[render]
-width = 12
-height = 8
-[camera]
-position = [0.0, 1.0, 3.0]
-look_at = [0.0, 0.0, 0.0]
-[[lights]]
-type = "point"
-position = [1.0, 4.0, 2.0]
-[[objects]]
-type = "plane"
-point = [0.0, 0.0, 0.0]
-normal = [0.0, 1.0, 0.0]
-material = "green_plastic"
-"""
 
 
 @pytest.mark.parametrize(("crop", "says"), [

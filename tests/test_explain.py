@@ -148,3 +148,10 @@ def test_bad_pixels_and_samples_are_one_line(capsys, args, flag):
     assert rc == 2 and len(err.splitlines()) == 1 and flag in err, err
     if flag != "--spp":
         assert "whitted.toml" in err
+
+
+def test_a_tree_larger_than_a_batch_is_refused_in_one_line(whitted, glass_pixel):
+    # One ray a pass: the glass hit's two children would be cut into two batches, which the
+    # recorder cannot follow ray by ray; it says so instead of mislabelling rays.
+    with pytest.raises(raytrace.SceneError, match="too many to explain"):
+        explain(whitted, glass_pixel, width=W, height=H, pass_samples=1)
