@@ -16,6 +16,7 @@ The pipeline, one module per stage::
 """
 
 from .errors import SceneError
+from .explain import explain
 from .film import Image, read_exr
 from .material import Checker, Material, MaterialLibrary
 from .material import library as materials
@@ -37,7 +38,7 @@ from .scene_file import load_scene, scene_from_dict
 __version__ = "0.1.0"
 
 __all__ = [
-    "AreaLight", "Camera", "Checker", "DirectionalLight", "Image", "Material",
+    "AreaLight", "Camera", "Checker", "DirectionalLight", "Image", "Material", "explain",
     "MaterialLibrary", "Mesh", "Plane", "PointLight", "RenderSettings", "Scene", "SceneError",
     "Sphere", "SpotLight", "load_scene", "materials", "read_exr", "render", "scene_from_dict",
 ]

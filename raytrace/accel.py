@@ -119,6 +119,11 @@ class Accelerator:
             [p.point - self.origin for p in planes], [p.normal for p in planes])
         self.shape_material = np.array(
             [mat_index[id(o.material)] for o in (*spheres, *planes)], dtype=np.int64)
+        #: Index in ``scene.objects`` of each analytic shape and of each mesh (geomID).
+        where = {kind: [i for i, o in enumerate(scene.objects) if isinstance(o, kind)]
+                 for kind in (Sphere, Plane, Mesh)}
+        self.shape_object = np.array([*where[Sphere], *where[Plane]], dtype=np.int64)
+        self.geom_object = np.array(where[Mesh], dtype=np.int64)
         self.degenerate = sum(m.degenerate for m in meshes)
         self._none_columns = (np.zeros(0, np.int64), np.zeros((0, 2)))
         self._build_meshes(meshes, mat_index)

@@ -4,6 +4,9 @@
                           [--min-weight W] [--seed S] [--threads T] [--png PREVIEW.png]
                           [--exposure EV] [--tonemap clip|reinhard] [--stats STATS.json]
                           [--compression none|rle|zips|zip|piz|zstd] [--quiet]
+                          [--aov depth,normal,albedo,id] [--crop X0 Y0 X1 Y1]
+    raytrace explain SCENE --pixel X Y [--sample S] [--json] [--width W] [--height H]
+                          [--spp N] [--max-depth D] [--min-weight W] [--seed S]
     raytrace compare TEST.exr REFERENCE.exr [--metric rmse|mae|max|relmse|psnr|flip]
                      [--threshold T] [--diff DIFF.png] [--json]
     raytrace materials
@@ -47,12 +50,7 @@ def _parser() -> argparse.ArgumentParser:
     r = sub.add_parser("render", help="render a scene file to a float EXR")
     r.add_argument("scene", help="scene file (.toml or .json)")
     r.add_argument("-o", "--output", help="output EXR (default: SCENE's name with .exr, here)")
-    r.add_argument("--width", type=int)
-    r.add_argument("--height", type=int)
-    r.add_argument("--spp", type=int, help="samples per pixel")
-    r.add_argument("--max-depth", type=int, help="reflection/refraction recursion limit")
-    r.add_argument("--min-weight", type=float, help="prune rays whose weight is below this")
-    r.add_argument("--seed", type=int)
+    _overrides(r)
     r.add_argument("--threads", type=int, default=os.cpu_count() or 1,
                    help="worker threads (default: all cores)")
     r.add_argument("--png", help="also write a tone-mapped sRGB PNG preview")
@@ -65,6 +63,21 @@ def _parser() -> argparse.ArgumentParser:
                         "OpenEXR >= 3.5 to read)")
     r.add_argument("-q", "--quiet", action="store_true",
                    help="no progress bar and no summary line (both only on a terminal)")
+    r.add_argument("--aov", help="AOVs written as more channels of the EXR, comma-separated: "
+                                 "depth (Z), normal (N.X N.Y N.Z), albedo (albedo.R .G .B), "
+                                 "id (the object's index)")
+    r.add_argument("--crop", type=int, nargs=4, metavar=("X0", "Y0", "X1", "Y1"),
+                   help="render only these pixels (half-open bounds; the EXR's data window "
+                        "in the full frame's display window)")
+
+    e = sub.add_parser("explain", help="the ray tree of one pixel sample, term by term")
+    e.add_argument("scene", help="scene file (.toml or .json)")
+    e.add_argument("--pixel", type=int, nargs=2, required=True, metavar=("X", "Y"),
+                   help="column and row; (0, 0) is the top-left pixel")
+    e.add_argument("--sample", type=int, default=0, help="which of the pixel's samples "
+                                                         "(0 to spp - 1; default 0)")
+    e.add_argument("--json", action="store_true", help="print the tree as one JSON object")
+    _overrides(e)
 
     c = sub.add_parser("compare", help="compare two EXR images; exit 1 when over threshold")
     c.add_argument("test")
@@ -79,6 +92,30 @@ def _parser() -> argparse.ArgumentParser:
 
     sub.add_parser("materials", help="list the named materials of the library")
     return p
+
+
+def _overrides(p: argparse.ArgumentParser) -> None:
+    """The flags that override a scene's ``[render]`` settings (render and explain)."""
+    p.add_argument("--width", type=int)
+    p.add_argument("--height", type=int)
+    p.add_argument("--spp", type=int, help="samples per pixel")
+    p.add_argument("--max-depth", type=int, help="reflection/refraction recursion limit")
+    p.add_argument("--min-weight", type=float, help="prune rays whose weight is below this")
+    p.add_argument("--seed", type=int)
+
+
+#: The flag of each render setting, to name in an error about its value.
+FLAGS = {"width": "--width", "height": "--height", "spp": "--spp", "max_depth": "--max-depth",
+         "min_weight": "--min-weight", "seed": "--seed", "threads": "--threads",
+         "crop": "--crop", "aovs": "--aov"}
+
+
+def _flag_error(e: SceneError) -> SceneError:
+    """A SceneError about a setting's value, naming the flag instead of the scene key (and
+    the scene file where the value is checked against the scene's frame)."""
+    key = (e.key or "").removeprefix("render.")
+    in_frame = key in ("crop", "--pixel", "--sample")
+    return SceneError(e.problem, FLAGS.get(key, e.key), e.file if in_frame else None)
 
 
 class Progress:
@@ -104,7 +141,8 @@ class Progress:
         from loading the scene to the last file written (``--stats``' ``seconds.total``)."""
         if not self.enabled:
             return
-        sys.stderr.write(f"wrote {', '.join(written)}: {stats['width']}×{stats['height']}, "
+        crop = " crop {} {} {} {} of".format(*stats["crop"]) if "crop" in stats else ""
+        sys.stderr.write(f"wrote {', '.join(written)}:{crop} {stats['width']}×{stats['height']}, "
                          f"{stats['spp']} spp, {stats['rays']['total'] / 1e6:.2f} M rays, "
                          f"{stats['seconds']['total']:.2f} s\n")
         sys.stderr.flush()
@@ -112,6 +150,7 @@ class Progress:
 
 def _render(args: argparse.Namespace) -> int:
     from . import integrator  # noqa: F401  (the renderer and numba: imported, not timed)
+    from .aov import check_aovs
     from .film import TONEMAPS, exr_compression, write_exr, write_png
     from .render import render
     from .scene_file import load_scene
@@ -131,22 +170,20 @@ def _render(args: argparse.Namespace) -> int:
             raise SceneError(f"folder does not exist: {Path(path).parent}", flag)
         if path and Path(path).is_dir():  # found now, not after the render
             raise SceneError(f"is a folder, not a file: {path}", flag)
+    aovs = check_aovs(args.aov, "--aov")  # found now, not after the render
     t0 = time.perf_counter()
     scene = load_scene(args.scene)
     load_seconds = time.perf_counter() - t0
-    flags = {"width": "--width", "height": "--height", "spp": "--spp",
-             "max_depth": "--max-depth", "min_weight": "--min-weight", "seed": "--seed",
-             "threads": "--threads"}
     progress = Progress(not args.quiet)
     try:
         image = render(scene, width=args.width, height=args.height, spp=args.spp,
                        max_depth=args.max_depth, min_weight=args.min_weight, seed=args.seed,
-                       threads=args.threads, progress=progress)
+                       threads=args.threads, progress=progress, crop=args.crop, aovs=aovs)
     except SceneError as e:  # a flag's value: name the flag, not the scene key
-        key = (e.key or "").removeprefix("render.")
-        raise SceneError(e.problem, flags.get(key, e.key)) from None
+        raise _flag_error(e) from None
     t1 = time.perf_counter()
-    write_exr(out, image.rgb, image.metadata, args.threads, args.compression)
+    write_exr(out, image.rgb, image.metadata, args.threads, args.compression,
+              channels=image.channels(), crop=image.crop, frame=image.frame)
     args.written.append(str(out))
     if args.png:
         write_png(args.png, image.rgb, args.exposure, args.tonemap)
@@ -162,6 +199,21 @@ def _render(args: argparse.Namespace) -> int:
         with atomic_path(args.stats, ".json") as tmp:
             tmp.write_text(json.dumps(stats, indent=2) + "\n")
     progress.summary(args.written + ([args.stats] if args.stats else []), stats)
+    return 0
+
+
+def _explain(args: argparse.Namespace) -> int:
+    from .explain import explain, format_tree
+    from .scene_file import load_scene
+
+    scene = load_scene(args.scene)
+    try:
+        report = explain(scene, tuple(args.pixel), args.sample, width=args.width,
+                         height=args.height, spp=args.spp, max_depth=args.max_depth,
+                         min_weight=args.min_weight, seed=args.seed)
+    except SceneError as e:
+        raise _flag_error(e) from None
+    print(json.dumps(report, indent=1) if args.json else format_tree(report))
     return 0
 
 
@@ -238,7 +290,8 @@ def _materials(args: argparse.Namespace) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     args.written = []  # outputs complete so far (each is written atomically)
-    handler = {"render": _render, "compare": _compare, "materials": _materials}[args.command]
+    handler = {"render": _render, "explain": _explain, "compare": _compare,
+               "materials": _materials}[args.command]
     try:
         return handler(args)
     except SceneError as e:

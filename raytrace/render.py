@@ -3,19 +3,26 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
+from typing import TYPE_CHECKING
 
 from . import values
+from .aov import check_aovs
 from .errors import SceneError
 from .film import Image
 from .scene import RenderSettings, Scene
+
+if TYPE_CHECKING:
+    from .integrator import RenderOptions
 
 
 def render(scene: Scene, *, width: int | None = None, height: int | None = None,
            spp: int | None = None, max_depth: int | None = None,
            min_weight: float | None = None, seed: int | None = None, threads: int | None = None,
            progress: Callable[[int, int], None] | None = None,
-           pass_samples: int | None = None) -> Image:
+           pass_samples: int | None = None,
+           crop: Sequence[int] | None = None,
+           aovs: str | Iterable[str] | None = None) -> Image:
     """Render ``scene``; keyword arguments override its ``[render]`` settings.
 
     Returns an :class:`Image` whose ``rgb`` is (height, width, 3) float32 linear RGB and whose
@@ -23,10 +30,31 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     command line; the image does not depend on it. ``pass_samples`` caps the camera samples
     per pass (default :data:`raytrace.integrator.PASS_SAMPLES`).
 
+    ``crop`` = (x0, y0, x1, y1) renders only those pixels (half-open bounds, like pbrt's
+    ``--pixelbounds``): ``rgb`` is then (y1 − y0, x1 − x0, 3), bit-identical to that window
+    of the full render. ``aovs``: names from :data:`raytrace.aov.AOVS` (depth, normal,
+    albedo, id) to render besides the colour, read with ``Image.aov(name)``.
+
     The integrator, and with it numba, is imported on the first call, so ``import raytrace``
     (loading and checking scenes, reading EXRs) does not pay for the compiler.
     """
-    from .integrator import PASS_SAMPLES, RenderOptions, WhittedIntegrator
+    from .integrator import WhittedIntegrator
+
+    options = render_options(scene, width=width, height=height, spp=spp, max_depth=max_depth,
+                             min_weight=min_weight, seed=seed, threads=threads,
+                             pass_samples=pass_samples, crop=crop, aovs=aovs)
+    return WhittedIntegrator(scene, options).render(progress)
+
+
+def render_options(scene: Scene, *, width: int | None = None, height: int | None = None,
+                   spp: int | None = None, max_depth: int | None = None,
+                   min_weight: float | None = None, seed: int | None = None,
+                   threads: int | None = None, pass_samples: int | None = None,
+                   crop: Sequence[int] | None = None,
+                   aovs: str | Iterable[str] | None = None) -> RenderOptions:
+    """The integrator's options: the scene's ``[render]`` settings with the overrides that
+    are not None, checked (a :class:`SceneError` locating a bad one in the scene's file)."""
+    from .integrator import PASS_SAMPLES, RenderOptions
 
     if not isinstance(scene, Scene):
         raise TypeError(f"render() needs a raytrace.Scene, got {type(scene).__name__}")
@@ -42,9 +70,25 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
         if threads is None:
             threads = os.cpu_count() or 1
         threads = values.number(threads, "threads", lo=1, hi=256, integer=True)
+        window = None if crop is None else check_crop(crop, settings.width, settings.height)
+        names = check_aovs(aovs)
     except SceneError as e:
         raise SceneError(e.problem, e.key, scene.path) from None
-    options = RenderOptions(settings.width, settings.height, settings.spp, settings.max_depth,
-                            settings.min_weight, settings.background, settings.seed, threads,
-                            PASS_SAMPLES if pass_samples is None else pass_samples)
-    return WhittedIntegrator(scene, options).render(progress)
+    return RenderOptions(settings.width, settings.height, settings.spp, settings.max_depth,
+                         settings.min_weight, settings.background, settings.seed, threads,
+                         PASS_SAMPLES if pass_samples is None else pass_samples, window, names)
+
+
+def check_crop(crop: Sequence[int], width: int, height: int,
+               key: str = "crop") -> tuple[int, int, int, int]:
+    """Pixel bounds (x0, y0, x1, y1), half-open, checked: whole numbers with
+    0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height (a non-empty window inside the frame);
+    a :class:`SceneError` saying which bound is wrong otherwise."""
+    if isinstance(crop, str) or not hasattr(crop, "__len__") or len(crop) != 4:
+        raise SceneError(f"must be 4 pixel bounds x0 y0 x1 y1, got {crop!r}", key)
+    x0, y0, x1, y1 = (values.number(v, key, integer=True) for v in crop)
+    for lo, hi, side, axis in ((x0, x1, width, "x"), (y0, y1, height, "y")):
+        if not 0 <= lo < hi <= side:
+            raise SceneError(f"{axis} bounds {lo}..{hi} must satisfy 0 <= {axis}0 < {axis}1 <= "
+                             f"{side} (half-open, inside the {width}x{height} frame)", key)
+    return x0, y0, x1, y1

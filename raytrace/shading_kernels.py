@@ -592,6 +592,70 @@ def accumulate(samples, sample, weight, factor, rows):
             samples[s, c] += weight[r, c] * factor[f, c]
 
 
+# -- AOVs: the camera rays' first hits (raytrace.aov) ---------------------------------------------
+@kernel
+def aov_hits(sample, t, direction, geometric, shading, material, point, origin, materials,
+             shape, triangle, shape_object, geom_first, geom_object, depth, normal, albedo,
+             ident):
+    """The AOVs of camera-ray hits into their samples' rows (``sample[i]``): ``depth`` the
+    distance ``t``, ``normal`` the shading normal turned to face the ray (as the shading uses
+    it: :func:`facing1`), ``albedo`` kd at the world point (:func:`color1`), ``ident`` the
+    object's index in the scene (``shape_object`` of an analytic shape; a triangle's mesh is
+    the last ``geom_first`` at or before it, ``geom_object`` of that). An output with no rows
+    is not asked for and costs nothing."""
+    for i in range(sample.shape[0]):
+        s = sample[i]
+        if depth.shape[0]:
+            depth[s] = t[i]
+        if normal.shape[0]:
+            f = facing1(geometric[i, 0], geometric[i, 1], geometric[i, 2], direction[i, 0],
+                        direction[i, 1], direction[i, 2])
+            for c in range(3):
+                normal[s, c] = f * shading[i, c]
+        if albedo.shape[0]:
+            kd = color1(materials, material[i], KD, point[i, 0] + origin[0],
+                        point[i, 1] + origin[1], point[i, 2] + origin[2])
+            for c in range(3):
+                albedo[s, c] = kd[c]
+        if ident.shape[0]:
+            if triangle[i] >= 0:
+                mesh = np.searchsorted(geom_first, triangle[i], side="right") - 1
+                ident[s] = geom_object[mesh]
+            else:
+                ident[s] = shape_object[shape[i]]
+
+
+@kernel
+def aov_pixels(pixels, spp, depth, normal, albedo, ident, depth_px, normal_px, albedo_px,
+               ident_px):
+    """``pixels`` pixels, pixel j of samples ``j·spp … j·spp + spp − 1``: depth and id of the
+    nearest sample (the smallest ``depth``, the first on ties), normal and albedo the mean of
+    the samples. An output (``…_px``) with no rows is not asked for; ``depth`` has rows
+    whenever depth or id is asked for."""
+    for j in range(pixels):
+        first = j * spp
+        if depth.shape[0]:
+            best = first
+            for k in range(first + 1, first + spp):
+                if depth[k] < depth[best]:
+                    best = k
+            if depth_px.shape[0]:
+                depth_px[j] = depth[best]
+            if ident_px.shape[0]:
+                ident_px[j] = ident[best]
+        for c in range(3):
+            if normal_px.shape[0]:
+                total = 0.0
+                for k in range(first, first + spp):
+                    total += normal[k, c]
+                normal_px[j, c] = total / spp
+            if albedo_px.shape[0]:
+                total = 0.0
+                for k in range(first, first + spp):
+                    total += albedo[k, c]
+                albedo_px[j, c] = total / spp
+
+
 # -- array versions of the per-ray functions (the public numpy-facing API) -----------------------
 @kernel
 def reflect_rows(d, n, out):
