@@ -102,9 +102,9 @@ def compare_images(actual: ImageLike, expected: ImageLike, *, rtol: float = 0.0,
 
     A pixel is bad when a channel fails numpy's ``isclose(actual, expected, rtol, atol)``,
     which holds where ``|actual − expected| <= atol + rtol·|expected|``, NaN equal only to
-    NaN, inf only to the same inf. ``metrics`` are names from :data:`raytrace.metrics.METRICS`, taken over every
-    value (a non-finite one makes them nan or inf). The shapes must be equal (a ValueError
-    says both otherwise).
+    NaN, inf only to the same inf. ``metrics`` are names from
+    :data:`raytrace.metrics.METRICS`, taken over every value (a non-finite one makes them nan
+    or inf). The shapes must be equal (a ValueError says both otherwise).
     """
     a, e = load_image(actual, "actual"), load_image(expected, "expected")
     if a.shape != e.shape:
