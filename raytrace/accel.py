@@ -306,13 +306,16 @@ def spawn_origins(point: np.ndarray, geometric: np.ndarray, offset: np.ndarray,
                   direction: np.ndarray) -> np.ndarray:
     """Start points (n, 3) of rays leaving surface points along ``direction``.
 
-    Mesh hits move ``offset`` off the plane along the geometric normal, to the side the ray
-    leaves on; analytic hits have offset 0 and stay put (their ray carries its shape instead,
-    see :mod:`raytrace.analytic`).
+    The one spawn rule of every kernel, :func:`raytrace.core.leave1`: mesh hits move
+    ``offset`` off the plane along the geometric normal, to the side the ray leaves on;
+    analytic hits have offset 0 and stay put (their ray carries its shape instead, see
+    :mod:`raytrace.analytic`).
     """
+    from .core import leave_rows
+
     point = f64(point)
     out = np.empty_like(point)
-    K.spawn_origins(point, f64(geometric), f64(offset), f64(direction), out)
+    leave_rows(point, f64(geometric), f64(offset), f64(direction), out)
     return out
 
 

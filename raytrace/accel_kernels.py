@@ -10,9 +10,8 @@ number of threads or on how a batch is split (tests/test_threads.py). All are se
 ``nogil`` kernels (:data:`raytrace.jit.kernel`): the integrator's threads run them side by
 side on batches of their own, beside Embree. Their arguments are always C-contiguous
 float64 / int64 arrays (Embree's own float32 / int32 outputs aside), so each kernel compiles
-once, into numba's cache. The kernels of both modules live in this one file because numba's
-cache only notices edits to the file of the kernel it compiled, not to the files of the
-functions that kernel inlines (``sphere_t``, ``_snap``…).
+once, into numba's cache. Where a spawned ray starts is :func:`raytrace.core.leave1`, shared
+with the shading kernels.
 """
 
 from __future__ import annotations
@@ -429,19 +428,6 @@ def hit_surfaces(t, shape, triangle, uv, o, d, analytic, shape_material, mesh,
         own = SPAWN_OFFSET * max(max(max(abs(point[i, 0]), abs(point[i, 1])),
                                      abs(point[i, 2])), F32_TINY)
         offset[i] = band[tri] if band[tri] <= 2.0 * own else own
-
-
-# -- spawned rays ---------------------------------------------------------------------------
-@kernel
-def spawn_origins(point, geometric, offset, direction, out):
-    """``out = point + side·offset·geometric``, ``side`` = the sign of ``direction·geometric``
-    (+1 where 0): off the surface, on the side the new ray leaves on."""
-    for i in range(point.shape[0]):
-        dot = (direction[i, 0] * geometric[i, 0] + direction[i, 1] * geometric[i, 1]
-               + direction[i, 2] * geometric[i, 2])
-        step = -offset[i] if dot < 0 else offset[i]
-        for k in range(3):
-            out[i, k] = point[i, k] + step * geometric[i, k]
 
 
 # -- build ----------------------------------------------------------------------------------

@@ -17,51 +17,22 @@ import math
 
 import numpy as np
 
+from .core import camera_uniform, pixel_offset
 from .jit import kernel
 from .rays import CAMERA, NO_SHAPE, RayBatch
 from .scene import Camera
-
-_M1, _M2, _M3 = np.uint64(0x9E3779B97F4A7C15), np.uint64(0xBF58476D1CE4E5B9), np.uint64(
-    0x94D049BB133111EB)
-_ONE, _TWO = np.uint64(1), np.uint64(2)
-_S11, _S27, _S30, _S31 = np.uint64(11), np.uint64(27), np.uint64(30), np.uint64(31)
-
-
-@kernel
-def uniform1(seed, index, stream):
-    """A uniform float in [0, 1) from SplitMix64 of (seed, index, stream) (Steele et al. 2014):
-    the top 53 bits of the mixed ``(2·index + stream)·M1 + seed·M3``, modulo 2⁶⁴."""
-    z = (np.uint64(index) * _TWO + np.uint64(stream)) * _M1 + np.uint64(seed) * _M3
-    z = (z ^ (z >> _S30)) * _M2
-    z = (z ^ (z >> _S27)) * _M3
-    z = z ^ (z >> _S31)
-    return float(z >> _S11) * 2.0**-53
-
-
-@kernel
-def offset1(spp, k, seed, sample):
-    """Position (sx, sy) in [0, 1)² inside its pixel of global sample ``sample``: the centre for
-    spp = 1, jittered in cell (j mod k, j div k) of a k×k grid for spp = k² (j = sample mod
-    spp), jittered over the whole pixel otherwise (k = 0)."""
-    if spp == 1:
-        return 0.5, 0.5
-    u1, u2 = uniform1(seed, sample, 0), uniform1(seed, sample, 1)
-    if k == 0:
-        return u1, u2
-    cell = sample % spp
-    return (cell % k + u1) / k, (cell // k + u2) / k
 
 
 @kernel
 def _uniform_rows(seed, index, stream, out):
     for i in range(index.shape[0]):
-        out[i] = uniform1(seed, index[i], stream)
+        out[i] = camera_uniform(seed, index[i], stream)
 
 
 @kernel
 def _offset_rows(spp, k, seed, sample, sx, sy):
     for i in range(sample.shape[0]):
-        sx[i], sy[i] = offset1(spp, k, seed, sample[i])
+        sx[i], sy[i] = pixel_offset(spp, k, seed, sample[i], sample[i] % spp)
 
 
 @kernel
@@ -82,14 +53,7 @@ def _directions(start, width, height, spp, k, seed, tan_half, right, up, forward
     row, col = y0 + pixel // cols, x0 + pixel % cols
     g = (row * width + col) * spp + cell
     for j in range(out.shape[0]):
-        if spp == 1:
-            sx = sy = 0.5
-        else:
-            u1, u2 = uniform1(seed, g, 0), uniform1(seed, g, 1)
-            if k == 0:
-                sx, sy = u1, u2
-            else:
-                sx, sy = (cell % k + u1) / k, (cell // k + u2) / k
+        sx, sy = pixel_offset(spp, k, seed, g, cell)
         x = (2.0 * (col + sx) / width - 1.0) * tan_half * aspect
         y = (1.0 - 2.0 * (row + sy) / height) * tan_half
         dx = x * rx + y * ux + fx

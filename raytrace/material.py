@@ -46,10 +46,14 @@ class Checker:
     scale: float = 1.0
 
     def evaluate(self, points: np.ndarray) -> np.ndarray:
-        """Colours (n, 3) at world points (n, 3)."""
-        cells = np.floor(points / self.scale + 1e-4).sum(axis=1)
-        odd = (cells.astype(np.int64) & 1).astype(bool)
-        return np.where(odd[:, None], self.colors[1], self.colors[0])
+        """Colours (n, 3) at world points (n, 3): the renderer's own rule,
+        :func:`raytrace.core.checker1`."""
+        from .core import checker_rows
+
+        points = np.ascontiguousarray(np.asarray(points, np.float64).reshape(-1, 3))
+        odd = np.empty(len(points), np.int64)
+        checker_rows(points, float(self.scale), odd)
+        return np.where(odd[:, None] == 1, self.colors[1], self.colors[0])
 
     @property
     def max(self) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 Conventions: ``d`` is the incoming unit direction, ``n`` the unit normal on the side the ray
 comes from (``d·n <= 0``). All arrays are (n, 3) float64 (a single row broadcasts). The per-ray
-arithmetic is :func:`raytrace.shading_kernels.reflect3` and ``refract3``, which the
+arithmetic is :func:`raytrace.core.reflect3` and ``refract3``, which the
 integrator's compiled passes call directly.
 """
 

@@ -4,11 +4,12 @@ behind the array functions of :mod:`raytrace.optics`, :mod:`raytrace.lights` and
 
 Two layers, in pipeline order:
 
-* **one ray at a time**, a function per formula, on scalars: ``reflect3`` / ``refract3``
-  (law of reflection, Snell), ``incidence1`` (a light's L, distance and
-  ``f_radial·f_angular``, seed 000), ``cosine_power1`` / ``phong1`` / ``blinn1`` /
-  ``direct1`` (the seeds' local model, Phong 1975, Blinn 1977), ``checker1`` (the world-space
-  checker of SCENE_FORMAT.md) and ``leave1`` (where a spawned ray starts);
+* **one ray at a time**, a function per formula, on scalars: ``incidence1`` (a light's L,
+  distance and ``f_radial·f_angular``, seed 000), ``cosine_power1`` / ``phong1`` /
+  ``blinn1`` / ``direct1`` (the seeds' local model, Phong 1975, Blinn 1977), ``color1`` (a
+  material's colour at a point), ``bulge1`` and ``gouraud1``; the primitives they share with
+  the other kernel modules (reflection, refraction, the spawn rule, the checker, the hashes)
+  are :mod:`raytrace.core`'s;
 * **one batch at a time**, the passes the integrator makes over its hits, each composed of the
   functions above: ``light_pass`` (one emitter's unshadowed term at every hit, Gouraud's
   included, and the shadow rays of the hits it lights), ``add_unblocked`` (opaque shadows),
@@ -21,11 +22,9 @@ Two layers, in pipeline order:
 All are serial ``nogil`` kernels (``raytrace.jit.kernel``): the integrator's threads run them
 side by side, each on the batches of its own pass, and ``hit_terms`` and ``accumulate`` add
 into a pixel sample in batch order, one fixed order, so no result depends on the number of
-threads. Arguments are
-always C-contiguous float64 / int64 (bool for flags) arrays, so each kernel compiles once,
-into numba's cache. Everything compiled for shading lives in this one file because numba's
-cache notices edits only to the file of the kernel it compiled, not to the files of the
-functions that kernel inlines.
+threads. Arguments are always C-contiguous float64 / int64 (bool for flags) arrays, so each
+kernel compiles once, into numba's cache (which :mod:`raytrace.jit` keeps true when
+:mod:`raytrace.core` changes).
 """
 
 from __future__ import annotations
@@ -34,6 +33,7 @@ import math
 
 import numpy as np
 
+from .core import checker1, facing1, leave1, light_uniform, reflect3, refract3
 from .jit import kernel
 
 #: Highlight model codes (``raytrace.shading.HIGHLIGHT_CODES``).
@@ -46,56 +46,7 @@ KA, KD, KS, KR, KT = 0, 3, 6, 9, 12
 NONE, LIGHT, KEEP = 0, 1, 2
 
 
-# -- optics -----------------------------------------------------------------------------------
-@kernel
-def reflect3(dx, dy, dz, nx, ny, nz):
-    """Mirror direction ``r = d − 2(d·n)n`` (law of reflection)."""
-    k = 2.0 * (dx * nx + dy * ny + dz * nz)
-    return dx - k * nx, dy - k * ny, dz - k * nz
-
-
-@kernel
-def refract3(dx, dy, dz, nx, ny, nz, eta):
-    """Snell refraction ``η₁ sin θ₁ = η₂ sin θ₂`` with ``eta = η₁/η₂`` of a unit ``d`` at the
-    unit normal ``n``; returns ``(tx, ty, tz, tir)``.
-
-    ``cos θᵢ = −d·n`` (clipped to [−1, 1] against rounding), radicand
-    ``k = cos²θᵢ − (η² − 1)·sin²θᵢ`` (so η = 1 leaves exactly undeviated),
-    ``t = η·d + (η·cos θᵢ − √k)·n``; ``k < 0`` is total internal reflection, where ``t`` is
-    the mirror direction instead. ``|t|² = η²·sin²θᵢ + k = 1`` for either sign of the cosine,
-    so ``t`` is a unit vector also where ``n`` faces away from the ray (an interpolated normal
-    at a smooth mesh's silhouette, docs/shading.md): the cosine keeps its sign, and the
-    integrator then checks the side ``t`` leaves on against the face normal.
-    """
-    cos_i = min(max(-(dx * nx + dy * ny + dz * nz), -1.0), 1.0)
-    sin2 = max(0.0, (1.0 - cos_i) * (1.0 + cos_i))
-    k = cos_i * cos_i - (eta - 1.0) * (eta + 1.0) * sin2
-    if k < 0.0:
-        rx, ry, rz = reflect3(dx, dy, dz, nx, ny, nz)
-        return rx, ry, rz, True
-    c = eta * cos_i - math.sqrt(k)
-    return eta * dx + c * nx, eta * dy + c * ny, eta * dz + c * nz, False
-
-
 # -- lights -----------------------------------------------------------------------------------
-_MIX1, _MIX2, _MIX3 = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xBF58476D1CE4E5B9),
-                       np.uint64(0x94D049BB133111EB))
-_R30, _R27, _R31, _R11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(11)
-
-
-@kernel
-def jitter1(key, stream, index):
-    """A uniform float in [0, 1) for (key, stream, index): SplitMix64's finalizer (Steele et
-    al. 2014) of ``key·M1 + stream·M3 + index·M2`` modulo 2⁶⁴, top 53 bits. (The camera's
-    hash in ``raytrace.camera`` is the same mixer; it is not shared because numba's cache only
-    notices edits to the file of the kernel it compiled.)"""
-    z = np.uint64(key) * _MIX1 + np.uint64(stream) * _MIX3 + np.uint64(index) * _MIX2
-    z = (z ^ (z >> _R30)) * _MIX2
-    z = (z ^ (z >> _R27)) * _MIX3
-    z = z ^ (z >> _R31)
-    return float(z >> _R11) * 2.0**-53
-
-
 @kernel
 def incidence1(px, py, pz, em, key, depth):
     """Unit vector to the light, distance and attenuation ``f_radial·f_angular`` at a point.
@@ -103,9 +54,9 @@ def incidence1(px, py, pz, em, key, depth):
     ``em`` is an emitter packed by ``raytrace.lights.Emitter.packed``: kind, position (3),
     direction (3), attenuation a0 a1 a2, cos θ of the cone, exponent a, cell edges u (3) and
     v (3), stream. A jittered area-light cell (stream ≥ 0) is sampled at
-    ``position + (ξ₁ − ½)·u + (ξ₂ − ½)·v``, ξ = :func:`jitter1` of (``key``, stream, depth):
-    a point of its own for each shading point (``key`` ≥ 0, the hit's camera sample) and
-    depth; with ``key`` < 0, at the cell centre. Seed 000:
+    ``position + (ξ₁ − ½)·u + (ξ₂ − ½)·v``, ξ = :func:`raytrace.core.light_uniform` of
+    (``key``, stream, depth): a point of its own for each shading point (``key`` ≥ 0, the
+    hit's camera sample) and depth; with ``key`` < 0, at the cell centre. Seed 000:
     ``f_radial = 1/(a0 + a1·d + a2·d²)`` (0 where that is not finite, and at the light itself,
     where L is undefined; L stays a unit vector however near or far the light); a spot
     multiplies ``(cos α)^a`` inside its cone (``cos α >= cos θ``, edge included) and 0
@@ -115,8 +66,8 @@ def incidence1(px, py, pz, em, key, depth):
         return -em[4], -em[5], -em[6], math.inf, 1.0
     sx, sy, sz = em[1], em[2], em[3]
     if em[18] >= 0.0 and key >= 0:
-        u = jitter1(key, np.int64(em[18]), 2 * depth) - 0.5
-        v = jitter1(key, np.int64(em[18]), 2 * depth + 1) - 0.5
+        u = light_uniform(key, np.int64(em[18]), 2 * depth) - 0.5
+        v = light_uniform(key, np.int64(em[18]), 2 * depth + 1) - 0.5
         sx, sy, sz = (sx + u * em[12] + v * em[15], sy + u * em[13] + v * em[16],
                       sz + u * em[14] + v * em[17])
     lx, ly, lz = sx - px, sy - py, sz - pz
@@ -199,16 +150,6 @@ def direct1(nx, ny, nz, lx, ly, lz, vx, vy, vz, kd, ks, n, model):
 
 # -- surfaces ---------------------------------------------------------------------------------
 @kernel
-def checker1(x, y, z, scale):
-    """1 where ``floor(x/s + 1e-4) + floor(y/s + 1e-4) + floor(z/s + 1e-4)`` is odd, else 0
-    (SCENE_FORMAT.md; the parity of the int64 cast, which is even beyond 2⁵³ and for NaN)."""
-    cells = (math.floor(x / scale + 1e-4) + math.floor(y / scale + 1e-4)
-             + math.floor(z / scale + 1e-4))
-    half = 0.5 * cells
-    return 1 if half - math.floor(half) == 0.5 else 0
-
-
-@kernel
 def color1(materials, m, slot, x, y, z):
     """Colour ``slot`` (KA … KT) of material ``m`` at the world point (x, y, z): its constant,
     or its checker pattern there. ``materials`` is ``raytrace.integrator.MaterialTable.arrays``
@@ -220,23 +161,6 @@ def color1(materials, m, slot, x, y, z):
         return colors[m, slot], colors[m, slot + 1], colors[m, slot + 2]
     c = 3 * checker1(x, y, z, checkers[p, 6])
     return checkers[p, c], checkers[p, c + 1], checkers[p, c + 2]
-
-
-@kernel
-def facing1(gx, gy, gz, dx, dy, dz):
-    """+1 where the geometric normal faces the viewer (``N_g·(−d) >= 0``), else −1: surfaces
-    are two-sided, normals turn to the side the ray comes from."""
-    return -1.0 if gx * -dx + gy * -dy + gz * -dz < 0.0 else 1.0
-
-
-@kernel
-def leave1(px, py, pz, gx, gy, gz, offset, dx, dy, dz):
-    """Start of a ray leaving a surface point along ``d``: ``offset`` off the surface along the
-    geometric normal, on the side it leaves on (``raytrace.accel.spawn_origins``)."""
-    dot = dx * gx + dy * gy + dz * gz
-    side = 1.0 if dot >= 0.0 else (-1.0 if dot < 0.0 else math.nan)  # sign, +1 at 0
-    step = side * offset
-    return px + step * gx, py + step * gy, pz + step * gz
 
 
 # -- batch kernels of the integrator ----------------------------------------------------------

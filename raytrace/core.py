@@ -1,0 +1,156 @@
+"""The per-ray primitives every compiled kernel shares, each defined once.
+
+Scalar functions compiled with :data:`raytrace.jit.kernel`, inlined into the kernels of
+:mod:`raytrace.camera`, :mod:`raytrace.accel_kernels` and :mod:`raytrace.shading_kernels`
+(numba's cache would not notice an edit here from those modules; :mod:`raytrace.jit`'s cache
+guard does):
+
+* hashing: :func:`mix64` (SplitMix64's finalizer, Steele, Lea & Flood 2014) and the two draws
+  built on it, :func:`camera_uniform` (pixel-sample jitter) and :func:`light_uniform` (points
+  on jittered area-light cells);
+* the camera: :func:`pixel_offset` (where a sample lies in its pixel);
+* optics: :func:`reflect3` (law of reflection), :func:`refract3` (Snell, with total internal
+  reflection);
+* surfaces: :func:`facing1` (the side a ray arrives on), :func:`leave1` (where a spawned ray
+  starts), :func:`checker1` (the world-space checker of SCENE_FORMAT.md).
+
+Array versions for numpy callers and tests: :func:`checker_rows`, :func:`leave_rows`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .jit import kernel
+
+#: SplitMix64's constants (Steele et al. 2014).
+M1, M2, M3 = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xBF58476D1CE4E5B9),
+              np.uint64(0x94D049BB133111EB))
+_TWO = np.uint64(2)
+_S11, _S27, _S30, _S31 = np.uint64(11), np.uint64(27), np.uint64(30), np.uint64(31)
+#: The checker's bias: ``floor(x/s + 1e-4)`` keeps a plane lying on a cell boundary on one side.
+CHECKER_BIAS = 1e-4
+
+
+# -- hashing --------------------------------------------------------------------------------
+@kernel
+def mix64(z):
+    """SplitMix64's finalizer of a uint64 ``z``, as a uniform float in [0, 1): its top 53
+    bits (Steele, Lea & Flood, "Fast splittable pseudorandom number generators", 2014)."""
+    z = (z ^ (z >> _S30)) * M2
+    z = (z ^ (z >> _S27)) * M3
+    z = z ^ (z >> _S31)
+    return float(z >> _S11) * 2.0**-53
+
+
+@kernel
+def camera_uniform(seed, index, stream):
+    """A uniform float in [0, 1) for camera sample ``index`` (global), ``stream`` 0 or 1 (x or
+    y) and the render's ``seed``: :func:`mix64` of ``(2·index + stream)·M1 + seed·M3``."""
+    return mix64((np.uint64(index) * _TWO + np.uint64(stream)) * M1 + np.uint64(seed) * M3)
+
+
+@kernel
+def light_uniform(key, stream, index):
+    """A uniform float in [0, 1) for a shading point's ``key`` (its global camera sample), an
+    area-light cell's ``stream`` and ``index`` (2·depth, 2·depth + 1): :func:`mix64` of
+    ``key·M1 + stream·M3 + index·M2``."""
+    return mix64(np.uint64(key) * M1 + np.uint64(stream) * M3 + np.uint64(index) * M2)
+
+
+# -- the camera -----------------------------------------------------------------------------
+@kernel
+def pixel_offset(spp, k, seed, sample, cell):
+    """Position (sx, sy) in [0, 1)² inside its pixel of global sample ``sample``, the
+    ``cell``-th (``sample mod spp``) of its pixel: the centre for spp = 1, jittered in cell
+    (cell mod k, cell div k) of a k×k grid for spp = k², jittered over the whole pixel
+    otherwise (k = 0). The jitter is :func:`camera_uniform` of the sample, so an image does
+    not depend on passes, threads or crops."""
+    if spp == 1:
+        return 0.5, 0.5
+    u1, u2 = camera_uniform(seed, sample, 0), camera_uniform(seed, sample, 1)
+    if k == 0:
+        return u1, u2
+    return (cell % k + u1) / k, (cell // k + u2) / k
+
+
+# -- optics ---------------------------------------------------------------------------------
+@kernel
+def reflect3(dx, dy, dz, nx, ny, nz):
+    """Mirror direction ``r = d − 2(d·n)n`` (law of reflection)."""
+    k = 2.0 * (dx * nx + dy * ny + dz * nz)
+    return dx - k * nx, dy - k * ny, dz - k * nz
+
+
+@kernel
+def refract3(dx, dy, dz, nx, ny, nz, eta):
+    """Snell refraction ``η₁ sin θ₁ = η₂ sin θ₂`` with ``eta = η₁/η₂`` of a unit ``d`` at the
+    unit normal ``n``; returns ``(tx, ty, tz, tir)``.
+
+    ``cos θᵢ = −d·n`` (clipped to [−1, 1] against rounding), radicand
+    ``k = cos²θᵢ − (η² − 1)·sin²θᵢ`` (so η = 1 leaves exactly undeviated),
+    ``t = η·d + (η·cos θᵢ − √k)·n``; ``k < 0`` is total internal reflection, where ``t`` is
+    the mirror direction instead. ``|t|² = η²·sin²θᵢ + k = 1`` for either sign of the cosine,
+    so ``t`` is a unit vector also where ``n`` faces away from the ray (an interpolated normal
+    at a smooth mesh's silhouette, docs/shading.md): the cosine keeps its sign, and the
+    integrator then checks the side ``t`` leaves on against the face normal.
+    """
+    cos_i = min(max(-(dx * nx + dy * ny + dz * nz), -1.0), 1.0)
+    sin2 = max(0.0, (1.0 - cos_i) * (1.0 + cos_i))
+    k = cos_i * cos_i - (eta - 1.0) * (eta + 1.0) * sin2
+    if k < 0.0:
+        rx, ry, rz = reflect3(dx, dy, dz, nx, ny, nz)
+        return rx, ry, rz, True
+    c = eta * cos_i - math.sqrt(k)
+    return eta * dx + c * nx, eta * dy + c * ny, eta * dz + c * nz, False
+
+
+# -- surfaces -------------------------------------------------------------------------------
+@kernel
+def facing1(gx, gy, gz, dx, dy, dz):
+    """+1 where the geometric normal faces the viewer (``N_g·(−d) >= 0``), else −1: surfaces
+    are two-sided, normals turn to the side the ray comes from."""
+    return -1.0 if gx * -dx + gy * -dy + gz * -dz < 0.0 else 1.0
+
+
+@kernel
+def leave1(px, py, pz, gx, gy, gz, offset, dx, dy, dz):
+    """Start of a ray leaving a surface point along ``d``: ``offset`` off the surface along the
+    geometric normal, on the side it leaves on (the sign of ``d·N_g``, +1 where it is 0; a NaN
+    direction gives a NaN start, which no query hits). Analytic shapes have offset 0: their
+    rays carry their shape instead (:mod:`raytrace.analytic`)."""
+    dot = dx * gx + dy * gy + dz * gz
+    side = 1.0 if dot >= 0.0 else (-1.0 if dot < 0.0 else math.nan)  # sign, +1 at 0
+    step = side * offset
+    return px + step * gx, py + step * gy, pz + step * gz
+
+
+@kernel
+def checker1(x, y, z, scale):
+    """1 where ``floor(x/s + 1e-4) + floor(y/s + 1e-4) + floor(z/s + 1e-4)`` is odd, else 0
+    (SCENE_FORMAT.md; :data:`CHECKER_BIAS`). Parity is taken on the float sum, so it is even
+    beyond 2⁵³ and for NaN and infinities."""
+    cells = (math.floor(x / scale + CHECKER_BIAS) + math.floor(y / scale + CHECKER_BIAS)
+             + math.floor(z / scale + CHECKER_BIAS))
+    half = 0.5 * cells
+    return 1 if half - math.floor(half) == 0.5 else 0
+
+
+# -- array versions -------------------------------------------------------------------------
+@kernel
+def checker_rows(points, scale, out):
+    """:func:`checker1` at each world point (n, 3) into ``out`` (n,) int64."""
+    for i in range(points.shape[0]):
+        out[i] = checker1(points[i, 0], points[i, 1], points[i, 2], scale)
+
+
+@kernel
+def leave_rows(point, geometric, offset, direction, out):
+    """:func:`leave1` for each row: the start points (n, 3) of rays leaving ``point`` along
+    ``direction``."""
+    for i in range(point.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = leave1(
+            point[i, 0], point[i, 1], point[i, 2], geometric[i, 0], geometric[i, 1],
+            geometric[i, 2], offset[i], direction[i, 0], direction[i, 1], direction[i, 2])
