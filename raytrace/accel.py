@@ -23,13 +23,13 @@ threads query it concurrently, each with batches of its own.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from . import accel_kernels as K
 from .analytic import NO_TMAX, AnalyticShapes, f64, i64
+from .core import FLAT, GOURAUD, SHADOW_SHORTEN, SMOOTH
 from .rays import NO_SHAPE
+from .records import Hits, Surface, Triangles
 from .scene import Mesh, Plane, Scene, Sphere
 
 #: A triangle's error band in float32 ulps (2⁻²³ relative) of its largest coordinate: how far
@@ -37,58 +37,12 @@ from .scene import Mesh, Plane, Scene, Sphere
 BAND_ULPS = 3.0
 #: Most second passes of a query over the rays whose hits were float32 artefacts.
 MAX_RETRACES = 4
-#: Shadow rays stop this relative fraction short of the light.
-SHADOW_SHORTEN = 1e-7
 
-SHADING_CODES = {"flat": 0, "smooth": 1, "gouraud": 2}
+SHADING_CODES = {"flat": FLAT, "smooth": SMOOTH, "gouraud": GOURAUD}
+__all__ = ["SHADOW_SHORTEN", "Accelerator", "Hits", "Surface", "spawn_origins",
+           "vertex_normals"]
 #: Rows and advances of a first pass: every ray, from its origin.
 _IDENTITY = (np.zeros(0, np.int64), np.zeros(0))
-
-
-@dataclass
-class Hits:
-    """Closest hits of a batch of ``n`` rays.
-
-    Attributes
-    ----------
-    t : (n,) float64
-        Distance along the unit direction; inf on a miss.
-    shape : (n,) int64
-        Analytic shape index, or NO_SHAPE.
-    triangle : (n,) int64
-        Global triangle index, or −1.
-    uv : (n, 2) float64
-        Barycentrics of vertices 1 and 2 for triangle hits.
-    """
-
-    t: np.ndarray
-    shape: np.ndarray
-    triangle: np.ndarray
-    uv: np.ndarray
-
-    @property
-    def hit(self) -> np.ndarray:
-        return np.isfinite(self.t)
-
-
-@dataclass
-class Surface:
-    """What the shading needs at ``n`` hit points (all float64, camera-relative).
-
-    ``point`` (n, 3); ``geometric`` (n, 3) unit outward normal; ``shading`` (n, 3) unit shading
-    normal on the same side as ``geometric``; ``material`` (n,) int64; ``offset`` (n,) the
-    spawn offset (0 for analytic shapes); ``shape`` (n,) analytic shape or NO_SHAPE;
-    ``triangle`` (n,) or −1; ``uv`` (n, 2) barycentrics.
-    """
-
-    point: np.ndarray
-    geometric: np.ndarray
-    shading: np.ndarray
-    material: np.ndarray
-    offset: np.ndarray
-    shape: np.ndarray
-    triangle: np.ndarray
-    uv: np.ndarray
 
 
 class Accelerator:
@@ -127,12 +81,10 @@ class Accelerator:
         self.degenerate = sum(m.degenerate for m in meshes)
         self._none_columns = (np.zeros(0, np.int64), np.zeros((0, 2)))
         self._build_meshes(meshes, mat_index)
-        #: The triangle tables as :func:`raytrace.accel_kernels.hit_surfaces` takes them.
-        self.mesh_table = (self.tri_corners, self.tri_normal, self.tri_vnormals,
-                           self.tri_shading, self.tri_material, self.tri_band)
-        #: … and as :func:`raytrace.accel_kernels.refine_hits` takes them.
-        self.refine_table = (self.geom_first, self.tri_corners, self.tri_normal, self.tri_band,
-                             self.tri_shading)
+        #: The triangle tables, as every kernel takes them.
+        self.triangles = Triangles(self.geom_first, self.tri_corners, self.tri_normal,
+                                   self.tri_vnormals, self.tri_shading, self.tri_material,
+                                   self.tri_band)
 
     # -- construction --------------------------------------------------------------------
     def _build_meshes(self, meshes: list[Mesh], mat_index: dict) -> None:
@@ -228,13 +180,13 @@ class Accelerator:
         for _ in range(MAX_RETRACES + 1):
             out = self.embree.run(o32, d32, dists=far, output=1)
             k = K.refine_hits((out["geomID"], out["primID"], out["u"], out["v"]), rows, adv,
-                              self.refine_table, rays, hits, redo)
+                              self.triangles, rays, hits, redo)
             if not k:
                 return
             rows, adv = np.empty(k, np.int64), np.empty(k)
             o32, d32 = np.empty((k, 3), np.float32), np.empty((k, 3), np.float32)
             far = np.empty(k, np.float32)
-            k = K.retrace_rays(redo[0][:k], redo[1][:k], rays, t, o32, d32, far, rows, adv)
+            k = K.retrace_rays((redo[0][:k], redo[1][:k]), rays, t, (o32, d32, far, rows, adv))
             if not k:
                 return
             rows, adv, o32, d32, far = rows[:k], adv[:k], o32[:k], d32[:k], far[:k]
@@ -261,8 +213,8 @@ class Accelerator:
         m = n if meshes else 0
         idx, far = np.empty(m, np.int64), np.empty(m, np.float32)
         o32, d32 = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
-        k = K.shadow_prepass(origin, direction, origin_shape, tmax, self.shapes.table, meshes,
-                             blocked, idx, o32, d32, far)
+        k = K.shadow_prepass((origin, direction, origin_shape, tmax), self.shapes.table, meshes,
+                             blocked, (idx, o32, d32, far))
         if k:
             res = self.embree.run(o32[:k], d32[:k], dists=far[:k], query="OCCLUDED")
             recheck = np.empty(k, np.int64)
@@ -294,12 +246,12 @@ class Accelerator:
         n = len(hits.t)
         point, geometric, shading = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
         material, offset = np.empty(n, np.int64), np.empty(n)
-        K.hit_surfaces(f64(hits.t), i64(hits.shape), i64(hits.triangle), f64(hits.uv),
-                       f64(origin), f64(direction), self.shapes.surface_table,
-                       self.shape_material, self.mesh_table, point, geometric, shading,
-                       material, offset)
-        return Surface(point, geometric, shading, material, offset, hits.shape, hits.triangle,
-                       hits.uv)
+        surface = Surface(point, geometric, shading, material, offset, hits.shape,
+                          hits.triangle, hits.uv)
+        hits = Hits(f64(hits.t), i64(hits.shape), i64(hits.triangle), f64(hits.uv))
+        K.hit_surfaces(hits, f64(origin), f64(direction), self.shapes.surface_table,
+                       self.shape_material, self.triangles, surface)
+        return surface
 
 
 def spawn_origins(point: np.ndarray, geometric: np.ndarray, offset: np.ndarray,

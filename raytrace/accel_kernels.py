@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from .core import FLAT
 from .jit import kernel
 from .rays import NO_SHAPE
 
@@ -36,14 +37,18 @@ SPAWN_OFFSET = 3.0 * 2.0**-23
 
 # -- analytic shapes ------------------------------------------------------------------------
 @kernel
-def sphere_t(ox, oy, oz, dx, dy, dz, cx, cy, cz, r, c_max, extent, on_it):
+def sphere_t(o, d, c, r, c_max, extent, on_it):
     """Ray parameter of the hit of one ray with one sphere (inf on a miss), float64.
 
     Haines et al. (Ray Tracing Gems, 2019, ch. 7): ``b = d·(o − c)``, the perpendicular offset
     ``f = (o − c) − b·d``, discriminant ``r² − |f|²``, roots ``q = −b − sign(b)·√disc`` and
-    ``c/q``. ``on_it``: the ray starts on this sphere; ``extent``: the largest absolute
-    coordinate of the origin, ``c_max`` that of the centre (the rounding scale).
+    ``c/q``. ``o``, ``d``, ``c``: origin, unit direction and centre as 3-tuples; ``on_it``:
+    the ray starts on this sphere; ``extent``: the largest absolute coordinate of the origin,
+    ``c_max`` that of the centre (the rounding scale).
     """
+    ox, oy, oz = o
+    dx, dy, dz = d
+    cx, cy, cz = c
     ocx, ocy, ocz = ox - cx, oy - cy, oz - cz
     b = ocx * dx + ocy * dy + ocz * dz                    # d·(o − c), |d| = 1
     fx, fy, fz = ocx - b * dx, ocy - b * dy, ocz - b * dz
@@ -83,12 +88,17 @@ def sphere_t(ox, oy, oz, dx, dy, dz, cx, cy, cz, r, c_max, extent, on_it):
 
 
 @kernel
-def plane_t(ox, oy, oz, dx, dy, dz, px, py, pz, nx, ny, nz, p_max, extent, spawned):
+def plane_t(o, d, p, n, p_max, extent, spawned):
     """Ray parameter of the hit of one ray with one plane (inf on a miss): ``(p − o)·n / d·n``.
 
-    A ray spawned on another analytic shape that touches this plane (a sphere resting on it)
-    starts on the plane within rounding: it crosses here, at t = 0.
+    ``o``, ``d``, the plane's point ``p`` and unit normal ``n`` are 3-tuples. A ray spawned
+    on another analytic shape that touches this plane (a sphere resting on it) starts on the
+    plane within rounding: it crosses here, at t = 0.
     """
+    ox, oy, oz = o
+    dx, dy, dz = d
+    px, py, pz = p
+    nx, ny, nz = n
     denom = dx * nx + dy * ny + dz * nz
     dist = (px - ox) * nx + (py - oy) * ny + (pz - oz) * nz
     t = dist / denom
@@ -113,14 +123,15 @@ def closest_analytic(o, d, origin_shape, tmax, has_tmax, shapes, t_out, shape_ou
     for i in range(o.shape[0]):
         ox, oy, oz = o[i, 0], o[i, 1], o[i, 2]
         dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
+        o3, d3 = (ox, oy, oz), (dx, dy, dz)
         own = origin_shape[i]
         extent = max(max(abs(ox), abs(oy)), abs(oz))     # scale of the rounding tolerances
         best_t = tmax[i] if has_tmax else math.inf
         best = NO_SHAPE
         own_t = math.inf                                  # where it leaves its own sphere
         for s in range(n_spheres):
-            t = sphere_t(ox, oy, oz, dx, dy, dz, centers[s, 0], centers[s, 1], centers[s, 2],
-                         radii[s], center_max[s], extent, own == s)
+            t = sphere_t(o3, d3, (centers[s, 0], centers[s, 1], centers[s, 2]), radii[s],
+                         center_max[s], extent, own == s)
             if own == s:
                 own_t = t
             if t < best_t:
@@ -128,8 +139,8 @@ def closest_analytic(o, d, origin_shape, tmax, has_tmax, shapes, t_out, shape_ou
         for p in range(points.shape[0]):
             if own == n_spheres + p:                      # a ray leaving a plane never re-hits it
                 continue
-            t = plane_t(ox, oy, oz, dx, dy, dz, points[p, 0], points[p, 1], points[p, 2],
-                        normals[p, 0], normals[p, 1], normals[p, 2], point_max[p], extent,
+            t = plane_t(o3, d3, (points[p, 0], points[p, 1], points[p, 2]),
+                        (normals[p, 0], normals[p, 1], normals[p, 2]), point_max[p], extent,
                         own != NO_SHAPE)
             if t < best_t:
                 best_t, best = t, n_spheres + p
@@ -148,21 +159,22 @@ def analytic_surface(shape, point, analytic, point_out, normal_out):
     are. ``analytic`` = (centers, radii, points, normals). A sphere's normal is the normalised
     radial vector, the point ``c + r·n``; a plane's point is moved along its normal by its
     signed distance."""
-    centers, radii, points, normals = analytic
-    n_spheres = radii.shape[0]
     for i in range(shape.shape[0]):
         s = shape[i]
         if s == NO_SHAPE:
             continue
         (point_out[i, 0], point_out[i, 1], point_out[i, 2], normal_out[i, 0], normal_out[i, 1],
-         normal_out[i, 2]) = _snap(s, point[i, 0], point[i, 1], point[i, 2], n_spheres,
-                                   centers, radii, points, normals)
+         normal_out[i, 2]) = _snap(s, (point[i, 0], point[i, 1], point[i, 2]), analytic)
 
 
 @kernel
-def _snap(s, x, y, z, n_spheres, centers, radii, points, normals):
-    """One hit point (x, y, z) on analytic shape ``s``: the snapped point and the unit normal,
-    as a 6-tuple (scalars, not array views: a view per ray costs reference counting)."""
+def _snap(s, p, analytic):
+    """One hit point ``p`` (a 3-tuple) on analytic shape ``s`` of ``analytic`` = (centers,
+    radii, points, normals): the snapped point and the unit normal, as a 6-tuple (scalars, not
+    array views: a view per ray costs reference counting)."""
+    x, y, z = p
+    centers, radii, points, normals = analytic
+    n_spheres = radii.shape[0]
     if s < n_spheres:
         rx, ry, rz = x - centers[s, 0], y - centers[s, 1], z - centers[s, 2]
         length = math.sqrt(rx * rx + ry * ry + rz * rz)
@@ -193,37 +205,41 @@ def embree_rays(o, d, t, tmax, has_tmax, o32, d32, far):
 
 
 @kernel
-def shadow_prepass(o, d, origin_shape, tmax, shapes, to_embree, blocked, idx, o32, d32, far):
-    """The first half of an occlusion query: ``blocked[i]`` where an analytic shape lies in
-    ``(0, tmax[i])``, found as any hit (the first one ends the search), with
-    :func:`closest_analytic`'s self-hit rules, so ``blocked`` is exactly "its closest
-    analytic hit is finite". With ``to_embree``, the rays it does not block are written, as
-    Embree takes them, into the first rows of ``idx`` (their indices), ``o32``, ``d32``
-    (float32 origins and directions) and ``far`` (``min(tmax, f32 max)``); returns how many.
+def shadow_prepass(rays, shapes, to_embree, blocked, embree):
+    """The first half of an occlusion query of ``rays`` = (o, d, origin_shape, tmax):
+    ``blocked[i]`` where an analytic shape lies in ``(0, tmax[i])``, found as any hit (the
+    first one ends the search), with :func:`closest_analytic`'s self-hit rules, so
+    ``blocked`` is exactly "its closest analytic hit is finite". With ``to_embree``, the rays
+    it does not block are written, as Embree takes them, into the first rows of ``embree`` =
+    (idx (their indices), o32, d32 (float32 origins and directions), far
+    (``min(tmax, f32 max)``)); returns how many.
     One pass where a closest-hit pass, a column of t and a gathering pass were. Its loops
     over the shapes repeat :func:`closest_analytic`'s on purpose: one helper taking the shape
     tables for both made both kernels 2.4–3× slower (numba then counts references to the
     table's arrays on every call)."""
+    o, d, origin_shape, tmax = rays
+    idx, o32, d32, far = embree
     centers, radii, center_max, points, normals, point_max = shapes
     n_spheres = radii.shape[0]
     k = 0
     for i in range(o.shape[0]):
         ox, oy, oz = o[i, 0], o[i, 1], o[i, 2]
         dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
+        o3, d3 = (ox, oy, oz), (dx, dy, dz)
         own, limit = origin_shape[i], tmax[i]
         extent = max(max(abs(ox), abs(oy)), abs(oz))
         hit = False
         for s in range(n_spheres):
-            if sphere_t(ox, oy, oz, dx, dy, dz, centers[s, 0], centers[s, 1], centers[s, 2],
-                        radii[s], center_max[s], extent, own == s) < limit:
+            if sphere_t(o3, d3, (centers[s, 0], centers[s, 1], centers[s, 2]), radii[s],
+                        center_max[s], extent, own == s) < limit:
                 hit = True
                 break
         if not hit:
             for p in range(points.shape[0]):
                 if own == n_spheres + p:                  # a ray leaving a plane never re-hits it
                     continue
-                if plane_t(ox, oy, oz, dx, dy, dz, points[p, 0], points[p, 1], points[p, 2],
-                           normals[p, 0], normals[p, 1], normals[p, 2], point_max[p], extent,
+                if plane_t(o3, d3, (points[p, 0], points[p, 1], points[p, 2]),
+                           (normals[p, 0], normals[p, 1], normals[p, 2]), point_max[p], extent,
                            own != NO_SHAPE) < limit:
                     hit = True
                     break
@@ -264,9 +280,9 @@ def refine_hits(embree, rows, adv, tables, rays, hits, redo):
     Returns how many were set aside.
 
     ``embree`` = (geomID, primID, u, v) of Embree's answer for ray ``rows[j]`` at row j
-    (ray j itself where ``rows`` is empty); ``tables`` = (geom_first, corners (T, 3, 3),
-    face normals (T, 3), error bands (T,), shading codes (T,)); ``rays`` = (o, d, tmax, has_tmax);
-    ``hits`` = (t, shape, triangle, uv), updated in place; ``redo`` = (rows, adv) outputs.
+    (ray j itself where ``rows`` is empty); ``tables`` a :class:`raytrace.records.Triangles`;
+    ``rays`` = (o, d, tmax, has_tmax); ``hits`` = (t, shape, triangle, uv), updated in place;
+    ``redo`` = (rows, adv) outputs.
 
     Embree's float32 ``u, v`` are off by ~1e-5 (measured), enough to move smooth normals and
     hit points visibly between scales; solving ``o + t·d = a + u·e1 + v·e2`` again on the
@@ -291,7 +307,8 @@ def refine_hits(embree, rows, adv, tables, rays, hits, redo):
     that point is the ray's answer (:meth:`raytrace.accel.Accelerator.intersect`).
     """
     geom_id, prim_id, u32, v32 = embree
-    geom_first, corners, face_normal, band, code = tables
+    geom_first, corners, face_normal = tables.geom_first, tables.corners, tables.normal
+    band, code = tables.band, tables.shading
     o, d, tmax, has_tmax = rays
     t, shape, triangle, uv = hits
     redo_rows, redo_adv = redo
@@ -325,7 +342,7 @@ def refine_hits(embree, rows, adv, tables, rays, hits, redo):
                 redo_adv[k] = 2.0 * (adv[j] if mapped else 0.0) + band[tri] / max(cos, TINY)
                 k += 1
                 continue
-            if code[tri] != 0:  # smooth, Gouraud: barycentrics interpolate, keep them inside
+            if code[tri] != FLAT:  # smooth, Gouraud: barycentrics interpolate, keep them inside
                 u, v = max(u, 0.0), max(v, 0.0)
                 total = u + v
                 if total > 1.0:
@@ -350,12 +367,15 @@ def refine_hits(embree, rows, adv, tables, rays, hits, redo):
 
 
 @kernel
-def retrace_rays(rows, adv, rays, t, o32, d32, far, keep, keep_adv):
-    """The second pass's rays as Embree takes them: ray ``rows[j]`` restarted ``adv[j]``
-    along itself, ``o + adv·d`` in float32, and ``far`` = what is left of its bound (the
-    analytic hit ``t`` or ``tmax``) beyond that. Rays with nothing left are dropped; the kept
-    ones' rows and advances go to ``keep`` and ``keep_adv``. Returns how many were kept."""
+def retrace_rays(redo, rays, t, out):
+    """The second pass's rays as Embree takes them: ray ``rows[j]`` of ``redo`` = (rows,
+    adv) restarted ``adv[j]`` along itself, ``o + adv·d`` in float32, and ``far`` = what is
+    left of its bound (the analytic hit ``t`` or ``tmax``) beyond that, into ``out`` = (o32,
+    d32, far, keep, keep_adv). Rays with nothing left are dropped; the kept ones' rows and
+    advances go to ``keep`` and ``keep_adv``. Returns how many were kept."""
+    rows, adv = redo
     o, d, tmax, has_tmax = rays
+    o32, d32, far, keep, keep_adv = out
     k = 0
     for j in range(rows.shape[0]):
         i, a = rows[j], adv[j]
@@ -376,9 +396,10 @@ def retrace_rays(rows, adv, rays, t, o32, d32, far, keep, keep_adv):
 
 # -- surfaces -------------------------------------------------------------------------------
 @kernel
-def hit_surfaces(t, shape, triangle, uv, o, d, analytic, shape_material, mesh,
-                 point, geometric, shading, material, offset):
-    """Everything the shading needs at each hit (see :class:`raytrace.accel.Surface`).
+def hit_surfaces(hits, o, d, analytic, shape_material, tables, out):
+    """Everything the shading needs at each of ``hits`` (:class:`raytrace.records.Hits`) of
+    rays ``o``, ``d``, written into the point, geometric, shading, material and offset
+    columns of ``out`` (:class:`raytrace.records.Surface`).
 
     Analytic hits: the point ``o + t·d`` snapped onto the shape (:func:`_snap`), its normal
     for both normals, offset 0. Triangle hits: the point at the barycentrics ``uv`` on the
@@ -390,19 +411,19 @@ def hit_surfaces(t, shape, triangle, uv, o, d, analytic, shape_material, mesh,
     error band (:func:`triangle_tables`) is at most twice that, the offset is the band itself
     (a small triangle: Embree never reports it again to such a ray). Elsewhere a ray leaving
     the hit may meet its own triangle as a float32 artefact, which the queries discard
-    (:func:`refine_hits`). ``analytic`` = (centers, radii, points, normals); ``mesh``
-    = (corners (T, 3, 3), face normals (T, 3), vertex normals (T, 3, 3), shading codes (T,)
-    int8, materials (T,), error bands (T,)).
+    (:func:`refine_hits`). ``analytic`` = (centers, radii, points, normals); ``tables`` the
+    :class:`raytrace.records.Triangles`.
     """
-    centers, radii, points, normals = analytic
-    corners, face_normal, vnormals, code, tri_material, band = mesh
-    n_spheres = radii.shape[0]
+    t, shape, triangle, uv = hits
+    point, geometric, shading, material, offset = (out.point, out.geometric, out.shading,
+                                                   out.material, out.offset)
+    corners, face_normal, vnormals = tables.corners, tables.normal, tables.vnormals
+    code, tri_material, band = tables.shading, tables.material, tables.band
     for i in range(t.shape[0]):
         s = shape[i]
         if s != NO_SHAPE:
-            px, py, pz, nx, ny, nz = _snap(s, o[i, 0] + t[i] * d[i, 0], o[i, 1] + t[i] * d[i, 1],
-                                           o[i, 2] + t[i] * d[i, 2], n_spheres, centers,
-                                           radii, points, normals)
+            px, py, pz, nx, ny, nz = _snap(s, (o[i, 0] + t[i] * d[i, 0], o[i, 1] + t[i] * d[i, 1],
+                                               o[i, 2] + t[i] * d[i, 2]), analytic)
             point[i, 0], point[i, 1], point[i, 2] = px, py, pz
             geometric[i, 0], geometric[i, 1], geometric[i, 2] = nx, ny, nz
             shading[i, 0], shading[i, 1], shading[i, 2] = nx, ny, nz
@@ -416,7 +437,7 @@ def hit_surfaces(t, shape, triangle, uv, o, d, analytic, shape_material, mesh,
             point[i, k] = (w * corners[tri, 0, k] + u * corners[tri, 1, k]) + v * corners[tri, 2, k]
             geometric[i, k] = face_normal[tri, k]
             shading[i, k] = face_normal[tri, k]
-        if code[tri] != 0:  # smooth or Gouraud: interpolated vertex normals
+        if code[tri] != FLAT:  # smooth or Gouraud: interpolated vertex normals
             nx = (w * vnormals[tri, 0, 0] + u * vnormals[tri, 1, 0]) + v * vnormals[tri, 2, 0]
             ny = (w * vnormals[tri, 0, 1] + u * vnormals[tri, 1, 1]) + v * vnormals[tri, 2, 1]
             nz = (w * vnormals[tri, 0, 2] + u * vnormals[tri, 1, 2]) + v * vnormals[tri, 2, 2]

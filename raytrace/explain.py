@@ -86,7 +86,7 @@ class Recorder:
             m = int(surf.material[j])
             material = integ.materials[m]
             point = surf.point[j] + self.origin
-            ka = K.color1(integ.table.arrays, m, K.KA, *point)
+            ka = K.color1(integ.table.record, m, K.KA, *point)
             obj = int(ident[j])
             entering = float(np.dot(rays.direction[j], surf.geometric[j])) < 0.0
             self.rays[rid]["hit"] = {
@@ -119,7 +119,7 @@ class Recorder:
                tir: np.ndarray, past_max_depth: bool) -> None:
         """Each hit's contribution as the shading kernel added it, and its children's status
         (spawned, or pruned by ``max_depth`` or ``min_weight``)."""
-        from .shading_kernels import KEEP, LIGHT
+        from .shading_kernels import KEEP, PRUNED
 
         ambient = self.integ.ambient
         for j, rid in enumerate(self._hits):
@@ -135,7 +135,7 @@ class Recorder:
             rec["pruned"] = []
             for c, name in enumerate(CHILD_NAMES):
                 reason = ("max_depth" if status[j, c] == KEEP and past_max_depth
-                          else "min_weight" if status[j, c] == LIGHT else None)
+                          else "min_weight" if status[j, c] == PRUNED else None)
                 if reason:
                     rec["pruned"].append({"kind": name, "weight": _vec(weights[c][j]),
                                           "reason": reason})

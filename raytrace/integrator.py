@@ -38,11 +38,11 @@ import numpy as np
 
 from . import aov as aov_images
 from . import shading_kernels as K
-from .accel import SHADOW_SHORTEN, Accelerator, Hits, Surface
+from .accel import Accelerator, Hits, Surface
 from .camera import camera_columns, camera_rays, global_samples
 from .film import Image
 from .lights import Emitter, emitters
-from .material import COLOR_KEYS, Checker, Material
+from .material import Material
 from .rays import (
     KIND_NAMES,
     REFLECTION,
@@ -54,8 +54,9 @@ from .rays import (
     split_hits,
     take_hits,
 )
+from .records import Children, Shadows, Spawned
 from .scene import Scene
-from .shading import HIGHLIGHT_CODES
+from .tables import MaterialTable, scene_record
 
 #: Camera samples per pass (whole pixels): the unit of work of a thread. Memory is bounded by
 #: threads × pass size, independently of the resolution.
@@ -99,42 +100,6 @@ class RenderOptions:
     crop: tuple[int, int, int, int] | None = None
     #: The AOVs to render besides the colour (:data:`raytrace.aov.AOVS`' names).
     aovs: tuple[str, ...] = ()
-
-
-class MaterialTable:
-    """Per-material coefficients, looked up by material index at the hits.
-
-    ``colors`` (M, 15) holds the constant colours ka kd ks kr kt, three columns each
-    (``shading_kernels.KA`` …); where colour k of material m is a :class:`Checker`,
-    ``pattern[m, k]`` indexes its row of ``checkers`` (colour 0, colour 1, scale), evaluated
-    at the world points of the hits; −1 means constant. :attr:`arrays` is the whole table as
-    the kernels take it.
-    """
-
-    def __init__(self, materials: list[Material]):
-        self.materials = materials
-        self.colors = np.zeros((len(materials), 3 * len(COLOR_KEYS)))
-        self.pattern = np.full((len(materials), len(COLOR_KEYS)), -1, np.int64)
-        checkers = []
-        for i, m in enumerate(materials):
-            for k, key in enumerate(COLOR_KEYS):
-                c = m.ambient if key == "ka" else getattr(m, key)
-                if isinstance(c, Checker):
-                    self.pattern[i, k] = len(checkers)
-                    checkers.append([*c.colors[0], *c.colors[1], c.scale])
-                else:
-                    self.colors[i, 3 * k:3 * k + 3] = c
-        self.checkers = np.array(checkers, dtype=np.float64).reshape(-1, 7)
-        self.shininess = np.array([m.shininess for m in materials], dtype=np.float64)
-        self.highlight = np.array([HIGHLIGHT_CODES[m.highlight] for m in materials], np.int64)
-        self.ior = np.array([m.ior for m in materials], dtype=np.float64)
-        self.opacity = np.array([m.opacity for m in materials], dtype=np.float64)
-        self.lit = np.array([m.lit for m in materials], dtype=bool)
-        self.reflects = np.array([m.reflects for m in materials], dtype=bool)
-        self.transmits = np.array([m.transmits for m in materials], dtype=bool)
-        self.transparent = np.array([m.transparent for m in materials], dtype=bool)
-        self.arrays = (self.colors, self.pattern, self.checkers, self.shininess, self.highlight,
-                       self.ior, self.opacity, self.lit, self.reflects, self.transmits)
 
 
 class Scratch:
@@ -225,10 +190,8 @@ class WhittedIntegrator:
         self.any_transparent = bool(self.table.transparent.any()) if self.materials else False
         self.lit = bool(self.emitters) and bool(self.table.lit.any())
         self.jittered = any(em.jittered for em in self.emitters)
-        #: What :func:`raytrace.shading_kernels.light_pass` needs of smooth and Gouraud
-        #: triangles.
-        self.smooth_table = (self.accel.tri_corners, self.accel.tri_vnormals,
-                             self.accel.tri_shading)
+        #: What every shading kernel needs of the scene (:class:`raytrace.records.Scene`).
+        self.tables = scene_record(self.origin, self.table, self.accel.triangles)
         self._lock = threading.Lock()
         self._renders = 0  # renders started: each counts its rays afresh
         self._stats_per_thread: list[Stats] = []
@@ -346,8 +309,8 @@ class WhittedIntegrator:
             pixels[first:last] = (
                 samples if o.spp == 1 else samples.reshape(-1, o.spp, 3).mean(1))
         if o.aovs:
-            K.aov_pixels(last - first, o.spp, *w.aov,
-                         *(a[first:last] for a in self._aov_out))
+            K.aov_pixels(last - first, o.spp, tuple(w.aov),
+                         tuple(a[first:last] for a in self._aov_out))
         self.stats.pass_seconds += time.perf_counter() - t0
 
     def trace_samples(self, start: int, stop: int, samples: np.ndarray) -> None:
@@ -423,11 +386,9 @@ class WhittedIntegrator:
                 (3,), (3,), (0, rays.sample.dtype), (3,), (0, rays.origin_shape.dtype),
                 (0, rays.kind.dtype), (0, hits.t.dtype), (0, hits.shape.dtype),
                 (0, hits.triangle.dtype), (hits.uv.shape[1], hits.uv.dtype))))
-            take_hits(found, rays.origin, rays.direction, rays.sample, rays.weight,
-                      rays.origin_shape, rays.kind, hits.t, hits.shape, hits.triangle, hits.uv,
-                      out)
+            take_hits(found, rays.record, hits, (out[:6], out[6:]))
             origin, direction, sample, weight, origin_shape, kind = out[:6]
-            hits.t, hits.shape, hits.triangle, hits.uv = out[6:]
+            hits = Hits(*out[6:])
             rays = RayBatch(origin, direction, sample, weight, rays.depth, origin_shape, kind)
         surf = self.accel.surface(hits, rays.origin, rays.direction)
         if rays.depth == 0 and o.aovs:  # the camera rays' first hits
@@ -444,10 +405,8 @@ class WhittedIntegrator:
         outputs (:func:`raytrace.shading_kernels.aov_hits`; an output without rows is
         skipped)."""
         a = self.accel
-        K.aov_hits(rays.sample, hits.t, rays.direction, surf.geometric, surf.shading,
-                   surf.material, surf.point, self.origin, self.table.arrays, surf.shape,
-                   surf.triangle, a.shape_object, a.geom_first, a.geom_object, depth, normal,
-                   albedo, ident)
+        K.aov_hits(rays.record, hits.t, surf, self.tables, (a.shape_object, a.geom_object),
+                   (depth, normal, albedo, ident))
 
     # -- shading -----------------------------------------------------------------------------
 
@@ -463,52 +422,50 @@ class WhittedIntegrator:
         lights = self.direct_lighting(rays, surf) if self.lit else NO_LIGHT  # Σ_l S_l·f_l·…
         # One pass over the hits: w·t·I_local into their samples, and each child's direction,
         # weight and status.
-        r_dir, t_dir, w_r, w_t, w_s = (new(name, n, 3) for name in (
-            "r_dir", "t_dir", "w_r", "w_t", "w_s"))
-        status, tir = new("status", n, 3, np.int8), new("tir", n, dtype=bool)
+        children = Children(*(new(name, n, 3) for name in ("r_dir", "t_dir", "w_r", "w_t", "w_s")),
+                            new("status", n, 3, np.int8), new("tir", n, dtype=bool))
+        status, tir = children.status, children.tir
         # Observed, each hit's term goes to a row of its own, then to its sample: the same
         # additions in the same order (0 + x and x·1 are exact).
         obs = self.observer
         into, rows = (samples, rays.sample) if obs is None else (np.zeros((n, 3)), np.arange(n))
-        K.hit_terms(rays.direction, rays.weight, surf.geometric, surf.shading, surf.material,
-                    surf.point, self.origin, self.table.arrays, self.ambient, lights,
-                    self.opt.min_weight, into, rows, r_dir, t_dir, w_r, w_t, w_s, status, tir)
+        K.hit_terms(rays.record, surf, self.tables, self.ambient, lights, self.opt.min_weight,
+                    (into, rows), children)
         depth = rays.depth + 1
         if obs is not None:
             add(samples, rays.sample, into, ONE, rows)
-            obs.shaded(into, status, (w_r, w_t, w_s), tir, depth > self.opt.max_depth)
+            obs.shaded(into, status, (children.w_r, children.w_t, children.w_s), tir,
+                       depth > self.opt.max_depth)
         if depth <= self.opt.max_depth:
             self.stats.total_internal_reflections += int(np.count_nonzero(tir))
         # The next depth: reflected, refracted (or TIR) and see-through children.
         if not self._prune(status, depth):
             return RayBatch.empty(depth)
-        children, parent = self._spawn(rays, surf, status, (r_dir, t_dir, rays.direction),
-                                       (w_r, w_t, w_s))
+        spawned, parent = self._spawn(rays, surf, children)
         if obs is not None:
-            obs.spawned(children, parent)
-        return children
+            obs.spawned(spawned, parent)
+        return spawned
 
-    def _spawn(self, parents: RayBatch, surf: Surface, status: np.ndarray, directions: tuple,
-               weights: tuple) -> tuple[RayBatch, np.ndarray]:
+    def _spawn(self, parents: RayBatch, surf: Surface,
+               children: Children) -> tuple[RayBatch, np.ndarray]:
         """The children of the hits whose ``status`` is KEEP, in one batch (reflected, then
         refracted, then see-through, each in hit order), and the row of each one's parent
-        hit; ``directions`` and ``weights``: reflected, refracted, see-through. Two passes:
+        hit. Two passes:
         count the children of each kind (:func:`raytrace.shading_kernels.count_keep`), then
         fill the rows from where each kind starts
         (:func:`raytrace.shading_kernels.spawn_children`)."""
-        per_kind = K.count_keep(status)
+        per_kind = K.count_keep(children.status)
         first = np.concatenate([[0], np.cumsum(per_kind)[:-1]])  # where each kind starts
         k = int(per_kind.sum())
         origin, direction, weight = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
         sample, shape = np.empty(k, np.int64), np.empty(k, np.int64)
         kind, parent = np.empty(k, np.int8), np.empty(k, np.int64)
-        K.spawn_children(status, first, *directions, *weights, surf.point, surf.geometric,
-                         surf.offset, surf.shape, parents.sample, CHILD_KINDS, origin,
-                         direction, weight, sample, shape, kind, parent)
-        children = RayBatch(origin, direction, sample, weight, parents.depth + 1, shape, kind)
+        K.spawn_children(children, parents.record, surf, first, CHILD_KINDS,
+                         Spawned(origin, direction, weight, sample, shape, kind, parent))
+        batch = RayBatch(origin, direction, sample, weight, parents.depth + 1, shape, kind)
         if DEBUG:
-            check_spawned(children)
-        return children, parent
+            check_spawned(batch)
+        return batch, parent
 
     def _prune(self, status: np.ndarray, depth: int) -> bool:
         """Whether any children (the columns of ``status``) may go on: none past
@@ -517,7 +474,7 @@ class WhittedIntegrator:
         if depth > self.opt.max_depth:
             self.stats.pruned_depth += int(np.count_nonzero(status))
             return False
-        self.stats.pruned_weight += int(np.count_nonzero(status == K.LIGHT))
+        self.stats.pruned_weight += int(np.count_nonzero(status == K.PRUNED))
         return True
 
     def direct_lighting(self, rays: RayBatch, surf: Surface) -> np.ndarray:
@@ -530,15 +487,12 @@ class WhittedIntegrator:
         term, rows = new("term", n, 3), new("shadow_rows", n, dtype=np.int64)
         origin, direction = new("shadow_origin", n, 3), new("shadow_direction", n, 3)
         tmax, shape = new("shadow_tmax", n), new("shadow_shape", n, dtype=np.int64)
-        shadow = (rows, origin, direction, tmax, shape)
+        shadow = Shadows(rows, origin, direction, tmax, shape)
         # Jittered area lights draw a point per hit from its global camera sample and depth.
         key = global_samples(rays.sample + self._worker.first_sample, self.opt.width,
                              self.opt.spp, self.opt.crop) if self.jittered else NO_KEY
         for e, em in enumerate(self.emitters):
-            k = K.light_pass(surf.point, surf.geometric, surf.shading, rays.direction,
-                             rays.origin, surf.material, surf.offset, surf.shape, surf.triangle,
-                             surf.uv, self.origin, self.table.arrays,
-                             self.smooth_table, em.packed, key, rays.depth, SHADOW_SHORTEN, term,
+            k = K.light_pass(rays.record, surf, self.tables, em.record, key, rays.depth, term,
                              shadow)
             if self.observer is not None:
                 self.observer.light(e, term, rows[:k])
@@ -569,17 +523,15 @@ class WhittedIntegrator:
         factor = self.scratch("shadow", len(rows), 3)
         factor.fill(1.0)
         live = np.arange(len(rows))  # the row of factor each walking ray multiplies
-        tab = self.table.arrays
         for _ in range(MAX_SHADOW_CROSSINGS):
             hits = self.accel.intersect(origin, direction, shape, tmax)
             t, hit_shape, triangle, uv, origin, direction, tmax, live = K.crossing_rays(
-                hits.t, hits.shape, hits.triangle, hits.uv, origin, direction, tmax, live)
+                hits, origin, direction, tmax, live)
             if not len(live):
                 break
             s2 = self.accel.surface(Hits(t, hit_shape, triangle, uv), origin, direction)
             origin, direction, shape, tmax, live = K.cross_surfaces(
-                factor, live, s2.material, s2.point, s2.geometric, s2.offset, s2.shape,
-                direction, t, tmax, self.origin, tab)
+                factor, live, s2, (direction, t, tmax), self.tables)
             if not len(live):
                 break
             self.stats.rays["shadow"] += len(live)

@@ -18,6 +18,7 @@ from functools import cached_property
 import numpy as np
 
 from . import shading_kernels as K
+from .records import Emitter as EmitterRecord
 from .scene import AreaLight, DirectionalLight, Light, SpotLight
 
 #: ``Emitter.incidence`` without keys: every jittered cell at its centre.
@@ -63,20 +64,21 @@ class Emitter:
         n = len(points)
         key = NO_KEY if key is None else np.ascontiguousarray(key, dtype=np.int64)
         to_light, dist, factor = np.empty((n, 3)), np.empty(n), np.empty(n)
-        K.incidence_rows(points, self.packed, key, depth, to_light, dist, factor)
+        K.incidence_rows(points, self.record, key, depth, to_light, dist, factor)
         return to_light, dist, factor
 
     @cached_property
-    def packed(self) -> tuple[float, ...]:
-        """The emitter as the 19 floats the kernels take: kind (POINT, SPOT, DIRECTIONAL),
-        position (3), direction (3), attenuation (3), cos θ, exponent, cell edges u (3) and
-        v (3), stream (below 2⁵², so exact in a float64). A tuple, not an array: numba passes
-        it by value, where an array argument costs a reference count per call of the per-hit
-        function that takes it (13 ns a hit in the light pass)."""
+    def record(self) -> EmitterRecord:
+        """The emitter as the kernels take it, a :class:`raytrace.records.Emitter` of 19
+        floats: kind (POINT, SPOT, DIRECTIONAL), position, direction, attenuation, cos θ,
+        exponent, cell edges u and v, stream (below 2⁵², so exact in a float64). A named
+        tuple of floats, not an array: numba passes it by value, where an array argument costs
+        a reference count per call of the per-hit function that takes it (13 ns a hit in the
+        light pass)."""
         kind = (K.DIRECTIONAL if self.position is None else
                 K.POINT if self.cos_cutoff is None else K.SPOT)
         zero = np.zeros(3)
-        return tuple(np.concatenate([
+        return EmitterRecord(*np.concatenate([
             [kind], zero if self.position is None else self.position,
             zero if self.direction is None else self.direction,
             [1.0, 0.0, 0.0] if self.attenuation is None else self.attenuation,

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .jit import kernel
+from .records import Rays
 
 #: Kinds of ray, for ``RayBatch.kind`` and the statistics.
 CAMERA, REFLECTION, REFRACTION, SEE_THROUGH = 0, 1, 2, 3
@@ -57,6 +58,12 @@ class RayBatch:
 
     def __len__(self) -> int:
         return self.origin.shape[0]
+
+    @property
+    def record(self) -> Rays:
+        """The columns as the kernels take them (:class:`raytrace.records.Rays`)."""
+        return Rays(self.origin, self.direction, self.sample, self.weight, self.origin_shape,
+                    self.kind)
 
     def take(self, index: np.ndarray | slice) -> RayBatch:
         """The rays selected by a boolean mask or an index array (compaction), or a slice
@@ -123,13 +130,14 @@ def take_rows(a, rows):
 
 
 @kernel
-def take_hits(rows, origin, direction, sample, weight, origin_shape, kind, t, shape, triangle,
-              uv, out):
-    """The rays ``rows`` of a batch (its columns ``origin`` … ``kind``) together with their
-    hits (``t``, ``shape``, ``triangle``, ``uv`` of ``raytrace.accel.Hits``), in one pass,
-    into ``out``: the same ten columns, ``len(rows)`` rows each (the compaction to the rays
-    that hit something; row-wise, so runs of ``rows`` can go to different threads)."""
-    o, d, s, w, os_, kd, tt, sh, tri, b = out
+def take_hits(rows, rays, hits, out):
+    """The rays ``rows`` of a batch (a :class:`raytrace.records.Rays`) together with their
+    ``hits`` (a :class:`raytrace.records.Hits`), in one pass, into ``out`` = (rays, hits) of
+    ``len(rows)`` rows each (the compaction to the rays that hit something; row-wise, so runs
+    of ``rows`` can go to different threads)."""
+    origin, direction, sample, weight, origin_shape, kind = rays
+    t, shape, triangle, uv = hits
+    (o, d, s, w, os_, kd), (tt, sh, tri, b) = out
     for j in range(rows.shape[0]):
         i = rows[j]
         for c in range(3):

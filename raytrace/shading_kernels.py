@@ -33,7 +33,17 @@ import math
 
 import numpy as np
 
-from .core import checker1, facing1, leave1, light_uniform, reflect3, refract3
+from .core import (
+    FLAT,
+    GOURAUD,
+    SHADOW_SHORTEN,
+    checker1,
+    facing1,
+    leave1,
+    light_uniform,
+    reflect3,
+    refract3,
+)
 from .jit import kernel
 
 #: Highlight model codes (``raytrace.shading.HIGHLIGHT_CODES``).
@@ -42,34 +52,34 @@ PHONG, BLINN = 0, 1
 POINT, SPOT, DIRECTIONAL = 0, 1, 2
 #: First column of each colour in a material's row of colours (``raytrace.material.COLOR_KEYS``).
 KA, KD, KS, KR, KT = 0, 3, 6, 9, 12
-#: :func:`hit_terms`' status of a child ray.
-NONE, LIGHT, KEEP = 0, 1, 2
+#: :func:`hit_terms`' status of a child ray: none, pruned by its weight, traced.
+NONE, PRUNED, KEEP = 0, 1, 2
 
 
 # -- lights -----------------------------------------------------------------------------------
 @kernel
-def incidence1(px, py, pz, em, key, depth):
+def incidence1(p, em, key, depth):
     """Unit vector to the light, distance and attenuation ``f_radial·f_angular`` at a point.
 
-    ``em`` is an emitter packed by ``raytrace.lights.Emitter.packed``: kind, position (3),
-    direction (3), attenuation a0 a1 a2, cos θ of the cone, exponent a, cell edges u (3) and
-    v (3), stream. A jittered area-light cell (stream ≥ 0) is sampled at
-    ``position + (ξ₁ − ½)·u + (ξ₂ − ½)·v``, ξ = :func:`raytrace.core.light_uniform` of
-    (``key``, stream, depth): a point of its own for each shading point (``key`` ≥ 0, the
-    hit's camera sample) and depth; with ``key`` < 0, at the cell centre. Seed 000:
+    ``p`` is the point (a 3-tuple), ``em`` a :class:`raytrace.records.Emitter`. A jittered
+    area-light cell (stream ≥ 0) is sampled at ``position + (ξ₁ − ½)·u + (ξ₂ − ½)·v``,
+    ξ = :func:`raytrace.core.light_uniform` of (``key``, stream, depth): a point of its own
+    for each shading point (``key`` ≥ 0, the hit's camera sample) and depth; with ``key`` <
+    0, at the cell centre. Seed 000:
     ``f_radial = 1/(a0 + a1·d + a2·d²)`` (0 where that is not finite, and at the light itself,
     where L is undefined; L stays a unit vector however near or far the light); a spot
     multiplies ``(cos α)^a`` inside its cone (``cos α >= cos θ``, edge included) and 0
     outside. A directional light has L = −direction, d = ∞, f = 1.
     """
-    if em[0] == DIRECTIONAL:
-        return -em[4], -em[5], -em[6], math.inf, 1.0
-    sx, sy, sz = em[1], em[2], em[3]
-    if em[18] >= 0.0 and key >= 0:
-        u = light_uniform(key, np.int64(em[18]), 2 * depth) - 0.5
-        v = light_uniform(key, np.int64(em[18]), 2 * depth + 1) - 0.5
-        sx, sy, sz = (sx + u * em[12] + v * em[15], sy + u * em[13] + v * em[16],
-                      sz + u * em[14] + v * em[17])
+    px, py, pz = p
+    if em.kind == DIRECTIONAL:
+        return -em.dx, -em.dy, -em.dz, math.inf, 1.0
+    sx, sy, sz = em.px, em.py, em.pz
+    if em.stream >= 0.0 and key >= 0:
+        u = light_uniform(key, np.int64(em.stream), 2 * depth) - 0.5
+        v = light_uniform(key, np.int64(em.stream), 2 * depth + 1) - 0.5
+        sx, sy, sz = (sx + u * em.ux + v * em.vx, sy + u * em.uy + v * em.vy,
+                      sz + u * em.uz + v * em.vz)
     lx, ly, lz = sx - px, sy - py, sz - pz
     if lx == 0.0 and ly == 0.0 and lz == 0.0:
         return lx, ly, lz, 0.0, 0.0
@@ -83,21 +93,23 @@ def incidence1(px, py, pz, em, key, depth):
     else:
         dist = math.sqrt(square)
         lx, ly, lz = lx / dist, ly / dist, lz / dist
-    f = 1.0 / (em[7] + dist * (em[8] + em[9] * dist))
+    f = 1.0 / (em.a0 + dist * (em.a1 + em.a2 * dist))
     if not math.isfinite(f):
         f = 0.0
-    if em[0] == SPOT:
-        cos_a = -(lx * em[4] + ly * em[5] + lz * em[6])  # light-to-point against the axis
-        f = f * (max(cos_a, 0.0) ** em[11] if cos_a >= em[10] else 0.0)
+    if em.kind == SPOT:
+        cos_a = -(lx * em.dx + ly * em.dy + lz * em.dz)  # light-to-point against the axis
+        f = f * (max(cos_a, 0.0) ** em.exponent if cos_a >= em.cos_cutoff else 0.0)
     return lx, ly, lz, dist, f
 
 
 # -- highlights and the local model -----------------------------------------------------------
 @kernel
-def cosine_power1(ax, ay, az, bx, by, bz, n):
+def cosine_power1(a, b, n):
     """``max(a·b, 0)^n`` for unit vectors as ``exp(n·log1p(−h))`` with ``h = 1 − a·b`` taken
     as ``|a − b|²/2`` (no cancellation near a·b = 1, so n = 1e8 still falls off right);
-    0 where ``a·b <= 0`` (0^0 counts as 0), 1 where n = 0 otherwise."""
+    0 where ``a·b <= 0`` (0^0 counts as 0), 1 where n = 0 otherwise. ``a``, ``b``: 3-tuples."""
+    ax, ay, az = a
+    bx, by, bz = b
     ex, ey, ez = ax - bx, ay - by, az - bz
     h = 0.5 * (ex * ex + ey * ey + ez * ez)
     # h < 1 alone lets a·b = 0 through where |a − b|² rounds just below 2 (0^0 would give 1).
@@ -109,42 +121,51 @@ def cosine_power1(ax, ay, az, bx, by, bz, n):
 
 
 @kernel
-def phong1(nx, ny, nz, lx, ly, lz, vx, vy, vz, n):
-    """Phong's ``(V·R)^n``, ``R = 2(N·L)N − L`` normalised (Phong 1975)."""
+def phong1(normal, light, view, n):
+    """Phong's ``(V·R)^n``, ``R = 2(N·L)N − L`` normalised (Phong 1975); N, L, V unit
+    3-tuples."""
+    nx, ny, nz = normal
+    lx, ly, lz = light
     k = 2.0 * (nx * lx + ny * ly + nz * lz)
     rx, ry, rz = k * nx - lx, k * ny - ly, k * nz - lz
     length = max(math.sqrt(rx * rx + ry * ry + rz * rz), 1e-300)
-    return cosine_power1(vx, vy, vz, rx / length, ry / length, rz / length, n)
+    return cosine_power1(view, (rx / length, ry / length, rz / length), n)
 
 
 @kernel
-def blinn1(nx, ny, nz, lx, ly, lz, vx, vy, vz, n):
-    """Blinn's ``(N·H)^n``, ``H = (L + V)/|L + V|`` (Blinn 1977); 0 where L = −V."""
+def blinn1(normal, light, view, n):
+    """Blinn's ``(N·H)^n``, ``H = (L + V)/|L + V|`` (Blinn 1977); 0 where L = −V. N, L, V
+    unit 3-tuples."""
+    lx, ly, lz = light
+    vx, vy, vz = view
     hx, hy, hz = lx + vx, ly + vy, lz + vz
     length = math.sqrt(hx * hx + hy * hy + hz * hz)
     if not length > 1e-12:
         return 0.0
-    return cosine_power1(nx, ny, nz, hx / length, hy / length, hz / length, n)
+    return cosine_power1(normal, (hx / length, hy / length, hz / length), n)
 
 
 @kernel
-def highlight1(model, nx, ny, nz, lx, ly, lz, vx, vy, vz, n):
+def highlight1(model, normal, light, view, n):
     """The highlight ``spec`` of model code ``model`` (PHONG or BLINN)."""
     if model == BLINN:
-        return blinn1(nx, ny, nz, lx, ly, lz, vx, vy, vz, n)
-    return phong1(nx, ny, nz, lx, ly, lz, vx, vy, vz, n)
+        return blinn1(normal, light, view, n)
+    return phong1(normal, light, view, n)
 
 
 @kernel
-def direct1(nx, ny, nz, lx, ly, lz, vx, vy, vz, kd, ks, n, model):
-    """``kd·max(N·L, 0) + ks·spec`` per channel for rows ``kd``, ``ks`` (3,); all zero where
-    ``N·L <= 0`` (the highlight too, whatever the exponent)."""
+def direct1(normal, light, view, kd, ks, n, model):
+    """``kd·max(N·L, 0) + ks·spec`` per channel for colours ``kd``, ``ks`` (3-tuples or
+    rows); N, L, V unit 3-tuples; all zero where ``N·L <= 0`` (the highlight too, whatever
+    the exponent)."""
+    nx, ny, nz = normal
+    lx, ly, lz = light
     ndl = nx * lx + ny * ly + nz * lz
     if not ndl > 0.0:
         return 0.0, 0.0, 0.0
     if ks[0] == 0.0 and ks[1] == 0.0 and ks[2] == 0.0:  # no highlight: skip its exp and log
         return kd[0] * ndl, kd[1] * ndl, kd[2] * ndl
-    spec = highlight1(model, nx, ny, nz, lx, ly, lz, vx, vy, vz, n)
+    spec = highlight1(model, normal, light, view, n)
     return kd[0] * ndl + ks[0] * spec, kd[1] * ndl + ks[1] * spec, kd[2] * ndl + ks[2] * spec
 
 
@@ -152,10 +173,8 @@ def direct1(nx, ny, nz, lx, ly, lz, vx, vy, vz, kd, ks, n, model):
 @kernel
 def color1(materials, m, slot, x, y, z):
     """Colour ``slot`` (KA … KT) of material ``m`` at the world point (x, y, z): its constant,
-    or its checker pattern there. ``materials`` is ``raytrace.integrator.MaterialTable.arrays``
-    (colours (M, 15), pattern (M, 5) row of ``checkers`` or −1, checkers (P, 7): colour 0,
-    colour 1, scale, then the per-material scalars)."""
-    colors, pattern, checkers = materials[0], materials[1], materials[2]
+    or its checker pattern there (``materials``: a :class:`raytrace.records.Materials`)."""
+    colors, pattern, checkers = materials.colors, materials.pattern, materials.checkers
     p = pattern[m, slot // 3]
     if p < 0:
         return colors[m, slot], colors[m, slot + 1], colors[m, slot + 2]
@@ -165,7 +184,7 @@ def color1(materials, m, slot, x, y, z):
 
 # -- batch kernels of the integrator ----------------------------------------------------------
 @kernel
-def bulge1(px, py, pz, tri, u, v, side, corners, vnormals):
+def bulge1(p, tri, u, v, side, triangles):
     """Hanika's shading point for a ray leaving a smooth-shaded triangle ("Hacking the Shadow
     Terminator", Ray Tracing Gems II, 2021, ch. 4): ``P' = Σ_k b_k·P_k`` with ``P_k`` the hit
     point ``P`` lifted onto the tangent plane of vertex k where it lies below it, ``P_k = P −
@@ -173,7 +192,9 @@ def bulge1(px, py, pz, tri, u, v, side, corners, vnormals):
     normals turned to ``side`` (+1 outward, −1 inward). On a convex patch P' rises to about
     the smooth surface the normals describe, so a shadow ray near the terminator does not
     start inside the neighbouring facets; where P is above every tangent plane (concave), P'
-    = P."""
+    = P. ``p`` is a 3-tuple, ``triangles`` a :class:`raytrace.records.Triangles`."""
+    px, py, pz = p
+    corners, vnormals = triangles.corners, triangles.vnormals
     w = 1.0 - u - v
     dx = dy = dz = 0.0  # Σ_k b_k·(P_k − P): exactly P where nothing lifts
     for k in range(3):
@@ -189,13 +210,18 @@ def bulge1(px, py, pz, tri, u, v, side, corners, vnormals):
 
 
 @kernel
-def gouraud1(tri, u, v, s, ex, ey, ez, corners, vnormals, em, key, depth, kd, ks, n, model):
+def gouraud1(hit, eye, triangles, light, kd, ks, n, model):
     """Seed 000's Gouraud shading at a hit on triangle ``tri`` (barycentrics ``1 − (u + v)``,
     ``u``, ``v``): the unshadowed ``f·[kd·max(N·L, 0) + ks·spec]`` of one emitter evaluated at
     the three corners, with their vertex normals turned by ``s`` (+1 outward, −1 inward) and V
-    towards the eye (ex, ey, ez), then interpolated. Every corner sees a jittered area light
-    at the one point drawn for this hit (``key``, ``depth``): the point its shadow ray aims
-    at. ``kd``, ``ks`` are the colours at the hit."""
+    towards the ``eye`` (a 3-tuple), then interpolated; ``hit`` = (tri, u, v, s), ``light`` =
+    (emitter, key, depth). Every corner sees a jittered area light at the one point drawn for
+    this hit (``key``, ``depth``): the point its shadow ray aims at. ``kd``, ``ks`` are the
+    colours at the hit."""
+    tri, u, v, s = hit
+    em, key, depth = light
+    ex, ey, ez = eye
+    corners, vnormals = triangles.corners, triangles.vnormals
     r = g = b = 0.0
     for k in range(3):
         w = 1.0 - (u + v) if k == 0 else (u if k == 1 else v)
@@ -204,8 +230,8 @@ def gouraud1(tri, u, v, s, ex, ey, ez, corners, vnormals, em, key, depth, kd, ks
         vx, vy, vz = ex - px, ey - py, ez - pz
         length = max(math.sqrt(vx * vx + vy * vy + vz * vz), 1e-300)
         vx, vy, vz = vx / length, vy / length, vz / length
-        lx, ly, lz, _, f = incidence1(px, py, pz, em, key, depth)
-        dr, dg, db = direct1(nx, ny, nz, lx, ly, lz, vx, vy, vz, kd, ks, n, model)
+        lx, ly, lz, _, f = incidence1((px, py, pz), em, key, depth)
+        dr, dg, db = direct1((nx, ny, nz), (lx, ly, lz), (vx, vy, vz), kd, ks, n, model)
         r += w * dr * f
         g += w * dg * f
         b += w * db * f
@@ -213,29 +239,30 @@ def gouraud1(tri, u, v, s, ex, ey, ez, corners, vnormals, em, key, depth, kd, ks
 
 
 @kernel
-def light_pass(point, geometric, shading, direction, eye, material, offset, shape, triangle, uv,
-               origin, materials, mesh, em, key, depth, shorten, term, shadow):
-    """One emitter at every hit, in one pass: its unshadowed term and the shadow rays that
-    must decide it. Returns k, the number of shadow rays.
+def light_pass(rays, surf, scene, em, key, depth, term, shadow):
+    """One emitter ``em`` (a :class:`raytrace.records.Emitter`) at every hit of ``rays`` on
+    ``surf`` (:class:`raytrace.records.Rays`, :class:`raytrace.records.Surface`), in one pass:
+    its unshadowed term and the shadow rays that must decide it. Returns k, the number of
+    shadow rays.
 
     ``term = f·[kd·max(N·L, 0) + ks·spec]`` (n, 3) with N the shading normal turned to the
     viewer and V = −d (a Gouraud triangle's, :func:`gouraud1`, is interpolated from its
-    corners); 0 for unlit materials. Only hits where some channel of term is > 0 need a shadow
-    ray: the first k rows of ``shadow`` = (``rows`` (which hit), ``s_origin``,
-    ``s_direction``, ``s_tmax``, ``s_shape`` (the shape it starts on)) hold them, in hit
-    order. A shadow ray leaves the
-    hit towards the light (:func:`leave1`) and stops ``shorten`` (relative) short of it; from
-    a smooth or Gouraud triangle it leaves from :func:`bulge1`'s lifted point on the side the
-    viewer sees, keeping the hit point's direction and length (the lift is a fraction of the
-    triangle's size). ``eye`` (n, 3): the rays' origins, for Gouraud's V at the corners;
-    ``mesh`` = (corners (T, 3, 3), vertex normals (T, 3, 3), shading codes (T,)); ``key``
-    (n,): each hit's global camera sample, read only for a jittered emitter
-    (:func:`incidence1`)."""
-    corners, vnormals, code = mesh
+    corners, V towards the ray's origin); 0 for unlit materials. Only hits where some channel
+    of term is > 0 need a shadow ray: the first k rows of ``shadow`` (a
+    :class:`raytrace.records.Shadows`) hold them, in hit order. A shadow ray leaves the hit
+    towards the light (:func:`leave1`) and stops :data:`raytrace.core.SHADOW_SHORTEN`
+    (relative) short of it; from a smooth or Gouraud triangle it leaves from :func:`bulge1`'s
+    lifted point on the side the viewer sees, keeping the hit point's direction and length
+    (the lift is a fraction of the triangle's size). ``key`` (n,): each hit's global camera
+    sample, read only for a jittered emitter (:func:`incidence1`)."""
+    direction, eye = rays.direction, rays.origin
+    point, geometric, shading, material = surf.point, surf.geometric, surf.shading, surf.material
+    materials, triangles, origin = scene.materials, scene.triangles, scene.origin
+    code = triangles.shading
     rows, s_origin, s_direction, s_tmax, s_shape = shadow
-    jittered = em[18] >= 0.0
-    shininess, highlight, lit = materials[3], materials[4], materials[7]
-    keep = 1.0 - shorten
+    jittered = em.stream >= 0.0
+    shininess, highlight, lit = materials.shininess, materials.highlight, materials.lit
+    keep = 1.0 - SHADOW_SHORTEN
     k = 0
     for i in range(point.shape[0]):
         m = material[i]
@@ -247,31 +274,31 @@ def light_pass(point, geometric, shading, direction, eye, material, offset, shap
         s = facing1(gx, gy, gz, dx, dy, dz)
         px, py, pz = point[i, 0], point[i, 1], point[i, 2]
         hit_key = key[i] if jittered else -1
-        lx, ly, lz, d, f = incidence1(px, py, pz, em, hit_key, depth)
+        lx, ly, lz, d, f = incidence1((px, py, pz), em, hit_key, depth)
         wx, wy, wz = px + origin[0], py + origin[1], pz + origin[2]
         kd = color1(materials, m, KD, wx, wy, wz)
         ks = color1(materials, m, KS, wx, wy, wz)
-        tri = triangle[i]
-        smooth = tri >= 0 and code[tri] != 0
-        if smooth and code[tri] == 2:  # Gouraud
-            r, g, b = gouraud1(tri, uv[i, 0], uv[i, 1], s, eye[i, 0], eye[i, 1], eye[i, 2],
-                               corners, vnormals, em, hit_key, depth, kd, ks, shininess[m],
-                               highlight[m])
+        tri = surf.triangle[i]
+        smooth = tri >= 0 and code[tri] != FLAT
+        u, v = surf.uv[i, 0], surf.uv[i, 1]
+        if smooth and code[tri] == GOURAUD:
+            r, g, b = gouraud1((tri, u, v, s), (eye[i, 0], eye[i, 1], eye[i, 2]), triangles,
+                               (em, hit_key, depth), kd, ks, shininess[m], highlight[m])
         else:
-            nx, ny, nz = shading[i, 0] * s, shading[i, 1] * s, shading[i, 2] * s
-            r, g, b = direct1(nx, ny, nz, lx, ly, lz, -dx, -dy, -dz, kd, ks, shininess[m],
+            normal = (shading[i, 0] * s, shading[i, 1] * s, shading[i, 2] * s)
+            r, g, b = direct1(normal, (lx, ly, lz), (-dx, -dy, -dz), kd, ks, shininess[m],
                               highlight[m])
             r, g, b = r * f, g * f, b * f
         term[i, 0], term[i, 1], term[i, 2] = r, g, b
         if not (r > 0.0 or g > 0.0 or b > 0.0):
             continue
         if smooth:
-            px, py, pz = bulge1(px, py, pz, tri, uv[i, 0], uv[i, 1], s, corners, vnormals)
+            px, py, pz = bulge1((px, py, pz), tri, u, v, s, triangles)
         s_origin[k, 0], s_origin[k, 1], s_origin[k, 2] = leave1(px, py, pz, gx, gy, gz,
-                                                               offset[i], lx, ly, lz)
+                                                               surf.offset[i], lx, ly, lz)
         s_direction[k, 0], s_direction[k, 1], s_direction[k, 2] = lx, ly, lz
         s_tmax[k] = d * keep
-        s_shape[k] = shape[i]
+        s_shape[k] = surf.shape[i]
         rows[k] = i
         k += 1
     return k
@@ -300,11 +327,13 @@ def add_unblocked(out, rows, term, blocked, color):
 
 
 @kernel
-def crossing_rays(t, shape, triangle, uv, origin, direction, tmax, live):
+def crossing_rays(hits, origin, direction, tmax, live):
     """The walking shadow rays that hit a surface before the light (finite ``t``), in row
     order: their hits (``t``, ``shape``, ``triangle``, ``uv``), ``origin``, ``direction``,
     ``tmax`` and ``live`` (the row of the shadow factor each one multiplies), as a tuple of
-    new arrays (one pass for what was eight numpy gathers)."""
+    new arrays (one pass for what was eight numpy gathers). ``hits``: a
+    :class:`raytrace.records.Hits`."""
+    t, shape, triangle, uv = hits
     n = 0
     for i in range(t.shape[0]):
         if math.isfinite(t[i]):
@@ -326,14 +355,17 @@ def crossing_rays(t, shape, triangle, uv, origin, direction, tmax, live):
 
 
 @kernel
-def cross_surfaces(factor, live, material, point, geometric, offset, shape, direction, t, tmax,
-                   origin, materials):
-    """Transparent shadow rays crossing the surfaces they hit (``material`` at ``point``):
+def cross_surfaces(factor, live, surf, walk, scene):
+    """Transparent shadow rays ``walk`` = (direction, t, tmax) crossing the surfaces they hit
+    (``surf``, a :class:`raytrace.records.Surface`):
     ``S *= t·kt + (1 − t)`` (seed 003, t the opacity) on row ``live[j]`` of ``factor``. Those
     that still let some channel through go on from the far side (:func:`leave1` along their
     ``direction``) for the rest of their ``tmax`` (minus the hit's ``t``): returns their
     (origin, direction, start shape, tmax, live) as new arrays."""
-    opacity = materials[6]
+    direction, t, tmax = walk
+    material, point, geometric = surf.material, surf.point, surf.geometric
+    origin, materials = scene.origin, scene.materials
+    opacity = materials.opacity
     n, on = live.shape[0], 0
     through = np.empty(n, np.bool_)
     for j in range(n):
@@ -354,22 +386,20 @@ def cross_surfaces(factor, live, material, point, geometric, offset, shape, dire
         dx, dy, dz = direction[j, 0], direction[j, 1], direction[j, 2]
         origin_out[k, 0], origin_out[k, 1], origin_out[k, 2] = leave1(
             point[j, 0], point[j, 1], point[j, 2], geometric[j, 0], geometric[j, 1],
-            geometric[j, 2], offset[j], dx, dy, dz)
+            geometric[j, 2], surf.offset[j], dx, dy, dz)
         direction_out[k, 0], direction_out[k, 1], direction_out[k, 2] = dx, dy, dz
-        shape_out[k], tmax_out[k], live_out[k] = shape[j], tmax[j] - t[j], live[j]
+        shape_out[k], tmax_out[k], live_out[k] = surf.shape[j], tmax[j] - t[j], live[j]
         k += 1
     return origin_out, direction_out, shape_out, tmax_out, live_out
 
 
 @kernel
-def hit_terms(direction, weight, geometric, shading, material, point, origin, materials,
-              ambient, lights, min_weight, samples, sample, r_dir, t_dir, w_r, w_t, w_s, status,
-              tir):
-    """What every hit adds to its sample and the children it spawns (Whitted 1980; seed 003's
-    opacity blend), with t the opacity and N_s, N_g the shading and geometric normals turned
-    to the viewer:
+def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
+    """What every hit of ``rays`` on ``surf`` adds to its sample and the children it spawns
+    (Whitted 1980; seed 003's opacity blend), with t the opacity and N_s, N_g the shading and
+    geometric normals turned to the viewer:
 
-    * ``w·t·(ka·Ia + lights)`` added to the hit's pixel sample, ``samples[sample[i]]``, one
+    * ``w·t·(ka·Ia + lights)`` added to row ``rows[i]`` of ``into`` = (samples, rows), one
       hit after another in batch order (as :func:`accumulate` adds); ``lights`` (n, 3) is
       Σ_l S_l·f_l·I_l·[…], or has no rows in a scene without lights;
     * reflected: ``reflect(d, N_s)`` with weight ``w·t·kr``; where the interpolated normal
@@ -390,22 +420,30 @@ def hit_terms(direction, weight, geometric, shading, material, point, origin, ma
     TIR one (``w·t·kt``, refracted column, along the mirror direction), each kept or pruned by
     its own path weight as the contract says: a merged ray would be pruned by the sum.
 
-    ``status`` (n, 3), columns reflected, refracted, see-through: NONE where the material has
-    no such child or its weight is 0, LIGHT where its largest channel is under ``min_weight``
-    (Hall & Greenberg 1983), else KEEP. ``tir`` is set on transmitting hits only.
+    The children's directions, weights, status and TIR flags are written into ``children``
+    (a :class:`raytrace.records.Children`): ``status`` (n, 3), columns reflected, refracted,
+    see-through: NONE where the material has no such child or its weight is 0, PRUNED where
+    its largest channel is under ``min_weight`` (Hall & Greenberg 1983), else KEEP. ``tir`` is
+    set on transmitting hits only.
     """
-    ior, opacity, reflects, transmits = materials[5], materials[6], materials[8], materials[9]
+    direction, weight = rays.direction, rays.weight
+    geometric, shading, material, point = surf.geometric, surf.shading, surf.material, surf.point
+    origin, materials = scene.origin, scene.materials
+    samples, sample = into
+    r_dir, t_dir, w_r, w_t, w_s, status, tir = children
+    ior, opacity = materials.ior, materials.opacity
+    reflects, transmits = materials.reflects, materials.transmits
     lit = lights.shape[0] > 0
     for i in range(direction.shape[0]):
         m = material[i]
-        t = opacity[m]
+        op = opacity[m]
         wx, wy, wz = point[i, 0] + origin[0], point[i, 1] + origin[1], point[i, 2] + origin[2]
         ka = color1(materials, m, KA, wx, wy, wz)
         for c in range(3):
             here = ambient[c] * ka[c]
             if lit:
                 here += lights[i, c]
-            samples[sample[i], c] += weight[i, c] * (t * here)
+            samples[sample[i], c] += weight[i, c] * (op * here)
         status[i, 0] = status[i, 1] = status[i, 2] = NONE
         tir[i] = False
         dx, dy, dz = direction[i, 0], direction[i, 1], direction[i, 2]
@@ -420,7 +458,7 @@ def hit_terms(direction, weight, geometric, shading, material, point, origin, ma
             r_dir[i, 0], r_dir[i, 1], r_dir[i, 2] = rx, ry, rz
             kr = color1(materials, m, KR, wx, wy, wz)
             for c in range(3):
-                w_r[i, c] = weight[i, c] * t * kr[c]
+                w_r[i, c] = weight[i, c] * op * kr[c]
             status[i, 0] = _status((w_r[i, 0], w_r[i, 1], w_r[i, 2]), min_weight)
         if transmits[m]:
             eta = 1.0 / ior[m] if dx * gx + dy * gy + dz * gz < 0.0 else ior[m]
@@ -432,24 +470,24 @@ def hit_terms(direction, weight, geometric, shading, material, point, origin, ma
             tir[i] = total
             kt = color1(materials, m, KT, wx, wy, wz)
             for c in range(3):
-                w_t[i, c] = weight[i, c] * t * kt[c]
+                w_t[i, c] = weight[i, c] * op * kt[c]
             if (total and not min_weight > 0.0 and reflects[m] and status[i, 0] != NONE
                     and tx == r_dir[i, 0] and ty == r_dir[i, 1]
                     and tz == r_dir[i, 2]):  # one path, one ray (no weight pruning)
                 for c in range(3):
-                    w_r[i, c] = weight[i, c] * t * (kr[c] + kt[c])
+                    w_r[i, c] = weight[i, c] * op * (kr[c] + kt[c])
                     w_t[i, c] = 0.0
                 status[i, 0] = _status((w_r[i, 0], w_r[i, 1], w_r[i, 2]), min_weight)
             status[i, 1] = _status((w_t[i, 0], w_t[i, 1], w_t[i, 2]), min_weight)
-        if t < 1.0:
+        if op < 1.0:
             for c in range(3):
-                w_s[i, c] = weight[i, c] * (1.0 - t)
+                w_s[i, c] = weight[i, c] * (1.0 - op)
             status[i, 2] = _status((w_s[i, 0], w_s[i, 1], w_s[i, 2]), min_weight)
 
 
 @kernel
 def _status(w, min_weight):
-    """NONE, LIGHT or KEEP for a child of weight ``w`` (3,) (its largest channel, NaN
+    """NONE, PRUNED or KEEP for a child of weight ``w`` (3,) (its largest channel, NaN
     propagating like numpy's max). ``w`` is a tuple: a row of an array would cost a
     reference count per call."""
     big = w[0]
@@ -458,7 +496,7 @@ def _status(w, min_weight):
             big = w[c]
     if not big > 0.0:
         return NONE
-    return LIGHT if big < min_weight else KEEP
+    return PRUNED if big < min_weight else KEEP
 
 
 @kernel
@@ -473,16 +511,22 @@ def count_keep(status):
 
 
 @kernel
-def spawn_children(status, first, r_dir, t_dir, s_dir, w_r, w_t, w_s, point, geometric,
-                   offset, shape, sample, kinds, origin, direction, weight, child_sample,
-                   child_shape, kind, parent):
+def spawn_children(children, parents, surf, first, kinds, out):
     """The children of a batch of hits: every child whose ``status`` (n, 3) is KEEP, column
-    c's (reflected, refracted, see-through: directions ``r_dir``, ``t_dir``, ``s_dir``,
-    weights ``w_r``, ``w_t``, ``w_s``, kind ``kinds[c]``) in hit order from row ``first[c]``
-    of the outputs on; the integrator sets ``first`` from :func:`count_keep`'s prefix sums,
-    so the batch is allocated once, all reflected children first. Writes origin
-    (:func:`leave1` from the hit along the child's direction), direction, weight, sample,
-    start shape, kind and the row of each child's parent hit."""
+    c's (reflected, refracted, see-through: directions ``r_dir``, ``t_dir`` and the parent's
+    own, weights ``w_r``, ``w_t``, ``w_s`` of ``children``, a
+    :class:`raytrace.records.Children`; kind ``kinds[c]``) in hit order from row ``first[c]``
+    of ``out`` (a :class:`raytrace.records.Spawned`) on; the integrator sets ``first`` from
+    :func:`count_keep`'s prefix sums, so the batch is allocated once, all reflected children
+    first. Writes origin (:func:`leave1` from the hit of ``surf`` along the child's
+    direction), direction, weight, sample (the parent's, of ``parents``, a
+    :class:`raytrace.records.Rays`), start shape, kind and the row of each child's parent
+    hit."""
+    r_dir, t_dir, w_r, w_t, w_s, status = (children.r_dir, children.t_dir, children.w_r,
+                                           children.w_t, children.w_s, children.status)
+    s_dir, sample = parents.direction, parents.sample
+    point, geometric, offset, shape = surf.point, surf.geometric, surf.offset, surf.shape
+    origin, direction, weight, child_sample, child_shape, kind, parent = out
     for c in range(3):
         d = r_dir if c == 0 else (t_dir if c == 1 else s_dir)
         w = w_r if c == 0 else (w_t if c == 1 else w_s)
@@ -518,15 +562,21 @@ def accumulate(samples, sample, weight, factor, rows):
 
 # -- AOVs: the camera rays' first hits (raytrace.aov) ---------------------------------------------
 @kernel
-def aov_hits(sample, t, direction, geometric, shading, material, point, origin, materials,
-             shape, triangle, shape_object, geom_first, geom_object, depth, normal, albedo,
-             ident):
-    """The AOVs of camera-ray hits into their samples' rows (``sample[i]``): ``depth`` the
+def aov_hits(rays, t, surf, scene, objects, aovs):
+    """The AOVs of camera-ray hits (``rays``, their distances ``t`` and ``surf``) into their
+    samples' rows (``sample[i]``) of ``aovs`` = (depth, normal, albedo, ident): ``depth`` the
     distance ``t``, ``normal`` the shading normal turned to face the ray (as the shading uses
     it: :func:`facing1`), ``albedo`` kd at the world point (:func:`color1`), ``ident`` the
     object's index in the scene (``shape_object`` of an analytic shape; a triangle's mesh is
-    the last ``geom_first`` at or before it, ``geom_object`` of that). An output with no rows
-    is not asked for and costs nothing."""
+    the last ``geom_first`` at or before it, ``geom_object`` of that; ``objects`` =
+    (shape_object, geom_object)). An output with no rows is not asked for and costs
+    nothing."""
+    sample, direction = rays.sample, rays.direction
+    geometric, shading, material, point = surf.geometric, surf.shading, surf.material, surf.point
+    shape, triangle = surf.shape, surf.triangle
+    origin, materials, geom_first = scene.origin, scene.materials, scene.triangles.geom_first
+    shape_object, geom_object = objects
+    depth, normal, albedo, ident = aovs
     for i in range(sample.shape[0]):
         s = sample[i]
         if depth.shape[0]:
@@ -550,12 +600,14 @@ def aov_hits(sample, t, direction, geometric, shading, material, point, origin, 
 
 
 @kernel
-def aov_pixels(pixels, spp, depth, normal, albedo, ident, depth_px, normal_px, albedo_px,
-               ident_px):
-    """``pixels`` pixels, pixel j of samples ``j·spp … j·spp + spp − 1``: depth and id of the
+def aov_pixels(pixels, spp, samples, out):
+    """``pixels`` pixels, pixel j of samples ``j·spp … j·spp + spp − 1`` of ``samples`` =
+    (depth, normal, albedo, ident), into ``out`` (the same, per pixel): depth and id of the
     nearest sample (the smallest ``depth``, the first on ties), normal and albedo the mean of
-    the samples. An output (``…_px``) with no rows is not asked for; ``depth`` has rows
-    whenever depth or id is asked for."""
+    the samples. An output with no rows is not asked for; ``depth`` has rows whenever depth
+    or id is asked for."""
+    depth, normal, albedo, ident = samples
+    depth_px, normal_px, albedo_px, ident_px = out
     for j in range(pixels):
         first = j * spp
         if depth.shape[0]:
@@ -601,7 +653,7 @@ def incidence_rows(points, em, key, depth, to_light, dist, factor):
     cell centre)."""
     keyed = key.shape[0] > 0
     for i in range(points.shape[0]):
-        lx, ly, lz, dist[i], factor[i] = incidence1(points[i, 0], points[i, 1], points[i, 2],
+        lx, ly, lz, dist[i], factor[i] = incidence1((points[i, 0], points[i, 1], points[i, 2]),
                                                     em, key[i] if keyed else -1, depth)
         to_light[i, 0], to_light[i, 1], to_light[i, 2] = lx, ly, lz
 
@@ -609,21 +661,21 @@ def incidence_rows(points, em, key, depth, to_light, dist, factor):
 @kernel
 def cosine_power_rows(a, b, n, out):
     for i in range(a.shape[0]):
-        out[i] = cosine_power1(a[i, 0], a[i, 1], a[i, 2], b[i, 0], b[i, 1], b[i, 2], n[i])
+        out[i] = cosine_power1((a[i, 0], a[i, 1], a[i, 2]), (b[i, 0], b[i, 1], b[i, 2]), n[i])
 
 
 @kernel
 def highlight_rows(model, normal, to_light, to_eye, n, out):
     for i in range(normal.shape[0]):
-        out[i] = highlight1(model, normal[i, 0], normal[i, 1], normal[i, 2], to_light[i, 0],
-                            to_light[i, 1], to_light[i, 2], to_eye[i, 0], to_eye[i, 1],
-                            to_eye[i, 2], n[i])
+        out[i] = highlight1(model, (normal[i, 0], normal[i, 1], normal[i, 2]),
+                            (to_light[i, 0], to_light[i, 1], to_light[i, 2]),
+                            (to_eye[i, 0], to_eye[i, 1], to_eye[i, 2]), n[i])
 
 
 @kernel
 def direct_rows(normal, to_light, to_eye, kd, ks, n, model, out):
     for i in range(normal.shape[0]):
         out[i, 0], out[i, 1], out[i, 2] = direct1(
-            normal[i, 0], normal[i, 1], normal[i, 2], to_light[i, 0], to_light[i, 1],
-            to_light[i, 2], to_eye[i, 0], to_eye[i, 1], to_eye[i, 2], kd[i], ks[i], n[i],
-            model[i])
+            (normal[i, 0], normal[i, 1], normal[i, 2]),
+            (to_light[i, 0], to_light[i, 1], to_light[i, 2]),
+            (to_eye[i, 0], to_eye[i, 1], to_eye[i, 2]), kd[i], ks[i], n[i], model[i])

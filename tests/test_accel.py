@@ -218,8 +218,7 @@ def test_no_self_hits(kind, scale, shift):
     hits = acc.intersect(np.zeros((n, 3)), d, np.full(n, NO_SHAPE))
     h = hits.hit
     assert h.sum() > 2000                    # thousands of spawned rays per case
-    for name in ("t", "shape", "triangle", "uv"):
-        setattr(hits, name, getattr(hits, name)[h])
+    hits = type(hits)(*(column[h] for column in hits))
     d = d[h]
     surf = acc.surface(hits, np.zeros((len(d), 3)), d)
     facing = surf.geometric * np.where(np.einsum("ij,ij->i", surf.geometric, d) < 0, 1.0,

@@ -735,6 +735,6 @@ def test_smooth_mesh_terminator_is_not_self_shadowed():
     # Control: the same render starting shadow rays from the flat facet shows the artefact,
     # so the test above can fail.
     flat = WhittedIntegrator(scene, RenderOptions(w, h, 1, 0, 0.0, np.zeros(3), 0))
-    corners, vnormals, code = flat.smooth_table
-    flat.smooth_table = (corners, vnormals, np.zeros_like(code))
+    tri = flat.tables.triangles
+    flat.tables = flat.tables._replace(triangles=tri._replace(shading=np.zeros_like(tri.shading)))
     assert (lit & (flat.render().rgb[..., 0] < 0.02)).sum() > 10

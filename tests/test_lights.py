@@ -128,7 +128,7 @@ def _jittered_cells(samples=9, seed=3):
 
 def _sample_point(em, key: int, depth: int = 0) -> np.ndarray:
     """Where a shading point at the origin samples the emitter: P + L·d."""
-    lx, ly, lz, d, _ = K.incidence1(0.0, 0.0, 0.0, em.packed, key, depth)
+    lx, ly, lz, d, _ = K.incidence1((0.0, 0.0, 0.0), em.record, key, depth)
     return np.array([lx, ly, lz]) * d
 
 

@@ -217,6 +217,14 @@ def _patch(bend: float):
     return corners, normals
 
 
+def _triangles(corners: np.ndarray, vnormals: np.ndarray):
+    """One triangle's tables as the kernels take them (only corners and normals matter)."""
+    from raytrace.records import Triangles
+
+    return Triangles(np.zeros(1, np.int64), corners, np.zeros((1, 3)), vnormals,
+                     np.ones(1, np.int8), np.zeros(1, np.int64), np.zeros(1))
+
+
 def test_lifted_origin_rises_on_a_convex_patch_and_stays_on_a_concave_one():
     from raytrace.shading_kernels import bulge1
 
@@ -228,21 +236,23 @@ def test_lifted_origin_rises_on_a_convex_patch_and_stays_on_a_concave_one():
     w = np.array([1 - u - v, u, v])
     expected = sum(w[k] * (p - min(0.0, normals[0, k] @ (p - corners[0, k])) * normals[0, k])
                    for k in range(3))
-    got = np.array(bulge1(*p, 0, u, v, 1.0, corners, normals))
+    p3 = tuple(p)
+    got = np.array(bulge1(p3, 0, u, v, 1.0, _triangles(corners, normals)))
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-15)
     assert got[2] > 1e-3                                   # lifted off the flat facet
     # seen from the other side (side −1) the same patch is concave: no lift
-    np.testing.assert_array_equal(bulge1(*p, 0, u, v, -1.0, corners, normals), p)
+    np.testing.assert_array_equal(bulge1(p3, 0, u, v, -1.0, _triangles(corners, normals)), p)
     # a concave patch (normals leaning inward) seen from the front: no lift either
     corners, inward = _patch(-0.5)
-    np.testing.assert_array_equal(bulge1(*p, 0, u, v, 1.0, corners, inward), p)
+    np.testing.assert_array_equal(bulge1(p3, 0, u, v, 1.0, _triangles(corners, inward)), p)
     # flat normals: nothing to lift
     corners, flat = _patch(0.0)
-    np.testing.assert_allclose(bulge1(*p, 0, u, v, 1.0, corners, flat), p, atol=1e-15)
+    np.testing.assert_allclose(bulge1(p3, 0, u, v, 1.0, _triangles(corners, flat)), p,
+                               atol=1e-15)
     # at a vertex the point is that vertex (its own tangent plane passes through it)
     corners, normals = _patch(0.5)
-    np.testing.assert_allclose(bulge1(*corners[0, 1], 0, 1.0, 0.0, 1.0, corners, normals),
-                               corners[0, 1], atol=1e-15)
+    np.testing.assert_allclose(bulge1(tuple(corners[0, 1]), 0, 1.0, 0.0, 1.0,
+                                      _triangles(corners, normals)), corners[0, 1], atol=1e-15)
 
 
 # -- one emitter's pass over the hits (shading_kernels.light_pass) ---------------------------
@@ -251,9 +261,10 @@ def test_light_pass_terms_and_the_shadow_rays_of_the_lit_hits_only():
     f = 1/(1 + 0.5·d²): a lit matte hit, an unlit material, a hit on a Gouraud triangle whose
     corners see the light at their own angles, and a hit seen from below (the light is then
     behind the surface the viewer sees). Only the lit ones get a shadow ray, in hit order."""
-    from raytrace.integrator import MaterialTable
     from raytrace.lights import Emitter
+    from raytrace.records import Rays, Scene, Shadows, Surface, Triangles
     from raytrace.shading_kernels import light_pass
+    from raytrace.tables import MaterialTable
 
     kd = np.array([0.5, 0.25, 1.0])
     table = MaterialTable([raytrace.Material(kd=kd, ks=0.0),
@@ -262,7 +273,8 @@ def test_light_pass_terms_and_the_shadow_rays_of_the_lit_hits_only():
                  attenuation=np.array([1.0, 0.0, 0.5]))
     corners = np.array([[[-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 0.0, -1.0]]])
     vnormals = np.array([[[0.0, 1.0, 0.0]] * 3])
-    mesh = (corners, vnormals, np.array([2], np.int8))            # one Gouraud triangle
+    triangles = Triangles(np.zeros(1, np.int64), corners, np.array([[0.0, 1.0, 0.0]]), vnormals,
+                          np.array([2], np.int8), np.zeros(1, np.int64), np.zeros(1))  # Gouraud
     point = np.array([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 1.0 / 3.0],
                       [0.5, 0.0, 0.5]])
     up = np.tile([0.0, 1.0, 0.0], (4, 1))
@@ -277,10 +289,12 @@ def test_light_pass_terms_and_the_shadow_rays_of_the_lit_hits_only():
     term, rows = np.empty((n, 3)), np.empty(n, np.int64)
     s_origin, s_direction = np.empty((n, 3)), np.empty((n, 3))
     s_tmax, s_shape = np.empty(n), np.empty(n, np.int64)
-    shorten = 1e-7
-    k = light_pass(point, up, up, direction, eye, material, offset, shape, triangle, uv,
-                   np.zeros(3), table.arrays, mesh, em.packed, np.zeros(0, np.int64), 0,
-                   shorten, term, (rows, s_origin, s_direction, s_tmax, s_shape))
+    from raytrace.core import SHADOW_SHORTEN as shorten
+    rays = Rays(eye, direction, np.arange(n), np.ones((n, 3)), shape, np.zeros(n, np.int8))
+    surf = Surface(point, up, up, material, offset, shape, triangle, uv)
+    k = light_pass(rays, surf, Scene(np.zeros(3), table.record, triangles), em.record,
+                   np.zeros(0, np.int64), 0, term, Shadows(rows, s_origin, s_direction, s_tmax,
+                                                           s_shape))
 
     def lambert(p, normal):
         to_light = np.array([0.0, 4.0, 0.0]) - p

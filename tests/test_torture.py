@@ -647,20 +647,19 @@ def test_shading_normals_never_send_rays_into_the_surface(monkeypatch):
                   objects=[Mesh(mesh=ico, shading="smooth", material=mat)],
                   render=RenderSettings(background=1.0, max_depth=1))
     seen = []
-    spawn = WhittedIntegrator._spawn
 
-    def spy(self, parents, surf, status, directions, weights):
-        children, parent = spawn(self, parents, surf, status, directions, weights)
-        if parents.depth == 0:  # children of camera rays
-            for kind in (REFLECTION, REFRACTION):
-                mine = children.kind == kind
-                m = parent[mine]
-                seen.append((kind, parents.direction[m].copy(), surf.geometric[m].copy(),
-                             surf.shading[m].copy(), children.direction[mine].copy()))
-        return children, parent
+    class Spy(SpawnObserver):
+        def spawned(self, children, parent):
+            parents, surf = self.batch
+            if parents.depth == 0:  # children of camera rays
+                for kind in (REFLECTION, REFRACTION):
+                    mine = children.kind == kind
+                    m = parent[mine]
+                    seen.append((kind, parents.direction[m].copy(), surf.geometric[m].copy(),
+                                 surf.shading[m].copy(), children.direction[mine].copy()))
 
-    monkeypatch.setattr(WhittedIntegrator, "_spawn", spy)
-    render_checked(scene, width=64, height=64)
+    monkeypatch.setattr(WhittedIntegrator, "observer", Spy())
+    render_checked(scene, width=64, height=64, threads=1)
     refl = [s for s in seen if s[0] == REFLECTION]
     refr = [s for s in seen if s[0] == REFRACTION]
     d, ng, ns, r = (np.concatenate([s[i] for s in refl]) for i in range(1, 5))
@@ -809,18 +808,42 @@ def test_shipped_scene_renders_without_nonfinite_pixels(path):
 
 
 # -- smooth-mesh refraction and spawned directions (issue 19) --------------------------------
+class SpawnObserver:
+    """An integrator observer (``WhittedIntegrator.observer``, the hook ``raytrace explain``
+    uses) that keeps the batch being shaded and ignores everything else; subclasses look at
+    the children in :meth:`spawned`. One thread only: render with ``threads=1``."""
+
+    batch = None
+
+    def traced(self, rays, found, missed, background):
+        pass
+
+    def hits(self, rays, hits, surf):
+        self.batch = (rays, surf)
+
+    def light(self, emitter, term, rows):
+        pass
+
+    def shadow(self, factor):
+        pass
+
+    def shaded(self, terms, status, weights, tir, last):
+        pass
+
+    def spawned(self, children, parent):
+        pass
+
+
 def spawned_directions(monkeypatch, scene: Scene, **kw) -> list[np.ndarray]:
     """Render ``scene`` and return the directions of every batch of spawned children."""
     seen = []
-    spawn = WhittedIntegrator._spawn
 
-    def spy(self, parents, surf, status, directions, weights):
-        children, parent = spawn(self, parents, surf, status, directions, weights)
-        seen.append(children.direction.copy())
-        return children, parent
+    class Spy(SpawnObserver):
+        def spawned(self, children, parent):
+            seen.append(children.direction.copy())
 
-    monkeypatch.setattr(WhittedIntegrator, "_spawn", spy)
-    render_checked(scene, **kw)
+    monkeypatch.setattr(WhittedIntegrator, "observer", Spy())
+    render_checked(scene, threads=1, **kw)
     return seen
 
 

@@ -1,0 +1,161 @@
+"""The named records that cross into the compiled kernels (pbrt-v4's ``workitems.soa``).
+
+Every structure a kernel reads or writes is one of these typed named tuples of arrays (or,
+for an emitter, of floats): a kernel takes a few records, reads fields by name, and a new
+property is one field in one place. numba compiles named tuples like tuples (fields by
+value, attribute access resolved at compile time), so they cost nothing over positional
+arguments.
+
+==================  ==================================================================
+record              what it holds (n rays or hits, M materials, T triangles)
+==================  ==================================================================
+:class:`Rays`       a batch's columns (``raytrace.rays.RayBatch.record``)
+:class:`Hits`       closest hits (``raytrace.accel.Hits`` is this)
+:class:`Surface`    what shading needs at the hits (``raytrace.accel.Surface`` is this)
+:class:`Materials`  the material table (``raytrace.tables.MaterialTable.record``)
+:class:`Triangles`  the float64 triangle tables (``raytrace.accel.Accelerator.triangles``)
+:class:`Scene`      what every shading kernel needs of the scene: camera position,
+                    materials, triangles
+:class:`Emitter`    one point-like light sample, 19 floats (``raytrace.lights.Emitter.record``)
+:class:`Shadows`    the shadow rays a light pass spawns
+:class:`Children`   each hit's reflected, refracted and see-through children
+:class:`Spawned`    the next depth's batch as :func:`raytrace.shading_kernels.spawn_children`
+                    writes it
+==================  ==================================================================
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+
+class Rays(NamedTuple):
+    """A batch of ``n`` rays (camera-relative)."""
+
+    origin: np.ndarray        #: (n, 3) float64
+    direction: np.ndarray     #: (n, 3) float64, unit
+    sample: np.ndarray        #: (n,) int64, the pixel sample within the pass
+    weight: np.ndarray        #: (n, 3) float64, the product of the factors along the path
+    origin_shape: np.ndarray  #: (n,) int64, the analytic shape it starts on, or NO_SHAPE
+    kind: np.ndarray          #: (n,) int8, rays.CAMERA, REFLECTION, …
+
+
+class Hits(NamedTuple):
+    """Closest hits of a batch of ``n`` rays."""
+
+    t: np.ndarray         #: (n,) float64 distance along the unit direction; inf on a miss
+    shape: np.ndarray     #: (n,) int64 analytic shape index, or NO_SHAPE
+    triangle: np.ndarray  #: (n,) int64 global triangle index, or −1
+    uv: np.ndarray        #: (n, 2) float64 barycentrics of vertices 1 and 2
+
+    @property
+    def hit(self) -> np.ndarray:
+        return np.isfinite(self.t)
+
+
+class Surface(NamedTuple):
+    """What the shading needs at ``n`` hit points (float64, camera-relative)."""
+
+    point: np.ndarray      #: (n, 3)
+    geometric: np.ndarray  #: (n, 3) unit outward normal
+    shading: np.ndarray    #: (n, 3) unit shading normal, on the side of ``geometric``
+    material: np.ndarray   #: (n,) int64 row of the material table
+    offset: np.ndarray     #: (n,) spawn offset (0 for analytic shapes)
+    shape: np.ndarray      #: (n,) int64 analytic shape, or NO_SHAPE
+    triangle: np.ndarray   #: (n,) int64, or −1
+    uv: np.ndarray         #: (n, 2) barycentrics
+
+
+class Materials(NamedTuple):
+    """The material table, indexed by ``Surface.material``."""
+
+    colors: np.ndarray     #: (M, 15) constant colours ka kd ks kr kt, three columns each
+    pattern: np.ndarray    #: (M, 5) int64 row of ``checkers`` per colour, or −1 (constant)
+    checkers: np.ndarray   #: (P, 7) colour 0, colour 1, scale
+    shininess: np.ndarray  #: (M,) highlight exponent n
+    highlight: np.ndarray  #: (M,) int64 PHONG or BLINN
+    ior: np.ndarray        #: (M,) relative index of refraction
+    opacity: np.ndarray    #: (M,) t of the seeds' blend
+    lit: np.ndarray        #: (M,) bool: takes direct light (kd or ks not zero)
+    reflects: np.ndarray   #: (M,) bool: kr not zero
+    transmits: np.ndarray  #: (M,) bool: kt not zero
+
+
+class Triangles(NamedTuple):
+    """The float64 triangle tables, T triangles in Embree's geomID order."""
+
+    geom_first: np.ndarray  #: (G,) int64 first triangle of each mesh (geomID)
+    corners: np.ndarray     #: (T, 3, 3) camera-relative corners
+    normal: np.ndarray      #: (T, 3) unit face normal (counter-clockwise winding)
+    vnormals: np.ndarray    #: (T, 3, 3) unit vertex normals at the corners
+    shading: np.ndarray     #: (T,) int8 core.FLAT, SMOOTH or GOURAUD
+    material: np.ndarray    #: (T,) int64 row of the material table
+    band: np.ndarray        #: (T,) float32 error band (accel_kernels.triangle_tables)
+
+
+class Scene(NamedTuple):
+    """What the shading kernels need of the scene."""
+
+    origin: np.ndarray       #: (3,) the camera position: world = camera-relative + origin
+    materials: Materials
+    triangles: Triangles
+
+
+class Emitter(NamedTuple):
+    """One point-like light sample (camera-relative), passed by value."""
+
+    kind: float      #: shading_kernels.POINT, SPOT or DIRECTIONAL
+    px: float        #: position (unused for a directional light)
+    py: float
+    pz: float
+    dx: float        #: the spot's axis, or the way a directional light travels
+    dy: float
+    dz: float
+    a0: float        #: radial attenuation 1/(a0 + a1·d + a2·d²)
+    a1: float
+    a2: float
+    cos_cutoff: float  #: cos θ of a spot's cone
+    exponent: float    #: a in (cos α)^a
+    ux: float        #: a jittered area-light cell's edges
+    uy: float
+    uz: float
+    vx: float
+    vy: float
+    vz: float
+    stream: float    #: ≥ 0: a jittered cell's hash stream (exact below 2⁵²); −1 otherwise
+
+
+class Shadows(NamedTuple):
+    """Shadow rays of the hits a light pass lights, in hit order (the first k rows)."""
+
+    rows: np.ndarray       #: (n,) int64 the hit each one decides
+    origin: np.ndarray     #: (n, 3)
+    direction: np.ndarray  #: (n, 3) unit, towards the light
+    tmax: np.ndarray       #: (n,) where it stops, a little short of the light
+    shape: np.ndarray      #: (n,) int64 the analytic shape it starts on, or NO_SHAPE
+
+
+class Children(NamedTuple):
+    """Each hit's children: reflected, refracted (or TIR), see-through."""
+
+    r_dir: np.ndarray   #: (n, 3) reflected direction
+    t_dir: np.ndarray   #: (n, 3) refracted direction (the mirror one under TIR)
+    w_r: np.ndarray     #: (n, 3) weights
+    w_t: np.ndarray
+    w_s: np.ndarray
+    status: np.ndarray  #: (n, 3) int8 shading_kernels.NONE, PRUNED or KEEP per child
+    tir: np.ndarray     #: (n,) bool total internal reflection
+
+
+class Spawned(NamedTuple):
+    """The next depth's rays as they are written, and each one's parent hit."""
+
+    origin: np.ndarray
+    direction: np.ndarray
+    weight: np.ndarray
+    sample: np.ndarray
+    shape: np.ndarray
+    kind: np.ndarray
+    parent: np.ndarray  #: (k,) int64 row of the parent hit
