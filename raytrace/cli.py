@@ -18,12 +18,15 @@ import json
 import os
 import sys
 import time
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from .errors import SceneError
+from . import __version__
+from .errors import RenderWarning, SceneError
+from .outputs import Outputs
 
 EXIT_BAD_INPUT = 2
 EXIT_OVER_THRESHOLD = 1
@@ -40,6 +43,7 @@ def _parser() -> argparse.ArgumentParser:
     from .film import EXR_COMPRESSIONS
 
     p = _Parser(prog="raytrace", description="A Whitted ray tracer on Embree.")
+    p.add_argument("--version", action="version", version=f"raytrace {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("render", help="render a scene file to a float EXR")
@@ -53,7 +57,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int)
     r.add_argument("--threads", type=int, default=os.cpu_count() or 1,
                    help="worker threads (default: all cores)")
-    r.add_argument("--png", help="also write a tone-mapped sRGB PNG preview")
+    r.add_argument("--png", help="also write a tone-mapped sRGB PNG preview (.png)")
     r.add_argument("--exposure", type=float, default=0.0, help="preview exposure in stops")
     r.add_argument("--tonemap", default="clip", help="preview tone map: clip or reinhard")
     r.add_argument("--stats", help="write render statistics as JSON")
@@ -106,7 +110,8 @@ class Progress:
 def _render(args: argparse.Namespace) -> int:
     from . import integrator  # noqa: F401  (the renderer and numba: imported, not timed)
     from .film import TONEMAPS, exr_compression, write_exr, write_png
-    from .render import render
+    from .jit import cache_is_warm
+    from .render import check_memory, render, settings
     from .scene_file import load_scene
 
     if args.tonemap not in TONEMAPS:
@@ -116,45 +121,57 @@ def _render(args: argparse.Namespace) -> int:
         exr_compression(args.compression)
     except ValueError as e:
         raise SceneError(str(e), "--compression") from None
-    out = Path(args.output) if args.output else Path(Path(args.scene).stem + ".exr")
-    if out.suffix.lower() != ".exr":
-        raise SceneError(f"output must be an .exr file, got {str(out)!r}", "-o")
-    for flag, path in (("-o", out), ("--png", args.png), ("--stats", args.stats)):
-        if path and not Path(path).resolve().parent.is_dir():
-            raise SceneError(f"folder does not exist: {Path(path).parent}", flag)
-        if path and Path(path).is_dir():  # found now, not after the render
-            raise SceneError(f"is a folder, not a file: {path}", flag)
+    outputs = args.outputs
+    # Every output is checked before the scene is read or anything rendered: its suffix, that
+    # it is no other output and no input, that its folder takes a new file (outputs.py).
+    exr = outputs.add(args.output or Path(args.scene).stem + ".exr", "-o", ".exr")
+    png = outputs.add(args.png, "--png", ".png") if args.png else None
+    stats_file = outputs.add(args.stats, "--stats") if args.stats else None
+    outputs.refuse_inputs([(args.scene, "the scene file")])
     t0 = time.perf_counter()
     scene = load_scene(args.scene)
     load_seconds = time.perf_counter() - t0
+    outputs.refuse_inputs(scene.input_files())
+    outputs.preflight()
     flags = {"width": "--width", "height": "--height", "spp": "--spp",
              "max_depth": "--max-depth", "min_weight": "--min-weight", "seed": "--seed",
              "threads": "--threads"}
     progress = Progress(not args.quiet)
     try:
-        image = render(scene, width=args.width, height=args.height, spp=args.spp,
-                       max_depth=args.max_depth, min_weight=args.min_weight, seed=args.seed,
-                       threads=args.threads, progress=progress)
+        s = settings(scene, width=args.width, height=args.height, spp=args.spp,
+                     max_depth=args.max_depth, min_weight=args.min_weight, seed=args.seed)
+        check_memory(s.width, s.height, ("exr", "png") if png else ("exr",))
+        if progress.enabled and not cache_is_warm():
+            sys.stderr.write("raytrace: compiling kernels, first run only (10-15 s)\n")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", RenderWarning)
+            image = render(scene, width=args.width, height=args.height, spp=args.spp,
+                           max_depth=args.max_depth, min_weight=args.min_weight,
+                           seed=args.seed, threads=args.threads, progress=progress)
     except SceneError as e:  # a flag's value: name the flag, not the scene key
         key = (e.key or "").removeprefix("render.")
         raise SceneError(e.problem, flags.get(key, e.key)) from None
+    for w in caught:  # ours as one line each, terminal or not; anything else as Python would
+        if issubclass(w.category, RenderWarning):
+            print(f"raytrace: warning: {w.message}", file=sys.stderr)
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     t1 = time.perf_counter()
-    write_exr(out, image.rgb, image.metadata, args.threads, args.compression)
-    args.written.append(str(out))
-    if args.png:
-        write_png(args.png, image.rgb, args.exposure, args.tonemap)
-        args.written.append(str(args.png))
+    with outputs.stage(exr) as tmp:
+        write_exr(tmp, image.rgb, image.metadata, args.threads, args.compression)
+    if png:
+        with outputs.stage(png) as tmp:
+            write_png(tmp, image.rgb, args.exposure, args.tonemap)
     stats = image.stats
     stats["seconds"]["load"] = load_seconds
     stats["seconds"]["write"] = time.perf_counter() - t1
     stats["seconds"]["total"] = time.perf_counter() - t0
-    stats["output"] = str(out)
-    if args.stats:
-        from .film import atomic_path
-
-        with atomic_path(args.stats, ".json") as tmp:
+    stats["output"] = exr.path
+    if stats_file:
+        with outputs.stage(stats_file) as tmp:
             tmp.write_text(json.dumps(stats, indent=2) + "\n")
-    progress.summary(args.written + ([args.stats] if args.stats else []), stats)
+    outputs.commit()  # the renames, only now that every output is complete
+    progress.summary(outputs.written, stats)
     return 0
 
 
@@ -202,26 +219,38 @@ def _materials(args: argparse.Namespace) -> int:
     return 0
 
 
+def _what_was_written(outputs: Outputs) -> str:
+    """Exactly which outputs were replaced and which were left as they were."""
+    done, left = outputs.written, outputs.not_written
+    if not done:
+        return "no output written" + (f" ({', '.join(left)} left as they were)" if left else "")
+    if not left:
+        return f"wrote {', '.join(done)} (every output)"
+    return f"wrote {', '.join(done)}; not written: {', '.join(left)} (left as they were)"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    args.written = []  # outputs complete so far (each is written atomically)
     handler = {"render": _render, "compare": _compare, "materials": _materials}[args.command]
-    try:
-        return handler(args)
-    except SceneError as e:
-        print(f"raytrace: error: {e}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except BrokenPipeError:  # e.g. `raytrace materials | head`
-        sys.stderr.close()
-        return 0
-    except KeyboardInterrupt:
-        end_bar = "\n" if sys.stderr.isatty() else ""  # leave the progress bar's line
-        done = f"wrote {', '.join(args.written)} only" if args.written else "no output written"
-        print(f"{end_bar}raytrace: interrupted; {done}", file=sys.stderr)
-        return 130
-    except OSError as e:  # e.g. no permission or no space left writing an output
-        print(f"raytrace: error: {e.filename or ''}: {e.strerror or e}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+    with Outputs() as args.outputs:  # all or nothing (outputs.py); temporary files removed
+        try:
+            return handler(args)
+        except SceneError as e:
+            print(f"raytrace: error: {e}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        except BrokenPipeError:  # e.g. `raytrace materials | head`
+            sys.stderr.close()
+            return 0
+        except KeyboardInterrupt:
+            end_bar = "\n" if sys.stderr.isatty() else ""  # leave the progress bar's line
+            print(f"{end_bar}raytrace: interrupted; {_what_was_written(args.outputs)}",
+                  file=sys.stderr)
+            return 130
+        except OSError as e:  # e.g. no permission or no space left writing an output
+            where = ": ".join(str(p) for p in (e.filename, getattr(e, "key", None)) if p)
+            partial = f" ({_what_was_written(args.outputs)})" if args.outputs.written else ""
+            print(f"raytrace: error: {where}: {e.strerror or e}{partial}", file=sys.stderr)
+            return EXIT_BAD_INPUT
 
 
 if __name__ == "__main__":

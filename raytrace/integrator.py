@@ -246,12 +246,16 @@ class WhittedIntegrator:
         t_passes = time.perf_counter() - t_start
         rgb = pixels.reshape(o.height, o.width, 3)
         bad = ~np.isfinite(rgb)
-        nonfinite = 0
+        nonfinite, first = 0, None
         if bad.any():
-            nonfinite = int(bad.any(axis=2).sum())
+            bad_pixels = bad.any(axis=2)
+            nonfinite = int(bad_pixels.sum())
+            y, x = np.unravel_index(int(np.argmax(bad_pixels)), bad_pixels.shape)
+            first = [int(x), int(y)]  # the first in reading order
             rgb[bad] = 0.0
         seconds = time.perf_counter() - t_start + self.build_seconds
-        return Image(rgb, self._stats(nonfinite, seconds, t_passes), self._metadata())
+        return Image(rgb, self._stats(nonfinite, first, seconds, t_passes),
+                     self._metadata(nonfinite))
 
     def _run(self, passes: list[tuple[int, int]], pixels: np.ndarray,
              progress: Callable[[int, int], None] | None, total: int) -> None:
@@ -481,7 +485,8 @@ class WhittedIntegrator:
         K.add_light(out, rows, term, factor, color)
 
     # -- reporting ---------------------------------------------------------------------------
-    def _stats(self, nonfinite: int, seconds: float, pass_wall: float) -> dict:
+    def _stats(self, nonfinite: int, first: list[int] | None, seconds: float,
+               pass_wall: float) -> dict:
         """The ``--stats`` dictionary. Counts are summed over the threads. ``trace`` and
         ``shade`` are wall seconds: the passes' wall time split in proportion to the thread
         time spent tracing and shading, so build + trace + shade ≤ total with any number of
@@ -496,7 +501,7 @@ class WhittedIntegrator:
             "rays": rays,
             "pruned": {"depth": st.pruned_depth, "weight": st.pruned_weight},
             "total_internal_reflections": st.total_internal_reflections,
-            "nonfinite_pixels": nonfinite,
+            "nonfinite_pixels": nonfinite, "nonfinite_first_pixel": first,  # [x, y] or None
             "degenerate_triangles": self.accel.degenerate,
             "triangles": self.accel.n_triangles,
             "seconds": {"build": self.build_seconds, "trace": st.trace_seconds * share,
@@ -505,11 +510,12 @@ class WhittedIntegrator:
             "min_weight": o.min_weight, "threads": o.threads,
         }
 
-    def _metadata(self) -> dict:
+    def _metadata(self, nonfinite: int) -> dict:
         o = self.opt
         return {"scene": self.scene.path or "<python>", "width": o.width, "height": o.height,
                 "spp": o.spp, "max_depth": o.max_depth, "min_weight": o.min_weight,
-                "seed": o.seed, "renderer": "raytrace (Whitted, Embree)"}
+                "seed": o.seed, "nonfinite_pixels": nonfinite,
+                "renderer": "raytrace (Whitted, Embree)"}
 
 
 def add(samples: np.ndarray, sample: np.ndarray, weight: np.ndarray, factor: np.ndarray,

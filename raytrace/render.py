@@ -1,14 +1,76 @@
-"""``raytrace.render``: one call from a :class:`~raytrace.scene.Scene` to an :class:`Image`."""
+"""``raytrace.render``: one call from a :class:`~raytrace.scene.Scene` to an :class:`Image`.
+
+Also the memory a render needs (:func:`peak_bytes`), checked against what the machine has
+before any work (:func:`check_memory`).
+"""
 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+import warnings
+from collections.abc import Callable, Iterable
 
 from . import values
-from .errors import SceneError
+from .errors import RenderWarning, SceneError
 from .film import Image
 from .scene import RenderSettings, Scene
+
+#: Peak resident memory of a render, measured (``ru_maxrss`` at 3000² and 6000² pixels, 2
+#: threads; docs/robustness.md, "Memory"): a fixed part (the interpreter, numba, Embree, a
+#: pass of rays per thread) plus bytes a pixel for the step that holds the most: the render
+#: (the float32 image and a mask), writing the EXR (the image and a contiguous copy of each
+#: channel), the PNG preview (the image and float64 copies while tone mapping).
+PEAK_BASE_BYTES = 256 * 2**20
+PEAK_BYTES_PER_PIXEL = {"render": 15, "exr": 25, "png": 183}
+
+
+def peak_bytes(width: int, height: int, steps: Iterable[str] = ()) -> int:
+    """Estimated peak memory of a ``width`` × ``height`` render followed by ``steps``
+    (``"exr"``, ``"png"``): the base plus the pixels times the largest step's bytes."""
+    per_pixel = max(PEAK_BYTES_PER_PIXEL[s] for s in ("render", *steps))
+    return PEAK_BASE_BYTES + per_pixel * width * height
+
+
+def available_bytes() -> int | None:
+    """Memory this machine can give now without swapping (psutil's ``available``, on Linux
+    the kernel's MemAvailable), or None where unknown."""
+    try:
+        import psutil
+
+        return int(psutil.virtual_memory().available)
+    except Exception:  # an unsupported platform: refuse nothing
+        return None
+
+
+def check_memory(width: int, height: int, steps: Iterable[str] = (),
+                 key: str = "render.width") -> None:
+    """Refuse, before any work, a render (and ``steps``) whose estimated peak
+    (:func:`peak_bytes`) is more than the memory available (:func:`available_bytes`)."""
+    steps = tuple(steps)
+    need, have = peak_bytes(width, height, steps), available_bytes()
+    if have is not None and need > have:
+        raise SceneError(f"{width}x{height} needs about {need / 1e9:.1f} GB of memory at its "
+                         f"peak (render{''.join(' + ' + s for s in steps)}), more than the "
+                         f"{have / 1e9:.1f} GB available on this machine", key)
+
+
+def settings(scene: Scene, *, width: int | None = None, height: int | None = None,
+             spp: int | None = None, max_depth: int | None = None,
+             min_weight: float | None = None, seed: int | None = None) -> RenderSettings:
+    """The scene's ``[render]`` settings with the given overrides, checked."""
+    if not isinstance(scene, Scene):
+        raise TypeError(f"render() needs a raytrace.Scene, got {type(scene).__name__}")
+    r = scene.render
+    try:
+        return RenderSettings(
+            width=r.width if width is None else width,
+            height=r.height if height is None else height,
+            spp=r.spp if spp is None else spp,
+            max_depth=r.max_depth if max_depth is None else max_depth,
+            min_weight=r.min_weight if min_weight is None else min_weight,
+            background=r.background, seed=r.seed if seed is None else seed)
+    except SceneError as e:
+        raise SceneError(e.problem, e.key, scene.path) from None
 
 
 def render(scene: Scene, *, width: int | None = None, height: int | None = None,
@@ -23,28 +85,39 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     command line; the image does not depend on it. ``pass_samples`` caps the camera samples
     per pass (default :data:`raytrace.integrator.PASS_SAMPLES`).
 
+    Every argument is checked before any work (a SceneError, or a TypeError for a
+    ``progress`` that is not callable), including the memory the image needs
+    (:func:`check_memory`). A scene without objects, and pixels that overflowed float32
+    (written as 0, counted in ``stats["nonfinite_pixels"]``), give a
+    :class:`~raytrace.errors.RenderWarning`.
+
     The integrator, and with it numba, is imported on the first call, so ``import raytrace``
     (loading and checking scenes, reading EXRs) does not pay for the compiler.
     """
     from .integrator import PASS_SAMPLES, RenderOptions, WhittedIntegrator
 
-    if not isinstance(scene, Scene):
-        raise TypeError(f"render() needs a raytrace.Scene, got {type(scene).__name__}")
-    r = scene.render
+    s = settings(scene, width=width, height=height, spp=spp, max_depth=max_depth,
+                 min_weight=min_weight, seed=seed)
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be a callable progress(done, total) or None, got "
+                        f"{type(progress).__name__}")
     try:
-        settings = RenderSettings(
-            width=r.width if width is None else width,
-            height=r.height if height is None else height,
-            spp=r.spp if spp is None else spp,
-            max_depth=r.max_depth if max_depth is None else max_depth,
-            min_weight=r.min_weight if min_weight is None else min_weight,
-            background=r.background, seed=r.seed if seed is None else seed)
         if threads is None:
             threads = os.cpu_count() or 1
         threads = values.number(threads, "threads", lo=1, hi=256, integer=True)
+        check_memory(s.width, s.height)
     except SceneError as e:
         raise SceneError(e.problem, e.key, scene.path) from None
-    options = RenderOptions(settings.width, settings.height, settings.spp, settings.max_depth,
-                            settings.min_weight, settings.background, settings.seed, threads,
-                            PASS_SAMPLES if pass_samples is None else pass_samples)
-    return WhittedIntegrator(scene, options).render(progress)
+    where = f"{scene.path}: " if scene.path else ""
+    if not scene.objects:
+        warnings.warn(f"{where}the scene has no objects: the image is the background",
+                      RenderWarning, stacklevel=2)
+    options = RenderOptions(s.width, s.height, s.spp, s.max_depth, s.min_weight, s.background,
+                            s.seed, threads, PASS_SAMPLES if pass_samples is None else pass_samples)
+    image = WhittedIntegrator(scene, options).render(progress)
+    bad = image.stats["nonfinite_pixels"]
+    if bad:
+        x, y = image.stats["nonfinite_first_pixel"]
+        warnings.warn(f"{where}{bad} pixel{'s' if bad > 1 else ''} overflowed to inf or NaN "
+                      f"(the first at x={x}, y={y}), written as 0", RenderWarning, stacklevel=2)
+    return image
