@@ -34,11 +34,11 @@ def peak_bytes(width: int, height: int, steps: Iterable[str] = ()) -> int:
 def available_bytes() -> int | None:
     """Memory this machine can give now without swapping (psutil's ``available``, on Linux
     the kernel's MemAvailable), or None where unknown."""
-    try:
-        import psutil
+    import psutil
 
+    try:
         return int(psutil.virtual_memory().available)
-    except Exception:  # an unsupported platform: refuse nothing
+    except (OSError, NotImplementedError, AttributeError):  # a platform psutil cannot read
         return None
 
 
