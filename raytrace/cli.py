@@ -142,7 +142,7 @@ def _render(args: argparse.Namespace) -> int:
                      max_depth=args.max_depth, min_weight=args.min_weight, seed=args.seed)
         check_memory(s.width, s.height, ("exr", "png") if png else ("exr",))
         if progress.enabled and not cache_is_warm():
-            sys.stderr.write("raytrace: compiling kernels, first run only (10-15 s)\n")
+            sys.stderr.write("raytrace: compiling kernels, first run only (about 15 s)\n")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", RenderWarning)
             image = render(scene, width=args.width, height=args.height, spp=args.spp,

@@ -270,6 +270,25 @@ material = "brass"
         raytrace.load_scene(write_text(tmp_path / "t.toml", '[materials.mine]\nbase = "mine"\n'))
 
 
+def test_the_documented_air_bubble_states_its_index_relative_to_the_glass():
+    # docs/scene_format.md says where `ior` is defined that it is relative to the medium
+    # outside, and its example of an air bubble in glass must follow that rule: 1.0 / 1.5.
+    import re
+    import textwrap
+
+    from raytrace.material import library
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "scene_format.md").read_text()
+    row = next(line for line in doc.splitlines() if line.startswith("| `ior` |"))
+    assert "Relative to the medium just outside the surface" in row
+    block = next(b for b in re.findall(r"```toml\n(.*?)```", doc, re.S)
+                 if "[materials.bubble]" in b)
+    scene = raytrace.scene_from_dict(tomllib.loads(textwrap.dedent(block)))
+    glass, bubble = (o.material for o in scene.objects)
+    assert glass is library["glass"]
+    assert bubble.ior == pytest.approx(1.0 / glass.ior, abs=1e-4)
+
+
 def test_light_and_object_defaults(tmp_path):
     scene = raytrace.load_scene(write_text(tmp_path / "d.toml", """
 [[lights]]
