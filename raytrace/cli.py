@@ -6,9 +6,12 @@
                           [--compression none|rle|zips|zip|piz|zstd] [--quiet]
     raytrace compare TEST.exr REFERENCE.exr [--metric rmse|mae|max|relmse] [--threshold T]
     raytrace materials
+    raytrace --version
 
 Bad input prints one line ``raytrace: error: FILE: KEY: problem`` and exits with status 2;
-``compare`` exits 1 when the difference is over the threshold.
+``compare`` exits 1 when the difference is over the threshold. ``render`` writes all of its
+outputs or none (:mod:`raytrace.outputs`); a render that completes but is probably not what
+was meant adds a line ``raytrace: warning: FILE: problem``.
 """
 
 from __future__ import annotations
@@ -122,8 +125,9 @@ def _render(args: argparse.Namespace) -> int:
     except ValueError as e:
         raise SceneError(str(e), "--compression") from None
     outputs = args.outputs
-    # Every output is checked before the scene is read or anything rendered: its suffix, that
-    # it is no other output and no input, that its folder takes a new file (outputs.py).
+    # Every output is checked before anything is rendered (outputs.py): its suffix and that it
+    # is no other output and not the scene file now; after loading, that it is no mesh or
+    # material file the scene reads and that its folder takes a new file.
     exr = outputs.add(args.output or Path(args.scene).stem + ".exr", "-o", ".exr")
     png = outputs.add(args.png, "--png", ".png") if args.png else None
     stats_file = outputs.add(args.stats, "--stats") if args.stats else None

@@ -125,12 +125,10 @@ def _no_replace_flags(path: Path) -> bool:
 def _mkstemp(target: Path) -> Path:
     """A new, empty temporary file beside ``target``, with the umask's permissions."""
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    try:
-        umask = os.umask(0)
-        os.umask(umask)
-        os.fchmod(fd, 0o666 & ~umask)  # mkstemp makes 0600; outputs follow the umask
-    finally:
-        os.close(fd)
+    os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; outputs follow the umask
     return Path(tmp)
 
 
