@@ -414,7 +414,8 @@ class Scene:
             if not isinstance(getattr(self, name), (list, tuple)):
                 raise SceneError(f"must be a list, got {values.type_name(getattr(self, name))}"
                                  f" (a single one goes in a list: {name}=[...])", name, self.path)
-            setattr(self, name, list(getattr(self, name)))
+            if isinstance(getattr(self, name), tuple):  # a list given stays the same object
+                setattr(self, name, list(getattr(self, name)))
         if not isinstance(self.materials, Mapping):
             raise SceneError(f"must be a dict of name → Material, got "
                              f"{values.type_name(self.materials)}", "materials", self.path)

@@ -26,9 +26,11 @@ def test_wrong_scene_arguments_are_named_at_construction(kwargs, message):
     assert str(e.value) == message
 
 
-def test_a_tuple_of_objects_is_a_list():
+def test_a_tuple_of_objects_is_a_list_and_a_list_is_kept():
     scene = raytrace.Scene(objects=(raytrace.Sphere([0, 0, -3], 1),))
     assert isinstance(scene.objects, list) and len(scene.objects) == 1
+    objects = [raytrace.Sphere([0, 0, -3], 1)]
+    assert raytrace.Scene(objects=objects).objects is objects
 
 
 def test_a_mesh_path_that_is_a_folder_says_so(tmp_path):
