@@ -18,6 +18,7 @@ The pipeline, one module per stage::
 from importlib import metadata as _metadata
 
 from .errors import RenderWarning, SceneError
+from .explain import explain
 from .film import Image, read_exr
 from .material import Checker, Material, MaterialLibrary
 from .material import library as materials
@@ -42,7 +43,7 @@ except _metadata.PackageNotFoundError:  # run from a source tree that was never 
     __version__ = "0+unknown"
 
 __all__ = [
-    "AreaLight", "Camera", "Checker", "DirectionalLight", "Image", "Material",
+    "AreaLight", "Camera", "Checker", "DirectionalLight", "Image", "Material", "explain",
     "MaterialLibrary", "Mesh", "Plane", "PointLight", "RenderSettings", "RenderWarning", "Scene",
     "SceneError", "Sphere", "SpotLight", "load_scene", "materials", "read_exr", "render",
     "scene_from_dict",

@@ -7,10 +7,14 @@ This is the only module that imports ``embreex``. Embree works in float32 with `
 * a mesh hit point is rebuilt from Embree's barycentrics, re-solved in float64, on the float64
   triangle (on its plane);
 * a ray spawned from a mesh hit starts off the surface along the geometric normal, on the side
-  it leaves on, by :data:`OFFSET_ULPS` float32 ulps of the hit triangle's largest coordinate
-  (scale-aware, unlike a fixed epsilon);
+  it leaves on, by 3 float32 ulps of the hit point's own largest coordinate (scale-aware,
+  unlike a fixed epsilon, and independent of the triangle's size);
 * a query runs the analytic shapes on the batch (a compiled kernel), then Embree, bounded by
-  the rays' closest analytic hits, then the float64 refinement of Embree's hits.
+  the rays' closest analytic hits, then the float64 refinement of Embree's hits;
+* a hit that the float64 solve puts behind the ray's origin (a ray leaving a large triangle
+  whose float32 rounding exceeds that offset) is discarded and the ray traced on from beyond
+  the triangle's error band, in a second pass over those few rays (embreex has no filter
+  callbacks). docs/robustness.md gives the scheme and its measured bound.
 
 A query runs on the calling thread. Embree and the kernels of :mod:`raytrace.accel_kernels`
 release the GIL and the accelerator is read-only after construction, so the integrator's
@@ -25,14 +29,20 @@ import numpy as np
 
 from . import accel_kernels as K
 from .analytic import NO_TMAX, AnalyticShapes, f64, i64
+from .rays import NO_SHAPE
 from .scene import Mesh, Plane, Scene, Sphere
 
-#: Spawned-ray offset in float32 ulps (2⁻²³ relative) of the triangle's largest coordinate.
-OFFSET_ULPS = 3.0
+#: A triangle's error band in float32 ulps (2⁻²³ relative) of its largest coordinate: how far
+#: along its normal a ray must start for Embree never to report it again (EMBREEX_NOTES.md).
+BAND_ULPS = 3.0
+#: Most second passes of a query over the rays whose hits were float32 artefacts.
+MAX_RETRACES = 4
 #: Shadow rays stop this relative fraction short of the light.
 SHADOW_SHORTEN = 1e-7
 
 SHADING_CODES = {"flat": 0, "smooth": 1, "gouraud": 2}
+#: Rows and advances of a first pass: every ray, from its origin.
+_IDENTITY = (np.zeros(0, np.int64), np.zeros(0))
 
 
 @dataclass
@@ -109,12 +119,20 @@ class Accelerator:
             [p.point - self.origin for p in planes], [p.normal for p in planes])
         self.shape_material = np.array(
             [mat_index[id(o.material)] for o in (*spheres, *planes)], dtype=np.int64)
+        #: Index in ``scene.objects`` of each analytic shape and of each mesh (geomID).
+        where = {kind: [i for i, o in enumerate(scene.objects) if isinstance(o, kind)]
+                 for kind in (Sphere, Plane, Mesh)}
+        self.shape_object = np.array([*where[Sphere], *where[Plane]], dtype=np.int64)
+        self.geom_object = np.array(where[Mesh], dtype=np.int64)
         self.degenerate = sum(m.degenerate for m in meshes)
         self._none_columns = (np.zeros(0, np.int64), np.zeros((0, 2)))
         self._build_meshes(meshes, mat_index)
         #: The triangle tables as :func:`raytrace.accel_kernels.hit_surfaces` takes them.
         self.mesh_table = (self.tri_corners, self.tri_normal, self.tri_vnormals,
-                           self.tri_shading, self.tri_material, self.tri_offset)
+                           self.tri_shading, self.tri_material, self.tri_band)
+        #: … and as :func:`raytrace.accel_kernels.refine_hits` takes them.
+        self.refine_table = (self.geom_first, self.tri_corners, self.tri_normal, self.tri_band,
+                             self.tri_shading)
 
     # -- construction --------------------------------------------------------------------
     def _build_meshes(self, meshes: list[Mesh], mat_index: dict) -> None:
@@ -127,7 +145,7 @@ class Accelerator:
         self.tri_normal = np.zeros((0, 3))          # unit face normals
         self.tri_material = np.zeros(0, np.int64)
         self.tri_shading = np.zeros(0, np.int8)     # SHADING_CODES
-        self.tri_offset = np.zeros(0)               # spawn offsets
+        self.tri_band = np.zeros(0)                 # float32 error bands
         if not meshes:
             return
         from embreex import rtcore_scene
@@ -138,7 +156,7 @@ class Accelerator:
         self.geom_first = np.cumsum([0, *sizes[:-1]], dtype=np.int64)
         t = self.n_triangles
         self.tri_corners, self.tri_vnormals = np.empty((t, 3, 3)), np.empty((t, 3, 3))
-        self.tri_normal, self.tri_offset = np.empty((t, 3)), np.empty(t)
+        self.tri_normal, self.tri_band = np.empty((t, 3)), np.empty(t)
         self.tri_material = np.repeat(
             np.array([mat_index[id(m.material)] for m in meshes], np.int64), sizes)
         self.tri_shading = np.repeat(
@@ -148,9 +166,9 @@ class Accelerator:
             faces = i64(m.faces)
             TriangleMesh(self.embree, v.astype(np.float32), faces.astype(np.int32))
             s = slice(first, first + len(faces))
-            K.triangle_tables(v, faces, vertex_normals(v, faces), OFFSET_ULPS * 2.0**-23,
+            K.triangle_tables(v, faces, vertex_normals(v, faces), BAND_ULPS * 2.0**-23,
                               self.tri_corners[s], self.tri_normal[s], self.tri_vnormals[s],
-                              self.tri_offset[s])
+                              self.tri_band[s])
         # The first run() commits the scene and is not thread-safe: do it once here.
         one = np.zeros((1, 3), np.float32)
         self.embree.run(one, np.array([[0, 0, 1]], np.float32), output=0)
@@ -195,21 +213,44 @@ class Accelerator:
                            has_tmax: bool, t: np.ndarray, shape: np.ndarray,
                            triangle: np.ndarray, uv: np.ndarray) -> None:
         """Embree's closest hits, written into ``t``, ``shape``, ``triangle``, ``uv`` where a
-        triangle comes before the analytic hit (and ``tmax``)."""
+        triangle comes before the analytic hit (and ``tmax``).
+
+        Hits that the float64 solve finds behind the origin are float32 artefacts
+        (:func:`raytrace.accel_kernels.refine_hits`): those rays are traced again from
+        beyond the artefact's error band, at most :data:`MAX_RETRACES` times."""
         n = len(o)
         o32, d32 = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
         far = np.empty(n, np.float32)  # a fresh array: Embree overwrites it
         K.embree_rays(o, d, t, tmax, has_tmax, o32, d32, far)
-        out = self.embree.run(o32, d32, dists=far, output=1)
-        K.refine_hits(out["geomID"], out["primID"], out["u"], out["v"], self.geom_first,
-                      self.tri_corners, o, d, tmax, has_tmax, t, shape, triangle, uv)
+        rays, hits = (o, d, tmax, has_tmax), (t, shape, triangle, uv)
+        redo = (np.empty(n, np.int64), np.empty(n))
+        rows, adv = _IDENTITY
+        for _ in range(MAX_RETRACES + 1):
+            out = self.embree.run(o32, d32, dists=far, output=1)
+            k = K.refine_hits((out["geomID"], out["primID"], out["u"], out["v"]), rows, adv,
+                              self.refine_table, rays, hits, redo)
+            if not k:
+                return
+            rows, adv = np.empty(k, np.int64), np.empty(k)
+            o32, d32 = np.empty((k, 3), np.float32), np.empty((k, 3), np.float32)
+            far = np.empty(k, np.float32)
+            k = K.retrace_rays(redo[0][:k], redo[1][:k], rays, t, o32, d32, far, rows, adv)
+            if not k:
+                return
+            rows, adv, o32, d32, far = rows[:k], adv[:k], o32[:k], d32[:k], far[:k]
 
     def occluded(self, origin: np.ndarray, direction: np.ndarray, origin_shape: np.ndarray,
                  tmax: np.ndarray) -> np.ndarray:
         """True where something opaque or not lies in ``(0, tmax)`` (any-hit query).
 
         The analytic shapes first (any hit, :func:`raytrace.accel_kernels.shadow_prepass`);
-        Embree only sees the rays they do not block.
+        Embree only sees the rays they do not block. Embree's any-hit answer does not say
+        what it hit, so the rays it finds blocked that start on a triangle (no analytic
+        ``origin_shape``), where the blocker may be a float32 artefact of that triangle or of
+        a neighbour meeting it at an edge, are asked again as closest-hit queries, which
+        discard artefacts (:meth:`_closest_triangles`). Where no blocker is an artefact, that
+        costs one closest-hit query per such ray (measured: 4 % of the Embree rays of
+        benchmarks/bench.py's mesh frame).
         """
         origin, direction, origin_shape = f64(origin), f64(direction), i64(origin_shape)
         tmax = f64(tmax)
@@ -224,7 +265,15 @@ class Accelerator:
                              blocked, idx, o32, d32, far)
         if k:
             res = self.embree.run(o32[:k], d32[:k], dists=far[:k], query="OCCLUDED")
-            K.occlusion(idx[:k], res, blocked)
+            recheck = np.empty(k, np.int64)
+            j = K.occlusion(idx[:k], res, origin_shape, blocked, recheck)
+            if j:
+                rows = recheck[:j]
+                o, d, lim = origin[rows], direction[rows], tmax[rows]
+                t = np.full(j, np.inf)
+                self._closest_triangles(o, d, lim, True, t, np.full(j, NO_SHAPE, np.int64),
+                                        np.empty(j, np.int64), np.empty((j, 2)))
+                blocked[rows] = np.isfinite(t)
         return blocked
 
     def _record(self, query: str, origin: np.ndarray, direction: np.ndarray,

@@ -30,6 +30,9 @@ TOL = 16.0 * float(np.finfo(np.float64).eps)
 F32_MAX = float(np.finfo(np.float32).max)
 TINY = float(np.finfo(np.float64).tiny)
 F32_TINY = float(np.finfo(np.float32).tiny)
+#: Spawned rays start 3 float32 ulps (2⁻²³ relative) of their hit point's largest coordinate
+#: off a triangle (``raytrace.accel``; docs/robustness.md).
+SPAWN_OFFSET = 3.0 * 2.0**-23
 
 
 # -- analytic shapes ------------------------------------------------------------------------
@@ -238,31 +241,69 @@ def shadow_prepass(o, d, origin_shape, tmax, shapes, to_embree, blocked, idx, o3
 
 
 @kernel
-def occlusion(idx, embree_result, blocked):
-    """``blocked[idx[j]]``: Embree's OCCLUDED answer (0) for the rays it was asked about."""
+def occlusion(idx, embree_result, origin_shape, blocked, recheck):
+    """``blocked[idx[j]]``: Embree's OCCLUDED answer (0) for the rays it was asked about.
+    The blocked ones that start on a triangle (no analytic ``origin_shape``), where the
+    blocker may be a float32 artefact (:func:`refine_hits`), go to ``recheck``; returns how
+    many."""
+    k = 0
     for j in range(idx.shape[0]):
-        blocked[idx[j]] = embree_result[j] == 0
+        i = idx[j]
+        hit = embree_result[j] == 0
+        blocked[i] = hit
+        if hit and origin_shape[i] == NO_SHAPE:
+            recheck[k] = i
+            k += 1
+    return k
 
 
 # -- Embree's hits ------------------------------------------------------------------------
 @kernel
-def refine_hits(geom_id, prim_id, u32, v32, geom_first, corners, o, d, tmax, has_tmax,
-                t, shape, triangle, uv):
-    """Embree's hits re-solved in float64, written where they come before the analytic hit.
+def refine_hits(embree, rows, adv, tables, rays, hits, redo):
+    """Embree's hits re-solved in float64, written where they come before the analytic hit;
+    the hits that float64 shows to be float32 artefacts are set aside for a second pass.
+    Returns how many were set aside.
+
+    ``embree`` = (geomID, primID, u, v) of Embree's answer for ray ``rows[j]`` at row j
+    (ray j itself where ``rows`` is empty); ``tables`` = (geom_first, corners (T, 3, 3),
+    face normals (T, 3), error bands (T,), shading codes (T,)); ``rays`` = (o, d, tmax, has_tmax);
+    ``hits`` = (t, shape, triangle, uv), updated in place; ``redo`` = (rows, adv) outputs.
 
     Embree's float32 ``u, v`` are off by ~1e-5 (measured), enough to move smooth normals and
     hit points visibly between scales; solving ``o + t·d = a + u·e1 + v·e2`` again on the
     float64 triangle (Möller & Trumbore 1997) makes them exact to ~1e-15. The result is
-    clamped onto the triangle (a float64 solve may land a hair outside an edge Embree hit);
-    rays (nearly) parallel to the plane keep Embree's values. ``t`` is then the distance to
-    the hit point rebuilt on the triangle's plane, and the hit counts if it is below the
-    analytic hit ``t`` and ``tmax``.
+    clamped onto a smooth or Gouraud triangle, whose barycentrics interpolate normals and
+    colours (a float64 solve may land a hair outside an edge Embree hit). A flat triangle
+    keeps them unclamped: the point stays where the ray meets its plane, which matters where
+    the float32 vertices of a huge triangle move its edges (a ±1e7 floor's diagonal moves
+    0.1 units, and clamping moved hit points across it by as much). Rays (nearly) parallel
+    to the plane keep Embree's values. ``t`` is then the distance to the hit point rebuilt on
+    the triangle's plane, and the hit counts if it is below the analytic hit ``t`` and
+    ``tmax``.
+
+    **Artefacts.** Where the float64 solve puts the crossing of the ray's line with the
+    triangle's plane at or behind the origin (its ``t ≤ 0``), the ray cannot meet that
+    triangle: a straight ray leaving a plane never meets it again. Embree reported it only
+    because its float32 arithmetic puts the origin within the triangle's error band (spawned
+    rays start a few ulps of their own hit point off the surface, which can be less than the
+    rounding of a large triangle's vertices). Such a ray is written to ``redo`` with ``adv``,
+    how far along it the second pass starts: past the triangle's band ``h`` (its float32
+    rounding scale, :func:`triangle_tables`), ``2·adv + h/|d·n|``. Embree's answer beyond
+    that point is the ray's answer (:meth:`raytrace.accel.Accelerator.intersect`).
     """
-    for i in range(o.shape[0]):
-        g = geom_id[i]
+    geom_id, prim_id, u32, v32 = embree
+    geom_first, corners, face_normal, band, code = tables
+    o, d, tmax, has_tmax = rays
+    t, shape, triangle, uv = hits
+    redo_rows, redo_adv = redo
+    mapped = rows.shape[0] > 0
+    k = 0
+    for j in range(geom_id.shape[0]):
+        g = geom_id[j]
         if g < 0:
             continue
-        tri = geom_first[g] + prim_id[i]
+        i = rows[j] if mapped else j
+        tri = geom_first[g] + prim_id[j]
         ax, ay, az = corners[tri, 0, 0], corners[tri, 0, 1], corners[tri, 0, 2]
         bx, by, bz = corners[tri, 1, 0], corners[tri, 1, 1], corners[tri, 1, 2]
         cx, cy, cz = corners[tri, 2, 0], corners[tri, 2, 1], corners[tri, 2, 2]
@@ -276,13 +317,25 @@ def refine_hits(geom_id, prim_id, u32, v32, geom_first, corners, o, d, tmax, has
         qx, qy, qz = sy * e1z - sz * e1y, sz * e1x - sx * e1z, sx * e1y - sy * e1x  # s × e1
         u = (sx * px + sy * py + sz * pz) / det
         v = (dx * qx + dy * qy + dz * qz) / det
+        t_plane = (e2x * qx + e2y * qy + e2z * qz) / det
         if math.isfinite(u) and math.isfinite(v) and det != 0:
-            u, v = max(u, 0.0), max(v, 0.0)
+            if t_plane <= 0.0:  # behind the origin: a float32 artefact, traced on
+                cos = abs(dx * face_normal[tri, 0] + dy * face_normal[tri, 1]
+                          + dz * face_normal[tri, 2])
+                redo_rows[k] = i
+                redo_adv[k] = 2.0 * (adv[j] if mapped else 0.0) + band[tri] / max(cos, TINY)
+                k += 1
+                continue
+            if code[tri] != 0:  # smooth, Gouraud: barycentrics interpolate, keep them inside
+                u, v = max(u, 0.0), max(v, 0.0)
+                total = u + v
+                if total > 1.0:
+                    u, v = u / total, v / total
         else:
-            u, v = np.float64(u32[i]), np.float64(v32[i])
-        total = u + v
-        if total > 1.0:
-            u, v = u / total, v / total
+            u, v = np.float64(u32[j]), np.float64(v32[j])
+            total = u + v
+            if total > 1.0:
+                u, v = u / total, v / total
         w = 1.0 - u - v
         tm = ((((w * ax + u * bx) + v * cx) - ox) * dx + (((w * ay + u * by) + v * cy) - oy) * dy
               + (((w * az + u * bz) + v * cz) - oz) * dz)    # (hit point − o)·d
@@ -294,6 +347,32 @@ def refine_hits(geom_id, prim_id, u32, v32, geom_first, corners, o, d, tmax, has
             shape[i] = NO_SHAPE
             triangle[i] = tri
             uv[i, 0], uv[i, 1] = u, v
+    return k
+
+
+@kernel
+def retrace_rays(rows, adv, rays, t, o32, d32, far, keep, keep_adv):
+    """The second pass's rays as Embree takes them: ray ``rows[j]`` restarted ``adv[j]``
+    along itself, ``o + adv·d`` in float32, and ``far`` = what is left of its bound (the
+    analytic hit ``t`` or ``tmax``) beyond that. Rays with nothing left are dropped; the kept
+    ones' rows and advances go to ``keep`` and ``keep_adv``. Returns how many were kept."""
+    o, d, tmax, has_tmax = rays
+    k = 0
+    for j in range(rows.shape[0]):
+        i, a = rows[j], adv[j]
+        bound = t[i]
+        if has_tmax and tmax[i] < bound:
+            bound = tmax[i]
+        rest = bound - a
+        if not rest > 0.0:
+            continue
+        for c in range(3):
+            o32[k, c] = np.float32(o[i, c] + a * d[i, c])
+            d32[k, c] = np.float32(d[i, c])
+        far[k] = np.float32(min(rest, F32_MAX))
+        keep[k], keep_adv[k] = i, a
+        k += 1
+    return k
 
 
 # -- surfaces -------------------------------------------------------------------------------
@@ -306,12 +385,18 @@ def hit_surfaces(t, shape, triangle, uv, o, d, analytic, shape_material, mesh,
     for both normals, offset 0. Triangle hits: the point at the barycentrics ``uv`` on the
     float64 triangle, its unit face normal, and for smooth and Gouraud triangles the
     interpolated vertex normals, normalised (the face normal where they cancel); the spawn
-    offset of the triangle. ``analytic`` = (centers, radii, points, normals); ``mesh`` =
-    (corners (T, 3, 3), face normals (T, 3), vertex normals (T, 3, 3), shading codes (T,)
-    int8, materials (T,), offsets (T,)).
+    offset: the rounding scale of the point itself, :data:`SPAWN_OFFSET` × the hit point's
+    largest absolute (camera-relative) coordinate, not of its triangle (a hit next to the
+    camera on a floor ±1e5 wide gets an offset of ~1e-6, not 0.036). Where the triangle's
+    error band (:func:`triangle_tables`) is at most twice that, the offset is the band itself
+    (a small triangle: Embree never reports it again to such a ray). Elsewhere a ray leaving
+    the hit may meet its own triangle as a float32 artefact, which the queries discard
+    (:func:`refine_hits`). ``analytic`` = (centers, radii, points, normals); ``mesh``
+    = (corners (T, 3, 3), face normals (T, 3), vertex normals (T, 3, 3), shading codes (T,)
+    int8, materials (T,), error bands (T,)).
     """
     centers, radii, points, normals = analytic
-    corners, face_normal, vnormals, code, tri_material, tri_offset = mesh
+    corners, face_normal, vnormals, code, tri_material, band = mesh
     n_spheres = radii.shape[0]
     for i in range(t.shape[0]):
         s = shape[i]
@@ -341,7 +426,9 @@ def hit_surfaces(t, shape, triangle, uv, o, d, analytic, shape_material, mesh,
                 shading[i, 0], shading[i, 1], shading[i, 2] = (nx / length, ny / length,
                                                                nz / length)
         material[i] = tri_material[tri]
-        offset[i] = tri_offset[tri]
+        own = SPAWN_OFFSET * max(max(max(abs(point[i, 0]), abs(point[i, 1])),
+                                     abs(point[i, 2])), F32_TINY)
+        offset[i] = band[tri] if band[tri] <= 2.0 * own else own
 
 
 # -- spawned rays ---------------------------------------------------------------------------
@@ -386,14 +473,16 @@ def vertex_normals(vertices, faces, out):
 
 
 @kernel
-def triangle_tables(vertices, faces, vnormal, offset_scale, corners, face_normal, vnormals,
-                    offset):
+def triangle_tables(vertices, faces, vnormal, band_scale, corners, face_normal, vnormals,
+                    band):
     """The per-triangle tables of one mesh, written into (F, …) views of the scene's tables:
     float64 ``corners`` (F, 3, 3); unit ``face_normal`` ``(b − a) × (c − a) / |…|``; the
     unit vertex normals ``vnormal`` at the ``vnormals`` corners, the face normal at a vertex
-    whose face normals cancel (so Gouraud shading does not go dark there); and the spawn
-    ``offset``: ``offset_scale`` × the largest absolute float32 coordinate of the corners
-    (at least float32's smallest normal number)."""
+    whose face normals cancel (so Gouraud shading does not go dark there); and the error
+    ``band``: ``band_scale`` × the largest absolute float32 coordinate of the corners (at
+    least float32's smallest normal number), the distance from the triangle beyond which
+    Embree's float32 arithmetic never reports a hit on it for a ray leaving it (measured:
+    3 ulps gave 0 self-hits at scales 1e-6…1e6, EMBREEX_NOTES.md)."""
     for f in range(faces.shape[0]):
         extent = 0.0
         for k in range(3):
@@ -413,5 +502,5 @@ def triangle_tables(vertices, faces, vnormal, offset_scale, corners, face_normal
             cancel = vnormal[v, 0] == 0 and vnormal[v, 1] == 0 and vnormal[v, 2] == 0
             for j in range(3):
                 vnormals[f, k, j] = face_normal[f, j] if cancel else vnormal[v, j]
-        offset[f] = offset_scale * max(extent, F32_TINY)
+        band[f] = band_scale * max(extent, F32_TINY)
 

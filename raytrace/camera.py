@@ -4,6 +4,11 @@ With ``spp = 1`` each ray passes through its pixel's centre. With ``spp = k²`` 
 into a k×k grid and each sample is jittered within its cell (stratified sampling); other
 counts jitter over the whole pixel. The jitter is a hash of (seed, sample index), so an image
 does not depend on how it is split into passes or threads.
+
+A render may cover a window of the frame only (a crop, pbrt's ``--pixelbounds``): its samples
+are numbered within the window (``local``), but every ray, and the jitter, is that of the same
+sample of the full frame (its ``global`` index ``pixel·spp + k``, :func:`global_samples`), so a
+crop's pixels are those of the full render.
 """
 
 from __future__ import annotations
@@ -60,22 +65,27 @@ def _offset_rows(spp, k, seed, sample, sx, sy):
 
 
 @kernel
-def _directions(start, width, height, spp, k, seed, tan_half, right, up, forward, out):
-    """Unit directions of global samples ``start …`` into ``out`` (n, 3): through
+def _directions(start, width, height, spp, k, seed, tan_half, right, up, forward, x0, y0, x1,
+                out):
+    """Unit directions of the samples ``start …`` of the window of columns ``x0 … x1 − 1``
+    from row ``y0`` on (the whole frame: 0, 0, ``width``) into ``out`` (n, 3): through
     ``x = (2(col + sx)/W − 1)·tan(fov/2)·W/H``, ``y = (1 − 2(row + sy)/H)·tan(fov/2)`` on the
-    image plane one unit along ``forward``. The pixel (row, col) and the sample's cell within
-    it are counted along, not divided out of the sample index for every sample."""
+    image plane one unit along ``forward``, jittered by the sample's global index ``g``. The
+    pixel (row, col), the sample's cell within it and ``g`` are counted along, not divided
+    out of the sample index for every sample."""
     rx, ry, rz = right[0], right[1], right[2]
     ux, uy, uz = up[0], up[1], up[2]
     fx, fy, fz = forward[0], forward[1], forward[2]
     aspect = width / height
+    cols = x1 - x0
     pixel, cell = start // spp, start % spp
-    row, col = pixel // width, pixel % width
+    row, col = y0 + pixel // cols, x0 + pixel % cols
+    g = (row * width + col) * spp + cell
     for j in range(out.shape[0]):
         if spp == 1:
             sx = sy = 0.5
         else:
-            u1, u2 = uniform1(seed, start + j, 0), uniform1(seed, start + j, 1)
+            u1, u2 = uniform1(seed, g, 0), uniform1(seed, g, 1)
             if k == 0:
                 sx, sy = u1, u2
             else:
@@ -88,12 +98,14 @@ def _directions(start, width, height, spp, k, seed, tan_half, right, up, forward
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
         out[j, 0], out[j, 1], out[j, 2] = dx / length, dy / length, dz / length
         cell += 1
+        g += 1
         if cell == spp:
             cell = 0
             col += 1
-            if col == width:
-                col = 0
+            if col == x1:
+                col = x0
                 row += 1
+                g += (width - cols) * spp
 
 
 def _grid(spp: int) -> int:
@@ -120,8 +132,10 @@ def sample_offsets(spp: int, seed: int, sample: np.ndarray) -> tuple[np.ndarray,
 
 def camera_rays(camera: Camera, width: int, height: int, spp: int, seed: int,
                 start: int, stop: int, columns: RayBatch | None = None,
-                direction: np.ndarray | None = None) -> RayBatch:
-    """Rays of global samples ``start..stop-1`` (sample = pixel·spp + k), from the origin:
+                direction: np.ndarray | None = None,
+                window: tuple[int, int, int, int] | None = None) -> RayBatch:
+    """Rays of samples ``start..stop-1`` (sample = pixel·spp + k, pixels counted row by row
+    in ``window`` = (x0, y0, x1, y1), half-open; the whole frame when None), from the origin:
     the scene is camera-relative.
 
     ``columns``: a batch of at least ``stop − start`` rows from :func:`camera_columns` whose
@@ -131,7 +145,7 @@ def camera_rays(camera: Camera, width: int, height: int, spp: int, seed: int,
     n = stop - start
     if direction is None:
         direction = np.empty((n, 3))
-    camera_directions(camera, width, height, spp, seed, start, direction)
+    camera_directions(camera, width, height, spp, seed, start, direction, window)
     if columns is None:
         columns = camera_columns(n)
     return RayBatch(origin=columns.origin[:n], direction=direction, sample=columns.sample[:n],
@@ -140,11 +154,29 @@ def camera_rays(camera: Camera, width: int, height: int, spp: int, seed: int,
 
 
 def camera_directions(camera: Camera, width: int, height: int, spp: int, seed: int,
-                      start: int, out: np.ndarray) -> None:
-    """Unit directions (n, 3) of global samples ``start …`` into ``out``."""
+                      start: int, out: np.ndarray,
+                      window: tuple[int, int, int, int] | None = None) -> None:
+    """Unit directions (n, 3) of samples ``start …`` of ``window`` (the whole frame when
+    None) into ``out``."""
     tan_half = math.tan(math.radians(camera.fov) / 2.0)
     right, up, forward = (np.ascontiguousarray(v, dtype=np.float64) for v in camera.basis())
-    _directions(start, width, height, spp, _grid(spp), seed, tan_half, right, up, forward, out)
+    x0, y0, x1, _ = window or (0, 0, width, height)
+    _directions(start, width, height, spp, _grid(spp), seed, tan_half, right, up, forward,
+                x0, y0, x1, out)
+
+
+def global_samples(local: np.ndarray, width: int, spp: int,
+                   window: tuple[int, int, int, int] | None) -> np.ndarray:
+    """Global sample indices ``pixel·spp + k`` of the full ``width``-wide frame, (n,) int64,
+    of samples ``local`` (n,) numbered within ``window`` = (x0, y0, x1, y1); the same
+    indices when ``window`` is None."""
+    local = np.asarray(local, dtype=np.int64)
+    if window is None:
+        return local
+    x0, y0, x1, _ = window
+    pixel, cell = np.divmod(local, spp)
+    row, col = np.divmod(pixel, x1 - x0)
+    return ((row + y0) * width + col + x0) * spp + cell
 
 
 def camera_columns(n: int) -> RayBatch:

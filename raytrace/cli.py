@@ -4,14 +4,19 @@
                           [--min-weight W] [--seed S] [--threads T] [--png PREVIEW.png]
                           [--exposure EV] [--tonemap clip|reinhard] [--stats STATS.json]
                           [--compression none|rle|zips|zip|piz|zstd] [--quiet]
-    raytrace compare TEST.exr REFERENCE.exr [--metric rmse|mae|max|relmse] [--threshold T]
+                          [--aov depth,normal,albedo,id] [--crop X0 Y0 X1 Y1]
+    raytrace explain SCENE --pixel X Y [--sample S] [--json] [--width W] [--height H]
+                          [--spp N] [--max-depth D] [--min-weight W] [--seed S]
+    raytrace compare TEST.exr REFERENCE.exr [--metric rmse|mae|max|relmse|psnr|flip]
+                     [--threshold T] [--diff DIFF.png] [--json]
     raytrace materials
     raytrace --version
 
 Bad input prints one line ``raytrace: error: FILE: KEY: problem`` and exits with status 2;
-``compare`` exits 1 when the difference is over the threshold. ``render`` writes all of its
-outputs or none (:mod:`raytrace.outputs`); a render that completes but is probably not what
-was meant adds a line ``raytrace: warning: FILE: problem``.
+``compare`` exits 1 when the difference is worse than the threshold (over it; under it for
+PSNR). The metrics are :data:`raytrace.metrics.METRICS`. ``render`` writes all of its outputs
+or none (:mod:`raytrace.outputs`); a render that completes but is probably not what was meant
+adds a line ``raytrace: warning: FILE: problem``.
 """
 
 from __future__ import annotations
@@ -52,12 +57,7 @@ def _parser() -> argparse.ArgumentParser:
     r = sub.add_parser("render", help="render a scene file to a float EXR")
     r.add_argument("scene", help="scene file (.toml or .json)")
     r.add_argument("-o", "--output", help="output EXR (default: SCENE's name with .exr, here)")
-    r.add_argument("--width", type=int)
-    r.add_argument("--height", type=int)
-    r.add_argument("--spp", type=int, help="samples per pixel")
-    r.add_argument("--max-depth", type=int, help="reflection/refraction recursion limit")
-    r.add_argument("--min-weight", type=float, help="prune rays whose weight is below this")
-    r.add_argument("--seed", type=int)
+    _overrides(r)
     r.add_argument("--threads", type=int, default=os.cpu_count() or 1,
                    help="worker threads (default: all cores)")
     r.add_argument("--png", help="also write a tone-mapped sRGB PNG preview (.png)")
@@ -70,15 +70,59 @@ def _parser() -> argparse.ArgumentParser:
                         "OpenEXR >= 3.5 to read)")
     r.add_argument("-q", "--quiet", action="store_true",
                    help="no progress bar and no summary line (both only on a terminal)")
+    r.add_argument("--aov", help="AOVs written as more channels of the EXR, comma-separated: "
+                                 "depth (Z), normal (N.X N.Y N.Z), albedo (albedo.R .G .B), "
+                                 "id (the object's index)")
+    r.add_argument("--crop", type=int, nargs=4, metavar=("X0", "Y0", "X1", "Y1"),
+                   help="render only these pixels (half-open bounds; the EXR's data window "
+                        "in the full frame's display window)")
+
+    e = sub.add_parser("explain", help="the ray tree of one pixel sample, term by term")
+    e.add_argument("scene", help="scene file (.toml or .json)")
+    e.add_argument("--pixel", type=int, nargs=2, required=True, metavar=("X", "Y"),
+                   help="column and row; (0, 0) is the top-left pixel")
+    e.add_argument("--sample", type=int, default=0, help="which of the pixel's samples "
+                                                         "(0 to spp - 1; default 0)")
+    e.add_argument("--json", action="store_true", help="print the tree as one JSON object")
+    _overrides(e)
 
     c = sub.add_parser("compare", help="compare two EXR images; exit 1 when over threshold")
     c.add_argument("test")
     c.add_argument("reference")
-    c.add_argument("--metric", default="rmse", help="rmse, mae, max or relmse")
-    c.add_argument("--threshold", type=float, default=1e-3)
+    c.add_argument("--metric", default="rmse",
+                   help="rmse, mae, max, relmse, psnr or flip (flip needs raytrace[flip])")
+    c.add_argument("--threshold", type=float,
+                   help="worst value that passes (default 1e-3; psnr 60 dB, flip 0.01)")
+    c.add_argument("--diff", help="write a diff heatmap PNG (white: the largest difference)")
+    c.add_argument("--json", action="store_true",
+                   help="print the whole report (every metric, worst pixels) as JSON")
 
     sub.add_parser("materials", help="list the named materials of the library")
     return p
+
+
+def _overrides(p: argparse.ArgumentParser) -> None:
+    """The flags that override a scene's ``[render]`` settings (render and explain)."""
+    p.add_argument("--width", type=int)
+    p.add_argument("--height", type=int)
+    p.add_argument("--spp", type=int, help="samples per pixel")
+    p.add_argument("--max-depth", type=int, help="reflection/refraction recursion limit")
+    p.add_argument("--min-weight", type=float, help="prune rays whose weight is below this")
+    p.add_argument("--seed", type=int)
+
+
+#: The flag of each render setting, to name in an error about its value.
+FLAGS = {"width": "--width", "height": "--height", "spp": "--spp", "max_depth": "--max-depth",
+         "min_weight": "--min-weight", "seed": "--seed", "threads": "--threads",
+         "crop": "--crop", "aovs": "--aov"}
+
+
+def _flag_error(e: SceneError) -> SceneError:
+    """A SceneError about a setting's value, naming the flag instead of the scene key (and
+    the scene file where the value is checked against the scene's frame)."""
+    key = (e.key or "").removeprefix("render.")
+    in_frame = key in ("crop", "--pixel", "--sample")
+    return SceneError(e.problem, FLAGS.get(key, e.key), e.file if in_frame else None)
 
 
 class Progress:
@@ -104,7 +148,8 @@ class Progress:
         from loading the scene to the last file written (``--stats``' ``seconds.total``)."""
         if not self.enabled:
             return
-        sys.stderr.write(f"wrote {', '.join(written)}: {stats['width']}×{stats['height']}, "
+        crop = " crop {} {} {} {} of".format(*stats["crop"]) if "crop" in stats else ""
+        sys.stderr.write(f"wrote {', '.join(written)}:{crop} {stats['width']}×{stats['height']}, "
                          f"{stats['spp']} spp, {stats['rays']['total'] / 1e6:.2f} M rays, "
                          f"{stats['seconds']['total']:.2f} s\n")
         sys.stderr.flush()
@@ -112,9 +157,10 @@ class Progress:
 
 def _render(args: argparse.Namespace) -> int:
     from . import integrator  # noqa: F401  (the renderer and numba: imported, not timed)
+    from .aov import check_aovs
     from .film import TONEMAPS, exr_compression, write_exr, write_png
     from .jit import cache_is_warm
-    from .render import check_memory, render, settings
+    from .render import check_memory, render, render_options
     from .scene_file import load_scene
 
     if args.tonemap not in TONEMAPS:
@@ -132,29 +178,27 @@ def _render(args: argparse.Namespace) -> int:
     png = outputs.add(args.png, "--png", ".png") if args.png else None
     stats_file = outputs.add(args.stats, "--stats") if args.stats else None
     outputs.refuse_inputs([(args.scene, "the scene file")])
+    aovs = check_aovs(args.aov, "--aov")  # found now, not after the render
     t0 = time.perf_counter()
     scene = load_scene(args.scene)
     load_seconds = time.perf_counter() - t0
     outputs.refuse_inputs(scene.input_files())
     outputs.preflight()
-    flags = {"width": "--width", "height": "--height", "spp": "--spp",
-             "max_depth": "--max-depth", "min_weight": "--min-weight", "seed": "--seed",
-             "threads": "--threads"}
     progress = Progress(not args.quiet)
+    overrides = dict(width=args.width, height=args.height, spp=args.spp,
+                     max_depth=args.max_depth, min_weight=args.min_weight, seed=args.seed,
+                     threads=args.threads, crop=args.crop, aovs=aovs)
     try:
-        s = settings(scene, width=args.width, height=args.height, spp=args.spp,
-                     max_depth=args.max_depth, min_weight=args.min_weight, seed=args.seed)
-        check_memory(s.width, s.height, ("exr", "png") if png else ("exr",))
+        o = render_options(scene, **overrides)
+        x0, y0, x1, y1 = o.crop or (0, 0, o.width, o.height)
+        check_memory(x1 - x0, y1 - y0, ("exr", "png") if png else ("exr",))
         if progress.enabled and not cache_is_warm():
             sys.stderr.write("raytrace: compiling kernels, first run only (about 15 s)\n")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", RenderWarning)
-            image = render(scene, width=args.width, height=args.height, spp=args.spp,
-                           max_depth=args.max_depth, min_weight=args.min_weight,
-                           seed=args.seed, threads=args.threads, progress=progress)
+            image = render(scene, progress=progress, **overrides)
     except SceneError as e:  # a flag's value: name the flag, not the scene key
-        key = (e.key or "").removeprefix("render.")
-        raise SceneError(e.problem, flags.get(key, e.key)) from None
+        raise _flag_error(e) from None
     for w in caught:  # ours as one line each, terminal or not; anything else as Python would
         if issubclass(w.category, RenderWarning):
             print(f"raytrace: warning: {w.message}", file=sys.stderr)
@@ -162,7 +206,8 @@ def _render(args: argparse.Namespace) -> int:
             warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     t1 = time.perf_counter()
     with outputs.stage(exr) as tmp:
-        write_exr(tmp, image.rgb, image.metadata, args.threads, args.compression)
+        write_exr(tmp, image.rgb, image.metadata, args.threads, args.compression,
+                  channels=image.channels(), crop=image.crop, frame=image.frame)
     if png:
         with outputs.stage(png) as tmp:
             write_png(tmp, image.rgb, args.exposure, args.tonemap)
@@ -179,22 +224,48 @@ def _render(args: argparse.Namespace) -> int:
     return 0
 
 
-METRICS = {
-    "rmse": lambda a, b: float(np.sqrt(np.mean((a - b) ** 2))),
-    "mae": lambda a, b: float(np.mean(np.abs(a - b))),
-    "max": lambda a, b: float(np.max(np.abs(a - b))),
-    "relmse": lambda a, b: float(np.mean((a - b) ** 2 / (b * b + 1e-2))),
-}
+def _explain(args: argparse.Namespace) -> int:
+    from .explain import explain, format_tree
+    from .scene_file import load_scene
+
+    scene = load_scene(args.scene)
+    try:
+        report = explain(scene, tuple(args.pixel), args.sample, width=args.width,
+                         height=args.height, spp=args.spp, max_depth=args.max_depth,
+                         min_weight=args.min_weight, seed=args.seed)
+    except SceneError as e:
+        raise _flag_error(e) from None
+    print(json.dumps(report, indent=1) if args.json else format_tree(report))
+    return 0
 
 
 def _compare(args: argparse.Namespace) -> int:
+    from . import metrics
     from .film import read_exr
+    from .testing import compare_images, write_diff
 
-    if args.metric not in METRICS:
-        raise SceneError(f"unknown metric {args.metric!r} (choose from {', '.join(METRICS)})",
-                         "--metric")
+    try:
+        metric = metrics.get(args.metric)
+    except ValueError as e:
+        raise SceneError(str(e), "--metric") from None
+    threshold = metric.default_threshold if args.threshold is None else args.threshold
+    try:
+        threshold = metrics.check_threshold(threshold)
+    except ValueError as e:
+        raise SceneError(str(e), "--threshold") from None
+    inputs = (args.test, args.reference)
+    if args.diff:
+        diff = Path(args.diff)
+        if diff.suffix.lower() != ".png":
+            raise SceneError(f"must be a .png file, got {args.diff!r}", "--diff")
+        if not diff.resolve().parent.is_dir():
+            raise SceneError(f"folder does not exist: {diff.parent}", "--diff")
+        if diff.is_dir():
+            raise SceneError(f"is a folder, not a file: {args.diff}", "--diff")
+        if any(diff.resolve() == Path(p).resolve() for p in inputs):
+            raise SceneError(f"would overwrite the input {args.diff}", "--diff")
     images = []
-    for path in (args.test, args.reference):
+    for path in inputs:
         if not Path(path).is_file():
             raise SceneError("file not found", file=path)
         try:
@@ -205,11 +276,26 @@ def _compare(args: argparse.Namespace) -> int:
     if a.shape != b.shape:
         raise SceneError(f"size {a.shape[1]}x{a.shape[0]} differs from the reference's "
                          f"{b.shape[1]}x{b.shape[0]}", file=args.test)
-    value = METRICS[args.metric](a, b)
-    over = not value <= args.threshold
-    print(f"{args.metric} = {value:.6g} ({'over' if over else 'within'} threshold "
-          f"{args.threshold:g})")
-    return EXIT_OVER_THRESHOLD if over else 0
+    names = [*metrics.BASIC, *([metric.name] if metric.name not in metrics.BASIC else [])]
+    try:
+        report = compare_images(a, b, metrics=names)
+    except (ImportError, ValueError) as e:  # FLIP: not installed, or undefined here
+        raise SceneError(str(e), "--metric") from None
+    value = report.metrics[metric.name]
+    within = metric.within(value, threshold)
+    if args.diff:
+        write_diff(args.diff, a, b)
+    if args.json:
+        d = report.to_dict()
+        print(json.dumps({"test": args.test, "reference": args.reference,
+                          "metric": metric.name, "value": d["metrics"][metric.name],
+                          "threshold": threshold, "within": within, "diff": args.diff, **d},
+                         indent=2))
+    else:
+        verdict = "within" if within else ("below" if metric.higher_is_better else "over")
+        print(f"{metric.name} = {value:.6g}{metric.unit} ({verdict} threshold "
+              f"{threshold:g}{metric.unit})")
+    return 0 if within else EXIT_OVER_THRESHOLD
 
 
 def _materials(args: argparse.Namespace) -> int:
@@ -235,7 +321,8 @@ def _what_was_written(outputs: Outputs) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    handler = {"render": _render, "compare": _compare, "materials": _materials}[args.command]
+    handler = {"render": _render, "explain": _explain, "compare": _compare,
+               "materials": _materials}[args.command]
     with Outputs() as args.outputs:  # all or nothing (outputs.py); temporary files removed
         try:
             return handler(args)

@@ -2,7 +2,10 @@
 
 * EXR: float32 R, G, B, linear and unclamped, with the sRGB/Rec. 709 chromaticities and the
   render settings in the header (OpenEXR's Python binding, which needs C-contiguous channels:
-  a strided view silently writes wrong pixels, so every channel is copied contiguous).
+  a strided view silently writes wrong pixels, so every channel is copied contiguous); AOVs
+  as more channels of the same file (:mod:`raytrace.aov`); a crop as the data window inside
+  the full frame's display window (OpenEXR, "Technical Introduction": windows are inclusive
+  pixel bounds).
 * PNG preview: exposure (stops) → tone map → clip to [0, 1] → sRGB encoding by colour-science
   (imported only here, only when a preview is asked for).
 
@@ -15,6 +18,7 @@ from __future__ import annotations
 import errno
 import os
 import struct
+import sys
 import tempfile
 import warnings
 import zlib
@@ -70,7 +74,10 @@ def atomic_path(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
 
 
 def write_exr(path: str | os.PathLike, rgb: np.ndarray, metadata: dict | None = None,
-              threads: int = 1, compression: str = "zip") -> None:
+              threads: int = 1, compression: str = "zip", *,
+              channels: dict[str, np.ndarray] | None = None,
+              crop: tuple[int, int, int, int] | None = None,
+              frame: tuple[int, int] | None = None) -> None:
     """Write (H, W, 3) linear RGB as float32 OpenEXR, atomically, with a lossless
     ``compression`` from :data:`EXR_COMPRESSIONS` (default ``"zip"``: zlib per 16 scanlines).
     ``threads`` > 1 compresses the scanline blocks on OpenEXR's pool of that many workers
@@ -78,6 +85,10 @@ def write_exr(path: str | os.PathLike, rgb: np.ndarray, metadata: dict | None = 
     1280×960 on 2 cores: ZIP 123 ms on 1 thread, 71 ms on 2, 7.3 MB either way. At 2 threads:
     ZIPS 74 ms/8.9 MB, PIZ 242 ms/6.9 MB, RLE 36 ms/14 MB, none 20 ms/15 MB, ZSTD 72 ms/3.9 MB
     but unreadable before OpenEXR 3.5 (docs/performance.md).
+
+    ``channels``: more (H, W) float32 channels by name (the AOVs). ``crop`` (x0, y0, x1, y1),
+    half-open, places the image in a ``frame`` of (width, height) pixels: the data window is
+    the crop, the display window the frame (as pbrt and compositors do).
     """
     import OpenEXR
 
@@ -86,9 +97,22 @@ def write_exr(path: str | os.PathLike, rgb: np.ndarray, metadata: dict | None = 
         raise ValueError(f"expected an (H, W, 3) image, got shape {rgb.shape}")
     header = {"compression": exr_compression(compression), "type": OpenEXR.scanlineimage,
               "chromaticities": SRGB_CHROMATICITIES}
+    if crop is not None:
+        if frame is None:
+            raise ValueError("a crop needs the frame (width, height) it is a window of")
+        x0, y0, x1, y1 = crop
+        width, height = frame
+        if (y1 - y0, x1 - x0) != rgb.shape[:2]:
+            raise ValueError(f"crop {crop} does not match the image's {rgb.shape[1]}x"
+                             f"{rgb.shape[0]} pixels")
+        header["dataWindow"] = ((x0, y0), (x1 - 1, y1 - 1))
+        header["displayWindow"] = ((0, 0), (width - 1, height - 1))
     for k, v in (metadata or {}).items():
         header[f"raytrace:{k}"] = v if isinstance(v, (int, float)) else str(v)
+    extra = {name: np.ascontiguousarray(c, dtype=np.float32)
+             for name, c in (channels or {}).items()}
     channels = {c: np.ascontiguousarray(rgb[..., i]) for i, c in enumerate("RGB")}
+    channels.update(extra)
     workers = int(threads) if threads > 1 else 0  # 0: compress on the calling thread
     # A binding without the pool setting writes single-threaded.
     has_pool = hasattr(OpenEXR, "global_thread_count")
@@ -104,8 +128,16 @@ def write_exr(path: str | os.PathLike, rgb: np.ndarray, metadata: dict | None = 
 
 
 def read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict]:
-    """(H, W, 3) float32 RGB and the header of an EXR file. A missing file is a
-    :class:`FileNotFoundError` (checked first: the binding would print to stderr)."""
+    """(H, W, 3) float32 RGB (the data window: a crop's pixels) and the header of an EXR
+    file; other channels (AOVs) are left out: :meth:`Image.from_exr` reads them."""
+    rgb, _, header = _read_exr(path)
+    return rgb, header
+
+
+def _read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict, dict]:
+    """RGB as :func:`read_exr` reads it, every other channel by name (H, W), the header. A
+    missing file is a :class:`FileNotFoundError` (checked first: the binding would print to
+    stderr)."""
     import OpenEXR
 
     if Path(path).is_dir():
@@ -113,14 +145,14 @@ def read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict]:
     if not Path(path).is_file():
         raise FileNotFoundError(errno.ENOENT, "no such EXR file", os.fspath(path))
     with OpenEXR.File(str(path), separate_channels=True) as f:
-        ch = f.channels()
+        ch = {name: c.pixels for name, c in f.channels().items()}
         header = dict(f.header())
-        missing = [c for c in "RGB" if c not in ch]
-        if missing:
-            raise ValueError(f"{path}: no channel(s) {', '.join(missing)} "
-                             f"(has {', '.join(sorted(ch))})")
-        rgb = np.stack([np.asarray(ch[c].pixels, dtype=np.float32) for c in "RGB"], axis=-1)
-    return rgb, header
+    missing = [c for c in "RGB" if c not in ch]
+    if missing:
+        raise ValueError(f"{path}: no channel(s) {', '.join(missing)} "
+                         f"(has {', '.join(sorted(ch))})")
+    rgb = np.stack([np.asarray(ch.pop(c), dtype=np.float32) for c in "RGB"], axis=-1)
+    return rgb, ch, header
 
 
 def _clip(x: np.ndarray) -> np.ndarray:
@@ -143,6 +175,11 @@ def preview(rgb: np.ndarray, exposure: float = 0.0, tonemap: str = "clip") -> np
     with warnings.catch_warnings():  # colour warns that matplotlib is absent: not needed
         warnings.simplefilter("ignore")
         import colour
+    # Without SciPy, colour puts a MagicMock in sys.modules["scipy"] (keeping its own
+    # reference); numba, imported later by a render, would read the mock's __version__ and fail.
+    for name in ("scipy", "scipy.interpolate"):
+        if type(sys.modules.get(name)).__module__ == "unittest.mock":
+            del sys.modules[name]
 
     if tonemap not in TONEMAPS:
         raise ValueError(f"unknown tone map {tonemap!r} (choose from {', '.join(TONEMAPS)})")
@@ -175,11 +212,48 @@ def write_png(path: str | os.PathLike, rgb: np.ndarray, exposure: float = 0.0,
 
 @dataclass
 class Image:
-    """A rendered image: ``rgb`` (H, W, 3) float32 linear, ``stats`` as in ``--stats``."""
+    """A rendered image: ``rgb`` (H, W, 3) float32 linear, ``stats`` as in ``--stats``.
+
+    ``aovs``: the AOV images asked for, by name (:mod:`raytrace.aov`; :meth:`aov`). ``crop``:
+    for a crop, its pixel bounds (x0, y0, x1, y1), half-open, in a ``frame`` of (width,
+    height) pixels; then ``rgb`` holds only the crop's pixels. None for a whole frame.
+    """
 
     rgb: np.ndarray
     stats: dict = field(default_factory=dict)
     metadata: dict = field(default_factory=dict)
+    aovs: dict[str, np.ndarray] = field(default_factory=dict)
+    crop: tuple[int, int, int, int] | None = None
+    frame: tuple[int, int] | None = None
+
+    def aov(self, name: str) -> np.ndarray:
+        """The AOV ``name``: ``depth`` (H, W) float32, ``normal`` and ``albedo`` (H, W, 3)
+        float32, ``id`` (H, W) int32; a KeyError naming those rendered otherwise."""
+        if name not in self.aovs:
+            from .aov import AOVS
+
+            known = ", ".join(self.aovs) or "none"
+            hint = "" if name in AOVS else f"; AOVs are {', '.join(AOVS)}"
+            raise KeyError(f"no AOV {name!r} in this image (rendered: {known}{hint})")
+        return self.aovs[name]
+
+    @classmethod
+    def from_exr(cls, path: str | os.PathLike) -> Image:
+        """An EXR read back: RGB, the AOVs whose channels it has, the ``raytrace:`` header
+        attributes as ``metadata``, and a data window smaller than the display window as
+        ``crop`` in ``frame``."""
+        from .aov import from_channels
+
+        rgb, ch, header = _read_exr(path)
+        metadata = {k.removeprefix("raytrace:"): v for k, v in header.items()
+                    if k.startswith("raytrace:")}
+        crop = frame = None
+        if "dataWindow" in header and "displayWindow" in header:
+            (x0, y0), (x1, y1) = (tuple(int(v) for v in c) for c in header["dataWindow"])
+            (d0, e0), (d1, e1) = (tuple(int(v) for v in c) for c in header["displayWindow"])
+            if (x0, y0, x1, y1) != (d0, e0, d1, e1):
+                crop, frame = (x0, y0, x1 + 1, y1 + 1), (d1 - d0 + 1, e1 - e0 + 1)
+        return cls(rgb, {}, metadata, from_channels(ch), crop, frame)
 
     @property
     def width(self) -> int:
@@ -206,7 +280,16 @@ class Image:
             outputs.preflight()
             with outputs.stage(out) as tmp:
                 if suffix == ".exr":
-                    write_exr(tmp, self.rgb, self.metadata, threads, compression)
+                    write_exr(tmp, self.rgb, self.metadata, threads, compression,
+                              channels=self.channels(), crop=self.crop, frame=self.frame)
                 else:
                     write_png(tmp, self.rgb, exposure, tonemap)
             outputs.commit()
+
+    def channels(self) -> dict[str, np.ndarray]:
+        """The AOVs as EXR channels (``Z``, ``N.X`` …), float32 (H, W) each."""
+        if not self.aovs:
+            return {}
+        from .aov import channels
+
+        return {c: a for name, image in self.aovs.items() for c, a in channels(name, image).items()}

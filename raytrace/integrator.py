@@ -27,6 +27,7 @@ rendered which pass.
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 from collections.abc import Callable
@@ -35,9 +36,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import aov as aov_images
 from . import shading_kernels as K
 from .accel import SHADOW_SHORTEN, Accelerator, Hits, Surface
-from .camera import camera_columns, camera_rays
+from .camera import camera_columns, camera_rays, global_samples
 from .film import Image
 from .lights import Emitter, emitters
 from .material import COLOR_KEYS, Checker, Material
@@ -48,6 +50,7 @@ from .rays import (
     SEE_THROUGH,
     RayBatch,
     count_kinds,
+    sample_chunks,
     split_hits,
     take_hits,
 )
@@ -65,8 +68,18 @@ MIN_PASS_SAMPLES = 4096
 MAX_SHADOW_CROSSINGS = 64
 #: Kinds of the children, in the order of :meth:`WhittedIntegrator._spawn`'s columns.
 CHILD_KINDS = np.array([REFLECTION, REFRACTION, SEE_THROUGH], np.int8)
+#: Check invariants of every spawned batch (unit directions, finite origins): set
+#: ``RAYTRACE_DEBUG=1`` in the environment. Off by default (it costs a pass over each batch).
+DEBUG = os.environ.get("RAYTRACE_DEBUG", "") not in ("", "0")
 NO_LIGHT = np.zeros((0, 3))
 NO_KEY = np.zeros(0, np.int64)
+#: :func:`add`'s factor for contributions that are already weighted.
+ONE = np.ones((1, 3))
+#: Per-sample AOV columns (depth, normal, albedo, id) of a render without AOVs, and of an
+#: image without one of them: no rows, so :func:`raytrace.shading_kernels.aov_hits` skips it.
+NO_AOV_SAMPLES = (np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int64))
+NO_AOV_PIXELS = (np.zeros(0, np.float32), np.zeros((0, 3), np.float32),
+                 np.zeros((0, 3), np.float32), np.zeros(0, np.int32))
 
 
 @dataclass
@@ -82,6 +95,10 @@ class RenderOptions:
     seed: int
     threads: int = 1
     pass_samples: int = PASS_SAMPLES
+    #: Pixel bounds (x0, y0, x1, y1), half-open, of the window to render (None: the frame).
+    crop: tuple[int, int, int, int] | None = None
+    #: The AOVs to render besides the colour (:data:`raytrace.aov.AOVS`' names).
+    aovs: tuple[str, ...] = ()
 
 
 class MaterialTable:
@@ -166,16 +183,33 @@ class Worker(threading.local):
     def __init__(self):
         self.scratch = Scratch()
         self.camera_columns: RayBatch | None = None  # raytrace.camera.camera_columns
-        self.first_sample = 0  # global index of the current pass's first camera sample
+        self.first_sample = 0  # index (in the window) of the current pass's first sample
+        self.aov = NO_AOV_SAMPLES  # this pass's per-sample AOV columns
         self.stats: Stats | None = None
         self.render = -1  # the render (WhittedIntegrator._renders) the stats count
 
 
 class WhittedIntegrator:
-    """Renders a scene, pass by pass and depth by depth."""
+    """Renders a scene, pass by pass and depth by depth.
+
+    Samples are numbered within the window rendered (``options.crop``, or the whole frame):
+    ``sample = pixel·spp + k``, pixels row by row in the window; each is the same ray, with
+    the same jitter, as the sample of the full frame it stands for
+    (:func:`raytrace.camera.global_samples`).
+    """
+
+    #: An observer of every ray traced (``raytrace.explain.Recorder``), or None: one test per
+    #: step of a batch. It sees the integrator's own arrays, so what it records is what was
+    #: rendered; with it, a hit's contribution goes through a per-ray row first (the same
+    #: additions in the same order, so the same sums).
+    observer = None
 
     def __init__(self, scene: Scene, options: RenderOptions):
         self.scene, self.opt = scene, options
+        x0, y0, x1, y1 = options.crop or (0, 0, options.width, options.height)
+        #: Columns and rows of the window rendered.
+        self.size = (x1 - x0, y1 - y0)
+        self._aov_out = NO_AOV_PIXELS  # the AOV images of the render in progress, flat
         seen: dict[int, Material] = {}
         for o in scene.objects:
             seen.setdefault(id(o.material), o.material)
@@ -223,7 +257,7 @@ class WhittedIntegrator:
         (not below :data:`MIN_PASS_SAMPLES`), so small images still use every thread. It
         depends on the image and the options, never on the number of threads."""
         o = self.opt
-        total = o.width * o.height * o.spp
+        total = self.size[0] * self.size[1] * o.spp
         size = min(o.pass_samples, max(MIN_PASS_SAMPLES, -(-total // MIN_PASSES)))
         return max(o.spp, (size // o.spp) * o.spp)
 
@@ -236,26 +270,32 @@ class WhittedIntegrator:
         with self._lock:  # a second render of this integrator counts from zero
             self._renders += 1
             self._stats_per_thread = []
-        total = o.width * o.height * o.spp
+        cols, rows = self.size
+        total = cols * rows * o.spp
         per_pass = self.pass_size
         passes = [(a, min(a + per_pass, total)) for a in range(0, total, per_pass)]
         # Each pass rounds its pixels to float32 as it ends (the same rounding as at the end
         # would be), so no float64 copy of the whole image is held.
-        pixels = np.empty((o.width * o.height, 3), dtype=np.float32)
+        pixels = np.empty((cols * rows, 3), dtype=np.float32)
+        aovs = {name: aov_images.empty(name, (rows, cols)) for name in o.aovs}
+        flat = {name: a.reshape(len(pixels), *a.shape[2:]) for name, a in aovs.items()}
+        self._aov_out = tuple(flat.get(name, none)
+                              for name, none in zip(aov_images.AOVS, NO_AOV_PIXELS, strict=True))
         self._run(passes, pixels, progress, total)
         t_passes = time.perf_counter() - t_start
-        rgb = pixels.reshape(o.height, o.width, 3)
+        rgb = pixels.reshape(rows, cols, 3)
         bad = ~np.isfinite(rgb)
         nonfinite, first = 0, None
         if bad.any():
             bad_pixels = bad.any(axis=2)
             nonfinite = int(bad_pixels.sum())
             y, x = np.unravel_index(int(np.argmax(bad_pixels)), bad_pixels.shape)
-            first = [int(x), int(y)]  # the first in reading order
+            x0, y0 = o.crop[:2] if o.crop else (0, 0)
+            first = [int(x) + x0, int(y) + y0]  # the first in reading order, in the frame
             rgb[bad] = 0.0
         seconds = time.perf_counter() - t_start + self.build_seconds
         return Image(rgb, self._stats(nonfinite, first, seconds, t_passes),
-                     self._metadata(nonfinite))
+                     self._metadata(nonfinite), aovs, o.crop, (o.width, o.height))
 
     def _run(self, passes: list[tuple[int, int]], pixels: np.ndarray,
              progress: Callable[[int, int], None] | None, total: int) -> None:
@@ -297,34 +337,68 @@ class WhittedIntegrator:
 
     def _render_pass(self, start: int, stop: int, pixels: np.ndarray) -> None:
         """Camera samples ``start`` to ``stop`` (whole pixels), depth by depth, into their
-        pixels."""
+        pixels (and AOVs)."""
         o, w, n = self.opt, self._worker, stop - start
         t0 = time.perf_counter()
-        w.first_sample = start
         samples = self.scratch("samples", n, 3)
         samples.fill(0.0)
+        if o.aovs:
+            w.aov = self._aov_samples(n)
+        self.trace_samples(start, stop, samples)
+        first, last = start // o.spp, stop // o.spp
+        with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
+            pixels[first:last] = (
+                samples if o.spp == 1 else samples.reshape(-1, o.spp, 3).mean(1))
+        if o.aovs:
+            K.aov_pixels(last - first, o.spp, *w.aov,
+                         *(a[first:last] for a in self._aov_out))
+        self.stats.pass_seconds += time.perf_counter() - t0
+
+    def trace_samples(self, start: int, stop: int, samples: np.ndarray) -> None:
+        """Add into ``samples`` (stop − start, 3) everything the samples ``start`` to ``stop``
+        of the window see: their camera rays, then depth by depth.
+
+        A batch grown past the pass size (2 children per glass hit) is cut into chunks that
+        keep each sample's rays together (:func:`raytrace.rays.sample_chunks`), finished one
+        after another, so memory stays bounded by the pass size × max_depth rather than
+        growing as 2^depth, and each sample's sum is added up in the same order whatever the
+        pass size, the crop or the threads."""
+        o, w, n = self.opt, self._worker, stop - start
+        w.first_sample = start
         if w.camera_columns is None or len(w.camera_columns.origin) < n:
             w.camera_columns = camera_columns(n)
         rays = camera_rays(self.scene.camera, o.width, o.height, o.spp, o.seed, start, stop,
-                           w.camera_columns, self.scratch("camera_direction", n, 3))
-        # Depth by depth; a batch grown past the pass size (2 children per glass hit) is split
-        # and its chunks finished one after another, so memory stays bounded by the pass size
-        # × max_depth rather than growing as 2^depth.
+                           w.camera_columns, self.scratch("camera_direction", n, 3), o.crop)
         per_pass = self.pass_size
         pending = [rays]
         while pending:
             rays = pending.pop()
             if len(rays) > per_pass:
-                pending.extend(rays.take(slice(i, i + per_pass)) for i in
-                               reversed(range(0, len(rays), per_pass)))
+                pending.extend(reversed(chunks(rays, n, per_pass)))
                 continue
             children = self.trace(rays, samples)
             if len(children):
                 pending.append(children)
-        with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
-            pixels[start // o.spp: stop // o.spp] = (
-                samples if o.spp == 1 else samples.reshape(-1, o.spp, 3).mean(1))
-        self.stats.pass_seconds += time.perf_counter() - t0
+
+    def _aov_samples(self, n: int) -> tuple[np.ndarray, ...]:
+        """This thread's per-sample AOV columns for a pass of ``n`` samples, set to a miss
+        (depth +inf, normal and albedo 0, id −1); no rows for what was not asked for (depth
+        is kept for id too: the nearest sample's id)."""
+        want, new = self.opt.aovs, self.scratch
+        depth, normal, albedo, ident = NO_AOV_SAMPLES
+        if "depth" in want or "id" in want:
+            depth = new("aov_depth", n)
+            depth.fill(np.inf)
+        if "normal" in want:
+            normal = new("aov_normal", n, 3)
+            normal.fill(0.0)
+        if "albedo" in want:
+            albedo = new("aov_albedo", n, 3)
+            albedo.fill(0.0)
+        if "id" in want:
+            ident = new("aov_id", n, dtype=np.int64)
+            ident.fill(-1)
+        return depth, normal, albedo, ident
 
     def trace(self, rays: RayBatch, samples: np.ndarray) -> RayBatch:
         """One depth: intersect, add background and local shading, return the next depth."""
@@ -339,6 +413,8 @@ class WhittedIntegrator:
         found, missed = (self.scratch(name, n, dtype=np.int64) for name in ("found", "missed"))
         k = split_hits(hits.t, found, missed)
         found, missed = found[:k], missed[:n - k]
+        if self.observer is not None:
+            self.observer.traced(rays, found, missed, self.background)
         if len(missed) and np.any(o.background):
             add(samples, rays.sample, rays.weight, self.background, missed)
         if not len(found):
@@ -358,9 +434,24 @@ class WhittedIntegrator:
             hits.t, hits.shape, hits.triangle, hits.uv = out[6:]
             rays = RayBatch(origin, direction, sample, weight, rays.depth, origin_shape, kind)
         surf = self.accel.surface(hits, rays.origin, rays.direction)
+        if rays.depth == 0 and o.aovs:  # the camera rays' first hits
+            self.aov_hits(rays, hits, surf, *self._worker.aov)
+        if self.observer is not None:
+            self.observer.hits(rays, hits, surf)
         children = self.shade(rays, surf, samples)
         st.shade_seconds += time.perf_counter() - t1 - (st.trace_seconds - trace_before)
         return children
+
+    def aov_hits(self, rays: RayBatch, hits: Hits, surf: Surface, depth: np.ndarray,
+                 normal: np.ndarray, albedo: np.ndarray, ident: np.ndarray) -> None:
+        """Write the AOVs of the hits (rays that all hit) into the rows ``rays.sample`` of the
+        outputs (:func:`raytrace.shading_kernels.aov_hits`; an output without rows is
+        skipped)."""
+        a = self.accel
+        K.aov_hits(rays.sample, hits.t, rays.direction, surf.geometric, surf.shading,
+                   surf.material, surf.point, self.origin, self.table.arrays, surf.shape,
+                   surf.triangle, a.shape_object, a.geom_first, a.geom_object, depth, normal,
+                   albedo, ident)
 
     # -- shading -----------------------------------------------------------------------------
 
@@ -379,18 +470,27 @@ class WhittedIntegrator:
         r_dir, t_dir, w_r, w_t, w_s = (new(name, n, 3) for name in (
             "r_dir", "t_dir", "w_r", "w_t", "w_s"))
         status, tir = new("status", n, 3, np.int8), new("tir", n, dtype=bool)
+        # Observed, each hit's term goes to a row of its own, then to its sample: the same
+        # additions in the same order (0 + x and x·1 are exact).
+        obs = self.observer
+        into, rows = (samples, rays.sample) if obs is None else (np.zeros((n, 3)), np.arange(n))
         K.hit_terms(rays.direction, rays.weight, surf.geometric, surf.shading, surf.material,
                     surf.point, self.origin, self.table.arrays, self.ambient, lights,
-                    self.opt.min_weight, samples, rays.sample, r_dir, t_dir, w_r, w_t, w_s, status,
-                    tir)
+                    self.opt.min_weight, into, rows, r_dir, t_dir, w_r, w_t, w_s, status, tir)
         depth = rays.depth + 1
+        if obs is not None:
+            add(samples, rays.sample, into, ONE, rows)
+            obs.shaded(into, status, (w_r, w_t, w_s), tir, depth > self.opt.max_depth)
         if depth <= self.opt.max_depth:
             self.stats.total_internal_reflections += int(np.count_nonzero(tir))
         # The next depth: reflected, refracted (or TIR) and see-through children.
         if not self._prune(status, depth):
             return RayBatch.empty(depth)
-        return self._spawn(rays, surf, status, (r_dir, t_dir, rays.direction),
-                           (w_r, w_t, w_s))[0]
+        children, parent = self._spawn(rays, surf, status, (r_dir, t_dir, rays.direction),
+                                       (w_r, w_t, w_s))
+        if obs is not None:
+            obs.spawned(children, parent)
+        return children
 
     def _spawn(self, parents: RayBatch, surf: Surface, status: np.ndarray, directions: tuple,
                weights: tuple) -> tuple[RayBatch, np.ndarray]:
@@ -409,8 +509,10 @@ class WhittedIntegrator:
         K.spawn_children(status, first, *directions, *weights, surf.point, surf.geometric,
                          surf.offset, surf.shape, parents.sample, CHILD_KINDS, origin,
                          direction, weight, sample, shape, kind, parent)
-        return RayBatch(origin, direction, sample, weight, parents.depth + 1, shape,
-                        kind), parent
+        children = RayBatch(origin, direction, sample, weight, parents.depth + 1, shape, kind)
+        if DEBUG:
+            check_spawned(children)
+        return children, parent
 
     def _prune(self, status: np.ndarray, depth: int) -> bool:
         """Whether any children (the columns of ``status``) may go on: none past
@@ -432,17 +534,21 @@ class WhittedIntegrator:
         term, rows = new("term", n, 3), new("shadow_rows", n, dtype=np.int64)
         origin, direction = new("shadow_origin", n, 3), new("shadow_direction", n, 3)
         tmax, shape = new("shadow_tmax", n), new("shadow_shape", n, dtype=np.int64)
+        shadow = (rows, origin, direction, tmax, shape)
         # Jittered area lights draw a point per hit from its global camera sample and depth.
-        key = rays.sample + self._worker.first_sample if self.jittered else NO_KEY
-        for em in self.emitters:
+        key = global_samples(rays.sample + self._worker.first_sample, self.opt.width,
+                             self.opt.spp, self.opt.crop) if self.jittered else NO_KEY
+        for e, em in enumerate(self.emitters):
             k = K.light_pass(surf.point, surf.geometric, surf.shading, rays.direction,
                              rays.origin, surf.material, surf.offset, surf.shape, surf.triangle,
-                             surf.uv, self.origin, self.table.arrays, self.smooth_table,
-                             em.packed, key, rays.depth, SHADOW_SHORTEN, term, rows, origin,
-                             direction, tmax, shape)
+                             surf.uv, self.origin, self.table.arrays,
+                             self.smooth_table, em.packed, key, rays.depth, SHADOW_SHORTEN, term,
+                             shadow)
+            if self.observer is not None:
+                self.observer.light(e, term, rows[:k])
             if k:
-                self.shadow(out, term, np.asarray(em.color, np.float64), rows[:k], origin[:k],
-                            direction[:k], tmax[:k], shape[:k])
+                self.shadow(out, term, np.asarray(em.color, np.float64),
+                            *(column[:k] for column in shadow))
         return out
 
     def shadow(self, out: np.ndarray, term: np.ndarray, color: np.ndarray, rows: np.ndarray,
@@ -461,6 +567,8 @@ class WhittedIntegrator:
             blocked = self.accel.occluded(origin, direction, shape, tmax)
             self.stats.trace_seconds += time.perf_counter() - t0
             K.add_unblocked(out, rows, term, blocked, color)
+            if self.observer is not None:
+                self.observer.shadow(np.where(blocked[:, None], 0.0, np.ones(3)))
             return
         factor = self.scratch("shadow", len(rows), 3)
         factor.fill(1.0)
@@ -483,6 +591,8 @@ class WhittedIntegrator:
             factor[live] = 0.0
         self.stats.trace_seconds += time.perf_counter() - t0
         K.add_light(out, rows, term, factor, color)
+        if self.observer is not None:
+            self.observer.shadow(factor.copy())
 
     # -- reporting ---------------------------------------------------------------------------
     def _stats(self, nonfinite: int, first: list[int] | None, seconds: float,
@@ -508,6 +618,8 @@ class WhittedIntegrator:
                         "shade": st.shade_seconds * share, "total": seconds},
             "width": o.width, "height": o.height, "spp": o.spp, "max_depth": o.max_depth,
             "min_weight": o.min_weight, "threads": o.threads,
+            **({"crop": list(o.crop)} if o.crop else {}),
+            **({"aovs": list(o.aovs)} if o.aovs else {}),
         }
 
     def _metadata(self, nonfinite: int) -> dict:
@@ -515,7 +627,28 @@ class WhittedIntegrator:
         return {"scene": self.scene.path or "<python>", "width": o.width, "height": o.height,
                 "spp": o.spp, "max_depth": o.max_depth, "min_weight": o.min_weight,
                 "seed": o.seed, "nonfinite_pixels": nonfinite,
-                "renderer": "raytrace (Whitted, Embree)"}
+                "renderer": "raytrace (Whitted, Embree)",
+                **({"crop": " ".join(map(str, o.crop))} if o.crop else {})}
+
+
+def chunks(rays: RayBatch, samples: int, most: int) -> list[RayBatch]:
+    """``rays`` (of ``samples`` pixel samples) cut into batches of at most ``most`` rays that
+    keep each sample's rays together, in batch order (:func:`raytrace.rays.sample_chunks`)."""
+    chunk = np.empty(len(rays), np.int64)
+    count = sample_chunks(rays.sample, samples, most, chunk)
+    order = np.argsort(chunk, kind="stable")
+    bounds = np.searchsorted(chunk[order], np.arange(count + 1))
+    return [rays.take(order[a:b]) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+
+
+def check_spawned(rays: RayBatch) -> None:
+    """The debug path's invariants of a spawned batch (:data:`DEBUG`): every direction a unit
+    vector (to 1e-9; SCENE_FORMAT.md's smooth-mesh rules) and every origin finite."""
+    length = np.linalg.norm(rays.direction, axis=1)
+    bad = np.flatnonzero(~(np.abs(length - 1.0) <= 1e-9))
+    assert not len(bad), (f"{len(bad)} spawned directions are not a unit vector, e.g. "
+                          f"{rays.direction[bad[0]].tolist()} of length {length[bad[0]]!r}")
+    assert np.isfinite(rays.origin).all(), "a spawned ray has a non-finite origin"
 
 
 def add(samples: np.ndarray, sample: np.ndarray, weight: np.ndarray, factor: np.ndarray,

@@ -1,4 +1,4 @@
-"""The numba set-up shared by every compiled kernel.
+"""The numba set-up shared by every compiled kernel, and the guard that keeps its cache true.
 
 Kernels are compiled with ``cache=True`` (the first run after installing compiles them once,
 later starts load the machine code from the cache), ``nogil=True`` (so the integrator's
@@ -6,14 +6,101 @@ threads run them side by side) and without ``fastmath`` (IEEE results, reproduci
 runs). They are serial: the render is parallel over passes of whole pixels, one thread a
 pass (:mod:`raytrace.integrator`), so no kernel starts threads of its own and numba's
 threading layer (OpenMP or TBB) is never loaded.
+
+**The cache guard.** numba's on-disk cache checks only the source file of the kernel it
+compiled, not the files of the functions that kernel inlines (numba issue #1833): edit a
+per-ray helper in one module and every kernel of another module that calls it would keep
+running the old machine code. So, on import, :func:`refresh_cache` hashes the source of every
+module of the package that compiles kernels (with numba's version); where that hash differs
+from the one stored beside the cache, the cache files of those modules are deleted and the
+kernels compile afresh (STUMPY's ``cache.py`` does the same by hand). Reading and hashing the
+sources costs about a millisecond.
 """
 
 from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from pathlib import Path
 
 import numba
 
 #: Decorator for every kernel.
 kernel = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
+
+PACKAGE = Path(__file__).resolve().parent
+#: The file beside a cache that holds the hash of the sources its files were compiled from.
+STAMP = "raytrace-kernels.sha256"
+
+
+def kernel_modules() -> list[Path]:
+    """The package's modules that compile kernels: every ``.py`` file that imports
+    :data:`kernel` (this one excluded), in a fixed order."""
+    return sorted(p for p in PACKAGE.rglob("*.py")
+                  if p != Path(__file__).resolve() and "import kernel" in p.read_text("utf-8"))
+
+
+def source_hash(modules: list[Path]) -> str:
+    """SHA-256 of numba's version and every module's path and source."""
+    h = hashlib.sha256(numba.__version__.encode())
+    for path in modules:
+        h.update(str(path.relative_to(PACKAGE)).encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+def cache_dirs(modules: list[Path]) -> set[Path]:
+    """Where numba may keep these modules' cache files, as its locators choose them:
+    ``__pycache__`` beside each module, the mirrored folder under ``NUMBA_CACHE_DIR`` when
+    that is set, and under the user's cache folder (where ``__pycache__`` is read-only)."""
+    from numba.core import caching, config
+    from numba.misc.appdirs import AppDirs
+
+    user = Path(AppDirs(appname="numba", appauthor=False).user_cache_dir)
+    dirs = set()
+    for path in modules:
+        dirs.add(path.parent / "__pycache__")
+        sub = caching._CacheLocator.get_suitable_cache_subpath(str(path))
+        if config.CACHE_DIR:
+            dirs.add(Path(config.CACHE_DIR) / sub)
+        dirs.add(user / sub)
+    return dirs
+
+
+def refresh_cache() -> bool:
+    """Delete the cache files of the kernel modules wherever they were compiled from other
+    sources than today's; returns whether any folder was refreshed. Never raises for a
+    folder it cannot read or write (numba then compiles in memory as it would anyway)."""
+    modules = kernel_modules()
+    digest = source_hash(modules)
+    names = {p.stem for p in modules}
+    refreshed = False
+    for folder in cache_dirs(modules):
+        stamp = folder / STAMP
+        try:
+            if stamp.read_text() == digest:
+                continue
+        except OSError:
+            pass
+        try:
+            if not folder.is_dir():  # numba has not compiled here: stamp it for when it does
+                if folder.name != "__pycache__":
+                    continue
+                folder.mkdir(exist_ok=True)
+            for f in folder.iterdir():
+                if f.suffix in (".nbi", ".nbc") and f.name.split(".", 1)[0] in names:
+                    f.unlink(missing_ok=True)
+            fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{STAMP}.")
+            with os.fdopen(fd, "w") as out:
+                out.write(digest)
+            os.replace(tmp, stamp)
+            refreshed = True
+        except OSError:
+            continue
+    return refreshed
+
+
+refresh_cache()
 
 
 def cache_is_warm() -> bool:
@@ -25,9 +112,10 @@ def cache_is_warm() -> bool:
     least one kernel must have a current cache index, which is numba's own test at load time
     (the index records the source file's stamp and numba's version;
     ``numba.core.caching.IndexDataCacheFile._load_index`` returns nothing when either
-    differs). A render calls kernels of both modules, so a module without one will compile.
-    These are numba internals: if they change, the answer is True (say nothing rather than
-    something wrong).
+    differs; :func:`refresh_cache` has deleted the files of other sources by then). Every
+    render calls kernels of these two modules, so a module without one will compile. These
+    are numba internals: if they change, the answer is True (say nothing rather than something
+    wrong).
     """
     from numba.core.dispatcher import Dispatcher
 

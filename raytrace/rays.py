@@ -138,3 +138,39 @@ def take_hits(rows, origin, direction, sample, weight, origin_shape, kind, t, sh
         tt[j], sh[j], tri[j] = t[i], shape[i], triangle[i]
         for c in range(uv.shape[1]):
             b[j, c] = uv[i, c]
+
+
+@kernel
+def sample_chunks(sample, samples, most, chunk):
+    """Cut a batch into chunks of at most ``most`` rays that keep each pixel sample's rays
+    together: ``chunk[r]`` = the chunk of ray r (samples ``0 … samples − 1`` in order, a new
+    chunk where the next sample's rays would overflow the current one); returns how many.
+    Finished chunk by chunk, a sample then gets its contributions in the same order as from
+    the whole batch (the rays of one sample keep their batch order within their chunk, and
+    their descendants stay in that chunk's line), so a pixel's float sums do not depend on
+    where the batch was cut, nor on which samples share its pass. Only a sample with more
+    than ``most`` rays of its own is cut (into chunks of ``most``, in batch order)."""
+    n = sample.shape[0]
+    count = np.zeros(samples, np.int64)
+    for r in range(n):
+        count[sample[r]] += 1
+    first = np.zeros(samples, np.int64)  # the (first) chunk of each sample
+    c = size = 0
+    for s in range(samples):
+        k = count[s]
+        if k == 0:
+            continue
+        if size > 0 and size + k > most:
+            c += 1
+            size = 0
+        first[s] = c
+        if k > most:  # alone over the limit: chunks of its own
+            c += (k + most - 1) // most
+        else:
+            size += k
+    seen = np.zeros(samples, np.int64)
+    for r in range(n):
+        s = sample[r]
+        chunk[r] = first[s] + (seen[s] // most if count[s] > most else 0)
+        seen[s] += 1
+    return c + (1 if size > 0 else 0)

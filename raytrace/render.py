@@ -8,18 +8,24 @@ from __future__ import annotations
 
 import os
 import warnings
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
+from typing import TYPE_CHECKING
 
 from . import values
+from .aov import check_aovs
 from .errors import RenderWarning, SceneError
 from .film import Image
 from .scene import RenderSettings, Scene
+
+if TYPE_CHECKING:
+    from .integrator import RenderOptions
 
 #: Peak resident memory of a render, measured (``ru_maxrss`` at 3000² and 6000² pixels, 2
 #: threads; docs/robustness.md, "Memory"): a fixed part (the interpreter, numba, Embree, a
 #: pass of rays per thread) plus bytes a pixel for the step that holds the most: the render
 #: (the float32 image and a mask), writing the EXR (the image and a contiguous copy of each
-#: channel), the PNG preview (the image and float64 copies while tone mapping).
+#: channel), the PNG preview (the image and float64 copies while tone mapping). AOVs are not
+#: counted.
 PEAK_BASE_BYTES = 256 * 2**20
 PEAK_BYTES_PER_PIXEL = {"render": 15, "exr": 25, "png": 183}
 
@@ -54,36 +60,24 @@ def check_memory(width: int, height: int, steps: Iterable[str] = (),
                          f"{have / 1e9:.1f} GB available on this machine", key)
 
 
-def settings(scene: Scene, *, width: int | None = None, height: int | None = None,
-             spp: int | None = None, max_depth: int | None = None,
-             min_weight: float | None = None, seed: int | None = None) -> RenderSettings:
-    """The scene's ``[render]`` settings with the given overrides, checked."""
-    if not isinstance(scene, Scene):
-        raise TypeError(f"render() needs a raytrace.Scene, got {type(scene).__name__}")
-    r = scene.render
-    try:
-        return RenderSettings(
-            width=r.width if width is None else width,
-            height=r.height if height is None else height,
-            spp=r.spp if spp is None else spp,
-            max_depth=r.max_depth if max_depth is None else max_depth,
-            min_weight=r.min_weight if min_weight is None else min_weight,
-            background=r.background, seed=r.seed if seed is None else seed)
-    except SceneError as e:
-        raise SceneError(e.problem, e.key, scene.path) from None
-
-
 def render(scene: Scene, *, width: int | None = None, height: int | None = None,
            spp: int | None = None, max_depth: int | None = None,
            min_weight: float | None = None, seed: int | None = None, threads: int | None = None,
            progress: Callable[[int, int], None] | None = None,
-           pass_samples: int | None = None) -> Image:
+           pass_samples: int | None = None,
+           crop: Sequence[int] | None = None,
+           aovs: str | Iterable[str] | None = None) -> Image:
     """Render ``scene``; keyword arguments override its ``[render]`` settings.
 
     Returns an :class:`Image` whose ``rgb`` is (height, width, 3) float32 linear RGB and whose
     ``stats`` is the ``--stats`` dictionary. ``threads`` defaults to every core, like the
     command line; the image does not depend on it. ``pass_samples`` caps the camera samples
     per pass (default :data:`raytrace.integrator.PASS_SAMPLES`).
+
+    ``crop`` = (x0, y0, x1, y1) renders only those pixels (half-open bounds, like pbrt's
+    ``--pixelbounds``): ``rgb`` is then (y1 − y0, x1 − x0, 3), bit-identical to that window
+    of the full render. ``aovs``: names from :data:`raytrace.aov.AOVS` (depth, normal,
+    albedo, id) to render besides the colour, read with ``Image.aov(name)``.
 
     Every argument is checked before any work (a SceneError, or a TypeError for a
     ``progress`` that is not callable), including the memory the image needs
@@ -94,26 +88,23 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     The integrator, and with it numba, is imported on the first call, so ``import raytrace``
     (loading and checking scenes, reading EXRs) does not pay for the compiler.
     """
-    from .integrator import PASS_SAMPLES, RenderOptions, WhittedIntegrator
+    from .integrator import WhittedIntegrator
 
-    s = settings(scene, width=width, height=height, spp=spp, max_depth=max_depth,
-                 min_weight=min_weight, seed=seed)
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be a callable progress(done, total) or None, got "
                         f"{type(progress).__name__}")
+    options = render_options(scene, width=width, height=height, spp=spp, max_depth=max_depth,
+                             min_weight=min_weight, seed=seed, threads=threads,
+                             pass_samples=pass_samples, crop=crop, aovs=aovs)
+    x0, y0, x1, y1 = options.crop or (0, 0, options.width, options.height)
     try:
-        if threads is None:
-            threads = os.cpu_count() or 1
-        threads = values.number(threads, "threads", lo=1, hi=256, integer=True)
-        check_memory(s.width, s.height)
+        check_memory(x1 - x0, y1 - y0)
     except SceneError as e:
         raise SceneError(e.problem, e.key, scene.path) from None
     where = f"{scene.path}: " if scene.path else ""
     if not scene.objects:
         warnings.warn(f"{where}the scene has no objects: the image is the background",
                       RenderWarning, stacklevel=2)
-    options = RenderOptions(s.width, s.height, s.spp, s.max_depth, s.min_weight, s.background,
-                            s.seed, threads, PASS_SAMPLES if pass_samples is None else pass_samples)
     image = WhittedIntegrator(scene, options).render(progress)
     bad = image.stats["nonfinite_pixels"]
     if bad:
@@ -121,3 +112,51 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
         warnings.warn(f"{where}{bad} pixel{'s' if bad > 1 else ''} overflowed to inf or NaN "
                       f"(the first at x={x}, y={y}), written as 0", RenderWarning, stacklevel=2)
     return image
+
+
+def render_options(scene: Scene, *, width: int | None = None, height: int | None = None,
+                   spp: int | None = None, max_depth: int | None = None,
+                   min_weight: float | None = None, seed: int | None = None,
+                   threads: int | None = None, pass_samples: int | None = None,
+                   crop: Sequence[int] | None = None,
+                   aovs: str | Iterable[str] | None = None) -> RenderOptions:
+    """The integrator's options: the scene's ``[render]`` settings with the overrides that
+    are not None, checked (a :class:`SceneError` locating a bad one in the scene's file)."""
+    from .integrator import PASS_SAMPLES, RenderOptions
+
+    if not isinstance(scene, Scene):
+        raise TypeError(f"render() needs a raytrace.Scene, got {type(scene).__name__}")
+    r = scene.render
+    try:
+        settings = RenderSettings(
+            width=r.width if width is None else width,
+            height=r.height if height is None else height,
+            spp=r.spp if spp is None else spp,
+            max_depth=r.max_depth if max_depth is None else max_depth,
+            min_weight=r.min_weight if min_weight is None else min_weight,
+            background=r.background, seed=r.seed if seed is None else seed)
+        if threads is None:
+            threads = os.cpu_count() or 1
+        threads = values.number(threads, "threads", lo=1, hi=256, integer=True)
+        window = None if crop is None else check_crop(crop, settings.width, settings.height)
+        names = check_aovs(aovs)
+    except SceneError as e:
+        raise SceneError(e.problem, e.key, scene.path) from None
+    return RenderOptions(settings.width, settings.height, settings.spp, settings.max_depth,
+                         settings.min_weight, settings.background, settings.seed, threads,
+                         PASS_SAMPLES if pass_samples is None else pass_samples, window, names)
+
+
+def check_crop(crop: Sequence[int], width: int, height: int,
+               key: str = "crop") -> tuple[int, int, int, int]:
+    """Pixel bounds (x0, y0, x1, y1), half-open, checked: whole numbers with
+    0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height (a non-empty window inside the frame);
+    a :class:`SceneError` saying which bound is wrong otherwise."""
+    if isinstance(crop, str) or not hasattr(crop, "__len__") or len(crop) != 4:
+        raise SceneError(f"must be 4 pixel bounds x0 y0 x1 y1, got {crop!r}", key)
+    x0, y0, x1, y1 = (values.number(v, key, integer=True) for v in crop)
+    for lo, hi, side, axis in ((x0, x1, width, "x"), (y0, y1, height, "y")):
+        if not 0 <= lo < hi <= side:
+            raise SceneError(f"{axis} bounds {lo}..{hi} must satisfy 0 <= {axis}0 < {axis}1 <= "
+                             f"{side} (half-open, inside the {width}x{height} frame)", key)
+    return x0, y0, x1, y1

@@ -57,13 +57,17 @@ def reflect3(dx, dy, dz, nx, ny, nz):
 @kernel
 def refract3(dx, dy, dz, nx, ny, nz, eta):
     """Snell refraction ``η₁ sin θ₁ = η₂ sin θ₂`` with ``eta = η₁/η₂`` of a unit ``d`` at the
-    unit normal ``n`` on its side; returns ``(tx, ty, tz, tir)``.
+    unit normal ``n``; returns ``(tx, ty, tz, tir)``.
 
-    ``cos θᵢ = clip(−d·n, 0, 1)``, radicand ``k = cos²θᵢ − (η² − 1)·sin²θᵢ`` (so η = 1 leaves
-    exactly undeviated), ``t = η·d + (η·cos θᵢ − √k)·n``; ``k < 0`` is total internal
-    reflection, where ``t`` is the mirror direction instead.
+    ``cos θᵢ = −d·n`` (clipped to [−1, 1] against rounding), radicand
+    ``k = cos²θᵢ − (η² − 1)·sin²θᵢ`` (so η = 1 leaves exactly undeviated),
+    ``t = η·d + (η·cos θᵢ − √k)·n``; ``k < 0`` is total internal reflection, where ``t`` is
+    the mirror direction instead. ``|t|² = η²·sin²θᵢ + k = 1`` for either sign of the cosine,
+    so ``t`` is a unit vector also where ``n`` faces away from the ray (an interpolated normal
+    at a smooth mesh's silhouette, docs/shading.md): the cosine keeps its sign, and the
+    integrator then checks the side ``t`` leaves on against the face normal.
     """
-    cos_i = min(max(-(dx * nx + dy * ny + dz * nz), 0.0), 1.0)
+    cos_i = min(max(-(dx * nx + dy * ny + dz * nz), -1.0), 1.0)
     sin2 = max(0.0, (1.0 - cos_i) * (1.0 + cos_i))
     k = cos_i * cos_i - (eta - 1.0) * (eta + 1.0) * sin2
     if k < 0.0:
@@ -286,16 +290,16 @@ def gouraud1(tri, u, v, s, ex, ey, ez, corners, vnormals, em, key, depth, kd, ks
 
 @kernel
 def light_pass(point, geometric, shading, direction, eye, material, offset, shape, triangle, uv,
-               origin, materials, mesh, em, key, depth, shorten, term, rows, s_origin,
-               s_direction, s_tmax, s_shape):
+               origin, materials, mesh, em, key, depth, shorten, term, shadow):
     """One emitter at every hit, in one pass: its unshadowed term and the shadow rays that
     must decide it. Returns k, the number of shadow rays.
 
     ``term = f·[kd·max(N·L, 0) + ks·spec]`` (n, 3) with N the shading normal turned to the
     viewer and V = −d (a Gouraud triangle's, :func:`gouraud1`, is interpolated from its
     corners); 0 for unlit materials. Only hits where some channel of term is > 0 need a shadow
-    ray: the first k rows of ``rows`` (which hit), ``s_origin``, ``s_direction``, ``s_tmax``
-    and ``s_shape`` (the shape it starts on) hold them, in hit order. A shadow ray leaves the
+    ray: the first k rows of ``shadow`` = (``rows`` (which hit), ``s_origin``,
+    ``s_direction``, ``s_tmax``, ``s_shape`` (the shape it starts on)) hold them, in hit
+    order. A shadow ray leaves the
     hit towards the light (:func:`leave1`) and stops ``shorten`` (relative) short of it; from
     a smooth or Gouraud triangle it leaves from :func:`bulge1`'s lifted point on the side the
     viewer sees, keeping the hit point's direction and length (the lift is a fraction of the
@@ -304,6 +308,7 @@ def light_pass(point, geometric, shading, direction, eye, material, offset, shap
     (n,): each hit's global camera sample, read only for a jittered emitter
     (:func:`incidence1`)."""
     corners, vnormals, code = mesh
+    rows, s_origin, s_direction, s_tmax, s_shape = shadow
     jittered = em[18] >= 0.0
     shininess, highlight, lit = materials[3], materials[4], materials[7]
     keep = 1.0 - shorten
@@ -585,6 +590,70 @@ def accumulate(samples, sample, weight, factor, rows):
         f = 0 if one else r
         for c in range(3):
             samples[s, c] += weight[r, c] * factor[f, c]
+
+
+# -- AOVs: the camera rays' first hits (raytrace.aov) ---------------------------------------------
+@kernel
+def aov_hits(sample, t, direction, geometric, shading, material, point, origin, materials,
+             shape, triangle, shape_object, geom_first, geom_object, depth, normal, albedo,
+             ident):
+    """The AOVs of camera-ray hits into their samples' rows (``sample[i]``): ``depth`` the
+    distance ``t``, ``normal`` the shading normal turned to face the ray (as the shading uses
+    it: :func:`facing1`), ``albedo`` kd at the world point (:func:`color1`), ``ident`` the
+    object's index in the scene (``shape_object`` of an analytic shape; a triangle's mesh is
+    the last ``geom_first`` at or before it, ``geom_object`` of that). An output with no rows
+    is not asked for and costs nothing."""
+    for i in range(sample.shape[0]):
+        s = sample[i]
+        if depth.shape[0]:
+            depth[s] = t[i]
+        if normal.shape[0]:
+            f = facing1(geometric[i, 0], geometric[i, 1], geometric[i, 2], direction[i, 0],
+                        direction[i, 1], direction[i, 2])
+            for c in range(3):
+                normal[s, c] = f * shading[i, c]
+        if albedo.shape[0]:
+            kd = color1(materials, material[i], KD, point[i, 0] + origin[0],
+                        point[i, 1] + origin[1], point[i, 2] + origin[2])
+            for c in range(3):
+                albedo[s, c] = kd[c]
+        if ident.shape[0]:
+            if triangle[i] >= 0:
+                mesh = np.searchsorted(geom_first, triangle[i], side="right") - 1
+                ident[s] = geom_object[mesh]
+            else:
+                ident[s] = shape_object[shape[i]]
+
+
+@kernel
+def aov_pixels(pixels, spp, depth, normal, albedo, ident, depth_px, normal_px, albedo_px,
+               ident_px):
+    """``pixels`` pixels, pixel j of samples ``j·spp … j·spp + spp − 1``: depth and id of the
+    nearest sample (the smallest ``depth``, the first on ties), normal and albedo the mean of
+    the samples. An output (``…_px``) with no rows is not asked for; ``depth`` has rows
+    whenever depth or id is asked for."""
+    for j in range(pixels):
+        first = j * spp
+        if depth.shape[0]:
+            best = first
+            for k in range(first + 1, first + spp):
+                if depth[k] < depth[best]:
+                    best = k
+            if depth_px.shape[0]:
+                depth_px[j] = depth[best]
+            if ident_px.shape[0]:
+                ident_px[j] = ident[best]
+        for c in range(3):
+            if normal_px.shape[0]:
+                total = 0.0
+                for k in range(first, first + spp):
+                    total += normal[k, c]
+                normal_px[j, c] = total / spp
+            if albedo_px.shape[0]:
+                total = 0.0
+                for k in range(first, first + spp):
+                    total += albedo[k, c]
+                albedo_px[j, c] = total / spp
 
 
 # -- array versions of the per-ray functions (the public numpy-facing API) -----------------------

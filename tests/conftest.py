@@ -14,6 +14,9 @@ import os
 import pytest
 from hypothesis import settings
 
+# tests/test_pytest_plugin.py runs the raytrace plugin on small projects of its own.
+pytest_plugins = ["pytester"]
+
 # Property tests explore new random cases on a developer's machine (and keep the failures they
 # find in .hypothesis/), but CI must judge a submission the same way every time: there the
 # examples come from a fixed seed.

@@ -192,6 +192,7 @@ def test_baseline_tessellates_analytic_shapes():
 
 
 # -- bench.py --quick -------------------------------------------------------------------------
+@pytest.mark.slow  # 20–37 s: the whole harness at its smallest sizes
 def test_quick_benchmark_json(tmp_path):
     out = tmp_path / "results.json"
     p = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench.py"), "--quick",

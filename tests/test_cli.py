@@ -213,10 +213,98 @@ def test_compare_bad_input(tmp_path, capsys):
     write_exr(small, np.zeros((2, 2, 3), np.float32))
     for args, piece in ((["compare", test, str(small)], "differs"),
                         (["compare", test, str(tmp_path / "none.exr")], "not found"),
-                        (["compare", test, ref, "--metric", "psnr"], "psnr")):
+                        (["compare", test, ref, "--metric", "ssim"], "ssim")):
         assert cli.main(args) == 2
         err = capsys.readouterr().err
         assert len(err.splitlines()) == 1 and piece in err, err
+
+
+def test_compare_psnr_and_flip_with_their_default_thresholds(tmp_path, capsys):
+    test, ref = _pair(tmp_path, 0.6)
+    psnr = 10 * np.log10(60 / 0.36)                   # MSE 0.36/60, peak 1: 22.2 dB
+    assert cli.main(["compare", test, ref, "--metric", "psnr"]) == 1     # default 60 dB
+    assert cli.main(["compare", test, ref, "--metric", "psnr", "--threshold", "22"]) == 0
+    assert cli.main(["compare", test, ref, "--metric", "psnr", "--threshold", "23"]) == 1
+    assert cli.main(["compare", ref, ref, "--metric", "psnr"]) == 0      # +inf dB
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == f"psnr = {psnr:.6g} dB (below threshold 60 dB)"
+    assert "within threshold 22 dB" in out[1] and out[3] == "psnr = inf dB (within threshold 60 dB)"
+    assert cli.main(["compare", test, ref, "--metric", "flip"]) == 1     # default 0.01
+    assert cli.main(["compare", ref, ref, "--metric", "flip", "--threshold", "0"]) == 0
+    flip = float(capsys.readouterr().out.split()[2])
+    assert 0.01 < flip < 1
+
+
+@pytest.mark.parametrize("bad", ["-1", "nan", "inf", "-0.5"])
+def test_compare_threshold_must_be_finite_and_not_negative(tmp_path, capsys, bad):
+    test, ref = _pair(tmp_path, 0.1)
+    assert cli.main(["compare", test, ref, "--threshold", bad]) == 2
+    cap = capsys.readouterr()
+    lines = cap.err.splitlines()
+    assert len(lines) == 1 and "--threshold" in lines[0] and "finite number >= 0" in lines[0]
+    assert cap.out == ""
+
+
+def test_compare_flip_without_the_package_is_one_line(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "flip_evaluator", None)
+    test, ref = _pair(tmp_path, 0.1)
+    assert cli.main(["compare", test, ref, "--metric", "flip"]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and "--metric" in lines[0] and "raytrace[flip]" in lines[0]
+
+
+def test_compare_diff_writes_the_heatmap(tmp_path, capsys):
+    from helpers import read_png
+
+    test, ref = _pair(tmp_path, 0.6)
+    diff = tmp_path / "diff.png"
+    assert cli.main(["compare", test, ref, "--diff", str(diff)]) == 1   # exit code unchanged
+    pixels = read_png(diff)
+    assert pixels.shape == (4, 5, 3) and pixels[0, 0].tolist() == [255, 255, 255]
+    assert int(pixels.sum()) == 3 * 255                 # the one changed pixel, white
+    assert cli.main(["compare", ref, ref, "--diff", str(diff)]) == 0
+    assert not read_png(diff).any()                     # equal images: black
+
+
+@pytest.mark.parametrize("diff,piece", [("ref.exr", ".png"), ("d.txt", ".png"),
+                                        ("nodir/d.png", "does not exist"),
+                                        ("folder.png", "folder")])
+def test_compare_bad_diff_path_is_one_line_and_writes_nothing(tmp_path, capsys, diff, piece):
+    test, ref = _pair(tmp_path, 0.6)
+    if piece == "folder":
+        (tmp_path / diff).mkdir()
+    before = {p.name: p.is_file() and p.read_bytes() for p in tmp_path.iterdir()}
+    assert cli.main(["compare", test, ref, "--diff", str(tmp_path / diff)]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and "--diff" in lines[0] and piece in lines[0], lines
+    assert {p.name: p.is_file() and p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
+def test_compare_diff_never_overwrites_an_input(tmp_path, capsys):
+    test, ref = _pair(tmp_path, 0.6)
+    png = tmp_path / "in.png"
+    png.write_bytes(b"not an image")
+    # An input named .png: refused before anything is read or written.
+    assert cli.main(["compare", str(png), ref, "--diff", str(png)]) == 2
+    assert "would overwrite the input" in capsys.readouterr().err
+    assert png.read_bytes() == b"not an image"
+
+
+def test_compare_json_report(tmp_path, capsys):
+    test, ref = _pair(tmp_path, 0.6)
+    assert cli.main(["compare", test, ref, "--json", "--metric", "max",
+                     "--threshold", "0.5"]) == 1
+    report = json.loads(capsys.readouterr().out)
+    assert report["metric"] == "max" and report["threshold"] == 0.5
+    assert report["value"] == pytest.approx(0.6) and report["within"] is False
+    assert report["metrics"]["rmse"] == pytest.approx(0.6 / np.sqrt(60))
+    assert set(report["metrics"]) == {"rmse", "mae", "max", "relmse", "psnr"}
+    assert report["bad_pixels"] == 1 and report["pixels"] == 20
+    assert report["worst"][0]["x"] == 0 and report["worst"][0]["y"] == 0
+    assert report["worst"][0]["actual"][0] == pytest.approx(1.1)
+    assert cli.main(["compare", ref, ref, "--json", "--metric", "flip"]) == 0
+    report = json.loads(capsys.readouterr().out)      # strict JSON: no Infinity
+    assert report["metrics"]["psnr"] == "inf" and report["metrics"]["flip"] == 0.0
 
 
 def test_compare_in_a_subprocess(tmp_path):

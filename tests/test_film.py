@@ -300,3 +300,20 @@ def test_compression_missing_from_an_older_binding_is_a_clear_error(tmp_path, mo
     with pytest.raises(ValueError, match="'zstd' needs a newer OpenEXR"):
         write_exr(tmp_path / "x.exr", _hdr_image(), compression="zstd")
     assert os.listdir(tmp_path) == []
+
+
+def test_a_preview_before_the_first_render_leaves_rendering_working():
+    # Without SciPy, colour-science (the preview's sRGB encoding) puts a mock in
+    # sys.modules["scipy"], and numba's import then failed: raytrace.testing writes previews
+    # of arrays, so a test suite could preview before it renders. A fresh interpreter shows it.
+    import subprocess
+    import sys
+
+    code = ("import numpy as np, raytrace\nfrom raytrace.film import preview\n"
+            "print(preview(np.full((1, 1, 3), 0.5))[0, 0].tolist())\n"
+            "scene = raytrace.load_scene('scenes/whitted.toml')\n"
+            "print(raytrace.render(scene, width=4, height=3, threads=1).rgb.shape)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=300, cwd=os.path.dirname(os.path.dirname(__file__)))
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split("\n")[:2] == ["[188, 188, 188]", "(3, 4, 3)"]

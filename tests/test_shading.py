@@ -280,7 +280,7 @@ def test_light_pass_terms_and_the_shadow_rays_of_the_lit_hits_only():
     shorten = 1e-7
     k = light_pass(point, up, up, direction, eye, material, offset, shape, triangle, uv,
                    np.zeros(3), table.arrays, mesh, em.packed, np.zeros(0, np.int64), 0,
-                   shorten, term, rows, s_origin, s_direction, s_tmax, s_shape)
+                   shorten, term, (rows, s_origin, s_direction, s_tmax, s_shape))
 
     def lambert(p, normal):
         to_light = np.array([0.0, 4.0, 0.0]) - p

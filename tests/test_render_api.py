@@ -1,4 +1,5 @@
-"""``raytrace.render`` (raytrace/render.py): its arguments are checked before any work, the memory
+"""``raytrace.render`` (raytrace/render.py; not test_render.py, a name the pytest-plugin tests
+give the test files they generate): its arguments are checked before any work, the memory
 an image needs is checked against the machine, and renders that are probably not what was
 meant (no objects, pixels beyond float32) say so: a RenderWarning, one line from the CLI.
 """

@@ -1,0 +1,100 @@
+"""AOVs (arbitrary output variables): what the camera ray of each pixel sample first hit.
+
+Asked for by name (``render(..., aovs=["depth", "id"])``, ``--aov depth,id``), each is an
+image beside the colour, written as extra channels of the same EXR (the channel names
+compositors know: OpenEXR's "Technical Introduction", "Standard layers"; Nuke's and Blender's
+depth ``Z``):
+
+========  ==============================  ==================  ======================
+name      channels, value                 a miss              spp > 1
+========  ==============================  ==================  ======================
+depth     ``Z``: distance from the        +inf                the nearest sample's
+          camera along the ray (t)
+normal    ``N.X N.Y N.Z``: world-space    0, 0, 0             mean of the samples
+          shading normal, facing the ray
+albedo    ``albedo.R .G .B``: kd at the   0, 0, 0             mean of the samples
+          hit (a checker evaluated there)
+id        ``id``: the object's index in   −1                  the nearest sample's
+          the scene's ``objects``
+========  ==============================  ==================  ======================
+
+Depth and id are not averaged (an average of two depths or two ids is neither): they are the
+sample with the smallest t (the first one on ties), as a Z buffer keeps the nearest surface.
+Normal and albedo are filtered like the colour: the mean over the pixel's samples, misses
+counting as 0, so an edge pixel's normal is shorter than 1. Only the camera rays' first hits
+count; nothing is computed or stored for an AOV that was not asked for.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import SceneError
+
+
+@dataclass(frozen=True)
+class AOV:
+    """One AOV: its EXR ``channels``, the value of a ``miss``, the numpy ``dtype`` of
+    :meth:`raytrace.Image.aov` and how a pixel's samples ``combine`` ("nearest" or "mean")."""
+
+    channels: tuple[str, ...]
+    miss: float
+    dtype: type
+    combine: str
+
+
+#: The AOVs by name, in the order their channels are written.
+AOVS: dict[str, AOV] = {
+    "depth": AOV(("Z",), np.inf, np.float32, "nearest"),
+    "normal": AOV(("N.X", "N.Y", "N.Z"), 0.0, np.float32, "mean"),
+    "albedo": AOV(("albedo.R", "albedo.G", "albedo.B"), 0.0, np.float32, "mean"),
+    "id": AOV(("id",), -1.0, np.int32, "nearest"),
+}
+
+
+def check_aovs(names: str | Iterable[str] | None, key: str = "aovs") -> tuple[str, ...]:
+    """The AOV names asked for (a comma-separated string or a list), checked, without
+    repeats, in :data:`AOVS`' order; a :class:`SceneError` naming the valid ones otherwise."""
+    if names is None:
+        return ()
+    if isinstance(names, str):
+        names = [n.strip() for n in names.split(",")]
+    try:
+        names = list(names)
+    except TypeError:
+        raise SceneError(f"must be a list of AOV names, got {type(names).__name__}",
+                         key) from None
+    for n in names:
+        if not isinstance(n, str) or n not in AOVS:
+            raise SceneError(f"unknown AOV {n!r} (choose from {', '.join(AOVS)})", key)
+    return tuple(n for n in AOVS if n in names)
+
+
+def empty(name: str, shape: tuple[int, ...]) -> np.ndarray:
+    """A (H, W) or (H, W, 3) image of AOV ``name`` filled with its miss value."""
+    a = AOVS[name]
+    full = shape if len(a.channels) == 1 else (*shape, len(a.channels))
+    return np.full(full, a.miss, a.dtype)
+
+
+def channels(name: str, image: np.ndarray) -> dict[str, np.ndarray]:
+    """The EXR channels (float32, C-contiguous) of AOV ``name``'s image."""
+    a = AOVS[name]
+    if len(a.channels) == 1:
+        return {a.channels[0]: np.ascontiguousarray(image, dtype=np.float32)}
+    return {c: np.ascontiguousarray(image[..., i], dtype=np.float32)
+            for i, c in enumerate(a.channels)}
+
+
+def from_channels(ch: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The AOVs whose channels are all in ``ch`` (EXR channel name → (H, W) array)."""
+    out = {}
+    for name, a in AOVS.items():
+        if all(c in ch for c in a.channels):
+            planes = [np.asarray(ch[c], dtype=np.float32) for c in a.channels]
+            image = planes[0] if len(planes) == 1 else np.stack(planes, axis=-1)
+            out[name] = image.astype(a.dtype)
+    return out

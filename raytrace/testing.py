@@ -1,0 +1,285 @@
+"""Pixel regression testing: compare a render with a reference and say what differs.
+
+* :func:`assert_image_close` - the assertion for any test suite: per-pixel tolerances
+  ``atol + rtol·|expected|`` (numpy's ``isclose``), a budget of bad pixels, optionally a
+  metric threshold; on failure a message with the metric values, the number of bad pixels and
+  the worst ones, and an artefact folder (actual EXR, expected EXR, diff heatmap PNG,
+  side-by-side PNG).
+* :func:`compare_images` - the same measurements without asserting, as a :class:`Comparison`
+  (``raytrace compare --json`` prints its :meth:`Comparison.to_dict`).
+* :func:`artefact_dir` - where a failing comparison writes: ``$RAYTRACE_ARTEFACTS`` or
+  ``./raytrace-artefacts``, then a folder named after the running pytest test.
+
+The pytest plugin (``raytrace_pytest``: the ``raytrace_golden`` fixture and
+``--raytrace-update-goldens``) is built on these. docs/testing.md shows the whole workflow.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import metrics as _metrics
+from .film import Image, atomic_path, png_bytes, preview, read_exr, write_exr
+
+#: The environment variable naming the artefact root folder.
+ARTEFACTS_ENV = "RAYTRACE_ARTEFACTS"
+#: The artefact root when the variable is unset, relative to the working directory.
+DEFAULT_ARTEFACTS = "raytrace-artefacts"
+#: The files a failing comparison writes into its artefact folder.
+ARTEFACT_FILES = ("actual.exr", "expected.exr", "diff.png", "side_by_side.png")
+
+ImageLike = Image | np.ndarray | str | os.PathLike
+
+
+@dataclass
+class Comparison:
+    """What :func:`compare_images` measured.
+
+    ``metrics`` maps metric names to values; ``bad`` counts the pixels with a channel off by
+    more than ``atol + rtol·|expected|`` out of ``pixels``; ``worst`` lists the pixels that
+    differ most beyond that tolerance (most first) as dicts with ``x``, ``y`` (column and row
+    from the top left), ``actual`` and ``expected`` (per channel) and ``excess`` (the largest
+    channel difference minus its tolerance; inf where one is not finite).
+    """
+
+    width: int
+    height: int
+    rtol: float
+    atol: float
+    metrics: dict[str, float]
+    bad: int
+    worst: list[dict] = field(default_factory=list)
+    bad_mask: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def pixels(self) -> int:
+        return self.width * self.height
+
+    def to_dict(self) -> dict:
+        """A JSON-ready dict; a non-finite number (PSNR of equal images) is a string."""
+
+        def num(v: float) -> float | str:
+            return v if math.isfinite(v) else str(v)
+
+        return {"width": self.width, "height": self.height, "rtol": self.rtol,
+                "atol": self.atol, "metrics": {k: num(v) for k, v in self.metrics.items()},
+                "bad_pixels": self.bad, "pixels": self.pixels,
+                "worst": [{**w, "actual": [num(v) for v in w["actual"]],
+                           "expected": [num(v) for v in w["expected"]],
+                           "excess": num(w["excess"])} for w in self.worst]}
+
+
+def load_image(image: ImageLike, role: str = "image") -> np.ndarray:
+    """An :class:`Image`, an array (H, W) or (H, W, C), or an EXR path as float64 (H, W, C);
+    ``role`` names it in errors."""
+    if isinstance(image, Image):
+        rgb = image.rgb
+    elif isinstance(image, (str, os.PathLike)):
+        if not Path(image).is_file():
+            raise FileNotFoundError(f"{role}: no such EXR file: {image}")
+        rgb, _ = read_exr(image)
+    else:
+        rgb = np.asarray(image)
+    if rgb.ndim == 2:
+        rgb = rgb[..., None]
+    if rgb.ndim != 3 or not np.issubdtype(rgb.dtype, np.number):
+        raise ValueError(f"{role}: expected an image of shape (H, W) or (H, W, C), "
+                         f"got {rgb.dtype} {rgb.shape}")
+    return rgb.astype(np.float64)
+
+
+def compare_images(actual: ImageLike, expected: ImageLike, *, rtol: float = 0.0,
+                   atol: float = 0.0, metrics: Sequence[str] = _metrics.BASIC,
+                   worst: int = 5) -> Comparison:
+    """Measure ``actual`` against ``expected`` (each an :class:`Image`, array or EXR path).
+
+    A pixel is bad when a channel fails numpy's ``isclose(actual, expected, rtol, atol)``,
+    which holds where ``|actual − expected| <= atol + rtol·|expected|``, NaN equal only to
+    NaN, inf only to the same inf. ``metrics`` are names from
+    :data:`raytrace.metrics.METRICS`, taken over every value (a non-finite one makes them nan
+    or inf). The shapes must be equal (a ValueError says both otherwise).
+    """
+    a, e = load_image(actual, "actual"), load_image(expected, "expected")
+    if a.shape != e.shape:
+        raise ValueError(f"actual is {_size(a)}, expected is {_size(e)}")
+    rtol, atol = float(rtol), float(atol)
+    if not (rtol >= 0 and atol >= 0 and math.isfinite(rtol) and math.isfinite(atol)):
+        raise ValueError(f"rtol and atol must be finite and >= 0, got {rtol!r}, {atol!r}")
+    with np.errstate(invalid="ignore", over="ignore"):  # inf - inf: the metric is nan
+        values = {name: _metrics.get(name).function(a, e) for name in metrics}
+    close = np.isclose(a, e, rtol=rtol, atol=atol, equal_nan=True)
+    bad_mask = ~close.all(axis=-1)
+    identical = (a == e) | (np.isnan(a) & np.isnan(e))
+    with np.errstate(invalid="ignore"):  # inf - inf: identical, masked below
+        excess = np.abs(a - e) - (atol + rtol * np.abs(e))
+    excess = np.where(identical, -np.inf, np.where(np.isnan(excess), np.inf, excess)).max(axis=-1)
+    differ = ~identical.all(axis=-1)
+    order = np.argsort(-np.where(differ, excess, -np.inf), axis=None, kind="stable")
+    listed = []
+    for flat in order[:worst]:
+        y, x = divmod(int(flat), a.shape[1])
+        if not differ[y, x]:
+            break
+        listed.append({"x": x, "y": y, "actual": a[y, x].tolist(),
+                       "expected": e[y, x].tolist(), "excess": float(excess[y, x])})
+    return Comparison(a.shape[1], a.shape[0], rtol, atol, values, int(bad_mask.sum()), listed,
+                      bad_mask)
+
+
+def artefact_dir(name: str | None = None, root: str | os.PathLike | None = None) -> Path:
+    """The artefact folder of a comparison: ``root`` (default ``$RAYTRACE_ARTEFACTS``, else
+    ``./raytrace-artefacts``) / the running pytest test (module.test, from
+    ``PYTEST_CURRENT_TEST``; ``assert_image_close`` outside pytest) [/ ``name``]."""
+    root = Path(root or os.environ.get(ARTEFACTS_ENV) or DEFAULT_ARTEFACTS)
+    current = os.environ.get("PYTEST_CURRENT_TEST")
+    if current:
+        nodeid = current.rsplit(" (", 1)[0]
+        path, _, rest = nodeid.partition("::")
+        test = ".".join([Path(path).stem, *rest.split("::")])
+    else:
+        test = "assert_image_close"
+    parts = [test] + ([name] if name else [])
+    return root.joinpath(*(re.sub(r"[^\w.\-\[\]]+", "_", p) for p in parts))
+
+
+def write_artefacts(folder: str | os.PathLike, actual: ImageLike, expected: ImageLike | None,
+                    metadata: dict | None = None,
+                    inputs: Sequence[str | os.PathLike] = ()) -> Path:
+    """Write :data:`ARTEFACT_FILES` into ``folder`` (created): the actual and expected images
+    as float EXR (``expected`` may be None: a missing golden), the diff heatmap
+    (:func:`raytrace.metrics.heatmap`) and expected | actual | diff side by side as sRGB
+    previews (clip tone map), replacing those of an earlier failure. Refuses to write over
+    any of ``inputs``."""
+    folder = Path(folder)
+    targets = [folder / f for f in ARTEFACT_FILES]
+    for p in inputs:
+        if Path(p).resolve() in {t.resolve() for t in targets}:
+            raise ValueError(f"artefact folder {folder} would overwrite the input {p}")
+    folder.mkdir(parents=True, exist_ok=True)
+    for t in targets:  # the folder holds the latest failure only: no stale diff beside it
+        t.unlink(missing_ok=True)
+    a = load_image(actual, "actual")
+    write_exr(targets[0], _rgb(a), metadata)
+    panels = [_rgb(a)]
+    if expected is not None:
+        e = load_image(expected, "expected")
+        write_exr(targets[1], _rgb(e))
+        if e.shape == a.shape:
+            panels = [_rgb(e), _rgb(a), write_diff(targets[2], a, e)[0]]
+        else:
+            panels = [_rgb(e), _rgb(a)]
+    pngs = [p if p.dtype == np.uint8 else preview(p) for p in panels]
+    height = max(p.shape[0] for p in pngs)
+    gap = np.full((height, 2, 3), 64, np.uint8)
+    row = []
+    for p in pngs:
+        pad = np.zeros((height - p.shape[0], p.shape[1], 3), np.uint8)
+        row += [np.concatenate([p, pad]), gap]
+    _write_png(targets[3], np.concatenate(row[:-1], axis=1))
+    return folder
+
+
+def assert_image_close(actual: ImageLike, expected: ImageLike, *, rtol: float, atol: float,
+                       max_bad_fraction: float = 0.0, metric: str | None = None,
+                       threshold: float | None = None, name: str | None = None,
+                       artefacts: str | os.PathLike | None = None) -> Comparison:
+    """Assert that ``actual`` matches ``expected`` (each an :class:`Image`, an array or an EXR
+    path) pixel by pixel.
+
+    A pixel is bad when a channel is off by more than ``atol + rtol·|expected|`` (NaN matches
+    only NaN); at most ``floor(max_bad_fraction · pixels)`` may be. With ``metric`` (a name in
+    :data:`raytrace.metrics.METRICS`, e.g. ``"flip"``) that metric is reported too, and with
+    ``threshold`` it must also be within it (``<=``; ``>=`` for PSNR).
+
+    On failure raises AssertionError whose message gives the metrics, the bad pixel count, the
+    worst pixels with their coordinates and values, and the artefact folder
+    (:func:`artefact_dir` with ``name`` and root ``artefacts``) that now holds
+    :data:`ARTEFACT_FILES`. Returns the :class:`Comparison` when it passes.
+    """
+    __tracebackhide__ = True
+    if not 0.0 <= max_bad_fraction <= 1.0:
+        raise ValueError(f"max_bad_fraction must be in [0, 1], got {max_bad_fraction!r}")
+    if threshold is not None:
+        if metric is None:
+            raise ValueError("threshold needs a metric (e.g. metric='flip', threshold=0.05)")
+        threshold = _metrics.check_threshold(threshold)
+    names = list(_metrics.BASIC) + ([metric] if metric and metric not in _metrics.BASIC else [])
+    if metric is not None:
+        _metrics.get(metric)
+    a, e = load_image(actual, "actual"), load_image(expected, "expected")
+    inputs = [p for p in (actual, expected) if isinstance(p, (str, os.PathLike))]
+    metadata = actual.metadata if isinstance(actual, Image) else None
+    folder = artefact_dir(name, artefacts)
+    if a.shape != e.shape:
+        write_artefacts(folder, a, e, metadata, inputs)
+        raise AssertionError(f"image size differs: actual is {_size(a)}, expected is "
+                             f"{_size(e)}\nartefacts: {folder}")
+    c = compare_images(a, e, rtol=rtol, atol=atol, metrics=names)
+    allowed = math.floor(max_bad_fraction * c.pixels)
+    problems = []
+    if c.bad > allowed:
+        problems.append(f"{c.bad} of {c.pixels} pixels ({100 * c.bad / c.pixels:.3g} %) are off "
+                        f"by more than atol + rtol·|expected| (atol={atol:g}, rtol={rtol:g}); "
+                        f"at most {allowed} may be (max_bad_fraction={max_bad_fraction:g})")
+    if threshold is not None:
+        m = _metrics.get(metric)
+        if not m.within(c.metrics[metric], threshold):
+            problems.append(f"{metric} = {c.metrics[metric]:.6g}{m.unit} is "
+                            f"{'below' if m.higher_is_better else 'over'} the threshold "
+                            f"{threshold:g}{m.unit}")
+    if problems:
+        write_artefacts(folder, a, e, metadata, inputs)
+        raise AssertionError("images differ: " + "\n  ".join(problems) + "\n"
+                             + format_report(c) + f"\nartefacts: {folder}/ "
+                             f"({', '.join(ARTEFACT_FILES)})")
+    return c
+
+
+def format_report(c: Comparison) -> str:
+    """The metrics and the worst pixels of a :class:`Comparison`, a few lines of text."""
+    lines = ["metrics: " + "  ".join(f"{k}={v:.6g}{_metrics.METRICS[k].unit}"
+                                     for k, v in c.metrics.items())]
+    if c.worst:
+        lines.append("worst pixels (x, y from the top left): actual vs expected")
+        for w in c.worst:
+            lines.append(f"  ({w['x']}, {w['y']}): {_vec(w['actual'])} vs "
+                         f"{_vec(w['expected'])}")
+    return "\n".join(lines)
+
+
+def _vec(values: Sequence[float]) -> str:
+    return "[" + ", ".join(f"{v:.6g}" for v in values) + "]"
+
+
+def _size(a: np.ndarray) -> str:
+    return f"{a.shape[1]}x{a.shape[0]}" + (f"x{a.shape[2]}" if a.shape[2] != 3 else "")
+
+
+def _rgb(a: np.ndarray) -> np.ndarray:
+    """(H, W, 3) float32 for the EXR and preview writers: one channel as grey, the first
+    three of more."""
+    a = np.repeat(a, 3, axis=-1) if a.shape[-1] == 1 else a[..., :3]
+    if a.shape[-1] == 2:
+        a = np.concatenate([a, np.zeros_like(a[..., :1])], axis=-1)
+    return np.ascontiguousarray(a, dtype=np.float32)
+
+
+def write_diff(path: str | os.PathLike, actual: np.ndarray,
+               expected: np.ndarray) -> tuple[np.ndarray, float]:
+    """Write the diff heatmap PNG of :func:`raytrace.metrics.heatmap` atomically; return its
+    pixels and the difference shown as white."""
+    pixels, scale = _metrics.heatmap(actual, expected)
+    _write_png(Path(path), pixels)
+    return pixels, scale
+
+
+def _write_png(path: Path, pixels: np.ndarray) -> None:
+    with atomic_path(path, ".png") as tmp:
+        tmp.write_bytes(png_bytes(pixels))
