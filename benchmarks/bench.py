@@ -1,8 +1,8 @@
 """The performance benchmark of issue 6: raytrace against raw Embree and against POV-Ray 3.7.
 
-    .venv/bin/python benchmarks/bench.py                 # everything, full size (minutes)
-    .venv/bin/python benchmarks/bench.py --quick         # a smoke run (seconds)
-    .venv/bin/python benchmarks/bench.py --parts throughput,povray --threads 2
+    python3 benchmarks/bench.py                 # everything, full size (minutes)
+    python3 benchmarks/bench.py --quick         # a smoke run (seconds)
+    python3 benchmarks/bench.py --parts throughput,povray --threads 2
 
 Parts (``--parts``, comma-separated; default all):
 

@@ -1,8 +1,8 @@
 """What each quality knob buys: image error against render time, measured.
 
-    .venv/bin/python benchmarks/knobs.py                  # the full sweep (a few minutes)
-    .venv/bin/python benchmarks/knobs.py --quick          # tiny sizes: checks the harness
-    .venv/bin/python benchmarks/knobs.py --threads 2 --json benchmarks/knobs.json \\
+    python3 benchmarks/knobs.py                  # the full sweep (a few minutes)
+    python3 benchmarks/knobs.py --quick          # tiny sizes: checks the harness
+    python3 benchmarks/knobs.py --threads 2 --json benchmarks/knobs.json \\
         --plots docs/knobs
 
 Each knob is swept on a scene where it matters. Every setting is rendered in this process
@@ -728,7 +728,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     else:
         log(f"load average {os.getloadavg()}, {args.threads} threads")
         result = run(config, args.threads, log)
-        result["command"] = " ".join([".venv/bin/python", "benchmarks/knobs.py",
+        result["command"] = " ".join(["python3", "benchmarks/knobs.py",
                                       *(argv if argv is not None else sys.argv[1:])])
         result["quick"] = args.quick
     print(report(result))

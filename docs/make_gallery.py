@@ -1,6 +1,6 @@
 """Render every scene in scenes/ into docs/gallery/ and write docs/gallery.md.
 
-    .venv/bin/python docs/make_gallery.py
+    python3 docs/make_gallery.py
 
 One script, so that the pictures always match the code: run it after any change that alters a
 picture. Each scene is rendered ``WIDTH`` pixels wide (the height keeps the scene's aspect
@@ -145,7 +145,7 @@ def main() -> int:
         "Regenerate every picture and this page with:",
         "",
         "```sh",
-        ".venv/bin/python docs/make_gallery.py",
+        "python3 docs/make_gallery.py",
         "```",
         "",
         "The scene format is described in [scene_format.md](scene_format.md) and the shading "

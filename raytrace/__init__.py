@@ -15,7 +15,9 @@ The pipeline, one module per stage::
 (24, 32, 3)
 """
 
-from .errors import SceneError
+from importlib import metadata as _metadata
+
+from .errors import RenderWarning, SceneError
 from .explain import explain
 from .film import Image, read_exr
 from .material import Checker, Material, MaterialLibrary
@@ -35,10 +37,14 @@ from .scene import (
 )
 from .scene_file import load_scene, scene_from_dict
 
-__version__ = "0.1.0"
+try:  # the installed distribution's version (pyproject.toml), not a second copy of it
+    __version__ = _metadata.version("raytrace")
+except _metadata.PackageNotFoundError:  # run from a source tree that was never installed
+    __version__ = "0+unknown"
 
 __all__ = [
     "AreaLight", "Camera", "Checker", "DirectionalLight", "Image", "Material", "explain",
-    "MaterialLibrary", "Mesh", "Plane", "PointLight", "RenderSettings", "Scene", "SceneError",
-    "Sphere", "SpotLight", "load_scene", "materials", "read_exr", "render", "scene_from_dict",
+    "MaterialLibrary", "Mesh", "Plane", "PointLight", "RenderSettings", "RenderWarning", "Scene",
+    "SceneError", "Sphere", "SpotLight", "load_scene", "materials", "read_exr", "render",
+    "scene_from_dict",
 ]

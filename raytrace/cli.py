@@ -10,10 +10,13 @@
     raytrace compare TEST.exr REFERENCE.exr [--metric rmse|mae|max|relmse|psnr|flip]
                      [--threshold T] [--diff DIFF.png] [--json]
     raytrace materials
+    raytrace --version
 
 Bad input prints one line ``raytrace: error: FILE: KEY: problem`` and exits with status 2;
 ``compare`` exits 1 when the difference is worse than the threshold (over it; under it for
-PSNR). The metrics are :data:`raytrace.metrics.METRICS`.
+PSNR). The metrics are :data:`raytrace.metrics.METRICS`. ``render`` writes all of its outputs
+or none (:mod:`raytrace.outputs`); a render that completes but is probably not what was meant
+adds a line ``raytrace: warning: FILE: problem``.
 """
 
 from __future__ import annotations
@@ -23,12 +26,15 @@ import json
 import os
 import sys
 import time
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from .errors import SceneError
+from . import __version__
+from .errors import RenderWarning, SceneError
+from .outputs import Outputs
 
 EXIT_BAD_INPUT = 2
 EXIT_OVER_THRESHOLD = 1
@@ -45,6 +51,7 @@ def _parser() -> argparse.ArgumentParser:
     from .film import EXR_COMPRESSIONS
 
     p = _Parser(prog="raytrace", description="A Whitted ray tracer on Embree.")
+    p.add_argument("--version", action="version", version=f"raytrace {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("render", help="render a scene file to a float EXR")
@@ -53,7 +60,7 @@ def _parser() -> argparse.ArgumentParser:
     _overrides(r)
     r.add_argument("--threads", type=int, default=os.cpu_count() or 1,
                    help="worker threads (default: all cores)")
-    r.add_argument("--png", help="also write a tone-mapped sRGB PNG preview")
+    r.add_argument("--png", help="also write a tone-mapped sRGB PNG preview (.png)")
     r.add_argument("--exposure", type=float, default=0.0, help="preview exposure in stops")
     r.add_argument("--tonemap", default="clip", help="preview tone map: clip or reinhard")
     r.add_argument("--stats", help="write render statistics as JSON")
@@ -152,7 +159,8 @@ def _render(args: argparse.Namespace) -> int:
     from . import integrator  # noqa: F401  (the renderer and numba: imported, not timed)
     from .aov import check_aovs
     from .film import TONEMAPS, exr_compression, write_exr, write_png
-    from .render import render
+    from .jit import cache_is_warm
+    from .render import check_memory, render, render_options
     from .scene_file import load_scene
 
     if args.tonemap not in TONEMAPS:
@@ -162,43 +170,57 @@ def _render(args: argparse.Namespace) -> int:
         exr_compression(args.compression)
     except ValueError as e:
         raise SceneError(str(e), "--compression") from None
-    out = Path(args.output) if args.output else Path(Path(args.scene).stem + ".exr")
-    if out.suffix.lower() != ".exr":
-        raise SceneError(f"output must be an .exr file, got {str(out)!r}", "-o")
-    for flag, path in (("-o", out), ("--png", args.png), ("--stats", args.stats)):
-        if path and not Path(path).resolve().parent.is_dir():
-            raise SceneError(f"folder does not exist: {Path(path).parent}", flag)
-        if path and Path(path).is_dir():  # found now, not after the render
-            raise SceneError(f"is a folder, not a file: {path}", flag)
+    outputs = args.outputs
+    # Every output is checked before anything is rendered (outputs.py): its suffix and that it
+    # is no other output and not the scene file now; after loading, that it is no mesh or
+    # material file the scene reads and that its folder takes a new file.
+    exr = outputs.add(args.output or Path(args.scene).stem + ".exr", "-o", ".exr")
+    png = outputs.add(args.png, "--png", ".png") if args.png else None
+    stats_file = outputs.add(args.stats, "--stats") if args.stats else None
+    outputs.refuse_inputs([(args.scene, "the scene file")])
     aovs = check_aovs(args.aov, "--aov")  # found now, not after the render
     t0 = time.perf_counter()
     scene = load_scene(args.scene)
     load_seconds = time.perf_counter() - t0
+    outputs.refuse_inputs(scene.input_files())
+    outputs.preflight()
     progress = Progress(not args.quiet)
+    overrides = dict(width=args.width, height=args.height, spp=args.spp,
+                     max_depth=args.max_depth, min_weight=args.min_weight, seed=args.seed,
+                     threads=args.threads, crop=args.crop, aovs=aovs)
     try:
-        image = render(scene, width=args.width, height=args.height, spp=args.spp,
-                       max_depth=args.max_depth, min_weight=args.min_weight, seed=args.seed,
-                       threads=args.threads, progress=progress, crop=args.crop, aovs=aovs)
+        o = render_options(scene, **overrides)
+        x0, y0, x1, y1 = o.crop or (0, 0, o.width, o.height)
+        check_memory(x1 - x0, y1 - y0, ("exr", "png") if png else ("exr",))
+        if progress.enabled and not cache_is_warm():
+            sys.stderr.write("raytrace: compiling kernels, first run only (about 15 s)\n")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", RenderWarning)
+            image = render(scene, progress=progress, **overrides)
     except SceneError as e:  # a flag's value: name the flag, not the scene key
         raise _flag_error(e) from None
+    for w in caught:  # ours as one line each, terminal or not; anything else as Python would
+        if issubclass(w.category, RenderWarning):
+            print(f"raytrace: warning: {w.message}", file=sys.stderr)
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     t1 = time.perf_counter()
-    write_exr(out, image.rgb, image.metadata, args.threads, args.compression,
-              channels=image.channels(), crop=image.crop, frame=image.frame)
-    args.written.append(str(out))
-    if args.png:
-        write_png(args.png, image.rgb, args.exposure, args.tonemap)
-        args.written.append(str(args.png))
+    with outputs.stage(exr) as tmp:
+        write_exr(tmp, image.rgb, image.metadata, args.threads, args.compression,
+                  channels=image.channels(), crop=image.crop, frame=image.frame)
+    if png:
+        with outputs.stage(png) as tmp:
+            write_png(tmp, image.rgb, args.exposure, args.tonemap)
     stats = image.stats
     stats["seconds"]["load"] = load_seconds
     stats["seconds"]["write"] = time.perf_counter() - t1
     stats["seconds"]["total"] = time.perf_counter() - t0
-    stats["output"] = str(out)
-    if args.stats:
-        from .film import atomic_path
-
-        with atomic_path(args.stats, ".json") as tmp:
+    stats["output"] = exr.path
+    if stats_file:
+        with outputs.stage(stats_file) as tmp:
             tmp.write_text(json.dumps(stats, indent=2) + "\n")
-    progress.summary(args.written + ([args.stats] if args.stats else []), stats)
+    outputs.commit()  # the renames, only now that every output is complete
+    progress.summary(outputs.written, stats)
     return 0
 
 
@@ -287,27 +309,39 @@ def _materials(args: argparse.Namespace) -> int:
     return 0
 
 
+def _what_was_written(outputs: Outputs) -> str:
+    """Exactly which outputs were replaced and which were left as they were."""
+    done, left = outputs.written, outputs.not_written
+    if not done:
+        return "no output written" + (f" ({', '.join(left)} left as they were)" if left else "")
+    if not left:
+        return f"wrote {', '.join(done)} (every output)"
+    return f"wrote {', '.join(done)}; not written: {', '.join(left)} (left as they were)"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    args.written = []  # outputs complete so far (each is written atomically)
     handler = {"render": _render, "explain": _explain, "compare": _compare,
                "materials": _materials}[args.command]
-    try:
-        return handler(args)
-    except SceneError as e:
-        print(f"raytrace: error: {e}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except BrokenPipeError:  # e.g. `raytrace materials | head`
-        sys.stderr.close()
-        return 0
-    except KeyboardInterrupt:
-        end_bar = "\n" if sys.stderr.isatty() else ""  # leave the progress bar's line
-        done = f"wrote {', '.join(args.written)} only" if args.written else "no output written"
-        print(f"{end_bar}raytrace: interrupted; {done}", file=sys.stderr)
-        return 130
-    except OSError as e:  # e.g. no permission or no space left writing an output
-        print(f"raytrace: error: {e.filename or ''}: {e.strerror or e}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+    with Outputs() as args.outputs:  # all or nothing (outputs.py); temporary files removed
+        try:
+            return handler(args)
+        except SceneError as e:
+            print(f"raytrace: error: {e}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        except BrokenPipeError:  # e.g. `raytrace materials | head`
+            sys.stderr.close()
+            return 0
+        except KeyboardInterrupt:
+            end_bar = "\n" if sys.stderr.isatty() else ""  # leave the progress bar's line
+            print(f"{end_bar}raytrace: interrupted; {_what_was_written(args.outputs)}",
+                  file=sys.stderr)
+            return 130
+        except OSError as e:  # e.g. no permission or no space left writing an output
+            where = ": ".join(str(p) for p in (e.filename, getattr(e, "key", None)) if p)
+            partial = f" ({_what_was_written(args.outputs)})" if args.outputs.written else ""
+            print(f"raytrace: error: {where}: {e.strerror or e}{partial}", file=sys.stderr)
+            return EXIT_BAD_INPUT
 
 
 if __name__ == "__main__":

@@ -38,3 +38,9 @@ class SceneError(ValueError):
             key = f"{key_prefix}.{key}" if key and not key.startswith("[") else (
                 f"{key_prefix}{key}" if key else key_prefix)
         return SceneError(self.problem, key, self.file or file)
+
+
+class RenderWarning(UserWarning):
+    """A render that completes but is probably not what was meant: a scene with no objects,
+    pixels that overflowed float32. The command line prints each as one line
+    ``raytrace: warning: FILE: problem`` on stderr, terminal or not."""

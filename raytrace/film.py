@@ -15,6 +15,7 @@ interrupted write leaves the old file (or none), never a truncated one.
 
 from __future__ import annotations
 
+import errno
 import os
 import struct
 import sys
@@ -134,9 +135,15 @@ def read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict]:
 
 
 def _read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict, dict]:
-    """RGB as :func:`read_exr` reads it, every other channel by name (H, W), the header."""
+    """RGB as :func:`read_exr` reads it, every other channel by name (H, W), the header. A
+    missing file is a :class:`FileNotFoundError` (checked first: the binding would print to
+    stderr)."""
     import OpenEXR
 
+    if Path(path).is_dir():
+        raise IsADirectoryError(errno.EISDIR, "is a folder, not an EXR file", os.fspath(path))
+    if not Path(path).is_file():
+        raise FileNotFoundError(errno.ENOENT, "no such EXR file", os.fspath(path))
     with OpenEXR.File(str(path), separate_channels=True) as f:
         ch = {name: c.pixels for name, c in f.channels().items()}
         header = dict(f.header())
@@ -259,15 +266,25 @@ class Image:
     def save(self, path: str | os.PathLike, exposure: float = 0.0, tonemap: str = "clip",
              threads: int = 1, compression: str = "zip") -> None:
         """Write ``.exr`` (float, linear; ``compression`` one of :data:`EXR_COMPRESSIONS`, run
-        on ``threads`` threads) or ``.png`` (tone-mapped sRGB preview; ``compression`` unused)."""
+        on ``threads`` threads) or ``.png`` (tone-mapped sRGB preview; ``compression`` unused).
+        Like the command line's outputs, the file is written whole or not at all
+        (:mod:`raytrace.outputs`); errors name ``path``, never a temporary file.
+        """
+        from .outputs import Outputs
+
         suffix = Path(path).suffix.lower()
-        if suffix == ".exr":
-            write_exr(path, self.rgb, self.metadata, threads, compression,
-                      channels=self.channels(), crop=self.crop, frame=self.frame)
-        elif suffix == ".png":
-            write_png(path, self.rgb, exposure, tonemap)
-        else:
+        if suffix not in (".exr", ".png"):
             raise ValueError(f"{path}: unknown image type {suffix!r} (use .exr or .png)")
+        with Outputs() as outputs:
+            out = outputs.add(path, "path", suffix)
+            outputs.preflight()
+            with outputs.stage(out) as tmp:
+                if suffix == ".exr":
+                    write_exr(tmp, self.rgb, self.metadata, threads, compression,
+                              channels=self.channels(), crop=self.crop, frame=self.frame)
+                else:
+                    write_png(tmp, self.rgb, exposure, tonemap)
+            outputs.commit()
 
     def channels(self) -> dict[str, np.ndarray]:
         """The AOVs as EXR channels (``Z``, ``N.X`` …), float32 (H, W) each."""

@@ -248,13 +248,17 @@ class WhittedIntegrator:
         t_passes = time.perf_counter() - t_start
         rgb = pixels.reshape(rows, cols, 3)
         bad = ~np.isfinite(rgb)
-        nonfinite = 0
+        nonfinite, first = 0, None
         if bad.any():
-            nonfinite = int(bad.any(axis=2).sum())
+            bad_pixels = bad.any(axis=2)
+            nonfinite = int(bad_pixels.sum())
+            y, x = np.unravel_index(int(np.argmax(bad_pixels)), bad_pixels.shape)
+            x0, y0 = o.crop[:2] if o.crop else (0, 0)
+            first = [int(x) + x0, int(y) + y0]  # the first in reading order, in the frame
             rgb[bad] = 0.0
         seconds = time.perf_counter() - t_start + self.build_seconds
-        return Image(rgb, self._stats(nonfinite, seconds, t_passes), self._metadata(), aovs,
-                     o.crop, (o.width, o.height))
+        return Image(rgb, self._stats(nonfinite, first, seconds, t_passes),
+                     self._metadata(nonfinite), aovs, o.crop, (o.width, o.height))
 
     def _run(self, passes: list[tuple[int, int]], pixels: np.ndarray,
              progress: Callable[[int, int], None] | None, total: int) -> None:
@@ -543,7 +547,8 @@ class WhittedIntegrator:
             self.observer.shadow(factor.copy())
 
     # -- reporting ---------------------------------------------------------------------------
-    def _stats(self, nonfinite: int, seconds: float, pass_wall: float) -> dict:
+    def _stats(self, nonfinite: int, first: list[int] | None, seconds: float,
+               pass_wall: float) -> dict:
         """The ``--stats`` dictionary. Counts are summed over the threads. ``trace`` and
         ``shade`` are wall seconds: the passes' wall time split in proportion to the thread
         time spent tracing and shading, so build + trace + shade ≤ total with any number of
@@ -558,7 +563,7 @@ class WhittedIntegrator:
             "rays": rays,
             "pruned": {"depth": st.pruned_depth, "weight": st.pruned_weight},
             "total_internal_reflections": st.total_internal_reflections,
-            "nonfinite_pixels": nonfinite,
+            "nonfinite_pixels": nonfinite, "nonfinite_first_pixel": first,  # [x, y] or None
             "degenerate_triangles": self.accel.degenerate,
             "triangles": self.accel.n_triangles,
             "seconds": {"build": self.build_seconds, "trace": st.trace_seconds * share,
@@ -569,11 +574,12 @@ class WhittedIntegrator:
             **({"aovs": list(o.aovs)} if o.aovs else {}),
         }
 
-    def _metadata(self) -> dict:
+    def _metadata(self, nonfinite: int) -> dict:
         o = self.opt
         return {"scene": self.scene.path or "<python>", "width": o.width, "height": o.height,
                 "spp": o.spp, "max_depth": o.max_depth, "min_weight": o.min_weight,
-                "seed": o.seed, "renderer": "raytrace (Whitted, Embree)",
+                "seed": o.seed, "nonfinite_pixels": nonfinite,
+                "renderer": "raytrace (Whitted, Embree)",
                 **({"crop": " ".join(map(str, o.crop))} if o.crop else {})}
 
 

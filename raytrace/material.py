@@ -45,6 +45,16 @@ class Checker:
     colors: tuple[np.ndarray, np.ndarray]
     scale: float = 1.0
 
+    def __post_init__(self) -> None:
+        # The checks of the table form (same rules, same messages), made where the value
+        # enters; a kr or kt checker is checked against [0, 1] again by its Material.
+        try:
+            colors, scale = _checker_fields(self.colors, self.scale, "")
+        except SceneError as e:
+            raise e.at(key_prefix="Checker") from None
+        object.__setattr__(self, "colors", colors)
+        object.__setattr__(self, "scale", scale)
+
     def evaluate(self, points: np.ndarray) -> np.ndarray:
         """Colours (n, 3) at world points (n, 3): the renderer's own rule,
         :func:`raytrace.core.checker1`."""
@@ -72,13 +82,18 @@ def parse_color(value: Any, key: str, *, hi: float | None = None) -> Color:
     if isinstance(value, Mapping):
         values.check_keys(value, PATTERN_KEYS, key)
         values.string(value.get("pattern"), f"{key}.pattern", ["checker"])
-        cols = value.get("colors")
-        if not isinstance(cols, (list, tuple)) or len(cols) != 2:
-            raise SceneError("must be a list of two colours", f"{key}.colors")
-        pair = tuple(values.color(c, f"{key}.colors[{i}]", hi=hi) for i, c in enumerate(cols))
-        scale = values.number(value.get("scale", 1.0), f"{key}.scale", lo=0, lo_open=True)
-        return Checker(pair, scale)
+        return Checker(*_checker_fields(value.get("colors"), value.get("scale", 1.0), key, hi))
     return values.color(value, key, hi=hi)
+
+
+def _checker_fields(cols: Any, scale: Any, key: str, hi: float | None = None
+                    ) -> tuple[tuple[np.ndarray, np.ndarray], float]:
+    """A checker's two colours (each ≥ 0, and ≤ ``hi``) and its cell size (> 0), checked."""
+    where = f"{key}." if key else ""
+    if not isinstance(cols, (list, tuple)) or len(cols) != 2:
+        raise SceneError("must be a list of two colours", f"{where}colors")
+    pair = tuple(values.color(c, f"{where}colors[{i}]", hi=hi) for i, c in enumerate(cols))
+    return pair, values.number(scale, f"{where}scale", lo=0, lo_open=True)
 
 
 @dataclass(eq=False)
@@ -95,6 +110,9 @@ class Material:
     ior: float = 1.5
     opacity: float = 1.0
     name: str = field(default="", compare=False)
+    #: The library files this material was read from (its own and its bases'): inputs that
+    #: no output of a render may overwrite.
+    sources: tuple[Path, ...] = field(default=(), compare=False, repr=False, init=False)
 
     def __post_init__(self) -> None:
         where = f"material {self.name!r}" if self.name else "Material"
@@ -163,16 +181,19 @@ def material_from_table(table: Mapping, key: str,
         if resolve is None:
             raise SceneError("no materials to take a base from", f"{key}.base")
         base = resolve(base_name, f"{key}.base")
-        fields = {**{f.name: getattr(base, f.name) for f in dataclasses.fields(base)},
+        fields = {**{f.name: getattr(base, f.name) for f in dataclasses.fields(base) if f.init},
                   **fields}
     fields["name"] = name
     try:
-        return Material(**fields)
+        material = Material(**fields)
     except SceneError as e:
         # Material() names the key as "Material.kd" etc.; re-root it at the table's key.
         k = e.key or ""
         k = k.split(".", 1)[1] if k.startswith(("Material.", "material ")) and "." in k else k
         raise SceneError(e.problem, f"{key}.{k}" if k else key) from None
+    if "base" in table:
+        material.sources = base.sources
+    return material
 
 
 def _library_folder() -> Path:
@@ -209,13 +230,15 @@ class MaterialLibrary(Mapping):
         except (OSError, tomllib.TOMLDecodeError) as e:
             raise SceneError(f"cannot read material: {e}", file=str(path)) from None
         try:
-            return material_from_table(table, "", self._resolve, name, LIBRARY_ONLY_KEYS)
+            material = material_from_table(table, "", self._resolve, name, LIBRARY_ONLY_KEYS)
         except SceneError as e:
             raise SceneError(e.problem, (e.key or "").lstrip("."), str(path)) from None
+        material.sources = (path, *material.sources)
+        return material
 
     def _resolve(self, name: str, key: str) -> Material:
         if name not in self:
-            raise SceneError(f"unknown material {name!r}", key)
+            raise SceneError(f"unknown material {name!r}{values.did_you_mean(name, self)}", key)
         return self[name]
 
     def describe(self, name: str) -> dict[str, str]:

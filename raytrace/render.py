@@ -1,19 +1,63 @@
-"""``raytrace.render``: one call from a :class:`~raytrace.scene.Scene` to an :class:`Image`."""
+"""``raytrace.render``: one call from a :class:`~raytrace.scene.Scene` to an :class:`Image`.
+
+Also the memory a render needs (:func:`peak_bytes`), checked against what the machine has
+before any work (:func:`check_memory`).
+"""
 
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 from typing import TYPE_CHECKING
 
 from . import values
 from .aov import check_aovs
-from .errors import SceneError
+from .errors import RenderWarning, SceneError
 from .film import Image
 from .scene import RenderSettings, Scene
 
 if TYPE_CHECKING:
     from .integrator import RenderOptions
+
+#: Peak resident memory of a render, measured (``ru_maxrss`` at 3000² and 6000² pixels, 2
+#: threads; docs/robustness.md, "Memory"): a fixed part (the interpreter, numba, Embree, a
+#: pass of rays per thread) plus bytes a pixel for the step that holds the most: the render
+#: (the float32 image and a mask), writing the EXR (the image and a contiguous copy of each
+#: channel), the PNG preview (the image and float64 copies while tone mapping). AOVs are not
+#: counted.
+PEAK_BASE_BYTES = 256 * 2**20
+PEAK_BYTES_PER_PIXEL = {"render": 15, "exr": 25, "png": 183}
+
+
+def peak_bytes(width: int, height: int, steps: Iterable[str] = ()) -> int:
+    """Estimated peak memory of a ``width`` × ``height`` render followed by ``steps``
+    (``"exr"``, ``"png"``): the base plus the pixels times the largest step's bytes."""
+    per_pixel = max(PEAK_BYTES_PER_PIXEL[s] for s in ("render", *steps))
+    return PEAK_BASE_BYTES + per_pixel * width * height
+
+
+def available_bytes() -> int | None:
+    """Memory this machine can give now without swapping (psutil's ``available``, on Linux
+    the kernel's MemAvailable), or None where unknown."""
+    import psutil
+
+    try:
+        return int(psutil.virtual_memory().available)
+    except (OSError, NotImplementedError, AttributeError):  # a platform psutil cannot read
+        return None
+
+
+def check_memory(width: int, height: int, steps: Iterable[str] = (),
+                 key: str = "render.width") -> None:
+    """Refuse, before any work, a render (and ``steps``) whose estimated peak
+    (:func:`peak_bytes`) is more than the memory available (:func:`available_bytes`)."""
+    steps = tuple(steps)
+    need, have = peak_bytes(width, height, steps), available_bytes()
+    if have is not None and need > have:
+        raise SceneError(f"{width}x{height} needs about {need / 1e9:.1f} GB of memory at its "
+                         f"peak (render{''.join(' + ' + s for s in steps)}), more than the "
+                         f"{have / 1e9:.1f} GB available on this machine", key)
 
 
 def render(scene: Scene, *, width: int | None = None, height: int | None = None,
@@ -35,15 +79,39 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     of the full render. ``aovs``: names from :data:`raytrace.aov.AOVS` (depth, normal,
     albedo, id) to render besides the colour, read with ``Image.aov(name)``.
 
+    Every argument is checked before any work (a SceneError, or a TypeError for a
+    ``progress`` that is not callable), including the memory the image needs
+    (:func:`check_memory`). A scene without objects, and pixels that overflowed float32
+    (written as 0, counted in ``stats["nonfinite_pixels"]``), give a
+    :class:`~raytrace.errors.RenderWarning`.
+
     The integrator, and with it numba, is imported on the first call, so ``import raytrace``
     (loading and checking scenes, reading EXRs) does not pay for the compiler.
     """
     from .integrator import WhittedIntegrator
 
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be a callable progress(done, total) or None, got "
+                        f"{type(progress).__name__}")
     options = render_options(scene, width=width, height=height, spp=spp, max_depth=max_depth,
                              min_weight=min_weight, seed=seed, threads=threads,
                              pass_samples=pass_samples, crop=crop, aovs=aovs)
-    return WhittedIntegrator(scene, options).render(progress)
+    x0, y0, x1, y1 = options.crop or (0, 0, options.width, options.height)
+    try:
+        check_memory(x1 - x0, y1 - y0)
+    except SceneError as e:
+        raise SceneError(e.problem, e.key, scene.path) from None
+    where = f"{scene.path}: " if scene.path else ""
+    if not scene.objects:
+        warnings.warn(f"{where}the scene has no objects: the image is the background",
+                      RenderWarning, stacklevel=2)
+    image = WhittedIntegrator(scene, options).render(progress)
+    bad = image.stats["nonfinite_pixels"]
+    if bad:
+        x, y = image.stats["nonfinite_first_pixel"]
+        warnings.warn(f"{where}{bad} pixel{'s' if bad > 1 else ''} overflowed to inf or NaN "
+                      f"(the first at x={x}, y={y}), written as 0", RenderWarning, stacklevel=2)
+    return image
 
 
 def render_options(scene: Scene, *, width: int | None = None, height: int | None = None,

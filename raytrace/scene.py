@@ -353,8 +353,11 @@ def _from_trimesh(mesh: Any, key: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    if path.is_dir():
+        raise SceneError(f"is a folder, not a mesh file: {path}", "file")
     if not path.is_file():
-        raise SceneError(f"mesh file not found: {path}", "file")
+        what = "not a regular file" if path.exists() else "mesh file not found"
+        raise SceneError(f"{what}: {path}", "file")
     import trimesh
 
     # trimesh warns on stderr about NaN while merging: the error below says it in one line.
@@ -403,6 +406,21 @@ class Scene:
     path: str | None = None
 
     def __post_init__(self) -> None:
+        for name, cls in (("camera", Camera), ("render", RenderSettings)):
+            if not isinstance(getattr(self, name), cls):
+                raise SceneError(f"must be a raytrace.{cls.__name__}, got "
+                                 f"{values.type_name(getattr(self, name))}", name, self.path)
+        for name in ("objects", "lights"):
+            if not isinstance(getattr(self, name), (list, tuple)):
+                raise SceneError(f"must be a list, got {values.type_name(getattr(self, name))}"
+                                 f" (a single one goes in a list: {name}=[...])", name, self.path)
+            if isinstance(getattr(self, name), tuple):  # a list given stays the same object
+                setattr(self, name, list(getattr(self, name)))
+        if not isinstance(self.materials, Mapping):
+            raise SceneError(f"must be a dict of name → Material, got "
+                             f"{values.type_name(self.materials)}", "materials", self.path)
+        if self.path is not None and not isinstance(self.path, (str, Path)):
+            raise SceneError(f"must be a file name, got {values.type_name(self.path)}", "path")
         self.ambient = values.color(self.ambient, "ambient.color")
         for i, o in enumerate(self.objects):
             if not isinstance(o, (Sphere, Plane, Mesh)):
@@ -421,8 +439,8 @@ class Scene:
         if name in library:
             return library[name]
         known = sorted(set(self.materials) | set(library))
-        raise SceneError(f"unknown material {name!r} (scene materials and library: "
-                         f"{', '.join(known)})", key, self.path)
+        raise SceneError(f"unknown material {name!r}{values.did_you_mean(name, known)} (scene "
+                         f"materials and library: {', '.join(known)})", key, self.path)
 
     def resolve_materials(self) -> None:
         for name, m in list(self.materials.items()):
@@ -445,6 +463,16 @@ class Scene:
                 raise SceneError(e.problem, e.key, self.path) from None
         raise SceneError(f"must be a material name or table, got {values.type_name(m)}", key,
                          self.path)
+
+    def input_files(self) -> list[tuple[Path, str]]:
+        """The files this scene was read from, as (path, what it is): the scene file, the
+        mesh files, the library material files (each material's and its bases')."""
+        files = [(Path(self.path), "the scene file")] if self.path else []
+        files += [(Path(o.file), f"the mesh file of objects[{i}]")
+                  for i, o in enumerate(self.objects) if isinstance(o, Mesh) and o.file]
+        for m in [*self.materials.values(), *(o.material for o in self.objects)]:
+            files += [(p, f"the file of material {m.name!r}") for p in m.sources]
+        return files
 
     @property
     def triangles(self) -> int:

@@ -61,6 +61,8 @@ def load_scene(path: str | Path) -> Scene:
         raise SceneError("scene file not found", file=name) from None
     except (OSError, UnicodeDecodeError) as e:
         raise SceneError(f"cannot read scene file: {e}", file=name) from None
+    if not text.strip():  # (a file of only comments is a scene of defaults: no objects)
+        raise SceneError("the scene file is empty", file=name)
     try:
         if path.suffix.lower() == ".json":
             data = json.loads(text)
@@ -115,11 +117,19 @@ def _materials(tables: Mapping) -> dict[str, Material]:
     busy: list[str] = []
 
     def get(name: str, key: str) -> Material:
+        if busy and name == busy[-1] and name in library:
+            # `[materials.brass] base = "brass"`: the scene's brass refines the library's
+            # (scene materials shadow library ones of the same name everywhere else).
+            return library[name]
         if name in done:
             return done[name]
         if name in tables:
             if name in busy:
-                raise SceneError(f"materials form a cycle: {' -> '.join([*busy, name])}", key)
+                own = (f" (a material may take only the library material of its own name as "
+                       f"its base, and the library has no {name!r})" if name == busy[-1]
+                       else "")
+                raise SceneError(f"materials form a cycle: {' -> '.join([*busy, name])}{own}",
+                                 key)
             busy.append(name)
             table = tables[name]
             if not isinstance(table, Mapping):
@@ -130,8 +140,9 @@ def _materials(tables: Mapping) -> dict[str, Material]:
             return done[name]
         if name in library:
             return library[name]
-        raise SceneError(f"unknown material {name!r} (not in this scene's materials nor the "
-                         f"library; see `raytrace materials`)", key)
+        raise SceneError(f"unknown material {name!r}"
+                         f"{values.did_you_mean(name, [*tables, *library])} (not in this "
+                         "scene's materials nor the library; see `raytrace materials`)", key)
 
     for name in tables:
         get(name, f"materials.{name}")

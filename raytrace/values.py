@@ -8,6 +8,7 @@ it comes from.
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Iterable, Mapping
 from typing import Any
@@ -23,6 +24,21 @@ def type_name(value: Any) -> str:
                                                                type(value).__name__)
 
 
+def did_you_mean(word: Any, choices: Iterable[str]) -> str:
+    """``" (did you mean 'brass'?)"`` for the closest of ``choices`` to a misspelt ``word``
+    (:func:`difflib.get_close_matches`, Ratcliff/Obershelp similarity ≥ 0.6), else ``""``.
+
+    >>> did_you_mean("bras", ["brass", "bronze", "glass"])
+    " (did you mean 'brass'?)"
+    >>> did_you_mean("teapot", ["brass"])
+    ''
+    """
+    if not isinstance(word, str):
+        return ""
+    close = difflib.get_close_matches(word, list(choices), n=2)
+    return f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
+
+
 def check_keys(table: Mapping, allowed: Iterable[str], key: str) -> None:
     """Unknown keys are errors: a misspelt key must never be silently ignored."""
     if not isinstance(table, Mapping):
@@ -30,8 +46,13 @@ def check_keys(table: Mapping, allowed: Iterable[str], key: str) -> None:
     allowed = list(allowed)
     for k in table:
         if k not in allowed:
-            raise SceneError(f"unknown key (valid keys: {', '.join(allowed)})",
-                             f"{key}.{k}" if key else k)
+            raise SceneError(f"unknown key{did_you_mean(k, allowed)} (valid keys: "
+                             f"{', '.join(allowed)})", f"{key}.{k}" if key else k)
+
+
+def _bound(x: float) -> str:
+    """A range bound as written: integers in full (2**63 - 1, not 9.22337e+18), others %g."""
+    return str(x) if isinstance(x, int) else f"{x:g}"
 
 
 def number(value: Any, key: str, *, lo: float | None = None, hi: float | None = None,
@@ -45,12 +66,15 @@ def number(value: Any, key: str, *, lo: float | None = None, hi: float | None = 
     if not math.isfinite(v):
         raise SceneError(f"must be finite, got {value!r}", key)
     shown = v if isinstance(value, (np.integer, np.floating)) else value  # not np.float64(…)
-    both = "" if lo is None or hi is None else (
-        f" (the range is {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'})")
+    both = "" if lo is None or hi is None else (f" (the range is {'(' if lo_open else '['}"
+                                                f"{_bound(lo)}, {_bound(hi)}"
+                                                f"{')' if hi_open else ']'})")
     if lo is not None and (v <= lo if lo_open else v < lo):
-        raise SceneError(f"must be {'>' if lo_open else '>='} {lo:g}{both}, got {shown!r}", key)
+        raise SceneError(f"must be {'>' if lo_open else '>='} {_bound(lo)}{both}, "
+                         f"got {shown!r}", key)
     if hi is not None and (v >= hi if hi_open else v > hi):
-        raise SceneError(f"must be {'<' if hi_open else '<='} {hi:g}{both}, got {shown!r}", key)
+        raise SceneError(f"must be {'<' if hi_open else '<='} {_bound(hi)}{both}, "
+                         f"got {shown!r}", key)
     return int(v) if integer else v
 
 
@@ -97,6 +121,6 @@ def string(value: Any, key: str, choices: Iterable[str] | None = None) -> str:
     if choices is not None:
         choices = list(choices)
         if value not in choices:
-            raise SceneError(f"must be one of {', '.join(map(repr, choices))}, got {value!r}",
-                             key)
+            raise SceneError(f"must be one of {', '.join(map(repr, choices))}, got {value!r}"
+                             f"{did_you_mean(value, choices)}", key)
     return value

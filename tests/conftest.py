@@ -4,7 +4,7 @@
 tests/references/<scene>.exr from the current renderer instead of comparing against it. Use it
 on purpose, after a change that is meant to alter pictures, and look at the new images:
 
-    .venv/bin/pytest tests/test_scenes.py --generate-ref
+    python3 -m pytest tests/test_scenes.py --generate-ref
 """
 
 from __future__ import annotations

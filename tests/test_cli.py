@@ -165,6 +165,16 @@ def test_unparsable_flags_give_one_line(tmp_path, capsys, args, named):
     assert sorted(os.listdir(tmp_path)) == ["floor.toml"]
 
 
+def test_version_comes_from_the_package_metadata(capsys):
+    from importlib.metadata import version
+
+    with pytest.raises(SystemExit) as e:
+        cli.main(["--version"])
+    assert e.value.code == 0
+    assert capsys.readouterr().out == f"raytrace {version('raytrace')}\n"
+    assert raytrace.__version__ == version("raytrace")
+
+
 def test_bad_output_paths(tmp_path, capsys):
     scene = _floor(tmp_path, 4, 2)
     rc, cap = _render([scene, "-o", tmp_path / "o.png"], capsys)

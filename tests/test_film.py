@@ -52,6 +52,16 @@ def test_exr_round_trip_of_a_strided_view(tmp_path):
         _same_bits(back, np.ascontiguousarray(view))
 
 
+def test_reading_a_missing_exr_is_file_not_found_and_silent(tmp_path, capfd):
+    # capfd: the OpenEXR library would print its own line on the process's stderr.
+    with pytest.raises(FileNotFoundError) as e:
+        raytrace.read_exr(tmp_path / "missing.exr")
+    assert e.value.filename == str(tmp_path / "missing.exr")
+    with pytest.raises(IsADirectoryError):
+        raytrace.read_exr(tmp_path)
+    assert capfd.readouterr() == ("", "")
+
+
 def test_exr_header_has_srgb_chromaticities_and_render_settings(tmp_path):
     scene = make_scene([raytrace.Sphere([0, 0, 0], 1.0)], [raytrace.PointLight([2, 2, 2])],
                        camera=aimed_camera([0, 0, 4], [0, 0, 0]))

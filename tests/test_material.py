@@ -184,16 +184,27 @@ def test_bad_checker_tables_name_the_key():
         Material(kd={"pattern": "stripes", "colors": [1.0, 0.0]})
 
 
-@pytest.mark.parametrize(("kwargs", "key"), [
-    ({"kd": Checker(([0.5, 0.5, 0.5], [-1.0, 0.0, 0.0]))}, "kd.colors[1]"),   # negative
-    ({"kd": Checker(([0.5, 0.5, 0.5], [np.nan, 0.0, 0.0]))}, "kd.colors[1]"),  # NaN
-    ({"kr": Checker((0.5, 1.5))}, "kr.colors[1]"),                            # kr above 1
-    ({"ks": Checker((0.5, 0.2), scale=0.0)}, "ks.scale"),                     # no cell size
+@pytest.mark.parametrize(("make", "key", "table"), [
+    # Refused where the value enters, Checker() itself, with the table form's message:
+    (lambda: Checker(([0.5, 0.5, 0.5], [-1.0, 0.0, 0.0])), "Checker.colors[1]",   # negative
+     {"kd": {"pattern": "checker", "colors": [[0.5, 0.5, 0.5], [-1.0, 0.0, 0.0]]}}),
+    (lambda: Checker(([0.5, 0.5, 0.5], [np.nan, 0.0, 0.0])), "Checker.colors[1]",  # NaN
+     {"kd": {"pattern": "checker", "colors": [[0.5, 0.5, 0.5], [np.nan, 0.0, 0.0]]}}),
+    (lambda: Checker((0.5, 0.2), scale=0.0), "Checker.scale",                     # no cell size
+     {"ks": {"pattern": "checker", "colors": [0.5, 0.2], "scale": 0.0}}),
+    (lambda: Checker((0.5,)), "Checker.colors",                                  # one colour
+     {"kd": {"pattern": "checker", "colors": [0.5]}}),
+    # kr above 1 is a fine checker but not a fine kr: refused by the Material.
+    (lambda: Material(kr=Checker((0.5, 1.5))), "kr.colors[1]",
+     {"kr": {"pattern": "checker", "colors": [0.5, 1.5]}}),
 ])
-def test_a_checker_built_in_python_is_validated_like_a_table(kwargs, key):
+def test_a_checker_built_in_python_is_validated_like_a_table(make, key, table):
     with pytest.raises(raytrace.SceneError) as e:
-        Material(**kwargs)
+        make()
     assert key in str(e.value)
+    with pytest.raises(raytrace.SceneError) as t:
+        Material(**table)
+    assert e.value.problem == t.value.problem  # the same message either way
 
 
 def test_a_valid_python_checker_is_kept_with_rgb_colours():

@@ -117,7 +117,7 @@ def _run_bad(tmp_path: Path, scene: Path, capsys, extra=()) -> str:
     out = tmp_path / "out.exr"
     before = set(os.listdir(tmp_path))
     rc = cli.main(["render", str(scene), "-o", str(out), "--png", str(tmp_path / "p.png"),
-                   "--stats", str(tmp_path / "s.json"), "-q", *extra])
+                   "--stats", str(tmp_path / "stats.json"), "-q", *extra])
     captured = capsys.readouterr()
     assert rc == 2
     lines = captured.err.splitlines()
@@ -218,7 +218,9 @@ material = { base = "polished_silver", kr = 0.3 }
 # -- good files ------------------------------------------------------------------------------
 
 def test_defaults_of_an_empty_scene(tmp_path):
-    scene = raytrace.load_scene(write_text(tmp_path / "e.toml", ""))
+    # A file of nothing but a comment: every table takes its defaults. (A file with no text at
+    # all is an error: test_an_empty_scene_file_is_an_error.)
+    scene = raytrace.load_scene(write_text(tmp_path / "e.toml", "# all defaults\n"))
     r = scene.render
     assert (r.width, r.height, r.spp, r.max_depth, r.min_weight, r.seed) == (640, 480, 1, 5,
                                                                             0.0, 0)
@@ -227,6 +229,64 @@ def test_defaults_of_an_empty_scene(tmp_path):
     assert cam.position.tolist() == [0, 0, 0] and cam.look_at.tolist() == [0, 0, -1]
     assert cam.fov == 40.0
     assert scene.objects == [] and scene.lights == []
+
+
+def test_an_empty_scene_file_is_an_error(tmp_path):
+    for text in ("", "\n  \n"):
+        with pytest.raises(raytrace.SceneError, match="the scene file is empty"):
+            raytrace.load_scene(write_text(tmp_path / "e.toml", text))
+
+
+def test_an_unknown_material_in_a_scene_file_suggests_the_closest(tmp_path):
+    path = write_text(tmp_path / "s.toml", '[materials.gold_leaf]\nbase = "polished_gld"\n')
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.load_scene(path)
+    assert ("unknown material 'polished_gld' (did you mean 'polished_gold' or "
+            "'polished_silver'?)") in str(e.value)
+    assert e.value.key == "materials.gold_leaf.base"
+
+
+def test_a_scene_material_may_refine_the_library_one_of_its_name(tmp_path):
+    from raytrace.material import library
+
+    scene = raytrace.load_scene(write_text(tmp_path / "s.toml", """
+[materials.brass]
+base = "brass"
+kr = 0.3
+[[objects]]
+type = "sphere"
+center = [0, 0, -3]
+radius = 1
+material = "brass"
+"""))
+    mine, lib = scene.objects[0].material, library["brass"]
+    assert mine is scene.materials["brass"] and mine is not lib
+    assert mine.kr.tolist() == [0.3, 0.3, 0.3] and lib.kr.tolist() == [0, 0, 0]
+    for k in ("ka", "kd", "ks", "shininess", "highlight", "ior", "opacity"):
+        assert np.array_equal(getattr(mine, k), getattr(lib, k)), k
+    # Without a library material of that name it stays a cycle, and says why.
+    with pytest.raises(raytrace.SceneError, match=r"cycle: mine -> mine \(a material may take "
+                                                  r"only the library material of its own name"):
+        raytrace.load_scene(write_text(tmp_path / "t.toml", '[materials.mine]\nbase = "mine"\n'))
+
+
+def test_the_documented_air_bubble_states_its_index_relative_to_the_glass():
+    # docs/scene_format.md says where `ior` is defined that it is relative to the medium
+    # outside, and its example of an air bubble in glass must follow that rule: 1.0 / 1.5.
+    import re
+    import textwrap
+
+    from raytrace.material import library
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "scene_format.md").read_text()
+    row = next(line for line in doc.splitlines() if line.startswith("| `ior` |"))
+    assert "Relative to the medium just outside the surface" in row
+    block = next(b for b in re.findall(r"```toml\n(.*?)```", doc, re.S)
+                 if "[materials.bubble]" in b)
+    scene = raytrace.scene_from_dict(tomllib.loads(textwrap.dedent(block)))
+    glass, bubble = (o.material for o in scene.objects)
+    assert glass is library["glass"]
+    assert bubble.ior == pytest.approx(1.0 / glass.ior, abs=1e-4)
 
 
 def test_light_and_object_defaults(tmp_path):

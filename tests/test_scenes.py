@@ -5,7 +5,7 @@ without error or non-finite pixels, and match its committed reference image
 tests/references/<scene>.exr. A change that alters a picture therefore fails here until the
 reference is regenerated on purpose:
 
-    .venv/bin/pytest tests/test_scenes.py --generate-ref      # then look at the new images
+    python3 -m pytest tests/test_scenes.py --generate-ref      # then look at the new images
 
 The renders are small (48 pixels wide, the scene's aspect ratio), one sample per pixel through
 the pixel centre (deterministic), max_depth as in the scene but at most 3, one thread.
@@ -97,7 +97,7 @@ def test_scene_matches_reference(path, generate_ref):
         pytest.skip(f"wrote {ref_path.relative_to(ROOT)}")
     if not ref_path.is_file():
         pytest.fail(f"no reference image {ref_path.relative_to(ROOT)} for scenes/{path.name}; "
-                    f"render it, look at it, and commit it: .venv/bin/pytest "
+                    f"render it, look at it, and commit it: python3 -m pytest "
                     f"tests/test_scenes.py --generate-ref -k {path.stem}")
     ref, _ = read_exr(ref_path)
     assert rgb.shape == ref.shape, (

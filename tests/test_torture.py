@@ -5,7 +5,7 @@ was produced (``stats["nonfinite_pixels"] == 0``) and none reached the image. Or
 closed forms worked out in the tests (pinhole rays are recomputed here from SCENE_FORMAT.md's
 definition, not taken from raytrace.camera), invariants (scale, translation) or exact
 identities (ior 1 is no sphere at all). docs/robustness.md tabulates the cases and the
-measured errors; run ``.venv/bin/pytest tests/test_torture.py -q -s`` to see them printed.
+measured errors; run ``python3 -m pytest tests/test_torture.py -q -s`` to see them printed.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Generate the mesh files used by the example scenes (run from anywhere):
 
-    .venv/bin/python scenes/models/make_models.py
+    python3 scenes/models/make_models.py
 
 Writes, next to this script:
 

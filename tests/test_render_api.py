@@ -1,0 +1,158 @@
+"""``raytrace.render`` (raytrace/render.py; not test_render.py, a name the pytest-plugin tests
+give the test files they generate): its arguments are checked before any work, the memory
+an image needs is checked against the machine, and renders that are probably not what was
+meant (no objects, pixels beyond float32) say so: a RenderWarning, one line from the CLI.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+import raytrace
+from raytrace import cli
+from raytrace.film import read_exr
+
+RENDER = sys.modules["raytrace.render"]  # the module (raytrace.render is the function)
+
+# Camera at y = 1 looking level with an even height: exactly the lower half of the rows look
+# down and hit the floor (test_cli.py's FLOOR_SCENE). A 1e39 light (beyond float32's 3.4e38)
+# straight down on a kd = 1 floor makes every floor pixel 1e39: the first one in reading order
+# is x = 0, y = H/2, and there are W·H/2 of them.
+HOT_FLOOR = """\
+[render]
+width = 8
+height = 6
+[camera]
+position = [0.0, 1.0, 0.0]
+look_at = [0.0, 1.0, -1.0]
+[[lights]]
+type = "directional"
+direction = [0.0, -1.0, 0.0]
+color = 1e39
+[[objects]]
+type = "plane"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+material = { kd = 1.0, ka = 0.0 }
+"""
+
+
+def test_progress_that_is_not_callable_is_a_type_error_before_the_render():
+    scene = raytrace.Scene(objects=[raytrace.Sphere([0, 0, -3], 1)])
+    with pytest.raises(TypeError, match=r"progress must be a callable progress\(done, total\)"
+                                        r" or None, got int"):
+        raytrace.render(scene, width=4, height=4, progress=5)
+
+
+def test_pixels_beyond_float32_warn_with_count_and_first_pixel(tmp_path, capsys):
+    scene = tmp_path / "hot.toml"
+    scene.write_text(HOT_FLOOR)
+    rc = cli.main(["render", str(scene), "-o", str(tmp_path / "o.exr"), "-q"])
+    err = capsys.readouterr().err
+    assert rc == 0
+    # One line, though stderr is not a terminal here.
+    assert err == (f"raytrace: warning: {scene}: 24 pixels overflowed to inf or NaN (the first "
+                   "at x=0, y=3), written as 0\n")
+    rgb, header = read_exr(tmp_path / "o.exr")
+    assert header["raytrace:nonfinite_pixels"] == 24
+    assert (rgb[3:] == 0).all()
+
+
+def test_a_finite_render_has_a_zero_count_in_the_header_and_no_warning(tmp_path, capsys):
+    scene = tmp_path / "ok.toml"
+    scene.write_text(HOT_FLOOR.replace("1e39", "1.0"))
+    assert cli.main(["render", str(scene), "-o", str(tmp_path / "o.exr"), "-q"]) == 0
+    assert capsys.readouterr().err == ""
+    assert read_exr(tmp_path / "o.exr")[1]["raytrace:nonfinite_pixels"] == 0
+
+
+def test_the_api_warns_too():
+    scene = raytrace.scene_from_dict({
+        "camera": {"position": [0, 1, 0], "look_at": [0, 1, -1]},
+        "lights": [{"type": "directional", "direction": [0, -1, 0], "color": 1e39}],
+        "objects": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0],
+                     "material": {"kd": 1.0, "ka": 0.0}}]})
+    with pytest.warns(raytrace.RenderWarning, match=r"24 pixels .* x=0, y=3"):
+        image = raytrace.render(scene, width=8, height=6)
+    assert image.stats["nonfinite_first_pixel"] == [0, 3]
+
+
+def test_a_scene_without_objects_warns_and_an_empty_file_is_an_error(tmp_path, capsys):
+    lonely = tmp_path / "lonely.toml"
+    lonely.write_text("[render]\nwidth = 4\nheight = 2\n")
+    rc = cli.main(["render", str(lonely), "-o", str(tmp_path / "l.exr"), "-q"])
+    assert rc == 0
+    assert capsys.readouterr().err == (f"raytrace: warning: {lonely}: the scene has no "
+                                       "objects: the image is the background\n")
+    for name, text in (("zero.toml", ""), ("blank.json", " \n\t\n")):
+        empty = tmp_path / name
+        empty.write_text(text)
+        rc = cli.main(["render", str(empty), "-o", str(tmp_path / "e.exr"), "-q"])
+        assert rc == 2
+        assert capsys.readouterr().err == f"raytrace: error: {empty}: the scene file is empty\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["blank.json", "l.exr", "lonely.toml",
+                                                          "zero.toml"]
+
+
+# -- memory ------------------------------------------------------------------------------------
+def test_peak_estimate_is_the_base_plus_the_largest_step():
+    base, per = RENDER.PEAK_BASE_BYTES, RENDER.PEAK_BYTES_PER_PIXEL
+    assert RENDER.peak_bytes(100, 10) == base + per["render"] * 1000
+    assert RENDER.peak_bytes(100, 10, ("exr",)) == base + per["exr"] * 1000
+    assert RENDER.peak_bytes(100, 10, ("exr", "png")) == base + per["png"] * 1000
+
+
+def test_an_image_this_machine_cannot_hold_is_refused_up_front(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(RENDER, "available_bytes", lambda: 2 * 10**9)
+    scene = raytrace.Scene(objects=[raytrace.Sphere([0, 0, -3], 1)])
+    # 256 MiB + 15 B × 1e8 pixels = 1.77 GB fits in 2 GB: not refused by the check (the
+    # integrator is stopped before it allocates anything).
+    RENDER.check_memory(10000, 10000)
+    # 256 MiB + 25 B × 1e8 = 2.77 GB with the EXR; 256 MiB + 183 B × 1e8 = 18.57 GB with a PNG.
+    with pytest.raises(raytrace.SceneError, match=r"10000x10000 needs about 2\.8 GB of memory "
+                       r"at its peak \(render \+ exr\), more than the 2\.0 GB available"):
+        RENDER.check_memory(10000, 10000, ("exr",))
+    monkeypatch.setattr(RENDER, "available_bytes", lambda: 10**9)
+    with pytest.raises(raytrace.SceneError, match=r"^render\.width: 10000x10000 needs about "
+                                                  r"1\.8 GB .*\(render\)"):
+        raytrace.render(scene, width=10000, height=10000)
+    toml = tmp_path / "s.toml"
+    toml.write_text('[[objects]]\ntype = "sphere"\ncenter = [0, 0, -3]\nradius = 1\n')
+    rc = cli.main(["render", str(toml), "-o", str(tmp_path / "o.exr"), "--png",
+                   str(tmp_path / "o.png"), "--width", "10000", "--height", "10000", "-q"])
+    assert rc == 2
+    assert capsys.readouterr().err == ("raytrace: error: --width: 10000x10000 needs about 18.6 "
+                                       "GB of memory at its peak (render + exr + png), more "
+                                       "than the 1.0 GB available on this machine\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="ru_maxrss in KiB on Linux")
+@pytest.mark.parametrize("steps", [(), ("exr",), ("exr", "png")])
+def test_the_peak_estimate_covers_a_measured_render(tmp_path, steps):
+    # A real 3000×3000 render in a fresh process: the estimate is at least the measured peak
+    # (ru_maxrss) and not more than 1.5 times it. Re-measure PEAK_BYTES_PER_PIXEL when this
+    # fails after a change to the film or the preview.
+    side = 3000
+    code = f"""
+import resource, sys, raytrace
+from raytrace.film import write_exr, write_png
+scene = raytrace.scene_from_dict({{"objects": [{{"type": "sphere", "center": [0, 0, -3],
+                                            "radius": 1}}],
+                                  "lights": [{{"type": "point", "position": [2, 2, 0]}}]}})
+image = raytrace.render(scene, width={side}, height={side}, threads=2)
+if "exr" in {steps!r}:
+    write_exr({str(tmp_path / "o.exr")!r}, image.rgb, image.metadata, 2)
+if "png" in {steps!r}:
+    write_png({str(tmp_path / "o.png")!r}, image.rgb)
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    measured = int(out.split()[-1])
+    estimate = RENDER.peak_bytes(side, side, steps)
+    assert measured <= estimate <= 1.5 * measured, (measured, estimate)
