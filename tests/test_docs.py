@@ -91,6 +91,26 @@ def test_every_relative_link_and_anchor_resolves(page):
     assert broken_links(page) == []
 
 
+def summary(page: Path) -> list:
+    """The tokens between a page's title and its first section heading."""
+    tokens = _tokens(page)
+    heads = [i for i, t in enumerate(tokens) if t.type == "heading_open"]
+    first_section = next((i for i in heads if tokens[i].tag != "h1"), len(tokens))
+    return tokens[heads[0] + 1:first_section] if heads else []
+
+
+@pytest.mark.parametrize("page", sorted((ROOT / "docs").glob("*.md")), ids=lambda p: p.name)
+def test_every_page_opens_with_a_short_summary(page):
+    """docs/STYLE: a page opens with a summary a newcomer reads in a minute (at most 400 words,
+    about two minutes' reading at most), linking to at least three of the page's sections."""
+    head = summary(page)
+    words = sum(len(t.content.split()) for t in head if t.type in ("text", "code_inline"))
+    own = [t.attrGet("href") for t in head if t.type == "link_open"
+           and t.attrGet("href").startswith("#")]
+    assert 0 < words <= 400, f"{page.name}: {words} words before the first section"
+    assert len(set(own)) >= 3, f"{page.name}: the summary links to {own}"
+
+
 def test_github_anchor_rules():
     """Anchors as GitHub makes them, worked out by hand from headings used in docs/."""
     page = ROOT / "docs" / "shading.md"
