@@ -138,20 +138,26 @@ def main() -> int:
     page = [
         "# Gallery",
         "",
-        "Every scene in [`scenes/`](../scenes), rendered by "
-        "[`docs/make_gallery.py`](make_gallery.py) "
-        f"at {WIDTH} pixels wide with {SPP} samples per pixel (a 2×2 stratified grid), shown "
-        "as sRGB previews of the linear renders (clipped at 1, no exposure change). "
-        "Regenerate every picture and this page with:",
+        "Every scene in [`scenes/`](../scenes) as a picture, with what it shows and the "
+        "command that renders it. The facts that matter most:",
+        "",
+        f"* {len(files)} scenes: "
+        + ", ".join(f"[{p.stem}](#{p.stem})" for p in files) + ".",
+        "* The text under each picture is the scene file's own header comment: the file is "
+        "the worked example to copy (the format: [scene_format.md](scene_format.md); the "
+        "shading model: [shading.md](shading.md)).",
+        f"* Each picture is {WIDTH} pixels wide with {SPP} samples per pixel (a 2×2 stratified "
+        "grid), an sRGB preview of the linear render (clipped at 1, no exposure change); "
+        "the full size is given beside each command.",
+        "* The ray counts under each picture are exact and deterministic; timings are in "
+        "[performance.md](performance.md).",
+        "",
+        "This page and its pictures are written by [`docs/make_gallery.py`](make_gallery.py); "
+        "regenerate them after any change that alters a picture:",
         "",
         "```sh",
         "python3 docs/make_gallery.py",
         "```",
-        "",
-        "The scene format is described in [scene_format.md](scene_format.md) and the shading "
-        "model in [shading.md](shading.md).",
-        "",
-        "Contents: " + ", ".join(f"[{p.stem}](#{p.stem})" for p in files) + ".",
         "",
     ]
     total = time.perf_counter()
