@@ -17,9 +17,7 @@ from functools import cached_property
 
 import numpy as np
 
-from . import shading_kernels as K
 from .records import Emitter as EmitterRecord
-from .scene import AreaLight, DirectionalLight, Light, SpotLight
 
 #: ``Emitter.incidence`` without keys: every jittered cell at its centre.
 NO_KEY = np.zeros(0, np.int64)
@@ -64,7 +62,9 @@ class Emitter:
         n = len(points)
         key = NO_KEY if key is None else np.ascontiguousarray(key, dtype=np.int64)
         to_light, dist, factor = np.empty((n, 3)), np.empty(n), np.empty(n)
-        K.incidence_rows(points, self.record, key, depth, to_light, dist, factor)
+        from .shading_kernels import incidence_rows
+
+        incidence_rows(points, self.record, key, depth, to_light, dist, factor)
         return to_light, dist, factor
 
     @cached_property
@@ -75,8 +75,10 @@ class Emitter:
         tuple of floats, not an array: numba passes it by value, where an array argument costs
         a reference count per call of the per-hit function that takes it (13 ns a hit in the
         light pass)."""
-        kind = (K.DIRECTIONAL if self.position is None else
-                K.POINT if self.cos_cutoff is None else K.SPOT)
+        from .shading_kernels import DIRECTIONAL, POINT, SPOT
+
+        kind = (DIRECTIONAL if self.position is None else
+                POINT if self.cos_cutoff is None else SPOT)
         zero = np.zeros(3)
         return EmitterRecord(*np.concatenate([
             [kind], zero if self.position is None else self.position,
@@ -93,28 +95,7 @@ def cos_cutoff(degrees: float) -> float:
     return 0.0 if degrees == 90.0 else math.cos(math.radians(degrees))
 
 
-def emitters(lights: list[Light], origin: np.ndarray, seed: int) -> list[Emitter]:
-    """Every light as point-like samples, positions made relative to ``origin``."""
-    out: list[Emitter] = []
-    for i, light in enumerate(lights):
-        if isinstance(light, DirectionalLight):
-            out.append(Emitter(light.color, direction=light.direction))
-        elif isinstance(light, AreaLight):
-            pts = light.sample_points() - origin
-            col = light.color / len(pts)
-            if not light.jitter:
-                out.extend(Emitter(col, position=p, attenuation=light.attenuation)
-                           for p in pts)
-                continue
-            k = math.isqrt(light.samples)
-            streams = np.random.default_rng([seed, i]).integers(0, 2**52, len(pts))
-            out.extend(Emitter(col, position=p, attenuation=light.attenuation,
-                               cell_u=light.edge_u / k, cell_v=light.edge_v / k,
-                               stream=int(st)) for p, st in zip(pts, streams, strict=True))
-        elif isinstance(light, SpotLight):
-            out.append(Emitter(light.color, light.position - origin, light.direction,
-                               light.attenuation, cos_cutoff(light.cutoff), light.exponent))
-        else:
-            out.append(Emitter(light.color, light.position - origin,
-                               attenuation=light.attenuation))
-    return out
+def emitters(lights: list, origin: np.ndarray, seed: int) -> list[Emitter]:
+    """Every light as point-like samples, positions made relative to ``origin``: each light
+    record's own ``emitters(origin, seed, index)``."""
+    return [e for i, light in enumerate(lights) for e in light.emitters(origin, seed, i)]

@@ -111,6 +111,12 @@ class PointLight:
         self.color = values.color(self.color, "color")
         self.attenuation = _attenuation(self.attenuation, "attenuation")
 
+    def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
+        """One point sample (:class:`raytrace.lights.Emitter`), camera-relative."""
+        from .lights import Emitter
+
+        return [Emitter(self.color, self.position - origin, attenuation=self.attenuation)]
+
 
 @dataclass
 class DirectionalLight:
@@ -123,6 +129,12 @@ class DirectionalLight:
     def __post_init__(self) -> None:
         self.direction = values.unit(self.direction, "direction")
         self.color = values.color(self.color, "color")
+
+    def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
+        """One sample at infinity (:class:`raytrace.lights.Emitter`)."""
+        from .lights import Emitter
+
+        return [Emitter(self.color, direction=self.direction)]
 
 
 @dataclass
@@ -144,6 +156,13 @@ class SpotLight:
         self.exponent = values.number(self.exponent, "exponent", lo=0)
         self.color = values.color(self.color, "color")
         self.attenuation = _attenuation(self.attenuation, "attenuation")
+
+    def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
+        """One point sample with its cone (:class:`raytrace.lights.Emitter`)."""
+        from .lights import Emitter, cos_cutoff
+
+        return [Emitter(self.color, self.position - origin, self.direction, self.attenuation,
+                        cos_cutoff(self.cutoff), self.exponent)]
 
 
 @dataclass
@@ -190,8 +209,26 @@ class AreaLight:
         fv = ((j + 0.5) / k - 0.5).ravel()
         return self.position + fu[:, None] * self.edge_u + fv[:, None] * self.edge_v
 
+    def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
+        """k² point samples sharing the colour (seed 001's distributed source), at the cell
+        centres; jittered cells each get a hash stream from (``seed``, ``index``), drawn per
+        shading point (:func:`raytrace.shading_kernels.incidence1`)."""
+        from .lights import Emitter
+
+        pts = self.sample_points() - origin
+        col = self.color / len(pts)
+        if not self.jitter:
+            return [Emitter(col, position=p, attenuation=self.attenuation) for p in pts]
+        k = math.isqrt(self.samples)
+        streams = np.random.default_rng([seed, index]).integers(0, 2**52, len(pts))
+        return [Emitter(col, position=p, attenuation=self.attenuation, cell_u=self.edge_u / k,
+                        cell_v=self.edge_v / k, stream=int(st))
+                for p, st in zip(pts, streams, strict=True)]
+
 
 Light = PointLight | DirectionalLight | SpotLight | AreaLight
+#: The light types by their scene-file ``type``: a light is one record (its fields are its
+#: scene-file keys, ``emitters`` its samples) plus one line here.
 LIGHT_TYPES = {"point": PointLight, "directional": DirectionalLight, "spot": SpotLight,
                "area": AreaLight}
 

@@ -6,6 +6,7 @@ raises :class:`~raytrace.errors.SceneError` naming the file, the key path and th
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import tomllib
 from collections.abc import Mapping
@@ -17,38 +18,39 @@ from .errors import SceneError
 from .material import Material, library, material_from_table
 from .scene import (
     LIGHT_TYPES,
-    AreaLight,
     Camera,
-    DirectionalLight,
     Mesh,
     Plane,
-    PointLight,
     RenderSettings,
     Scene,
     Sphere,
-    SpotLight,
 )
 
 TOP_KEYS = ("render", "camera", "ambient", "materials", "lights", "objects")
 RENDER_KEYS = ("width", "height", "spp", "max_depth", "min_weight", "background", "seed")
 CAMERA_KEYS = ("position", "look_at", "up", "fov")
-LIGHT_KEYS = {
-    PointLight: ("type", "position", "color", "attenuation"),
-    DirectionalLight: ("type", "direction", "color"),
-    SpotLight: ("type", "position", "direction", "cutoff", "exponent", "color", "attenuation"),
-    AreaLight: ("type", "position", "edge_u", "edge_v", "samples", "jitter", "color",
-                "attenuation"),
-}
 OBJECT_TYPES = {"sphere": Sphere, "plane": Plane, "mesh": Mesh}
-OBJECT_KEYS = {
-    Sphere: ("type", "center", "radius", "material"),
-    Plane: ("type", "point", "normal", "material"),
-    Mesh: ("type", "file", "vertices", "faces", "shading", "translate", "rotate", "scale",
-           "material"),
-}
-REQUIRED = {PointLight: ("position",), DirectionalLight: ("direction",),
-            SpotLight: ("position", "direction"), AreaLight: ("position", "edge_u", "edge_v"),
-            Sphere: ("center", "radius"), Plane: ("point", "normal")}
+
+
+def _keys(cls: type) -> tuple[str, ...]:
+    """A record's scene-file keys: ``type`` and its fields (those set in ``__init__`` that
+    only Python can pass, such as a trimesh ``mesh``, excepted)."""
+    return ("type", *(f.name for f in dataclasses.fields(cls)
+                      if f.init and f.name not in PYTHON_ONLY))
+
+
+def _required(cls: type) -> tuple[str, ...]:
+    """A record's fields without a default."""
+    return tuple(f.name for f in dataclasses.fields(cls) if f.init
+                 and f.default is dataclasses.MISSING
+                 and f.default_factory is dataclasses.MISSING)
+
+
+#: Fields a Python caller may set that a scene file may not (a ``trimesh.Trimesh``).
+PYTHON_ONLY = ("mesh",)
+LIGHT_KEYS = {cls: _keys(cls) for cls in LIGHT_TYPES.values()}
+OBJECT_KEYS = {cls: _keys(cls) for cls in OBJECT_TYPES.values()}
+REQUIRED = {cls: _required(cls) for cls in (*LIGHT_TYPES.values(), *OBJECT_TYPES.values())}
 
 
 def load_scene(path: str | Path) -> Scene:
