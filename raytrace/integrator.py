@@ -55,7 +55,7 @@ from .rays import (
     take_hits,
 )
 from .records import Children, Shadows, Spawned
-from .scene import Scene
+from .scene import RenderSettings, Scene
 from .tables import MaterialTable, scene_record
 
 #: Camera samples per pass (whole pixels): the unit of work of a thread. Memory is bounded by
@@ -83,17 +83,12 @@ NO_AOV_PIXELS = (np.zeros(0, np.float32), np.zeros((0, 3), np.float32),
                  np.zeros((0, 3), np.float32), np.zeros(0, np.int32))
 
 
-@dataclass
-class RenderOptions:
-    """Settings of one render; ``None`` takes the scene's ``[render]`` value."""
+@dataclass(kw_only=True)
+class RenderOptions(RenderSettings):
+    """Everything one render is asked for: the scene's ``[render]`` settings
+    (:class:`raytrace.scene.RenderSettings`, checked the same way) and how to run it. Built
+    with keywords only (``raytrace.render.options`` makes it from a scene and overrides)."""
 
-    width: int
-    height: int
-    spp: int
-    max_depth: int
-    min_weight: float
-    background: np.ndarray
-    seed: int
     threads: int = 1
     pass_samples: int = PASS_SAMPLES
     #: Pixel bounds (x0, y0, x1, y1), half-open, of the window to render (None: the frame).

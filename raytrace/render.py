@@ -142,9 +142,9 @@ def render_options(scene: Scene, *, width: int | None = None, height: int | None
         names = check_aovs(aovs)
     except SceneError as e:
         raise SceneError(e.problem, e.key, scene.path) from None
-    return RenderOptions(settings.width, settings.height, settings.spp, settings.max_depth,
-                         settings.min_weight, settings.background, settings.seed, threads,
-                         PASS_SAMPLES if pass_samples is None else pass_samples, window, names)
+    return RenderOptions(**vars(settings), threads=threads,
+                         pass_samples=PASS_SAMPLES if pass_samples is None else pass_samples,
+                         crop=window, aovs=names)
 
 
 def check_crop(crop: Sequence[int], width: int, height: int,

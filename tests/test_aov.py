@@ -218,7 +218,7 @@ def test_only_what_is_asked_for_is_computed(monkeypatch):
         m.setattr(shading_kernels, "aov_hits", forbidden)
         m.setattr(shading_kernels, "aov_pixels", forbidden)
         raytrace.render(scene(), width=8, height=6)          # no AOVs: never called
-    opts = RenderOptions(8, 6, 1, 2, 0.0, np.zeros(3), 0, aovs=("normal",))
+    opts = RenderOptions(width=8, height=6, max_depth=2, aovs=("normal",))
     integ = WhittedIntegrator(scene(), opts)
     img = integ.render()
     depth, normal, albedo, ident = integ._worker.aov

@@ -32,7 +32,7 @@ def test_each_sample_is_summed_in_one_order_however_the_batches_are_cut(scene):
 
     sums = []
     for pass_samples in (64, 1 << 16):
-        opts = RenderOptions(24, 18, 1, 6, 0.0, np.array([0.2, 0.3, 0.5]), 0,
+        opts = RenderOptions(width=24, height=18, max_depth=6, background=[0.2, 0.3, 0.5],
                              pass_samples=pass_samples)
         samples = np.zeros((24 * 18, 3))
         WhittedIntegrator(scene(), opts).trace_samples(0, 24 * 18, samples)

@@ -58,8 +58,8 @@ def ambient_only(ka, kr=0.0) -> Material:
 
 
 def integrator(scene, max_depth=10, min_weight=0.0, background=0.0) -> WhittedIntegrator:
-    opts = RenderOptions(1, 1, 1, max_depth, min_weight, np.broadcast_to(
-        np.asarray(background, np.float64), (3,)).copy(), 0)
+    opts = RenderOptions(width=1, height=1, max_depth=max_depth, min_weight=min_weight,
+                         background=background)
     return WhittedIntegrator(scene, opts)
 
 
@@ -414,7 +414,8 @@ def test_no_batch_outgrows_the_pass():
             return super().trace(rays, samples)
 
     scene = reference_scene()
-    opts = RenderOptions(24, 18, 1, 6, 0.0, np.array([0.2, 0.3, 0.5]), 0, pass_samples=16)
+    opts = RenderOptions(width=24, height=18, max_depth=6, background=[0.2, 0.3, 0.5],
+                         pass_samples=16)
     small = Recording(scene, opts).render()
     assert max(sizes) <= 16 and len(sizes) > 27 * 6
     whole = raytrace.render(scene, width=24, height=18, max_depth=6)
@@ -725,7 +726,7 @@ def test_smooth_mesh_terminator_is_not_self_shadowed():
     lit = n_dot_l > 0.1
     assert lit.sum() > 500
 
-    integ = WhittedIntegrator(scene, RenderOptions(w, h, 1, 0, 0.0, np.zeros(3), 0))
+    integ = WhittedIntegrator(scene, RenderOptions(width=w, height=h, max_depth=0))
     image = integ.render().rgb[..., 0]
     dark = lit & (image < 0.02)
     assert dark.sum() == 0, f"{dark.sum()} pixels with N_s·L > 0.1 are self-shadowed"
@@ -734,7 +735,7 @@ def test_smooth_mesh_terminator_is_not_self_shadowed():
 
     # Control: the same render starting shadow rays from the flat facet shows the artefact,
     # so the test above can fail.
-    flat = WhittedIntegrator(scene, RenderOptions(w, h, 1, 0, 0.0, np.zeros(3), 0))
+    flat = WhittedIntegrator(scene, RenderOptions(width=w, height=h, max_depth=0))
     tri = flat.tables.triangles
     flat.tables = flat.tables._replace(triangles=tri._replace(shading=np.zeros_like(tri.shading)))
     assert (lit & (flat.render().rgb[..., 0] < 0.02)).sum() > 10

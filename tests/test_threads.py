@@ -130,8 +130,8 @@ def test_an_error_in_a_pass_stops_the_render_and_is_raised(monkeypatch):
 def test_pass_size_depends_on_the_image_never_on_the_threads(width, height, spp, expected):
     from raytrace.integrator import RenderOptions, WhittedIntegrator
 
-    sizes = {WhittedIntegrator(scene(), RenderOptions(width, height, spp, 2, 0.0, np.zeros(3),
-                                                      0, threads=t)).pass_size
+    sizes = {WhittedIntegrator(scene(), RenderOptions(width=width, height=height, spp=spp,
+                                                      max_depth=2, threads=t)).pass_size
              for t in (1, 2, 7)}
     assert sizes == {expected}
     assert expected % spp == 0
@@ -172,8 +172,9 @@ def test_kept_camera_columns_are_never_written_to():
     from raytrace.integrator import RenderOptions, WhittedIntegrator
     from raytrace.rays import CAMERA, NO_SHAPE
 
-    integ = WhittedIntegrator(scene(), RenderOptions(W, H, 2, 5, 0.0, np.full(3, 0.2), 0,
-                                                     threads=1, pass_samples=SMALL_PASS))
+    integ = WhittedIntegrator(scene(), RenderOptions(width=W, height=H, spp=2, max_depth=5,
+                                                     background=0.2, threads=1,
+                                                     pass_samples=SMALL_PASS))
     first_image = integ.render()
     first = first_image.rgb
     cols = integ._worker.camera_columns
@@ -197,7 +198,7 @@ def test_a_second_render_of_one_integrator_counts_from_zero(threads):
     # still report its own rays only: W·H camera rays, not the sum over renders.
     from raytrace.integrator import RenderOptions, WhittedIntegrator
 
-    integ = WhittedIntegrator(scene(), RenderOptions(W, H, 1, 3, 0.0, np.zeros(3), 0,
+    integ = WhittedIntegrator(scene(), RenderOptions(width=W, height=H, max_depth=3,
                                                      threads=threads))
     first, second = integ.render().stats, integ.render().stats
     assert first["rays"]["camera"] == second["rays"]["camera"] == W * H

@@ -138,7 +138,7 @@ def invariance_scene(s: float, shift: float) -> Scene:
 
 def hit_ids(scene: Scene, width: int, height: int) -> np.ndarray:
     """(H, W) id of the object each camera ray hits first: analytic shape, mesh (1000), or −1."""
-    integ = WhittedIntegrator(scene, RenderOptions(width, height, 1, 0, 0.0, np.zeros(3), 0))
+    integ = WhittedIntegrator(scene, RenderOptions(width=width, height=height, max_depth=0))
     rays = camera_rays(scene.camera, width, height, 1, 0, 0, width * height)
     hits = integ.accel.intersect(rays.origin, rays.direction, rays.origin_shape)
     ids = np.where(hits.triangle >= 0, 1000, hits.shape)
