@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import accel_kernels as K
+from . import accel_kernels as ak  # the compiled passes of this stage
 from .analytic import NO_TMAX, AnalyticShapes, f64, i64
 from .core import FLAT, GOURAUD, SHADOW_SHORTEN, SMOOTH
 from .rays import NO_SHAPE
@@ -118,7 +118,7 @@ class Accelerator:
             faces = i64(m.faces)
             TriangleMesh(self.embree, v.astype(np.float32), faces.astype(np.int32))
             s = slice(first, first + len(faces))
-            K.triangle_tables(v, faces, vertex_normals(v, faces), BAND_ULPS * 2.0**-23,
+            ak.triangle_tables(v, faces, vertex_normals(v, faces), BAND_ULPS * 2.0**-23,
                               self.tri_corners[s], self.tri_normal[s], self.tri_vnormals[s],
                               self.tri_band[s])
         # The first run() commits the scene and is not thread-safe: do it once here.
@@ -173,20 +173,20 @@ class Accelerator:
         n = len(o)
         o32, d32 = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
         far = np.empty(n, np.float32)  # a fresh array: Embree overwrites it
-        K.embree_rays(o, d, t, tmax, has_tmax, o32, d32, far)
+        ak.embree_rays(o, d, t, tmax, has_tmax, o32, d32, far)
         rays, hits = (o, d, tmax, has_tmax), (t, shape, triangle, uv)
         redo = (np.empty(n, np.int64), np.empty(n))
         rows, adv = _IDENTITY
         for _ in range(MAX_RETRACES + 1):
             out = self.embree.run(o32, d32, dists=far, output=1)
-            k = K.refine_hits((out["geomID"], out["primID"], out["u"], out["v"]), rows, adv,
+            k = ak.refine_hits((out["geomID"], out["primID"], out["u"], out["v"]), rows, adv,
                               self.triangles, rays, hits, redo)
             if not k:
                 return
             rows, adv = np.empty(k, np.int64), np.empty(k)
             o32, d32 = np.empty((k, 3), np.float32), np.empty((k, 3), np.float32)
             far = np.empty(k, np.float32)
-            k = K.retrace_rays((redo[0][:k], redo[1][:k]), rays, t, (o32, d32, far, rows, adv))
+            k = ak.retrace_rays((redo[0][:k], redo[1][:k]), rays, t, (o32, d32, far, rows, adv))
             if not k:
                 return
             rows, adv, o32, d32, far = rows[:k], adv[:k], o32[:k], d32[:k], far[:k]
@@ -213,12 +213,12 @@ class Accelerator:
         m = n if meshes else 0
         idx, far = np.empty(m, np.int64), np.empty(m, np.float32)
         o32, d32 = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
-        k = K.shadow_prepass((origin, direction, origin_shape, tmax), self.shapes.table, meshes,
+        k = ak.shadow_prepass((origin, direction, origin_shape, tmax), self.shapes.table, meshes,
                              blocked, (idx, o32, d32, far))
         if k:
             res = self.embree.run(o32[:k], d32[:k], dists=far[:k], query="OCCLUDED")
             recheck = np.empty(k, np.int64)
-            j = K.occlusion(idx[:k], res, origin_shape, blocked, recheck)
+            j = ak.occlusion(idx[:k], res, origin_shape, blocked, recheck)
             if j:
                 rows = recheck[:j]
                 o, d, lim = origin[rows], direction[rows], tmax[rows]
@@ -249,7 +249,7 @@ class Accelerator:
         surface = Surface(point, geometric, shading, material, offset, hits.shape,
                           hits.triangle, hits.uv)
         hits = Hits(f64(hits.t), i64(hits.shape), i64(hits.triangle), f64(hits.uv))
-        K.hit_surfaces(hits, f64(origin), f64(direction), self.shapes.surface_table,
+        ak.hit_surfaces(hits, f64(origin), f64(direction), self.shapes.surface_table,
                        self.shape_material, self.triangles, surface)
         return surface
 
@@ -278,5 +278,5 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """
     vertices = f64(vertices)
     out = np.empty_like(vertices)
-    K.vertex_normals(vertices, i64(faces), out)
+    ak.vertex_normals(vertices, i64(faces), out)
     return out

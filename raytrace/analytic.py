@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import accel_kernels as K
+from . import accel_kernels as ak  # the compiled passes of this stage
 from .rays import NO_SHAPE
 
 #: Stands for "no tmax" in the kernels' float64 tmax argument.
@@ -71,7 +71,7 @@ class AnalyticShapes:
             shape.fill(NO_SHAPE)
         else:
             lim = NO_TMAX if tmax is None else f64(tmax)
-            K.closest_analytic(f64(origin), f64(direction), i64(origin_shape), lim,
+            ak.closest_analytic(f64(origin), f64(direction), i64(origin_shape), lim,
                                tmax is not None, self.table, t, shape)
         return t, shape
 
@@ -80,7 +80,7 @@ class AnalyticShapes:
         (rows whose shape is NO_SHAPE: the point as it is, normal 0)."""
         point = f64(point)
         snapped, normal = point.copy(), np.zeros_like(point)
-        K.analytic_surface(i64(shape), point, self.surface_table, snapped, normal)
+        ak.analytic_surface(i64(shape), point, self.surface_table, snapped, normal)
         return snapped, normal
 
 

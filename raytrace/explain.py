@@ -76,7 +76,7 @@ class Recorder:
     def hits(self, rays: Any, hits: Any, surf: Any) -> None:
         """What each ray of the batch (all hits, in hit order) hit: the AOV kernel's depth,
         facing normal, kd and object index, and the surface's material and side."""
-        from . import shading_kernels as K
+        from . import shading_kernels as sk  # the compiled passes of this stage
 
         integ, n = self.integ, len(rays)
         depth, normal, albedo = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
@@ -86,7 +86,7 @@ class Recorder:
             m = int(surf.material[j])
             material = integ.materials[m]
             point = surf.point[j] + self.origin
-            ka = K.color1(integ.table.record, m, K.KA, *point)
+            ka = sk.color1(integ.table.record, m, sk.KA, *point)
             obj = int(ident[j])
             entering = float(np.dot(rays.direction[j], surf.geometric[j])) < 0.0
             self.rays[rid]["hit"] = {

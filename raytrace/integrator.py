@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import aov as aov_images
-from . import shading_kernels as K
+from . import shading_kernels as sk  # the compiled passes of this stage
 from .accel import Accelerator, Hits, Surface
 from .camera import camera_columns, camera_rays, global_samples
 from .film import Image
@@ -214,28 +214,28 @@ class WhittedIntegrator:
         of fewer than :data:`MIN_PASSES` full passes, a :data:`MIN_PASSES`-th of the image
         (not below :data:`MIN_PASS_SAMPLES`), so small images still use every thread. It
         depends on the image and the options, never on the number of threads."""
-        o = self.opt
-        total = self.size[0] * self.size[1] * o.spp
-        size = min(o.pass_samples, max(MIN_PASS_SAMPLES, -(-total // MIN_PASSES)))
-        return max(o.spp, (size // o.spp) * o.spp)
+        opt = self.opt
+        total = self.size[0] * self.size[1] * opt.spp
+        size = min(opt.pass_samples, max(MIN_PASS_SAMPLES, -(-total // MIN_PASSES)))
+        return max(opt.spp, (size // opt.spp) * opt.spp)
 
     # -- the loop ----------------------------------------------------------------------------
     def render(self, progress: Callable[[int, int], None] | None = None) -> Image:
         """The image, pass by pass on ``threads`` threads (the calling one included);
         ``progress(done, total)`` is called, one thread at a time, after each pass."""
-        o = self.opt
+        opt = self.opt
         t_start = time.perf_counter()
         with self._lock:  # a second render of this integrator counts from zero
             self._renders += 1
             self._stats_per_thread = []
         cols, rows = self.size
-        total = cols * rows * o.spp
+        total = cols * rows * opt.spp
         per_pass = self.pass_size
         passes = [(a, min(a + per_pass, total)) for a in range(0, total, per_pass)]
         # Each pass rounds its pixels to float32 as it ends (the same rounding as at the end
         # would be), so no float64 copy of the whole image is held.
         pixels = np.empty((cols * rows, 3), dtype=np.float32)
-        aovs = {name: aov_images.empty(name, (rows, cols)) for name in o.aovs}
+        aovs = {name: aov_images.empty(name, (rows, cols)) for name in opt.aovs}
         flat = {name: a.reshape(len(pixels), *a.shape[2:]) for name, a in aovs.items()}
         self._aov_out = tuple(flat.get(name, none)
                               for name, none in zip(aov_images.AOVS, NO_AOV_PIXELS, strict=True))
@@ -248,12 +248,12 @@ class WhittedIntegrator:
             bad_pixels = bad.any(axis=2)
             nonfinite = int(bad_pixels.sum())
             y, x = np.unravel_index(int(np.argmax(bad_pixels)), bad_pixels.shape)
-            x0, y0 = o.crop[:2] if o.crop else (0, 0)
+            x0, y0 = opt.crop[:2] if opt.crop else (0, 0)
             first = [int(x) + x0, int(y) + y0]  # the first in reading order, in the frame
             rgb[bad] = 0.0
         seconds = time.perf_counter() - t_start + self.build_seconds
         return Image(rgb, self._stats(nonfinite, first, seconds, t_passes),
-                     self._metadata(nonfinite), aovs, o.crop, (o.width, o.height))
+                     self._metadata(nonfinite), aovs, opt.crop, (opt.width, opt.height))
 
     def _run(self, passes: list[tuple[int, int]], pixels: np.ndarray,
              progress: Callable[[int, int], None] | None, total: int) -> None:
@@ -296,19 +296,19 @@ class WhittedIntegrator:
     def _render_pass(self, start: int, stop: int, pixels: np.ndarray) -> None:
         """Camera samples ``start`` to ``stop`` (whole pixels), depth by depth, into their
         pixels (and AOVs)."""
-        o, w, n = self.opt, self._worker, stop - start
+        opt, w, n = self.opt, self._worker, stop - start
         t0 = time.perf_counter()
         samples = self.scratch("samples", n, 3)
         samples.fill(0.0)
-        if o.aovs:
+        if opt.aovs:
             w.aov = self._aov_samples(n)
         self.trace_samples(start, stop, samples)
-        first, last = start // o.spp, stop // o.spp
+        first, last = start // opt.spp, stop // opt.spp
         with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
             pixels[first:last] = (
-                samples if o.spp == 1 else samples.reshape(-1, o.spp, 3).mean(1))
-        if o.aovs:
-            K.aov_pixels(last - first, o.spp, tuple(w.aov),
+                samples if opt.spp == 1 else samples.reshape(-1, opt.spp, 3).mean(1))
+        if opt.aovs:
+            sk.aov_pixels(last - first, opt.spp, tuple(w.aov),
                          tuple(a[first:last] for a in self._aov_out))
         self.stats.pass_seconds += time.perf_counter() - t0
 
@@ -321,12 +321,12 @@ class WhittedIntegrator:
         after another, so memory stays bounded by the pass size × max_depth rather than
         growing as 2^depth, and each sample's sum is added up in the same order whatever the
         pass size, the crop or the threads."""
-        o, w, n = self.opt, self._worker, stop - start
+        opt, w, n = self.opt, self._worker, stop - start
         w.first_sample = start
         if w.camera_columns is None or len(w.camera_columns.origin) < n:
             w.camera_columns = camera_columns(n)
-        rays = camera_rays(self.scene.camera, o.width, o.height, o.spp, o.seed, start, stop,
-                           w.camera_columns, self.scratch("camera_direction", n, 3), o.crop)
+        rays = camera_rays(self.scene.camera, opt.width, opt.height, opt.spp, opt.seed, start, stop,
+                           w.camera_columns, self.scratch("camera_direction", n, 3), opt.crop)
         per_pass = self.pass_size
         pending = [rays]
         while pending:
@@ -360,7 +360,7 @@ class WhittedIntegrator:
 
     def trace(self, rays: RayBatch, samples: np.ndarray) -> RayBatch:
         """One depth: intersect, add background and local shading, return the next depth."""
-        st, o, n = self.stats, self.opt, len(rays)
+        st, opt, n = self.stats, self.opt, len(rays)
         counts = np.zeros(len(KIND_NAMES), np.int64)
         count_kinds(rays.kind, counts)
         for name, count in zip(KIND_NAMES, counts.tolist(), strict=True):
@@ -373,7 +373,7 @@ class WhittedIntegrator:
         found, missed = found[:k], missed[:n - k]
         if self.observer is not None:
             self.observer.traced(rays, found, missed, self.background)
-        if len(missed) and np.any(o.background):
+        if len(missed) and np.any(opt.background):
             add(samples, rays.sample, rays.weight, self.background, missed)
         if not len(found):
             return RayBatch.empty(rays.depth + 1)
@@ -390,7 +390,7 @@ class WhittedIntegrator:
             hits = Hits(*out[6:])
             rays = RayBatch(origin, direction, sample, weight, rays.depth, origin_shape, kind)
         surf = self.accel.surface(hits, rays.origin, rays.direction)
-        if rays.depth == 0 and o.aovs:  # the camera rays' first hits
+        if rays.depth == 0 and opt.aovs:  # the camera rays' first hits
             self.aov_hits(rays, hits, surf, *self._worker.aov)
         if self.observer is not None:
             self.observer.hits(rays, hits, surf)
@@ -404,7 +404,7 @@ class WhittedIntegrator:
         outputs (:func:`raytrace.shading_kernels.aov_hits`; an output without rows is
         skipped)."""
         a = self.accel
-        K.aov_hits(rays.record, hits.t, surf, self.tables, (a.shape_object, a.geom_object),
+        sk.aov_hits(rays.record, hits.t, surf, self.tables, (a.shape_object, a.geom_object),
                    (depth, normal, albedo, ident))
 
     # -- shading -----------------------------------------------------------------------------
@@ -428,7 +428,7 @@ class WhittedIntegrator:
         # additions in the same order (0 + x and x·1 are exact).
         obs = self.observer
         into, rows = (samples, rays.sample) if obs is None else (np.zeros((n, 3)), np.arange(n))
-        K.hit_terms(rays.record, surf, self.tables, self.ambient, lights, self.opt.min_weight,
+        sk.hit_terms(rays.record, surf, self.tables, self.ambient, lights, self.opt.min_weight,
                     (into, rows), children)
         depth = rays.depth + 1
         if obs is not None:
@@ -453,13 +453,13 @@ class WhittedIntegrator:
         count the children of each kind (:func:`raytrace.shading_kernels.count_keep`), then
         fill the rows from where each kind starts
         (:func:`raytrace.shading_kernels.spawn_children`)."""
-        per_kind = K.count_keep(children.status)
+        per_kind = sk.count_keep(children.status)
         first = np.concatenate([[0], np.cumsum(per_kind)[:-1]])  # where each kind starts
         k = int(per_kind.sum())
         origin, direction, weight = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
         sample, shape = np.empty(k, np.int64), np.empty(k, np.int64)
         kind, parent = np.empty(k, np.int8), np.empty(k, np.int64)
-        K.spawn_children(children, parents.record, surf, first, CHILD_KINDS,
+        sk.spawn_children(children, parents.record, surf, first, CHILD_KINDS,
                          Spawned(origin, direction, weight, sample, shape, kind, parent))
         batch = RayBatch(origin, direction, sample, weight, parents.depth + 1, shape, kind)
         if DEBUG:
@@ -473,7 +473,7 @@ class WhittedIntegrator:
         if depth > self.opt.max_depth:
             self.stats.pruned_depth += int(np.count_nonzero(status))
             return False
-        self.stats.pruned_weight += int(np.count_nonzero(status == K.PRUNED))
+        self.stats.pruned_weight += int(np.count_nonzero(status == sk.PRUNED))
         return True
 
     def direct_lighting(self, rays: RayBatch, surf: Surface) -> np.ndarray:
@@ -491,7 +491,7 @@ class WhittedIntegrator:
         key = global_samples(rays.sample + self._worker.first_sample, self.opt.width,
                              self.opt.spp, self.opt.crop) if self.jittered else NO_KEY
         for e, em in enumerate(self.emitters):
-            k = K.light_pass(rays.record, surf, self.tables, em.record, key, rays.depth, term,
+            k = sk.light_pass(rays.record, surf, self.tables, em.record, key, rays.depth, term,
                              shadow)
             if self.observer is not None:
                 self.observer.light(e, term, rows[:k])
@@ -515,7 +515,7 @@ class WhittedIntegrator:
         if not self.any_transparent:
             blocked = self.accel.occluded(origin, direction, shape, tmax)
             self.stats.trace_seconds += time.perf_counter() - t0
-            K.add_unblocked(out, rows, term, blocked, color)
+            sk.add_unblocked(out, rows, term, blocked, color)
             if self.observer is not None:
                 self.observer.shadow(np.where(blocked[:, None], 0.0, np.ones(3)))
             return
@@ -524,12 +524,12 @@ class WhittedIntegrator:
         live = np.arange(len(rows))  # the row of factor each walking ray multiplies
         for _ in range(MAX_SHADOW_CROSSINGS):
             hits = self.accel.intersect(origin, direction, shape, tmax)
-            t, hit_shape, triangle, uv, origin, direction, tmax, live = K.crossing_rays(
+            t, hit_shape, triangle, uv, origin, direction, tmax, live = sk.crossing_rays(
                 hits, origin, direction, tmax, live)
             if not len(live):
                 break
             s2 = self.accel.surface(Hits(t, hit_shape, triangle, uv), origin, direction)
-            origin, direction, shape, tmax, live = K.cross_surfaces(
+            origin, direction, shape, tmax, live = sk.cross_surfaces(
                 factor, live, s2, (direction, t, tmax), self.tables)
             if not len(live):
                 break
@@ -537,7 +537,7 @@ class WhittedIntegrator:
         else:
             factor[live] = 0.0
         self.stats.trace_seconds += time.perf_counter() - t0
-        K.add_light(out, rows, term, factor, color)
+        sk.add_light(out, rows, term, factor, color)
         if self.observer is not None:
             self.observer.shadow(factor.copy())
 
@@ -548,7 +548,7 @@ class WhittedIntegrator:
         ``shade`` are wall seconds: the passes' wall time split in proportion to the thread
         time spent tracing and shading, so build + trace + shade ≤ total with any number of
         threads."""
-        st, o = Stats(), self.opt
+        st, opt = Stats(), self.opt
         for part in self._stats_per_thread:
             st.merge(part)
         share = pass_wall / st.pass_seconds if st.pass_seconds > 0 else 0.0
@@ -563,19 +563,19 @@ class WhittedIntegrator:
             "triangles": self.accel.n_triangles,
             "seconds": {"build": self.build_seconds, "trace": st.trace_seconds * share,
                         "shade": st.shade_seconds * share, "total": seconds},
-            "width": o.width, "height": o.height, "spp": o.spp, "max_depth": o.max_depth,
-            "min_weight": o.min_weight, "threads": o.threads,
-            **({"crop": list(o.crop)} if o.crop else {}),
-            **({"aovs": list(o.aovs)} if o.aovs else {}),
+            "width": opt.width, "height": opt.height, "spp": opt.spp, "max_depth": opt.max_depth,
+            "min_weight": opt.min_weight, "threads": opt.threads,
+            **({"crop": list(opt.crop)} if opt.crop else {}),
+            **({"aovs": list(opt.aovs)} if opt.aovs else {}),
         }
 
     def _metadata(self, nonfinite: int) -> dict:
-        o = self.opt
-        return {"scene": self.scene.path or "<python>", "width": o.width, "height": o.height,
-                "spp": o.spp, "max_depth": o.max_depth, "min_weight": o.min_weight,
-                "seed": o.seed, "nonfinite_pixels": nonfinite,
+        opt = self.opt
+        return {"scene": self.scene.path or "<python>", "width": opt.width, "height": opt.height,
+                "spp": opt.spp, "max_depth": opt.max_depth, "min_weight": opt.min_weight,
+                "seed": opt.seed, "nonfinite_pixels": nonfinite,
                 "renderer": "raytrace (Whitted, Embree)",
-                **({"crop": " ".join(map(str, o.crop))} if o.crop else {})}
+                **({"crop": " ".join(map(str, opt.crop))} if opt.crop else {})}
 
 
 def chunks(rays: RayBatch, samples: int, most: int) -> list[RayBatch]:
@@ -603,4 +603,4 @@ def add(samples: np.ndarray, sample: np.ndarray, weight: np.ndarray, factor: np.
     """``samples[sample[r]] += weight[r]·factor[r]`` for the rays ``rows`` (``factor`` of one
     row applies to every ray), one ray after another in batch order
     (:func:`raytrace.shading_kernels.accumulate`)."""
-    K.accumulate(samples, sample, weight, factor, rows)
+    sk.accumulate(samples, sample, weight, factor, rows)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import shading_kernels as K
+from . import shading_kernels as sk  # the compiled passes of this stage
 
 
 def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -33,7 +33,7 @@ def reflect(d: np.ndarray, n: np.ndarray) -> np.ndarray:
     """
     d, n = rows3(d, n)
     out = np.empty(d.shape)
-    K.reflect_rows(d, n, out)
+    sk.reflect_rows(d, n, out)
     return out
 
 
@@ -55,7 +55,7 @@ def refract(d: np.ndarray, n: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, 
     d, n = rows3(d, n, n=len(eta))
     eta = np.ascontiguousarray(np.broadcast_to(eta, len(d)))
     out, tir = np.empty(d.shape), np.empty(len(d), bool)
-    K.refract_rows(d, n, eta, out, tir)
+    sk.refract_rows(d, n, eta, out, tir)
     return out, tir
 
 

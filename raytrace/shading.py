@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import shading_kernels as K
+from . import shading_kernels as sk  # the compiled passes of this stage
 from .optics import rows3
 
 
@@ -39,7 +39,7 @@ def cosine_power(a: np.ndarray, b: np.ndarray, n: np.ndarray) -> np.ndarray:
     n = np.asarray(n, np.float64).reshape(-1)
     a, b = rows3(a, b, n=len(n))
     out = np.empty(len(a))
-    K.cosine_power_rows(a, b, _scalars(n, len(a)), out)
+    sk.cosine_power_rows(a, b, _scalars(n, len(a)), out)
     return out
 
 
@@ -48,23 +48,23 @@ def _highlight(code: int, normal, to_light, to_eye, n) -> np.ndarray:
     n = np.asarray(n, np.float64).reshape(-1)
     normal, to_light, to_eye = rows3(normal, to_light, to_eye, n=len(n))
     out = np.empty(len(normal))
-    K.highlight_rows(code, normal, to_light, to_eye, _scalars(n, len(normal)), out)
+    sk.highlight_rows(code, normal, to_light, to_eye, _scalars(n, len(normal)), out)
     return out
 
 
 def phong(normal: np.ndarray, to_light: np.ndarray, to_eye: np.ndarray, n: np.ndarray):
     """Phong's (V·R)^n with R = 2(N·L)N − L (Phong 1975)."""
-    return _highlight(K.PHONG, normal, to_light, to_eye, n)
+    return _highlight(sk.PHONG, normal, to_light, to_eye, n)
 
 
 def blinn(normal: np.ndarray, to_light: np.ndarray, to_eye: np.ndarray, n: np.ndarray):
     """Blinn's (N·H)^n with H = (L + V)/|L + V| (Blinn 1977); 0 where L = −V."""
-    return _highlight(K.BLINN, normal, to_light, to_eye, n)
+    return _highlight(sk.BLINN, normal, to_light, to_eye, n)
 
 
 #: Highlight models by name (a registry, not a class hierarchy), and their kernel codes.
 HIGHLIGHTS = {"phong": phong, "blinn": blinn}
-HIGHLIGHT_CODES = {"phong": K.PHONG, "blinn": K.BLINN}
+HIGHLIGHT_CODES = {"phong": sk.PHONG, "blinn": sk.BLINN}
 
 
 def direct(normal, to_light, to_eye, kd, ks, shininess, model) -> np.ndarray:
@@ -79,5 +79,5 @@ def direct(normal, to_light, to_eye, kd, ks, shininess, model) -> np.ndarray:
     k = len(normal)
     model = np.ascontiguousarray(np.broadcast_to(np.asarray(model, np.int64).reshape(-1), k))
     out = np.empty((k, 3))
-    K.direct_rows(normal, to_light, to_eye, kd, ks, _scalars(shininess, k), model, out)
+    sk.direct_rows(normal, to_light, to_eye, kd, ks, _scalars(shininess, k), model, out)
     return out
