@@ -30,6 +30,9 @@ TOL = 16.0 * float(np.finfo(np.float64).eps)
 F32_MAX = float(np.finfo(np.float32).max)
 TINY = float(np.finfo(np.float64).tiny)
 F32_TINY = float(np.finfo(np.float32).tiny)
+#: A ray whose origin lies this close to a triangle's plane, relative to the coordinates'
+#: magnitude (16 float64 ulps), starts on it: it cannot meet that triangle again.
+PLANE_TOL = 16.0 * float(np.finfo(np.float64).eps)
 #: Spawned rays start 3 float32 ulps (2⁻²³ relative) of their hit point's largest coordinate
 #: off a triangle (``raytrace.accel``; docs/robustness.md).
 SPAWN_OFFSET = 3.0 * 2.0**-23
@@ -297,8 +300,10 @@ def refine_hits(embree, rows, adv, tables, rays, hits, redo):
     ``tmax``.
 
     **Artefacts.** Where the float64 solve puts the crossing of the ray's line with the
-    triangle's plane at or behind the origin (its ``t ≤ 0``), the ray cannot meet that
-    triangle: a straight ray leaving a plane never meets it again. Embree reported it only
+    triangle's plane at or behind the origin (its ``t ≤ 0``), or the origin lies on that
+    plane within the float64 rounding of the coordinates (:data:`PLANE_TOL`), the ray cannot
+    meet that triangle: a straight ray leaving a plane never meets it again (a wall hit
+    rounded 2e-16 past the ceiling's plane at a room's corner would otherwise shadow itself). Embree reported it only
     because its float32 arithmetic puts the origin within the triangle's error band (spawned
     rays start a few ulps of their own hit point off the surface, which can be less than the
     rounding of a large triangle's vertices). Such a ray is written to ``redo`` with ``adv``,
@@ -334,10 +339,12 @@ def refine_hits(embree, rows, adv, tables, rays, hits, redo):
         u = (sx * px + sy * py + sz * pz) / det
         v = (dx * qx + dy * qy + dz * qz) / det
         t_plane = (e2x * qx + e2y * qy + e2z * qz) / det
+        nx, ny, nz = face_normal[tri, 0], face_normal[tri, 1], face_normal[tri, 2]
+        gap = abs(sx * nx + sy * ny + sz * nz)  # the origin's distance from the plane
+        scale = (max(max(abs(ox), abs(oy)), abs(oz)) + max(max(abs(ax), abs(ay)), abs(az)))
         if math.isfinite(u) and math.isfinite(v) and det != 0:
-            if t_plane <= 0.0:  # behind the origin: a float32 artefact, traced on
-                cos = abs(dx * face_normal[tri, 0] + dy * face_normal[tri, 1]
-                          + dz * face_normal[tri, 2])
+            if t_plane <= 0.0 or gap <= PLANE_TOL * scale:  # an artefact: traced on
+                cos = abs(dx * nx + dy * ny + dz * nz)
                 redo_rows[k] = i
                 redo_adv[k] = 2.0 * (adv[j] if mapped else 0.0) + band[tri] / max(cos, TINY)
                 k += 1

@@ -251,9 +251,9 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
     of term is > 0 need a shadow ray: the first k rows of ``shadow`` (a
     :class:`raytrace.records.Shadows`) hold them, in hit order. A shadow ray leaves the hit
     towards the light (:func:`leave1`) and stops :data:`raytrace.core.SHADOW_SHORTEN`
-    (relative) short of it; from a smooth or Gouraud triangle it leaves from :func:`bulge1`'s
-    lifted point on the side the viewer sees, keeping the hit point's direction and length
-    (the lift is a fraction of the triangle's size). ``key`` (n,): each hit's global camera
+    (relative) short of it; from a smooth or Gouraud triangle it goes from :func:`bulge1`'s
+    lifted point P′ (on the side the viewer sees) to the same point of the light the shading
+    used (SCENE_FORMAT.md's smooth-mesh rule 2; Blender Cycles aims from P′ as well). ``key`` (n,): each hit's global camera
     sample, read only for a jittered emitter (:func:`incidence1`)."""
     direction, eye = rays.direction, rays.origin
     point, geometric, shading, material = surf.point, surf.geometric, surf.shading, surf.material
@@ -292,8 +292,13 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
         term[i, 0], term[i, 1], term[i, 2] = r, g, b
         if not (r > 0.0 or g > 0.0 or b > 0.0):
             continue
-        if smooth:
-            px, py, pz = bulge1((px, py, pz), tri, u, v, s, triangles)
+        if smooth:  # from Hanika's lifted point P′ to the same point of the light
+            qx, qy, qz = bulge1((px, py, pz), tri, u, v, s, triangles)
+            if math.isfinite(d) and (qx != px or qy != py or qz != pz):
+                lx, ly, lz = px + d * lx - qx, py + d * ly - qy, pz + d * lz - qz
+                d = math.sqrt(lx * lx + ly * ly + lz * lz)
+                lx, ly, lz = lx / d, ly / d, lz / d
+            px, py, pz = qx, qy, qz
         s_origin[k, 0], s_origin[k, 1], s_origin[k, 2] = leave1(px, py, pz, gx, gy, gz,
                                                                surf.offset[i], lx, ly, lz)
         s_direction[k, 0], s_direction[k, 1], s_direction[k, 2] = lx, ly, lz
