@@ -319,7 +319,7 @@ def test_smooth_and_gouraud_glass_match_reference_tracer():
     "light the renderer's ray passes the triangle's edge where the reference's crosses it"))
 def test_gouraud_terminator_matches_reference_tracer():
     # An opaque Gouraud icosphere (80 faces) lit from the side by a point light 1.5 from its
-    # centre, local shading only: 20 of 2304 pixels, each lit 0.0006-0.013 by the renderer
+    # centre, local shading only: 20 of 2304 pixels, each lit 0.0002-0.012 by the renderer
     # and 0 by the reference.
     import trimesh
 
