@@ -303,7 +303,8 @@ def refine_hits(embree, rows, adv, tables, rays, hits, redo):
     triangle's plane at or behind the origin (its ``t ≤ 0``), or the origin lies on that
     plane within the float64 rounding of the coordinates (:data:`PLANE_TOL`), the ray cannot
     meet that triangle: a straight ray leaving a plane never meets it again (a wall hit
-    rounded 2e-16 past the ceiling's plane at a room's corner would otherwise shadow itself). Embree reported it only
+    rounded 2e-16 past the ceiling's plane at a room's corner would otherwise shadow
+    itself). Embree reported it only
     because its float32 arithmetic puts the origin within the triangle's error band (spawned
     rays start a few ulps of their own hit point off the surface, which can be less than the
     rounding of a large triangle's vertices). Such a ray is written to ``redo`` with ``adv``,

@@ -253,7 +253,8 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
     towards the light (:func:`leave1`) and stops :data:`raytrace.core.SHADOW_SHORTEN`
     (relative) short of it; from a smooth or Gouraud triangle it goes from :func:`bulge1`'s
     lifted point P′ (on the side the viewer sees) to the same point of the light the shading
-    used (SCENE_FORMAT.md's smooth-mesh rule 2; Blender Cycles aims from P′ as well). ``key`` (n,): each hit's global camera
+    used (SCENE_FORMAT.md's smooth-mesh rule 2; Blender Cycles aims from P′ as well).
+    ``key`` (n,): each hit's global camera
     sample, read only for a jittered emitter (:func:`incidence1`)."""
     direction, eye = rays.direction, rays.origin
     point, geometric, shading, material = surf.point, surf.geometric, surf.shading, surf.material

@@ -1,34 +1,71 @@
-"""A deliberately slow, plainly recursive Whitted tracer: the oracle for the wavefront.
+"""A deliberately slow, plainly recursive Whitted tracer, independent of the renderer: the
+oracle for the wavefront.
 
-It follows seed 003's pseudocode one ray at a time, in the contract's form
-(SCENE_FORMAT.md, "The shading model")::
+It reads only the scene description (:mod:`raytrace.scene`'s shapes, lights and camera,
+:mod:`raytrace.material`'s Material and Checker: the data) and does everything else itself,
+one ray at a time in float64 with Python and numpy, written from the formulas of
+/work/shared/SCENE_FORMAT.md and docs/shading.md. Nothing of the renderer's intersection,
+lighting, shading, optics or camera code is imported (tests/test_reference_tracer.py checks
+that in a fresh interpreter).
 
-    trace(ray, depth):
-        hit ← closest intersection
-        no hit → background
-        return shade(hit, ray, depth)
-
-    shade(hit, ray, depth):
-        local ← ka·Ia + Σ_l S_l · f_l · I_l · [kd·max(N·L, 0) + ks·spec]
-        I     ← local + kr·trace(reflected, depth+1) + kt·trace(refracted or TIR, depth+1)
-        return t·I + (1 − t)·trace(straight through, depth+1)
-
-where a child is traced only while its depth ≤ max_depth and its path weight (the product of
-the t·kr, t·kt, 1 − t factors, max over RGB) is ≥ min_weight, and S_l is the product of
-``t·kt + (1 − t)`` over every surface the straight shadow ray crosses before the light.
+* **Camera** (SCENE_FORMAT.md, "Conventions", ``[camera]``): a pinhole at ``position``
+  looking at ``look_at``; ``fov`` is the vertical field of view; pixel (0, 0) is the top-left
+  one and its ray passes through the pixel centre: ``x = (2(col + ½)/W − 1)·tan(fov/2)·W/H``,
+  ``y = (1 − 2(row + ½)/H)·tan(fov/2)`` on the image plane one unit along the view direction,
+  right = forward × up. Only spp = 1 is traced (the pixel centre).
+* **Intersection**, brute force in world coordinates: spheres by the quadratic
+  ``t² + 2bt + c = 0`` (``b = d·(o − c)``) with its discriminant written as ``r² − |f|²``,
+  ``f = (o − c) − b·d``, and the second root from Vieta (Haines et al., "Precision
+  Improvements for Ray/Sphere Intersection", Ray Tracing Gems, 2019); planes by
+  ``t = (p − o)·n / (d·n)``; every triangle of every mesh by Möller & Trumbore ("Fast,
+  minimum storage ray-triangle intersection", 1997), a ray through the edge two triangles
+  share counting as a hit on one of them (``EDGE``), small meshes tested together and each
+  group behind a bounding sphere.
+* **Leaving a surface** (this tracer's own rule; nothing is offset): a ray starts exactly at
+  its parent's hit point. It skips the primitive it leaves (a straight ray leaving a plane
+  or a triangle never meets it again), except that on a sphere a ray going inward takes the
+  far root; every other primitive counts only beyond ``T_MIN·(1 + max|o|)``, so that a
+  neighbour sharing the edge or the plane of the hit (a quad's other half) is not met again
+  at a rounding-sized distance. A shadow ray from Hanika's lifted point (rule 2 below) starts
+  off the surface and does meet its own triangle where it crosses it.
+* **Shading**: SCENE_FORMAT.md's equation per RGB channel,
+  ``I = ka·Ia + Σ_l S_l·f_radial·f_angular·I_l·[kd·max(N·L, 0) + ks·spec] + kr·I_r + kt·I_t``
+  then ``I_ray = t·I + (1 − t)·I_behind``; ``spec = (V·R)^n`` with ``R = 2(N·L)N − L``
+  (Phong 1975) or ``(N·H)^n`` with ``H = (L + V)/|L + V|`` (Blinn 1977), 0 where the cosine
+  is ≤ 0 and where N·L ≤ 0; ka defaults to kd; N is turned to the viewer. Lights:
+  ``f_radial = 1/(a0 + a1·d + a2·d²)`` (1 for directional), spots ``(cos α)^exponent``
+  inside the cone (``cos α ≥ cos cutoff``), 0 outside; an area light is its k×k cell
+  centres, each a point light of ``color/k²`` (jittered area lights are not supported: the
+  tests use ``jitter = false``). Checker patterns: ``colors[0]`` where
+  ``⌊x/s + 1e-4⌋ + ⌊y/s + 1e-4⌋ + ⌊z/s + 1e-4⌋`` is even, at the world hit point.
+* **Shadows**: straight rays to each light (sample) whose unshadowed term is non-zero; S is
+  the product of ``t·kt + (1 − t)`` over every surface crossed before the light (0 behind an
+  opaque one); a walk of more than ``MAX_CROSSINGS`` surfaces counts as blocked
+  (docs/recursion.md).
+* **Recursion** (docs/shading.md, "Whitted recursion"): reflection ``r = d − 2(d·N)N``;
+  refraction ``T = η·d + (η·cos θᵢ − √k)·N``, ``k = cos²θᵢ − (η² − 1)·sin²θᵢ``, with the
+  signed cosine ``cos θᵢ = −d·N``; total internal reflection (k < 0) sends the kt share along
+  the mirror direction; η = 1/ior entering, ior leaving, decided by the outward geometric
+  normal. Children have depth + 1, are traced while depth ≤ max_depth and their path weight
+  (the product of the t·kr, t·kt, 1 − t factors, max over RGB) is ≥ min_weight; an untraced
+  child adds nothing; a miss returns the background.
+* **Smooth and Gouraud meshes**, the rules 1–5 of SCENE_FORMAT.md: vertex normals are the
+  normalised sums of the unit normals of the faces sharing the vertex (the hit face's normal
+  where they cancel), interpolated by the barycentrics (the face normal where that cancels);
+  N = s·N_s with s the side of the face the ray arrives on; shadow rays leave from Hanika's
+  lifted point ``P′ = P − Σ_k b_k·min(0, (P − V_k)·n_k)·n_k`` ("Hacking the Shadow
+  Terminator", Ray Tracing Gems II, 2021), aimed from there at the light (as Blender Cycles'
+  ``shadow_ray_setup`` does; the renderer keeps P's direction, see
+  test_gouraud_terminator_matches_reference_tracer); reflected and refracted
+  directions on the wrong side of the face are recomputed about the face normal; Gouraud
+  blends the per-vertex unshadowed terms (each vertex's own L, V and f, ka kd ks at the hit)
+  by the barycentrics and multiplies one shadow factor.
 
 Under TIR the kt share leaves along the mirror direction. With min_weight 0 a TIR ray on the
 reflected ray's exact path is traced once, as (kr + kt)·trace(reflected): exact, since the sum
-is linear in the children and both have the same depth, and only max_depth stops a path. With
-min_weight > 0 the two stay separate rays (weights w·t·kr and w·t·kt), each pruned by its own
-path weight, as the contract says.
-
-Written independently of :mod:`raytrace.integrator`: it shares only the intersection code
-(:class:`raytrace.accel.Accelerator`, its spawn rule and shadow-ray shortening) and the local
-terms (:func:`raytrace.shading.direct`, :meth:`raytrace.lights.Emitter.incidence`). The camera
-rays, the recursion, the weights, the opacity blend, reflection, Snell refraction with total
-internal reflection and the transparent-shadow product are all done here, per ray, with Python
-scalars and 3-vectors. Gouraud meshes are not supported (the reference scenes use none).
+is linear in the children and both have the same depth (docs/recursion.md); with
+min_weight > 0 the two stay separate rays, each pruned by its own path weight. The ray counts
+follow docs/recursion.md's definitions of the ``--stats`` keys.
 """
 
 from __future__ import annotations
@@ -38,20 +75,36 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from raytrace.accel import SHADOW_SHORTEN, Accelerator, spawn_origins
-from raytrace.lights import emitters
 from raytrace.material import Checker, Material
-from raytrace.rays import NO_SHAPE
-from raytrace.scene import Scene
-from raytrace.shading import HIGHLIGHT_CODES, direct
+from raytrace.scene import (
+    AreaLight,
+    DirectionalLight,
+    Mesh,
+    Plane,
+    PointLight,
+    Scene,
+    Sphere,
+    SpotLight,
+)
 
-#: A shadow ray crossing more surfaces than this is a bug in the scene or the tracer.
-MAX_CROSSINGS = 1000
+#: A shadow ray crossing more surfaces than this counts as blocked (docs/recursion.md).
+MAX_CROSSINGS = 64
+#: Hits on primitives other than the one a ray leaves count from T_MIN·(1 + max|origin|) on:
+#: far above float64 rounding of the hit point (~1e-16 relative), far below any feature of a
+#: test scene.
+T_MIN = 1e-9
+#: Vertex and interpolated normals shorter than this fall back to the face normal (rule 4).
+NORMAL_FLOOR = 1e-12
+#: Barycentric slack of a triangle hit: a ray through the edge two triangles share (two walls
+#: meeting at a corner) hits one of them, not the float64 rounding gap between them.
+EDGE = 1e-12
+#: Meshes with fewer triangles are intersected together, behind one bounding sphere.
+GROUP = 256
 
 
 @dataclass
 class Counts:
-    """What the reference traced: rays by kind, shadow-ray segments, TIR events."""
+    """What the reference traced, by docs/recursion.md's definitions of the stats keys."""
 
     camera: int = 0
     reflection: int = 0
@@ -63,11 +116,60 @@ class Counts:
     pruned_weight: int = 0
 
 
+@dataclass
+class Hit:
+    """A surface point: ``prim`` (the primitive's number), ``point`` (world), ``outward``
+    (unit outward geometric normal N_g), ``normal`` (unit shading normal N_s, not turned),
+    and for triangles the index ``tri`` and barycentrics ``bary`` (of corners 0, 1, 2)."""
+
+    t: float
+    prim: int
+    point: np.ndarray
+    outward: np.ndarray
+    normal: np.ndarray
+    material: Material
+    tri: int = -1
+    bary: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass
+class Emitter:
+    """One point-like light: a point light, a spot, an area-light cell centre (``position``
+    set) or a directional light (``direction`` set, the way the light travels)."""
+
+    color: np.ndarray
+    position: np.ndarray | None = None
+    direction: np.ndarray | None = None
+    attenuation: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    spot_axis: np.ndarray | None = None
+    cos_cutoff: float = -1.0
+    exponent: float = 0.0
+
+
+def unit(v: np.ndarray) -> np.ndarray:
+    return v / math.sqrt(float(v @ v))
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b of two 3-vectors (numpy's cross costs ~20× more for one pair)."""
+    a0, a1, a2 = a.tolist()
+    b0, b1, b2 = b.tolist()
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
 def coefficient(c: np.ndarray | Checker, world: np.ndarray) -> np.ndarray:
-    """A material colour (3,) at one world point; a checker is evaluated there."""
+    """A material colour (3,) at a world point; a checker's cell parity decides its colour
+    (SCENE_FORMAT.md: colors[0] where ⌊x/s + 1e-4⌋ + ⌊y/s + 1e-4⌋ + ⌊z/s + 1e-4⌋ is even)."""
     if isinstance(c, Checker):
-        return c.evaluate(world[None])[0]
+        cells = sum(math.floor(float(x) / c.scale + 1e-4) for x in world)
+        return np.asarray(c.colors[cells % 2], dtype=np.float64)
     return np.asarray(c, dtype=np.float64)
+
+
+def nonzero(c: np.ndarray | Checker) -> bool:
+    """Whether a colour or pattern is non-zero anywhere."""
+    parts = c.colors if isinstance(c, Checker) else (c,)
+    return any(np.any(np.asarray(p) > 0) for p in parts)
 
 
 def mirror(d: np.ndarray, n: np.ndarray) -> np.ndarray:
@@ -75,177 +177,430 @@ def mirror(d: np.ndarray, n: np.ndarray) -> np.ndarray:
     return d - 2.0 * float(d @ n) * n
 
 
-def snell(d: np.ndarray, n: np.ndarray, eta: float) -> np.ndarray | None:
-    """Refracted direction for η₁/η₂ = eta, n on the incoming side; None on TIR.
+def snell(d: np.ndarray, n: np.ndarray, eta: float) -> tuple[np.ndarray, bool]:
+    """Refracted direction for η = η₁/η₂ and whether it is a total internal reflection.
 
-    From Snell's law sin θt = η sin θi: cos²θt = 1 − η²(1 − cos²θi) (Hecht, Optics, 4.4).
+    docs/shading.md, "Refraction": cos θᵢ = −d·n, signed, clipped to [−1, 1];
+    k = cos²θᵢ − (η² − 1)·sin²θᵢ; T = η·d + (η·cos θᵢ − √k)·n for k ≥ 0; k < 0 is TIR, and
+    the direction is then the mirror direction.
     """
-    cos_i = min(max(-float(d @ n), 0.0), 1.0)
-    cos2_t = 1.0 - eta * eta * (1.0 - cos_i * cos_i)
-    if cos2_t < 0.0:
-        return None
-    return eta * d + (eta * cos_i - math.sqrt(cos2_t)) * n
+    cos_i = min(max(-float(d @ n), -1.0), 1.0)
+    sin2 = max(0.0, 1.0 - cos_i * cos_i)
+    k = cos_i * cos_i - (eta * eta - 1.0) * sin2
+    if k < 0.0:
+        return mirror(d, n), True
+    return eta * d + (eta * cos_i - math.sqrt(k)) * n, False
+
+
+def phong(n: np.ndarray, l: np.ndarray, v: np.ndarray) -> float:
+    """Phong 1975: cos = V·R with R = 2(N·L)N − L."""
+    return float(v @ (2.0 * float(n @ l) * n - l))
+
+
+def blinn(n: np.ndarray, l: np.ndarray, v: np.ndarray) -> float:
+    """Blinn 1977: cos = N·H with H = (L + V)/|L + V|; 0 where L = −V (H undefined)."""
+    h = l + v
+    length = math.sqrt(float(h @ h))
+    return float(n @ h) / length if length > 0.0 else 0.0
+
+
+#: The highlight models by their ``highlight`` key: the cosine raised to the shininess.
+HIGHLIGHTS = {"phong": phong, "blinn": blinn}
+
+
+def highlight(model: str, n: np.ndarray, l: np.ndarray, v: np.ndarray, power: float) -> float:
+    """spec = cos^n of the model's cosine, 0 where the cosine is ≤ 0."""
+    if model not in HIGHLIGHTS:
+        raise ValueError(f"unknown highlight {model!r} (valid: {', '.join(HIGHLIGHTS)})")
+    cos = HIGHLIGHTS[model](n, l, v)
+    return cos**power if cos > 0.0 else 0.0
+
+
+def local_term(n: np.ndarray, l: np.ndarray, v: np.ndarray, kd: np.ndarray, ks: np.ndarray,
+               mat: Material) -> np.ndarray:
+    """kd·max(N·L, 0) + ks·spec, both zero where N·L ≤ 0 (seed 000; docs/shading.md)."""
+    ndl = float(n @ l)
+    if ndl <= 0.0:
+        return np.zeros(3)
+    return kd * ndl + ks * highlight(mat.highlight, n, l, v, mat.shininess)
+
+
+def incidence(em: Emitter, p: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """(L, distance, f_radial·f_angular) of one emitter at world point p (docs/shading.md,
+    "Lights"): f = 1/(a0 + a1·d + a2·d²); a spot multiplies (cos α)^exponent where
+    cos α = −L·axis ≥ cos θ, 0 outside; a directional light has L = −direction, d = ∞, f = 1.
+    A point at the light's position gets nothing (f = 0)."""
+    if em.position is None:
+        return -em.direction, math.inf, 1.0
+    to = em.position - p
+    dist = math.sqrt(float(to @ to))
+    if dist == 0.0:
+        return np.zeros(3), 0.0, 0.0
+    l = to / dist
+    a0, a1, a2 = em.attenuation
+    f = 1.0 / (a0 + a1 * dist + a2 * dist * dist)
+    if em.spot_axis is not None:
+        cos_a = -float(l @ em.spot_axis)
+        f = f * cos_a**em.exponent if cos_a >= em.cos_cutoff else 0.0
+    return l, dist, f
 
 
 class ReferenceTracer:
-    """Render ``scene`` pixel by pixel with the recursive definition (spp = 1 only)."""
+    """Render ``scene`` pixel by pixel with the recursive definition (pixel centres)."""
 
     def __init__(self, scene: Scene, max_depth: int | None = None,
-                 min_weight: float | None = None, seed: int = 0):
+                 min_weight: float | None = None):
         r = scene.render
-        self.scene = scene
         self.max_depth = r.max_depth if max_depth is None else max_depth
         self.min_weight = r.min_weight if min_weight is None else min_weight
         self.background = np.asarray(r.background, dtype=np.float64)
         self.ambient = np.asarray(scene.ambient, dtype=np.float64)
-        self.materials: list[Material] = []
-        for o in scene.objects:
-            if all(o.material is not m for m in self.materials):
-                self.materials.append(o.material)
-        self.accel = Accelerator(scene, self.materials)
-        if np.any(getattr(self.accel, "tri_shading", np.zeros(0)) == 2):
-            raise NotImplementedError("the reference tracer has no Gouraud shading")
-        self.origin = self.accel.origin
-        self.lights = emitters(scene.lights, self.origin, seed)
+        self.camera = scene.camera
         self.counts = Counts()
+        self._shapes(scene.objects)
+        self.emitters = [e for light in scene.lights for e in self._emitters(light)]
+
+    # -- the scene as float64 tables ------------------------------------------------------------
+    def _shapes(self, objects: list) -> None:
+        """Spheres, planes and triangles, numbered in that order (``prim``)."""
+        spheres = [o for o in objects if isinstance(o, Sphere)]
+        planes = [o for o in objects if isinstance(o, Plane)]
+        meshes = [o for o in objects if isinstance(o, Mesh)]
+        self.centers = np.array([s.center for s in spheres], np.float64).reshape(-1, 3)
+        self.radii = np.array([s.radius for s in spheres], np.float64)
+        self.plane_points = np.array([p.point for p in planes], np.float64).reshape(-1, 3)
+        self.plane_normals = np.array([unit(np.asarray(p.normal, np.float64)) for p in planes],
+                                      np.float64).reshape(-1, 3)
+        self.shape_materials = [o.material for o in spheres + planes]
+        self.n_spheres, self.n_analytic = len(spheres), len(spheres) + len(planes)
+        corners, vnormals, fnormals = [], [], []
+        self.tri_materials, self.tri_shading = [], []
+        for mesh in meshes:
+            v = np.asarray(mesh.vertices, np.float64)
+            f = np.asarray(mesh.faces, np.int64)
+            tri = v[f]                                                   # (F, 3, 3)
+            fn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+            fn /= np.linalg.norm(fn, axis=1, keepdims=True)              # outward: CCW winding
+            vsum = np.zeros_like(v)
+            for k in range(3):
+                np.add.at(vsum, f[:, k], fn)
+            length = np.linalg.norm(vsum, axis=1)
+            vn = vsum / np.where(length < NORMAL_FLOOR, 1.0, length)[:, None]
+            corner_n = vn[f]                                             # (F, 3, 3)
+            cancel = (length < NORMAL_FLOOR)[f]                          # rule 4: face normal
+            corner_n[cancel] = np.repeat(fn[:, None], 3, axis=1)[cancel]
+            corners.append(tri)
+            vnormals.append(corner_n)
+            fnormals.append(fn)
+            self.tri_materials += [mesh.material] * len(f)
+            self.tri_shading += [mesh.shading] * len(f)
+        self.corners = np.concatenate(corners) if corners else np.zeros((0, 3, 3))
+        self.vertex_normals = np.concatenate(vnormals) if vnormals else np.zeros((0, 3, 3))
+        self.face_normals = np.concatenate(fnormals) if fnormals else np.zeros((0, 3))
+        self.e1 = self.corners[:, 1] - self.corners[:, 0]
+        self.e2 = self.corners[:, 2] - self.corners[:, 0]
+        a = self.corners[:, 0]
+        self.tri_n = np.cross(self.e1, self.e2)                          # Möller–Trumbore terms
+        self.e2_a, self.a_e1 = np.cross(self.e2, a), np.cross(a, self.e1)
+        self.n_a = np.einsum("ij,ij->i", self.tri_n, a)
+        # Groups of triangles tested together, each behind a bounding sphere: a mesh of
+        # GROUP triangles or more alone, the smaller ones together (fewer numpy calls a ray).
+        ranges, first = [], 0
+        for fn in fnormals:
+            if ranges and ranges[-1][1] - ranges[-1][0] + len(fn) <= GROUP:
+                ranges[-1][1] += len(fn)
+            else:
+                ranges.append([first, first + len(fn)])
+            first += len(fn)
+        self.groups = []
+        for first, last in ranges:
+            pts = self.corners[first:last].reshape(-1, 3)
+            centre = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
+            radius = float(np.linalg.norm(pts - centre, axis=1).max())
+            self.groups.append((first, last, centre, radius))
+
+    @staticmethod
+    def _emitters(light) -> list[Emitter]:
+        """A light as point-like emitters; an area light as its k×k cell centres, each with
+        color/k² (SCENE_FORMAT.md)."""
+        color = np.asarray(light.color, np.float64)
+        if isinstance(light, DirectionalLight):
+            return [Emitter(color, direction=unit(np.asarray(light.direction, np.float64)))]
+        att = tuple(float(a) for a in light.attenuation)
+        if isinstance(light, SpotLight):
+            cos_cutoff = 0.0 if light.cutoff == 90.0 else math.cos(math.radians(light.cutoff))
+            return [Emitter(color, np.asarray(light.position, np.float64), attenuation=att,
+                            spot_axis=unit(np.asarray(light.direction, np.float64)),
+                            cos_cutoff=cos_cutoff, exponent=float(light.exponent))]
+        if isinstance(light, AreaLight):
+            if light.jitter:
+                raise NotImplementedError("the reference tracer has no jittered area lights "
+                                          "(use jitter = false)")
+            k = math.isqrt(light.samples)
+            c, eu, ev = (np.asarray(x, np.float64) for x in (light.position, light.edge_u,
+                                                                light.edge_v))
+            return [Emitter(color / (k * k), c + ((i + 0.5) / k - 0.5) * eu
+                            + ((j + 0.5) / k - 0.5) * ev, attenuation=att)
+                    for i in range(k) for j in range(k)]
+        assert isinstance(light, PointLight), type(light)
+        return [Emitter(color, np.asarray(light.position, np.float64), attenuation=att)]
 
     # -- camera ------------------------------------------------------------------------------
-    def camera_ray(self, row: int, col: int, width: int, height: int) -> np.ndarray:
-        """Unit direction through the centre of pixel (row, col); pixel (0, 0) is top-left."""
-        cam = self.scene.camera
-        forward = cam.look_at - cam.position
-        forward = forward / np.linalg.norm(forward)
-        right = np.cross(forward, cam.up)
-        right = right / np.linalg.norm(right)
-        up = np.cross(right, forward)
+    def camera_ray(self, row: int, col: int, width: int, height: int, sx: float = 0.5,
+                   sy: float = 0.5) -> np.ndarray:
+        """Unit direction through the point (sx, sy) ∈ [0, 1)² of pixel (row, col), its centre
+        by default; pixel (0, 0) is top-left."""
+        cam = self.camera
+        forward = unit(np.asarray(cam.look_at, np.float64) - cam.position)
+        right = unit(cross(forward, np.asarray(cam.up, np.float64)))
+        up = cross(right, forward)
         tan_half = math.tan(math.radians(cam.fov) / 2.0)
-        x = (2.0 * (col + 0.5) / width - 1.0) * tan_half * width / height
-        y = (1.0 - 2.0 * (row + 0.5) / height) * tan_half
-        d = forward + x * right + y * up
-        return d / np.linalg.norm(d)
+        x = (2.0 * (col + sx) / width - 1.0) * tan_half * width / height
+        y = (1.0 - 2.0 * (row + sy) / height) * tan_half
+        return unit(forward + x * right + y * up)
 
     def render(self, width: int, height: int) -> np.ndarray:
-        """(height, width, 3) float64 linear RGB."""
+        """(height, width, 3) float64 linear RGB, one ray through each pixel's centre."""
         out = np.zeros((height, width, 3))
         for row in range(height):
             for col in range(width):
-                self.counts.camera += 1
-                d = self.camera_ray(row, col, width, height)
-                out[row, col] = self.trace(np.zeros(3), d, NO_SHAPE, 0)
+                out[row, col] = self.pixel(row, col, width, height)
         return out
 
-    # -- the recursion -----------------------------------------------------------------------
-    def hit(self, origin: np.ndarray, d: np.ndarray, shape: int, tmax: float | None = None):
-        """The closest surface along one ray, or None."""
-        hits = self.accel.intersect(origin[None], d[None], np.array([shape]),
-                                    None if tmax is None else np.array([tmax]))
-        if not hits.hit[0]:
-            return None, math.inf
-        return self.accel.surface(hits, origin[None], d[None]), float(hits.t[0])
+    def pixel(self, row: int, col: int, width: int, height: int, sx: float = 0.5,
+              sy: float = 0.5) -> np.ndarray:
+        """The colour (3,) seen through the point (sx, sy) of pixel (row, col)."""
+        self.counts.camera += 1
+        d = self.camera_ray(row, col, width, height, sx, sy)
+        return self.trace(np.asarray(self.camera.position, np.float64), d, -1, 0, np.ones(3))
 
-    def trace(self, origin: np.ndarray, d: np.ndarray, shape: int, depth: int) -> np.ndarray:
-        """Seed 003's trace(): the colour seen along one ray."""
-        surf, _ = self.hit(origin, d, shape)
-        if surf is None:
+    # -- intersection ----------------------------------------------------------------------------
+    def closest(self, o: np.ndarray, d: np.ndarray, leaving: int = -1,
+                tmax: float = math.inf, lifted: bool = False) -> Hit | None:
+        """The closest surface along the ray o + t·d (d unit) with t < tmax, or None.
+
+        ``leaving``: the primitive the ray starts on (−1: none). ``lifted``: the ray starts
+        off that primitive (a shadow ray from Hanika's point), so it may meet it again.
+        """
+        tmin = 0.0 if leaving < 0 else T_MIN * (1.0 + float(np.abs(o).max()))
+        best_t, best = tmax, -1
+        if self.n_spheres:
+            t, s = self._spheres(o, d, leaving, tmin)
+            if t < best_t:
+                best_t, best = t, s
+        if self.n_analytic > self.n_spheres:
+            t, p = self._planes(o, d, leaving, tmin)
+            if t < best_t:
+                best_t, best = t, p
+        bary = (0.0, 0.0, 0.0)
+        for first, last, centre, radius in self.groups:
+            oc = o - centre
+            b = float(oc @ d)
+            if float(oc @ oc) - b * b > radius * radius or -b - radius >= best_t or b > radius:
+                continue  # the ray misses the mesh's bounding sphere (or meets it too late)
+            t, tri, uv = self._triangles(o, d, first, last, leaving, tmin, best_t, lifted)
+            if t < best_t:
+                best_t, best, bary = t, self.n_analytic + tri, uv
+        if best < 0:
+            return None
+        p = o + best_t * d
+        if best < self.n_spheres:
+            n = unit(p - self.centers[best])
+            return Hit(best_t, best, p, n, n, self.shape_materials[best])
+        if best < self.n_analytic:
+            n = self.plane_normals[best - self.n_spheres]
+            return Hit(best_t, best, p, n, n, self.shape_materials[best])
+        tri = best - self.n_analytic
+        ng = self.face_normals[tri]
+        ns = ng
+        if self.tri_shading[tri] != "flat":  # interpolated vertex normals (rule 4)
+            s = bary[0] * self.vertex_normals[tri, 0] + bary[1] * self.vertex_normals[tri, 1] \
+                + bary[2] * self.vertex_normals[tri, 2]
+            length = math.sqrt(float(s @ s))
+            ns = s / length if length >= NORMAL_FLOOR else ng
+        return Hit(best_t, best, p, ng, ns, self.tri_materials[tri], tri, bary)
+
+    def _spheres(self, o, d, leaving, tmin) -> tuple[float, int]:
+        """Closest sphere hit: the roots of t² + 2bt + c = 0, b = d·(o − c), c = |o − c|² − r²,
+        with disc = b² − c written as r² − |f|², f = (o − c) − b·d, and the roots as
+        q = −b − sign(b)·√disc and c/q (Haines et al. 2019: neither cancels)."""
+        oc = o - self.centers
+        b = oc @ d
+        f = oc - b[:, None] * d
+        disc = self.radii**2 - np.einsum("ij,ij->i", f, f)
+        best_t, best = math.inf, -1
+        candidates = np.flatnonzero(disc >= 0.0).tolist()
+        if 0 <= leaving < self.n_spheres and leaving not in candidates:
+            candidates.append(leaving)
+        for i in candidates:
+            bi = float(b[i])
+            q = -bi - math.copysign(math.sqrt(max(float(disc[i]), 0.0)), bi)
+            if i == leaving:
+                # Leaving its own sphere: outward it never meets it again, inward only at the
+                # far side, the larger root q = −b + √disc (b < 0).
+                t = q if bi < 0.0 else math.inf
+            else:
+                c = float(oc[i] @ oc[i]) - float(self.radii[i]) ** 2
+                near, far = (q, c / q) if q != 0.0 else (0.0, 0.0)
+                near, far = min(near, far), max(near, far)
+                t = near if near > tmin else (far if far > tmin else math.inf)
+            if t < best_t:
+                best_t, best = t, i
+        return best_t, best
+
+    def _planes(self, o, d, leaving, tmin) -> tuple[float, int]:
+        """Closest plane hit: t = (p − o)·n / (d·n); never the plane the ray leaves."""
+        best_t, best = math.inf, -1
+        dist = np.einsum("ij,ij->i", self.plane_points - o, self.plane_normals).tolist()
+        cos = (self.plane_normals @ d).tolist()
+        for i in range(len(cos)):
+            if cos[i] == 0.0 or self.n_spheres + i == leaving:
+                continue
+            t = dist[i] / cos[i]
+            if tmin < t < best_t:
+                best_t, best = t, self.n_spheres + i
+        return best_t, best
+
+    def _triangles(self, o, d, first, last, leaving, tmin, tmax, lifted):
+        """Closest hit among triangles first..last−1 (Möller & Trumbore 1997): solves
+        o + t·d = a + u·e1 + v·e2 (e1 = b − a, e2 = c − a); a hit has u, v ≥ 0, u + v ≤ 1
+        (within ``EDGE``), tmin < t < tmax. Its determinants are written as triple products
+        of precomputed per-triangle vectors (N = e1 × e2): det = −N·d,
+        u·det = e2·(o × d) − d·(e2 × a),
+        v·det = −e1·(o × d) − d·(a × e1), t·det = N·o − N·a.
+        Returns (t, triangle, barycentrics of the corners (1 − u − v, u, v))."""
+        sl = slice(first, last)
+        od = cross(o, d)
+        det = -(self.tri_n[sl] @ d)
+        inv = 1.0 / np.where(det == 0.0, np.nan, det)
+        u = (self.e2[sl] @ od - self.e2_a[sl] @ d) * inv
+        v = (-(self.e1[sl] @ od) - self.a_e1[sl] @ d) * inv
+        t = (self.tri_n[sl] @ o - self.n_a[sl]) * inv
+        ok = (u >= -EDGE) & (v >= -EDGE) & (u + v <= 1.0 + EDGE) & (t > tmin) & (t < tmax)
+        own = leaving - self.n_analytic - first
+        if 0 <= own < last - first and not lifted:  # a ray leaving a triangle never meets it
+            ok[own] = False
+        if not ok.any():
+            return math.inf, -1, (0.0, 0.0, 0.0)
+        t = np.where(ok, t, np.inf)
+        i = int(np.argmin(t))
+        return float(t[i]), first + i, (1.0 - u[i] - v[i], float(u[i]), float(v[i]))
+
+    # -- the recursion ---------------------------------------------------------------------------
+    def trace(self, o: np.ndarray, d: np.ndarray, leaving: int, depth: int,
+              weight: np.ndarray) -> np.ndarray:
+        """Seed 003's trace(): the colour seen along one ray of path weight ``weight``."""
+        hit = self.closest(o, d, leaving)
+        if hit is None:
             return self.background.copy()
-        return self.shade(surf, d, depth, np.ones(3))
+        return self.shade(hit, o, d, depth, weight)
 
-    def child(self, surf, d_new: np.ndarray, depth: int, weight: np.ndarray,
+    def child(self, hit: Hit, d: np.ndarray, depth: int, weight: np.ndarray,
               kind: str) -> np.ndarray:
-        """trace() of a secondary ray, or 0 when the depth or weight limit stops it."""
+        """trace() of a secondary ray from the hit, or 0 when the depth or weight limit stops
+        it (SCENE_FORMAT.md: traced while depth ≤ max_depth and weight ≥ min_weight)."""
+        big = float(weight.max())
+        if not big > 0.0:
+            return np.zeros(3)
         if depth > self.max_depth:
-            if weight.max() > 0:
-                self.counts.pruned_depth += 1
+            self.counts.pruned_depth += 1
             return np.zeros(3)
-        if weight.max() <= 0:
-            return np.zeros(3)
-        if weight.max() < self.min_weight:
+        if big < self.min_weight:
             self.counts.pruned_weight += 1
             return np.zeros(3)
         setattr(self.counts, kind, getattr(self.counts, kind) + 1)
-        origin = spawn_origins(surf.point, surf.geometric, surf.offset, d_new[None])[0]
-        nxt, _ = self.hit(origin, d_new, int(surf.shape[0]))
-        if nxt is None:
-            return self.background.copy()
-        return self.shade(nxt, d_new, depth, weight)
+        return self.trace(hit.point, d, hit.prim, depth, weight)
 
-    def shade(self, surf, d: np.ndarray, depth: int, weight: np.ndarray) -> np.ndarray:
-        """Seed 003's shade() with the opacity blend: t·I_surface + (1 − t)·I_behind.
-
-        ``weight`` is this ray's path weight, used only to decide whether children are traced.
-        """
-        mat = self.materials[int(surf.material[0])]
-        point = surf.point[0]
-        world = point + self.origin
-        outward = surf.geometric[0]
+    def shade(self, hit: Hit, o: np.ndarray, d: np.ndarray, depth: int,
+              weight: np.ndarray) -> np.ndarray:
+        """Seed 003's shade() with the opacity blend: t·I_surface + (1 − t)·I_behind."""
+        mat, p = hit.material, hit.point
         v = -d
-        side = -1.0 if float(outward @ v) < 0 else 1.0  # two-sided: N towards the viewer
-        ng, ns = outward * side, surf.shading[0] * side
+        s = 1.0 if float(hit.outward @ v) >= 0.0 else -1.0   # rule 1: the side arrived on
+        n, n_face = s * hit.normal, s * hit.outward
         t = mat.opacity
 
-        color = self.ambient * coefficient(mat.ambient, world)
-        kd, ks = coefficient(mat.kd, world), coefficient(mat.ks, world)
-        for light in self.lights:
-            to_light, dist, f = light.incidence(point[None])
-            term = direct(ns[None], to_light[:1], v[None], kd[None], ks[None],
-                          np.array([mat.shininess]),
-                          np.array([HIGHLIGHT_CODES[mat.highlight]]))[0] * f[0]
-            if np.any(term > 0):
-                color = color + term * self.shadow(surf, to_light[0], float(dist[0])) \
-                    * light.color
+        color = self.ambient * coefficient(mat.kd if mat.ka is None else mat.ka, p)
+        kd, ks = coefficient(mat.kd, p), coefficient(mat.ks, p)
+        gouraud = hit.tri >= 0 and self.tri_shading[hit.tri] == "gouraud"
+        shadow_from = self.lifted(hit, s) if hit.tri >= 0 and \
+            self.tri_shading[hit.tri] != "flat" else None
+        for em in self.emitters:
+            if gouraud:
+                term = self.gouraud(hit, s, o, em, kd, ks)
+            else:
+                l, _, f = incidence(em, p)
+                term = f * local_term(n, l, v, kd, ks, mat)
+            if np.any(term > 0.0):
+                color = color + term * self.shadow(hit, em, shadow_from) * em.color
 
-        kr, kt = coefficient(mat.kr, world), coefficient(mat.kt, world)
+        kr, kt = coefficient(mat.kr, p), coefficient(mat.kt, p)
         r = refracted = None
-        if t > 0 and np.any(kr > 0):
-            r = mirror(d, ns)
-            if float(r @ ng) <= 0:  # the shading normal sent it inside: use the face
-                r = mirror(d, ng)
-        if t > 0 and np.any(kt > 0):
-            entering = float(d @ outward) < 0  # decided by the outward geometric normal
-            eta = 1.0 / mat.ior if entering else mat.ior
-            refracted = snell(d, ns, eta)
-            if refracted is not None and float(refracted @ ng) >= 0:
-                refracted = snell(d, ng, eta)
-            if refracted is None:  # TIR: the kt share goes along the mirror direction
-                refracted = mirror(d, ns)
-                if float(refracted @ ng) <= 0:
-                    refracted = mirror(d, ng)
+        if t > 0 and nonzero(mat.kr):
+            r = mirror(d, n)
+            if float(r @ n_face) <= 0.0:  # rule 3: the shading normal sent it inside
+                r = mirror(d, n_face)
+        if t > 0 and nonzero(mat.kt):
+            eta = 1.0 / mat.ior if float(d @ hit.outward) < 0.0 else mat.ior
+            refracted, tir = snell(d, n, eta)
+            side = float(refracted @ n_face)
+            if (side <= 0.0) if tir else (side >= 0.0):  # rule 3: wrong side of the face
+                refracted, tir = snell(d, n_face, eta)
+            if tir:
                 if depth + 1 <= self.max_depth:
                     self.counts.tir += 1
                 if (self.min_weight <= 0 and r is not None and np.array_equal(refracted, r)
                         and (weight * t * kr).max() > 0):
-                    # The reflection and the kt share leave on the same path: one ray,
-                    # I_r·(kr + kt), of weight w·t·(kr + kt) (the contract's sum is linear).
-                    # Only without weight pruning: min_weight must see each path's own weight.
+                    # One path, one ray of weight w·t·(kr + kt) (docs/recursion.md).
                     kr, refracted = kr + kt, None
         if r is not None:
-            color = color + kr * self.child(surf, r, depth + 1, weight * t * kr, "reflection")
+            color = color + kr * self.child(hit, r, depth + 1, weight * t * kr, "reflection")
         if refracted is not None:
-            color = color + kt * self.child(surf, refracted, depth + 1, weight * t * kt,
+            color = color + kt * self.child(hit, refracted, depth + 1, weight * t * kt,
                                             "refraction")
         out = t * color
         if t < 1:
-            out = out + (1.0 - t) * self.child(surf, d, depth + 1, weight * (1.0 - t),
+            out = out + (1.0 - t) * self.child(hit, d, depth + 1, weight * (1.0 - t),
                                                "see_through")
         return out
 
-    def shadow(self, surf, to_light: np.ndarray, dist: float) -> np.ndarray:
-        """S_l: the product of ``t·kt + (1 − t)`` over every surface before the light."""
-        factor = np.ones(3)
-        point, normal, offset = surf.point, surf.geometric, surf.offset
-        shape = int(surf.shape[0])
-        remaining = dist * (1.0 - SHADOW_SHORTEN)
+    # -- smooth and Gouraud meshes ---------------------------------------------------------------
+    def lifted(self, hit: Hit, s: float) -> np.ndarray:
+        """Rule 2, Hanika's point P′ = P − Σ_k b_k·min(0, (P − V_k)·n_k)·n_k, n_k = s·N_k."""
+        p, out = hit.point, hit.point.copy()
+        for k in range(3):
+            nk = s * self.vertex_normals[hit.tri, k]
+            out = out - hit.bary[k] * min(0.0, float((p - self.corners[hit.tri, k]) @ nk)) * nk
+        return out
+
+    def gouraud(self, hit: Hit, s: float, eye: np.ndarray, em: Emitter, kd: np.ndarray,
+                ks: np.ndarray) -> np.ndarray:
+        """Rule 5: Σ_k b_k·f_k·[kd·max(N_k·L_k, 0) + ks·spec_k], each vertex V_k with its own
+        L, V (towards the ray's origin) and f, its normal turned by s; kd, ks at the hit."""
+        term = np.zeros(3)
+        for k in range(3):
+            corner = self.corners[hit.tri, k]
+            l, _, f = incidence(em, corner)
+            term += hit.bary[k] * f * local_term(s * self.vertex_normals[hit.tri, k], l,
+                                                 unit(eye - corner), kd, ks, hit.material)
+        return term
+
+    # -- shadows ---------------------------------------------------------------------------------
+    def shadow(self, hit: Hit, em: Emitter, start: np.ndarray | None) -> np.ndarray:
+        """S_l: the product of ``t·kt + (1 − t)`` over every surface between the hit (or
+        ``start``, its lifted point) and the emitter; 0 after MAX_CROSSINGS surfaces."""
+        origin = hit.point if start is None else start
+        l, remaining, _ = incidence(em, origin)
+        factor, leaving, lifted = np.ones(3), hit.prim, start is not None
         for _ in range(MAX_CROSSINGS):
-            origin = spawn_origins(point, normal, offset, to_light[None])[0]
             self.counts.shadow += 1
-            s2, t_hit = self.hit(origin, to_light, shape, remaining)
-            if s2 is None:
+            blocker = self.closest(origin, l, leaving, remaining, lifted)
+            if blocker is None:
                 return factor
-            m = self.materials[int(s2.material[0])]
-            world = s2.point[0] + self.origin
-            factor = factor * (m.opacity * coefficient(m.kt, world) + (1.0 - m.opacity))
-            if not np.any(factor > 0):
+            m = blocker.material
+            factor = factor * (m.opacity * coefficient(m.kt, blocker.point) + (1.0 - m.opacity))
+            if not np.any(factor > 0.0):
                 return factor
-            point, normal, offset, shape = s2.point, s2.geometric, s2.offset, int(s2.shape[0])
-            remaining -= t_hit
-        raise RuntimeError("shadow ray crossed too many surfaces")
+            origin, leaving, lifted = blocker.point, blocker.prim, False
+            remaining -= blocker.t
+        return np.zeros(3)
