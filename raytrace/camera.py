@@ -36,14 +36,18 @@ def _offset_rows(spp, k, seed, sample, sx, sy):
 
 
 @kernel
-def _directions(start, width, height, spp, k, seed, tan_half, right, up, forward, x0, y0, x1,
-                out):
+def _directions(start, frame, view, window, out):
     """Unit directions of the samples ``start …`` of the window of columns ``x0 … x1 − 1``
     from row ``y0`` on (the whole frame: 0, 0, ``width``) into ``out`` (n, 3): through
     ``x = (2(col + sx)/W − 1)·tan(fov/2)·W/H``, ``y = (1 − 2(row + sy)/H)·tan(fov/2)`` on the
     image plane one unit along ``forward``, jittered by the sample's global index ``g``. The
     pixel (row, col), the sample's cell within it and ``g`` are counted along, not divided
-    out of the sample index for every sample."""
+    out of the sample index for every sample. ``frame`` = (width, height, spp, k (the
+    stratification grid, :func:`_grid`), seed); ``view`` = (tan(fov/2), right, up, forward);
+    ``window`` = (x0, y0, x1)."""
+    width, height, spp, k, seed = frame
+    tan_half, right, up, forward = view
+    x0, y0, x1 = window
     rx, ry, rz = right[0], right[1], right[2]
     ux, uy, uz = up[0], up[1], up[2]
     fx, fy, fz = forward[0], forward[1], forward[2]
@@ -94,13 +98,13 @@ def sample_offsets(spp: int, seed: int, sample: np.ndarray) -> tuple[np.ndarray,
     return sx, sy
 
 
-def camera_rays(camera: Camera, width: int, height: int, spp: int, seed: int,
-                start: int, stop: int, columns: RayBatch | None = None,
-                direction: np.ndarray | None = None,
-                window: tuple[int, int, int, int] | None = None) -> RayBatch:
+def camera_rays(camera: Camera, frame, start: int, stop: int, *,
+                columns: RayBatch | None = None, direction: np.ndarray | None = None) -> RayBatch:
     """Rays of samples ``start..stop-1`` (sample = pixel·spp + k, pixels counted row by row
-    in ``window`` = (x0, y0, x1, y1), half-open; the whole frame when None), from the origin:
-    the scene is camera-relative.
+    in the crop window (x0, y0, x1, y1), half-open, or the whole frame), from the origin: the
+    scene is camera-relative. ``frame`` has the render's ``width``, ``height``, ``spp``,
+    ``seed`` and ``crop`` (a :class:`raytrace.integrator.RenderOptions`; a
+    :class:`raytrace.scene.RenderSettings` renders the whole frame).
 
     ``columns``: a batch of at least ``stop − start`` rows from :func:`camera_columns` whose
     columns other than the direction are reused (views of its first rows); ``direction``: an
@@ -109,7 +113,8 @@ def camera_rays(camera: Camera, width: int, height: int, spp: int, seed: int,
     n = stop - start
     if direction is None:
         direction = np.empty((n, 3))
-    camera_directions(camera, width, height, spp, seed, start, direction, window)
+    camera_directions(camera, frame.width, frame.height, frame.spp, frame.seed, start,
+                      direction, getattr(frame, "crop", None))
     if columns is None:
         columns = camera_columns(n)
     return RayBatch(origin=columns.origin[:n], direction=direction, sample=columns.sample[:n],
@@ -125,8 +130,8 @@ def camera_directions(camera: Camera, width: int, height: int, spp: int, seed: i
     tan_half = math.tan(math.radians(camera.fov) / 2.0)
     right, up, forward = (np.ascontiguousarray(v, dtype=np.float64) for v in camera.basis())
     x0, y0, x1, _ = window or (0, 0, width, height)
-    _directions(start, width, height, spp, _grid(spp), seed, tan_half, right, up, forward,
-                x0, y0, x1, out)
+    _directions(start, (width, height, spp, _grid(spp), seed), (tan_half, right, up, forward),
+                (x0, y0, x1), out)
 
 
 def global_samples(local: np.ndarray, width: int, spp: int,

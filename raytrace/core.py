@@ -120,11 +120,14 @@ def facing1(gx, gy, gz, dx, dy, dz):
 
 
 @kernel
-def leave1(px, py, pz, gx, gy, gz, offset, dx, dy, dz):
+def leave1(p, g, offset, d):
     """Start of a ray leaving a surface point along ``d``: ``offset`` off the surface along the
     geometric normal, on the side it leaves on (the sign of ``d·N_g``, +1 where it is 0; a NaN
     direction gives a NaN start, which no query hits). Analytic shapes have offset 0: their
-    rays carry their shape instead (:mod:`raytrace.analytic`)."""
+    rays carry their shape instead (:mod:`raytrace.analytic`). ``p``, ``g``, ``d``: 3-tuples."""
+    px, py, pz = p
+    gx, gy, gz = g
+    dx, dy, dz = d
     dot = dx * gx + dy * gy + dz * gz
     side = 1.0 if dot >= 0.0 else (-1.0 if dot < 0.0 else math.nan)  # sign, +1 at 0
     step = side * offset
@@ -156,5 +159,6 @@ def leave_rows(point, geometric, offset, direction, out):
     ``direction``."""
     for i in range(point.shape[0]):
         out[i, 0], out[i, 1], out[i, 2] = leave1(
-            point[i, 0], point[i, 1], point[i, 2], geometric[i, 0], geometric[i, 1],
-            geometric[i, 2], offset[i], direction[i, 0], direction[i, 1], direction[i, 2])
+            (point[i, 0], point[i, 1], point[i, 2]),
+            (geometric[i, 0], geometric[i, 1], geometric[i, 2]), offset[i],
+            (direction[i, 0], direction[i, 1], direction[i, 2]))

@@ -325,8 +325,8 @@ class WhittedIntegrator:
         w.first_sample = start
         if w.camera_columns is None or len(w.camera_columns.origin) < n:
             w.camera_columns = camera_columns(n)
-        rays = camera_rays(self.scene.camera, opt.width, opt.height, opt.spp, opt.seed, start, stop,
-                           w.camera_columns, self.scratch("camera_direction", n, 3), opt.crop)
+        rays = camera_rays(self.scene.camera, opt, start, stop, columns=w.camera_columns,
+                           direction=self.scratch("camera_direction", n, 3))
         per_pass = self.pass_size
         pending = [rays]
         while pending:

@@ -300,8 +300,8 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
                 d = math.sqrt(lx * lx + ly * ly + lz * lz)
                 lx, ly, lz = lx / d, ly / d, lz / d
             px, py, pz = qx, qy, qz
-        s_origin[k, 0], s_origin[k, 1], s_origin[k, 2] = leave1(px, py, pz, gx, gy, gz,
-                                                               surf.offset[i], lx, ly, lz)
+        s_origin[k, 0], s_origin[k, 1], s_origin[k, 2] = leave1(
+            (px, py, pz), (gx, gy, gz), surf.offset[i], (lx, ly, lz))
         s_direction[k, 0], s_direction[k, 1], s_direction[k, 2] = lx, ly, lz
         s_tmax[k] = d * keep
         s_shape[k] = surf.shape[i]
@@ -391,8 +391,8 @@ def cross_surfaces(factor, live, surf, walk, scene):
             continue
         dx, dy, dz = direction[j, 0], direction[j, 1], direction[j, 2]
         origin_out[k, 0], origin_out[k, 1], origin_out[k, 2] = leave1(
-            point[j, 0], point[j, 1], point[j, 2], geometric[j, 0], geometric[j, 1],
-            geometric[j, 2], surf.offset[j], dx, dy, dz)
+            (point[j, 0], point[j, 1], point[j, 2]),
+            (geometric[j, 0], geometric[j, 1], geometric[j, 2]), surf.offset[j], (dx, dy, dz))
         direction_out[k, 0], direction_out[k, 1], direction_out[k, 2] = dx, dy, dz
         shape_out[k], tmax_out[k], live_out[k] = surf.shape[j], tmax[j] - t[j], live[j]
         k += 1
@@ -544,8 +544,8 @@ def spawn_children(children, parents, surf, first, kinds, out):
             direction[j, 0], direction[j, 1], direction[j, 2] = dx, dy, dz
             weight[j, 0], weight[j, 1], weight[j, 2] = w[i, 0], w[i, 1], w[i, 2]
             origin[j, 0], origin[j, 1], origin[j, 2] = leave1(
-                point[i, 0], point[i, 1], point[i, 2], geometric[i, 0], geometric[i, 1],
-                geometric[i, 2], offset[i], dx, dy, dz)
+                (point[i, 0], point[i, 1], point[i, 2]),
+                (geometric[i, 0], geometric[i, 1], geometric[i, 2]), offset[i], (dx, dy, dz))
             child_sample[j], child_shape[j], kind[j] = sample[i], shape[i], kinds[c]
             parent[j] = i
             j += 1

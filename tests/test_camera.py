@@ -8,11 +8,13 @@ import numpy as np
 import pytest
 
 import raytrace
+from raytrace import RenderSettings
 from raytrace.camera import camera_rays, hash_uniform, sample_offsets
 
 
 def _rays(camera, w, h, spp=1, seed=0):
-    return camera_rays(camera, w, h, spp, seed, 0, w * h * spp)
+    frame = RenderSettings(width=w, height=h, spp=spp, seed=seed)
+    return camera_rays(camera, frame, 0, w * h * spp)
 
 
 def test_one_pixel_ray_is_the_forward_direction():
@@ -71,8 +73,9 @@ def test_hash_uniform_is_uniform_enough():
 
 def test_rays_do_not_depend_on_how_the_samples_are_split():
     cam = raytrace.Camera(position=[0, 1, 5], look_at=[0, 0, 0])
-    whole = camera_rays(cam, 5, 3, 4, 11, 0, 60)
-    part = camera_rays(cam, 5, 3, 4, 11, 24, 40)
+    frame = RenderSettings(width=5, height=3, spp=4, seed=11)
+    whole = camera_rays(cam, frame, 0, 60)
+    part = camera_rays(cam, frame, 24, 40)
     np.testing.assert_array_equal(whole.direction[24:40], part.direction)
     np.testing.assert_array_equal(part.sample, np.arange(16))
 

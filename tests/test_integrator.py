@@ -34,6 +34,7 @@ from raytrace import (
     Mesh,
     Plane,
     PointLight,
+    RenderSettings,
     Sphere,
 )
 from raytrace.cli import main
@@ -698,7 +699,8 @@ def _smooth_n_dot_l(scene: raytrace.Scene, width: int, height: int) -> np.ndarra
 
     mesh = scene.objects[0]
     v, f = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces)
-    rays = camera_rays(scene.camera, width, height, 1, 0, 0, width * height)
+    rays = camera_rays(scene.camera, RenderSettings(width=width, height=height), 0,
+                       width * height)
     o = rays.origin + scene.camera.position
     hits = moller_trumbore(o, rays.direction, v, f)
     fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])

@@ -139,7 +139,8 @@ def invariance_scene(s: float, shift: float) -> Scene:
 def hit_ids(scene: Scene, width: int, height: int) -> np.ndarray:
     """(H, W) id of the object each camera ray hits first: analytic shape, mesh (1000), or −1."""
     integ = WhittedIntegrator(scene, RenderOptions(width=width, height=height, max_depth=0))
-    rays = camera_rays(scene.camera, width, height, 1, 0, 0, width * height)
+    rays = camera_rays(scene.camera, RenderSettings(width=width, height=height), 0,
+                       width * height)
     hits = integ.accel.intersect(rays.origin, rays.direction, rays.origin_shape)
     ids = np.where(hits.triangle >= 0, 1000, hits.shape)
     return np.where(hits.hit, ids, -1).reshape(height, width)
