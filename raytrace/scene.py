@@ -423,9 +423,6 @@ def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(loaded.vertices, dtype=np.float64), np.asarray(loaded.faces)
 
 
-Shape = Sphere | Plane | Mesh
-
-
 @dataclass
 class Scene:
     """Everything a render needs. ``materials`` are the scene-local named materials.
@@ -510,9 +507,5 @@ class Scene:
         for m in [*self.materials.values(), *(o.material for o in self.objects)]:
             files += [(p, f"the file of material {m.name!r}") for p in m.sources]
         return files
-
-    @property
-    def triangles(self) -> int:
-        return sum(len(o.faces) for o in self.objects if isinstance(o, Mesh))
 
 

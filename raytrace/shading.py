@@ -2,7 +2,7 @@
 
     I = ka·Ia + Σ_l S_l · f_radial · f_angular · I_l · [ kd·max(N·L, 0) + ks·spec ]
 
-with the highlight chosen from :data:`HIGHLIGHTS`:
+with the highlight chosen by name (:data:`HIGHLIGHT_CODES`):
 
 * ``"phong"``: ``spec = max(V·R, 0)^n``, ``R = 2(N·L)N − L`` (Phong 1975; seed 000/001);
 * ``"blinn"``: ``spec = max(N·H, 0)^n``, ``H = (L + V)/|L + V|`` (Blinn 1977; seed 001);
@@ -62,8 +62,8 @@ def blinn(normal: np.ndarray, to_light: np.ndarray, to_eye: np.ndarray, n: np.nd
     return _highlight(sk.BLINN, normal, to_light, to_eye, n)
 
 
-#: Highlight models by name (a registry, not a class hierarchy), and their kernel codes.
-HIGHLIGHTS = {"phong": phong, "blinn": blinn}
+#: The highlight models' kernel codes by name (``Material.highlight``; the names are
+#: ``raytrace.material.HIGHLIGHTS``).
 HIGHLIGHT_CODES = {"phong": sk.PHONG, "blinn": sk.BLINN}
 
 
