@@ -36,6 +36,32 @@ def _offset_rows(spp, k, seed, sample, sx, sy):
 
 
 @kernel
+def direction1(x, y, size, view):
+    """The unit direction through image position (x, y) (pixels, (0, 0) the frame's top-left
+    corner) of a frame of ``size`` = (width, height) seen with ``view`` = (tan(fov/2), right,
+    up, forward) (3-tuples): ``(2x/W − 1)·tan(fov/2)·W/H·right + (1 − 2y/H)·tan(fov/2)·up +
+    forward``, normalised (the image plane one unit along ``forward``)."""
+    width, height = size
+    tan_half, right, up, forward = view
+    rx, ry, rz = right
+    ux, uy, uz = up
+    fx, fy, fz = forward
+    a = (2.0 * x / width - 1.0) * tan_half * (width / height)
+    b = (1.0 - 2.0 * y / height) * tan_half
+    dx = a * rx + b * ux + fx
+    dy = a * ry + b * uy + fy
+    dz = a * rz + b * uz + fz
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    return dx / length, dy / length, dz / length
+
+
+@kernel
+def _directions_at(x, y, size, view, out):
+    for j in range(out.shape[0]):
+        out[j, 0], out[j, 1], out[j, 2] = direction1(x[j], y[j], size, view)
+
+
+@kernel
 def _directions(start, frame, view, window, out):
     """Unit directions of the samples ``start …`` of the window of columns ``x0 … x1 − 1``
     from row ``y0`` on (the whole frame: 0, 0, ``width``) into ``out`` (n, 3): through
@@ -43,28 +69,21 @@ def _directions(start, frame, view, window, out):
     image plane one unit along ``forward``, jittered by the sample's global index ``g``. The
     pixel (row, col), the sample's cell within it and ``g`` are counted along, not divided
     out of the sample index for every sample. ``frame`` = (width, height, spp, k (the
-    stratification grid, :func:`_grid`), seed); ``view`` = (tan(fov/2), right, up, forward);
-    ``window`` = (x0, y0, x1)."""
+    stratification grid, :func:`grid`), seed); ``view`` = (tan(fov/2), right, up, forward)
+    as arrays; ``window`` = (x0, y0, x1)."""
     width, height, spp, k, seed = frame
     tan_half, right, up, forward = view
     x0, y0, x1 = window
-    rx, ry, rz = right[0], right[1], right[2]
-    ux, uy, uz = up[0], up[1], up[2]
-    fx, fy, fz = forward[0], forward[1], forward[2]
-    aspect = width / height
+    view3 = (tan_half, (right[0], right[1], right[2]), (up[0], up[1], up[2]),
+             (forward[0], forward[1], forward[2]))
     cols = x1 - x0
     pixel, cell = start // spp, start % spp
     row, col = y0 + pixel // cols, x0 + pixel % cols
     g = (row * width + col) * spp + cell
     for j in range(out.shape[0]):
         sx, sy = pixel_offset(spp, k, seed, g, cell)
-        x = (2.0 * (col + sx) / width - 1.0) * tan_half * aspect
-        y = (1.0 - 2.0 * (row + sy) / height) * tan_half
-        dx = x * rx + y * ux + fx
-        dy = x * ry + y * uy + fy
-        dz = x * rz + y * uz + fz
-        length = math.sqrt(dx * dx + dy * dy + dz * dz)
-        out[j, 0], out[j, 1], out[j, 2] = dx / length, dy / length, dz / length
+        out[j, 0], out[j, 1], out[j, 2] = direction1(col + sx, row + sy, (width, height),
+                                                     view3)
         cell += 1
         g += 1
         if cell == spp:
@@ -76,7 +95,7 @@ def _directions(start, frame, view, window, out):
                 g += (width - cols) * spp
 
 
-def _grid(spp: int) -> int:
+def grid(spp: int) -> int:
     """k for a k×k stratified grid of ``spp`` samples, 0 when spp is not a square."""
     k = math.isqrt(spp)
     return k if k * k == spp else 0
@@ -94,17 +113,19 @@ def sample_offsets(spp: int, seed: int, sample: np.ndarray) -> tuple[np.ndarray,
     """Positions (sx, sy) in [0, 1)² inside the pixel of global sample indices ``sample``."""
     sample = np.ascontiguousarray(sample, dtype=np.int64).reshape(-1)
     sx, sy = np.empty(len(sample)), np.empty(len(sample))
-    _offset_rows(spp, _grid(spp), seed, sample, sx, sy)
+    _offset_rows(spp, grid(spp), seed, sample, sx, sy)
     return sx, sy
 
 
 def camera_rays(camera: Camera, frame, start: int, stop: int, *,
-                columns: RayBatch | None = None, direction: np.ndarray | None = None) -> RayBatch:
+                columns: RayBatch | None = None, direction: np.ndarray | None = None,
+                window: tuple[int, int, int, int] | None = None) -> RayBatch:
     """Rays of samples ``start..stop-1`` (sample = pixel·spp + k, pixels counted row by row
     in the crop window (x0, y0, x1, y1), half-open, or the whole frame), from the origin: the
     scene is camera-relative. ``frame`` has the render's ``width``, ``height``, ``spp``,
     ``seed`` and ``crop`` (a :class:`raytrace.integrator.RenderOptions`; a
-    :class:`raytrace.scene.RenderSettings` renders the whole frame).
+    :class:`raytrace.scene.RenderSettings` renders the whole frame); ``window``, where given,
+    is the window traced instead of the crop (a crop widened by a filter's reach).
 
     ``columns``: a batch of at least ``stop − start`` rows from :func:`camera_columns` whose
     columns other than the direction are reused (views of its first rows); ``direction``: an
@@ -114,7 +135,7 @@ def camera_rays(camera: Camera, frame, start: int, stop: int, *,
     if direction is None:
         direction = np.empty((n, 3))
     camera_directions(camera, frame.width, frame.height, frame.spp, frame.seed, start,
-                      direction, getattr(frame, "crop", None))
+                      direction, window if window is not None else getattr(frame, "crop", None))
     if columns is None:
         columns = camera_columns(n)
     return RayBatch(origin=columns.origin[:n], direction=direction, sample=columns.sample[:n],
@@ -130,8 +151,20 @@ def camera_directions(camera: Camera, width: int, height: int, spp: int, seed: i
     tan_half = math.tan(math.radians(camera.fov) / 2.0)
     right, up, forward = (np.ascontiguousarray(v, dtype=np.float64) for v in camera.basis())
     x0, y0, x1, _ = window or (0, 0, width, height)
-    _directions(start, (width, height, spp, _grid(spp), seed), (tan_half, right, up, forward),
+    _directions(start, (width, height, spp, grid(spp), seed), (tan_half, right, up, forward),
                 (x0, y0, x1), out)
+
+
+def directions_at(camera: Camera, width: int, height: int, x: np.ndarray,
+                  y: np.ndarray) -> np.ndarray:
+    """Unit directions (n, 3) through image positions ``x``, ``y`` (n,) (pixels of the
+    ``width`` × ``height`` frame; :func:`direction1`)."""
+    tan_half = math.tan(math.radians(camera.fov) / 2.0)
+    basis = tuple(tuple(float(c) for c in v) for v in camera.basis())
+    out = np.empty((len(x), 3))
+    _directions_at(np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64),
+                   (width, height), (tan_half, *basis), out)
+    return out
 
 
 def global_samples(local: np.ndarray, width: int, spp: int,

@@ -5,6 +5,8 @@
                           [--exposure EV] [--tonemap clip|reinhard] [--stats STATS.json]
                           [--compression none|rle|zips|zip|piz|zstd] [--quiet]
                           [--aov depth,normal,albedo,id] [--crop X0 Y0 X1 Y1]
+                          [--filter box|tent|gaussian|mitchell]
+                          [--aa uniform|adaptive] [--aa-threshold T] [--aa-depth D]
     raytrace explain SCENE --pixel X Y [--sample S] [--json] [--width W] [--height H]
                           [--spp N] [--max-depth D] [--min-weight W] [--seed S]
     raytrace compare TEST.exr REFERENCE.exr [--metric rmse|mae|max|relmse|psnr|flip]
@@ -76,6 +78,13 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--crop", type=int, nargs=4, metavar=("X0", "Y0", "X1", "Y1"),
                    help="render only these pixels (half-open bounds; the EXR's data window "
                         "in the full frame's display window)")
+    r.add_argument("--filter", help="pixel reconstruction filter: box (default), tent, "
+                                    "gaussian or mitchell")
+    r.add_argument("--aa", help="anti-aliasing: uniform (spp stratified samples, default) or "
+                                "adaptive (pixel corners, refined where they differ)")
+    r.add_argument("--aa-threshold", type=float,
+                   help="adaptive: refine where corners differ by more than this")
+    r.add_argument("--aa-depth", type=int, help="adaptive: most halvings of a pixel")
 
     e = sub.add_parser("explain", help="the ray tree of one pixel sample, term by term")
     e.add_argument("scene", help="scene file (.toml or .json)")
@@ -114,7 +123,8 @@ def _overrides(p: argparse.ArgumentParser) -> None:
 #: The flag of each render setting, to name in an error about its value.
 FLAGS = {"width": "--width", "height": "--height", "spp": "--spp", "max_depth": "--max-depth",
          "min_weight": "--min-weight", "seed": "--seed", "threads": "--threads",
-         "crop": "--crop", "aovs": "--aov"}
+         "crop": "--crop", "aovs": "--aov", "filter": "--filter", "aa": "--aa",
+         "aa_threshold": "--aa-threshold", "aa_depth": "--aa-depth"}
 
 
 def _flag_error(e: SceneError) -> SceneError:
@@ -187,7 +197,8 @@ def _render(args: argparse.Namespace) -> int:
     progress = Progress(not args.quiet)
     overrides = dict(width=args.width, height=args.height, spp=args.spp,
                      max_depth=args.max_depth, min_weight=args.min_weight, seed=args.seed,
-                     threads=args.threads, crop=args.crop, aovs=aovs)
+                     threads=args.threads, crop=args.crop, aovs=aovs, filter=args.filter,
+                     aa=args.aa, aa_threshold=args.aa_threshold, aa_depth=args.aa_depth)
     try:
         o = render_options(scene, **overrides)
         x0, y0, x1, y1 = o.crop or (0, 0, o.width, o.height)

@@ -204,6 +204,8 @@ def explain(scene: Scene, pixel: tuple[int, int], sample: int = 0, **overrides: 
     x, y = _pixel(pixel, options.width, options.height, scene.path)
     s = _sample(sample, options.spp, scene.path)
     options.crop = (x, y, x + 1, y + 1)
+    # One uniform sample of the pixel, traced alone: no filter margin, no adaptive lattice.
+    options.filter, options.aa = "box", "uniform"
     integ = WhittedIntegrator(scene, options)
     integ.observer = recorder = Recorder(integ)
     value = np.zeros((1, 3))

@@ -36,10 +36,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import adaptive, filters, sampling
 from . import aov as aov_images
 from . import shading_kernels as sk  # the compiled passes of this stage
 from .accel import Accelerator, Hits, Surface
-from .camera import camera_columns, camera_rays, global_samples
+from .camera import camera_columns, camera_rays, directions_at, global_samples, grid
 from .film import Image
 from .lights import Emitter, emitters
 from .material import Material
@@ -144,6 +145,7 @@ class Worker(threading.local):
         self.scratch = Scratch()
         self.camera_columns: RayBatch | None = None  # raytrace.camera.camera_columns
         self.first_sample = 0  # index (in the window) of the current pass's first sample
+        self.keys: np.ndarray | None = None  # adaptive: each sample's lattice id (light key)
         self.aov = NO_AOV_SAMPLES  # this pass's per-sample AOV columns
         self.stats: Stats | None = None
         self.render = -1  # the render (WhittedIntegrator._renders) the stats count
@@ -166,9 +168,19 @@ class WhittedIntegrator:
 
     def __init__(self, scene: Scene, options: RenderOptions):
         self.scene, self.opt = scene, options
-        x0, y0, x1, y1 = options.crop or (0, 0, options.width, options.height)
-        #: Columns and rows of the window rendered.
-        self.size = (x1 - x0, y1 - y0)
+        #: The window of the image (the crop or the frame) and the window traced: the same,
+        #: or, for a filter wider than a pixel, grown by its reach (clipped to the frame).
+        self.window = options.crop or (0, 0, options.width, options.height)
+        self.reach = sampling.margin(options.filter)
+        x0, y0, x1, y1 = self.window
+        m = self.reach
+        self.traced = (max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, options.width),
+                       min(y1 + m, options.height))
+        #: The traced window as a crop of the frame (None: the whole frame).
+        self.trace_crop = None if self.traced == (0, 0, options.width, options.height) \
+            else self.traced
+        #: Columns and rows of the window traced.
+        self.size = (self.traced[2] - self.traced[0], self.traced[3] - self.traced[1])
         self._aov_out = NO_AOV_PIXELS  # the AOV images of the render in progress, flat
         seen: dict[int, Material] = {}
         for o in scene.objects:
@@ -229,17 +241,27 @@ class WhittedIntegrator:
             self._renders += 1
             self._stats_per_thread = []
         cols, rows = self.size
-        total = cols * rows * opt.spp
-        per_pass = self.pass_size
+        if opt.aa == "adaptive":  # passes of whole rows, counted in rows
+            total, per_pass = rows, max(1, self.pass_size // (cols + 1))
+        else:
+            total, per_pass = cols * rows * opt.spp, self.pass_size
         passes = [(a, min(a + per_pass, total)) for a in range(0, total, per_pass)]
         # Each pass rounds its pixels to float32 as it ends (the same rounding as at the end
-        # would be), so no float64 copy of the whole image is held.
-        pixels = np.empty((cols * rows, 3), dtype=np.float32)
+        # would be), so no float64 copy of the whole image is held; a filter wider than a
+        # pixel keeps every sample (float64) and gathers the pixels once all are traced.
+        filtered = opt.filter != "box"
+        pixels = np.empty((total if filtered else cols * rows, 3),
+                          dtype=np.float64 if filtered else np.float32)
         aovs = {name: aov_images.empty(name, (rows, cols)) for name in opt.aovs}
-        flat = {name: a.reshape(len(pixels), *a.shape[2:]) for name, a in aovs.items()}
+        flat = {name: a.reshape(cols * rows, *a.shape[2:]) for name, a in aovs.items()}
         self._aov_out = tuple(flat.get(name, none)
                               for name, none in zip(aov_images.AOVS, NO_AOV_PIXELS, strict=True))
         self._run(passes, pixels, progress, total)
+        if filtered:
+            pixels, (cols, rows) = self._filter(pixels), self.window_size
+            dx, dy = self.window[0] - self.traced[0], self.window[1] - self.traced[1]
+            aovs = {name: np.ascontiguousarray(a[dy:dy + rows, dx:dx + cols])
+                    for name, a in aovs.items()}
         t_passes = time.perf_counter() - t_start
         rgb = pixels.reshape(rows, cols, 3)
         bad = ~np.isfinite(rgb)
@@ -254,6 +276,25 @@ class WhittedIntegrator:
         seconds = time.perf_counter() - t_start + self.build_seconds
         return Image(rgb, self._stats(nonfinite, first, seconds, t_passes),
                      self._metadata(nonfinite), aovs, opt.crop, (opt.width, opt.height))
+
+    @property
+    def window_size(self) -> tuple[int, int]:
+        """Columns and rows of the image (the crop, or the frame)."""
+        x0, y0, x1, y1 = self.window
+        return x1 - x0, y1 - y0
+
+    def _filter(self, samples: np.ndarray) -> np.ndarray:
+        """The image's pixels (n, 3) float32 from every traced sample's sum ``samples``, by
+        the options' filter (:func:`raytrace.filters.filter_pixels`)."""
+        opt = self.opt
+        f = sampling.FILTERS[opt.filter]
+        cols, rows = self.window_size
+        out = np.empty((cols * rows, 3), np.float32)
+        with np.errstate(over="ignore", invalid="ignore"):
+            filters.filter_pixels(samples, self.traced, (opt.width, opt.height), opt.spp,
+                                  grid(opt.spp), opt.seed, f.code, f.radius, self.reach,
+                                  self.window, out)
+        return out
 
     def _run(self, passes: list[tuple[int, int]], pixels: np.ndarray,
              progress: Callable[[int, int], None] | None, total: int) -> None:
@@ -295,22 +336,57 @@ class WhittedIntegrator:
 
     def _render_pass(self, start: int, stop: int, pixels: np.ndarray) -> None:
         """Camera samples ``start`` to ``stop`` (whole pixels), depth by depth, into their
-        pixels (and AOVs)."""
+        pixels (and AOVs); with adaptive anti-aliasing, the rows ``start`` to ``stop``."""
         opt, w, n = self.opt, self._worker, stop - start
         t0 = time.perf_counter()
-        samples = self.scratch("samples", n, 3)
+        if opt.aa == "adaptive":
+            self._render_rows(start, stop, pixels)
+            self.stats.pass_seconds += time.perf_counter() - t0
+            return
+        keep = pixels.dtype == np.float64  # every sample kept for the filter
+        samples = pixels[start:stop] if keep else self.scratch("samples", n, 3)
         samples.fill(0.0)
         if opt.aovs:
             w.aov = self._aov_samples(n)
         self.trace_samples(start, stop, samples)
         first, last = start // opt.spp, stop // opt.spp
-        with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
-            pixels[first:last] = (
-                samples if opt.spp == 1 else samples.reshape(-1, opt.spp, 3).mean(1))
+        if not keep:
+            with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
+                pixels[first:last] = (
+                    samples if opt.spp == 1 else samples.reshape(-1, opt.spp, 3).mean(1))
         if opt.aovs:
             sk.aov_pixels(last - first, opt.spp, tuple(w.aov),
                          tuple(a[first:last] for a in self._aov_out))
         self.stats.pass_seconds += time.perf_counter() - t0
+
+    def _render_rows(self, start: int, stop: int, pixels: np.ndarray) -> None:
+        """Rows ``start`` to ``stop`` of the window by adaptive refinement
+        (:func:`raytrace.adaptive.refine`): each level's new lattice points are one
+        wavefront (:meth:`trace_points`)."""
+        opt = self.opt
+        x0, y0, x1, _ = self.window
+        values, _, _ = adaptive.refine((x0, y0 + start, x1, y0 + stop), opt.width,
+                                       opt.aa_depth, opt.aa_threshold, opt.seed,
+                                       self.trace_points)
+        with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
+            pixels[start * (x1 - x0):stop * (x1 - x0)] = values
+
+    def trace_points(self, x: np.ndarray, y: np.ndarray, ids: np.ndarray) -> np.ndarray:
+        """Radiance (n, 3) float64 of camera rays through image positions ``x``, ``y`` (n,)
+        (pixels of the frame), one sample each; ``ids`` (n,) key their jittered area-light
+        points, as global sample indices do for uniform samples."""
+        n, w = len(x), self._worker
+        columns = camera_columns(n)
+        rays = RayBatch(columns.origin, directions_at(self.scene.camera, self.opt.width,
+                                                      self.opt.height, x, y),
+                        columns.sample, columns.weight, 0, columns.origin_shape, columns.kind)
+        samples = np.zeros((n, 3))
+        w.keys = np.ascontiguousarray(ids, np.int64)
+        try:
+            self._trace_batch(rays, n, samples)
+        finally:
+            w.keys = None
+        return samples
 
     def trace_samples(self, start: int, stop: int, samples: np.ndarray) -> None:
         """Add into ``samples`` (stop − start, 3) everything the samples ``start`` to ``stop``
@@ -326,7 +402,13 @@ class WhittedIntegrator:
         if w.camera_columns is None or len(w.camera_columns.origin) < n:
             w.camera_columns = camera_columns(n)
         rays = camera_rays(self.scene.camera, opt, start, stop, columns=w.camera_columns,
-                           direction=self.scratch("camera_direction", n, 3))
+                           direction=self.scratch("camera_direction", n, 3),
+                           window=self.trace_crop)
+        self._trace_batch(rays, n, samples)
+
+    def _trace_batch(self, rays: RayBatch, n: int, samples: np.ndarray) -> None:
+        """Trace camera ``rays`` of ``n`` samples and their descendants, depth by depth, into
+        ``samples`` (n, 3), in chunks of at most a pass (:meth:`trace_samples`)."""
         per_pass = self.pass_size
         pending = [rays]
         while pending:
@@ -488,8 +570,10 @@ class WhittedIntegrator:
         tmax, shape = new("shadow_tmax", n), new("shadow_shape", n, dtype=np.int64)
         shadow = Shadows(rows, origin, direction, tmax, shape)
         # Jittered area lights draw a point per hit from its global camera sample and depth.
-        key = global_samples(rays.sample + self._worker.first_sample, self.opt.width,
-                             self.opt.spp, self.opt.crop) if self.jittered else NO_KEY
+        w = self._worker
+        key = NO_KEY if not self.jittered else (
+            w.keys[rays.sample] if w.keys is not None else global_samples(
+                rays.sample + w.first_sample, self.opt.width, self.opt.spp, self.trace_crop))
         for e, em in enumerate(self.emitters):
             k = sk.light_pass(rays.record, surf, self.tables, em.record, key, rays.depth, term,
                              shadow)
@@ -567,6 +651,12 @@ class WhittedIntegrator:
             "min_weight": opt.min_weight, "threads": opt.threads,
             **({"crop": list(opt.crop)} if opt.crop else {}),
             **({"aovs": list(opt.aovs)} if opt.aovs else {}),
+            **({"filter": opt.filter} if opt.filter != "box" else {}),
+            **({"aa": {"mode": "adaptive", "threshold": opt.aa_threshold, "depth": opt.aa_depth,
+                       "samples_per_pixel": rays["camera"] / (opt.width * opt.height
+                                                              if not opt.crop else
+                                                              self.size[0] * self.size[1])}}
+               if opt.aa == "adaptive" else {}),
         }
 
     def _metadata(self, nonfinite: int) -> dict:
@@ -575,7 +665,10 @@ class WhittedIntegrator:
                 "spp": opt.spp, "max_depth": opt.max_depth, "min_weight": opt.min_weight,
                 "seed": opt.seed, "nonfinite_pixels": nonfinite,
                 "renderer": "raytrace (Whitted, Embree)",
-                **({"crop": " ".join(map(str, opt.crop))} if opt.crop else {})}
+                **({"crop": " ".join(map(str, opt.crop))} if opt.crop else {}),
+                **({"filter": opt.filter} if opt.filter != "box" else {}),
+                **({"aa": f"adaptive threshold {opt.aa_threshold} depth {opt.aa_depth}"}
+                   if opt.aa == "adaptive" else {})}
 
 
 def chunks(rays: RayBatch, samples: int, most: int) -> list[RayBatch]:

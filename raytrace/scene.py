@@ -19,6 +19,7 @@ import numpy as np
 from . import values
 from .errors import SceneError
 from .material import Material, library, material_from_table
+from .sampling import check_aa, check_filter
 
 #: Largest accepted |coordinate| of a mesh vertex: Embree silently drops triangles with
 #: coordinates around 1.8e19 and float32 products overflow well before 3.4e38.
@@ -39,6 +40,15 @@ class RenderSettings:
     min_weight: float = 0.0
     background: Any = 0.0
     seed: int = 0
+    #: The pixel reconstruction filter (:data:`raytrace.filters.FILTERS`).
+    filter: str = "box"
+    #: Anti-aliasing: "uniform" (``spp`` stratified samples a pixel) or "adaptive" (pixel
+    #: corners, refined where they differ: :mod:`raytrace.adaptive`).
+    aa: str = "uniform"
+    #: Adaptive: refine a cell whose corners differ by more than this (any RGB channel).
+    aa_threshold: float = 0.05
+    #: Adaptive: the most times a pixel is halved (a 2^d × 2^d grid of cells at most).
+    aa_depth: int = 2
 
     def __post_init__(self) -> None:
         self.width = values.number(self.width, "render.width", lo=1, hi=MAX_SIDE, integer=True)
@@ -53,6 +63,14 @@ class RenderSettings:
         self.min_weight = values.number(self.min_weight, "render.min_weight", lo=0)
         self.background = values.color(self.background, "render.background")
         self.seed = values.number(self.seed, "render.seed", lo=0, hi=2**63 - 1, integer=True)
+        self.filter = check_filter(self.filter)
+        self.aa = check_aa(self.aa)
+        self.aa_threshold = values.number(self.aa_threshold, "render.aa_threshold", lo=0)
+        self.aa_depth = values.number(self.aa_depth, "render.aa_depth", lo=0, hi=8,
+                                      integer=True)
+        if self.aa == "adaptive" and self.filter != "box":
+            raise SceneError(f"must be box with aa = \"adaptive\" (its pixels are the area "
+                             f"average of their cells), got {self.filter!r}", "render.filter")
 
 
 @dataclass

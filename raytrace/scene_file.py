@@ -27,7 +27,8 @@ from .scene import (
 )
 
 TOP_KEYS = ("render", "camera", "ambient", "materials", "lights", "objects")
-RENDER_KEYS = ("width", "height", "spp", "max_depth", "min_weight", "background", "seed")
+RENDER_KEYS = ("width", "height", "spp", "max_depth", "min_weight", "background", "seed",
+               "filter", "aa", "aa_threshold", "aa_depth")
 CAMERA_KEYS = ("position", "look_at", "up", "fov")
 OBJECT_TYPES = {"sphere": Sphere, "plane": Plane, "mesh": Mesh}
 

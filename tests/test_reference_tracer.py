@@ -55,8 +55,10 @@ EDGE_FRACTION = 0.03
 
 
 # -- independence -----------------------------------------------------------------------------
+# raytrace.sampling holds the names and checks of [render]'s filter and aa keys, which
+# RenderSettings validates: data, no renderer code.
 ALLOWED = {"raytrace", "raytrace.scene", "raytrace.material", "raytrace.values",
-           "raytrace.errors"}
+           "raytrace.errors", "raytrace.sampling"}
 
 
 def test_reference_tracer_imports_only_the_scene_description():

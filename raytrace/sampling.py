@@ -1,0 +1,56 @@
+"""The image-sampling choices of ``[render]``, by name, without importing the kernels.
+
+* ``filter``: :data:`FILTERS`, the pixel reconstruction filters with their radius in pixels
+  (the formulas and the kernel: :mod:`raytrace.filters`);
+* ``aa``: :data:`AA_MODES`, uniform stratified samples or adaptive corner refinement
+  (:mod:`raytrace.adaptive`).
+
+Scenes are loaded and checked without numba: this module is all they import of the two.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+from .errors import SceneError
+
+BOX, TENT, GAUSSIAN, MITCHELL = 0, 1, 2, 3
+
+
+class Filter(NamedTuple):
+    """A filter's kernel code (:func:`raytrace.filters.profile1`) and radius (pixels)."""
+
+    code: int
+    radius: float
+
+
+#: The filters by their ``[render] filter`` name: radii of Mitsuba's tent and pbrt-v4's
+#: Gaussian and Mitchell–Netravali defaults.
+FILTERS = {"box": Filter(BOX, 0.5), "tent": Filter(TENT, 1.0),
+           "gaussian": Filter(GAUSSIAN, 1.5), "mitchell": Filter(MITCHELL, 2.0)}
+#: The anti-aliasing modes by their ``[render] aa`` name.
+AA_MODES = {"uniform": "spp stratified jittered samples a pixel",
+            "adaptive": "pixel corners, cells halved where their corners differ"}
+
+
+def check_filter(name: object, key: str = "render.filter") -> str:
+    """``name`` if it is one of :data:`FILTERS`, else a SceneError listing them."""
+    if not isinstance(name, str) or name not in FILTERS:
+        raise SceneError(f"unknown filter {name!r} (choose from {', '.join(FILTERS)})", key)
+    return name
+
+
+def check_aa(name: object, key: str = "render.aa") -> str:
+    """``name`` if it is one of :data:`AA_MODES`, else a SceneError listing them."""
+    if not isinstance(name, str) or name not in AA_MODES:
+        raise SceneError(f"unknown anti-aliasing {name!r} (choose from "
+                         f"{', '.join(AA_MODES)})", key)
+    return name
+
+
+def margin(name: str) -> int:
+    """Pixels around a pixel whose samples its filter can reach: the largest ``m`` with a
+    sample of pixel ``p + m`` (in ``[p + m, p + m + 1)``) nearer than the radius to
+    ``p + ½``, ``⌈r + ½⌉ − 1`` (0 for the box)."""
+    return math.ceil(FILTERS[name].radius + 0.5) - 1
