@@ -87,18 +87,20 @@ def profile(name: str, x: np.ndarray) -> np.ndarray:
 
 
 @kernel
-def filter_pixels(samples, traced, frame, spp, k, seed, code, radius, reach, window, out):
+def filter_pixels(samples, traced, frame, profile, window, out):
     """Filtered pixels of ``window`` = (x0, y0, x1, y1) into ``out`` ((x1−x0)·(y1−y0), 3),
     rows in order.
 
     ``samples`` (n, 3) are the radiance sums of the samples of the ``traced`` window (x0, y0,
     x1, y1, a superset of ``window`` by ``reach`` pixels where the frame allows), pixel·spp +
-    cell in its row order; ``frame`` = (width, height). Sample (pixel, cell) lies at ``pixel
+    cell in its row order; ``frame`` = (width, spp, k (the stratification grid), seed);
+    ``profile`` = (filter code, radius, reach in pixels). Sample (pixel, cell) lies at ``pixel
     + pixel_offset(…)``, from its global index, as the camera put it. Each pixel's sum runs
     over its footprint's pixels row by row, then their samples in order: one fixed order,
     whatever window was traced."""
     tx0, ty0, tx1, ty1 = traced
-    width = frame[0]
+    width, spp, k, seed = frame
+    code, radius, reach = profile
     x0, y0, x1, y1 = window
     j = 0
     for py in range(y0, y1):

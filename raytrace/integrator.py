@@ -291,9 +291,9 @@ class WhittedIntegrator:
         cols, rows = self.window_size
         out = np.empty((cols * rows, 3), np.float32)
         with np.errstate(over="ignore", invalid="ignore"):
-            filters.filter_pixels(samples, self.traced, (opt.width, opt.height), opt.spp,
-                                  grid(opt.spp), opt.seed, f.code, f.radius, self.reach,
-                                  self.window, out)
+            filters.filter_pixels(samples, self.traced,
+                                  (opt.width, opt.spp, grid(opt.spp), opt.seed),
+                                  (f.code, f.radius, self.reach), self.window, out)
         return out
 
     def _run(self, passes: list[tuple[int, int]], pixels: np.ndarray,
