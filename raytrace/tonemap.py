@@ -8,8 +8,8 @@ A preview of linear RGB is, per pixel,
   ``L̄ = exp(mean(log L))`` the log-average luminance of the pixels with ``L > 0`` (Reinhard,
   Stark, Shirley & Ferwerda 2002, "Photographic tone reproduction for digital images",
   eqs. 1-2; black pixels are left out, so a black background does not drag ``L̄`` to 0).
-  ``L`` is Y of the sRGB/Rec. 709 primaries, by colour-science (``colour.RGB_luminance``),
-  and ``L̄`` is colour-hdri's ``log_average``.
+  ``L`` is Y of the sRGB/Rec. 709 primaries, weights by colour-science (those of
+  ``colour.RGB_luminance``).
 * ``T``: a tone-mapping operator of :data:`TONEMAPS`: ``clip`` (none), or colour-hdri's global
   operators under their own names, lower-cased without the ``tonemapping_operator_`` prefix
   (``reinhard2004``, ``filmic``, ``tumblin1999``, ``schlick1994``, ``logarithmic``, ...), with
@@ -235,40 +235,38 @@ def _as_rgb(rgb: Any) -> np.ndarray:
 
 def _linear(band: np.ndarray, scale: float) -> np.ndarray:
     """``max(x, 0) · scale`` in float64 with non-finite values as 0: what an operator sees."""
-    x = np.nan_to_num(band.astype(np.float64), nan=0.0, posinf=0.0, neginf=0.0)
-    np.maximum(x, 0.0, out=x)
-    x *= scale
-    return x
+    from .tonemap_kernels import exposed
+
+    out = np.empty(band.shape, np.float64)
+    exposed(band, scale, out)
+    return out
 
 
 def _rows(rgb: np.ndarray) -> int:
     return max(1, BAND_PIXELS // max(1, rgb.shape[1]))
 
 
+def luminance_weights() -> np.ndarray:
+    """The Y row of the sRGB/Rec. 709 RGB → XYZ matrix (D65), by colour-science: the weights
+    of ``colour.RGB_luminance`` for these primaries (0.2126, 0.7152, 0.0722)."""
+    c = colour()
+    srgb = c.RGB_COLOURSPACES["sRGB"]
+    return np.ascontiguousarray(c.normalised_primary_matrix(srgb.primaries, srgb.whitepoint)[1])
+
+
 def auto_exposure(rgb: np.ndarray) -> float:
     """The exposure (stops) that maps the log-average luminance to :data:`AUTO_KEY`:
     ``log2(0.18 / L̄)``, ``L̄ = exp(mean(log L))`` over the pixels with ``L > 0``
-    (Reinhard et al. 2002, eqs. 1-2), L the Rec. 709 luminance by colour-science, L̄ by
-    colour-hdri's ``log_average``; 0 for an image with no lit pixel. Computed band by band;
-    clamped to :data:`EXPOSURE_RANGE`.
+    (Reinhard et al. 2002, eqs. 1-2), L the Rec. 709 luminance (:func:`luminance_weights`);
+    0 for an image with no lit pixel. One compiled pass over the image in place; clamped to
+    :data:`EXPOSURE_RANGE`.
 
     >>> round(auto_exposure(np.full((2, 2, 3), 0.36, np.float32)), 6)
     -1.0
     """
-    rgb = _as_rgb(rgb)
-    c = colour()
-    colour_hdri()
-    from colour_hdri.tonemapping.global_operators.operators import log_average
+    from .tonemap_kernels import log_luminance
 
-    srgb = c.RGB_COLOURSPACES["sRGB"]
-    log_sum, count = 0.0, 0
-    rows = _rows(rgb)
-    for y0 in range(0, rgb.shape[0], rows):
-        lum = c.RGB_luminance(_linear(rgb[y0:y0 + rows], 1.0), srgb.primaries, srgb.whitepoint)
-        lit = lum[lum > 0.0]
-        if lit.size:
-            log_sum += lit.size * math.log(log_average(lit, epsilon=0.0))
-            count += lit.size
+    log_sum, count = log_luminance(_as_rgb(rgb), luminance_weights())
     if not count:
         return 0.0
     ev = math.log2(AUTO_KEY) - log_sum / count / math.log(2.0)
@@ -307,7 +305,7 @@ def _bands(rgb, ev, op, per_pixel, dtype, table) -> Iterator[tuple[int, int, np.
         elif op is None:
             encode(band, scale, table.lut, table.thresholds, out)
         else:
-            with np.errstate(divide="ignore", invalid="ignore"):
+            with np.errstate(divide="ignore", invalid="ignore"):  # 0/0 at black pixels
                 encode(op(_linear(band, scale)), 1.0, table.lut, table.thresholds, out)
         yield y0, y0 + len(band), out
 

@@ -56,3 +56,39 @@ def encode(src, scale, lut, thresholds, out):
                 while y >= thresholds[k]:  # the sentinel stops it at top
                     k += 1
                 out[i, j, c] = k
+
+
+@kernel
+def log_luminance(src, weights):
+    """``(Σ log L, n)`` over the pixels of ``src`` with ``L > 0``: the sums behind the
+    log-average luminance of Reinhard et al. 2002 (eq. 1), ``exp(Σ log L / n)``.
+
+    ``L = Σ_c weights[c] · x_c`` in float64 with the channels ``x_c ≤ 0`` or non-finite taken
+    as 0 (as a preview shows them); ``weights`` (3,) float64 is the Y row of the RGB → XYZ
+    matrix. ``src`` is (h, w, 3) float32 or float64, read in place.
+    """
+    total = 0.0
+    count = 0
+    for i in range(src.shape[0]):
+        for j in range(src.shape[1]):
+            lum = 0.0
+            for c in range(3):
+                x = src[i, j, c]
+                if x > 0.0 and math.isfinite(x):
+                    lum += weights[c] * np.float64(x)
+            if lum > 0.0:
+                total += math.log(lum)
+                count += 1
+    return total, count
+
+
+@kernel
+def exposed(src, scale, out):
+    """``out = max(x, 0) · scale`` in float64, with NaN and ±inf as 0: the linear values a
+    tone-mapping operator sees, in one pass (``src`` (h, w, 3) float32 or float64, ``out`` the
+    same shape, float64)."""
+    for i in range(src.shape[0]):
+        for j in range(src.shape[1]):
+            for c in range(3):
+                x = src[i, j, c]
+                out[i, j, c] = np.float64(x) * scale if x > 0.0 and math.isfinite(x) else 0.0
