@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import write_text
+from helpers import read_png_library, write_text
 
 import raytrace
 from raytrace import cli
@@ -190,9 +190,8 @@ def test_auto_exposure_an_operator_and_16_bits_from_the_command_line(tmp_path, c
                        "--exposure", "auto", "--tonemap", "Reinhard2004", "--png-bits", "16"],
                       capsys)
     assert rc == 0, cap.err
-    f = oiio.ImageInput.open(str(tmp_path / "o.png"))
-    pixels = f.read_image(oiio.UINT16)
-    f.close()
+    pixels, spec = read_png_library(tmp_path / "o.png")
+    assert spec.format == oiio.UINT16
     rgb, _ = raytrace.read_exr(tmp_path / "o.exr")
     np.testing.assert_array_equal(pixels, preview(rgb, "auto", "reinhard2004", bits=16))
     with pytest.raises(SystemExit) as e:

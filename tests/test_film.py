@@ -8,7 +8,7 @@ import os
 import numpy as np
 import OpenEXR
 import pytest
-from helpers import aimed_camera, make_scene, read_png
+from helpers import aimed_camera, make_scene, read_png, read_png_library
 
 import raytrace
 from raytrace.film import (
@@ -293,25 +293,13 @@ def test_compression_missing_from_an_older_binding_is_a_clear_error(tmp_path, mo
 
 
 # -- previews: 16-bit PNG, notebooks ------------------------------------------------------------
-def _read_with_openimageio(path):
-    """Pixels and format of a PNG read back by the image library that wrote it."""
-    import OpenImageIO as oiio
-
-    f = oiio.ImageInput.open(str(path))
-    assert f is not None, oiio.geterror()
-    spec = f.spec()
-    pixels = f.read_image(spec.format)
-    f.close()
-    return pixels, spec
-
-
 def test_16_bit_png_round_trips_through_the_image_library(tmp_path):
     import OpenImageIO as oiio
 
     rng = np.random.default_rng(16)
     rgb = (rng.random((23, 31, 3)) ** 2 * 1.2).astype(np.float32)
     write_png(tmp_path / "p16.png", rgb, 0.5, "filmic", bits=16)
-    pixels, spec = _read_with_openimageio(tmp_path / "p16.png")
+    pixels, spec = read_png_library(tmp_path / "p16.png")
     assert spec.format == oiio.UINT16 and pixels.dtype == np.uint16
     assert (spec.width, spec.height, spec.nchannels) == (31, 23, 3)
     np.testing.assert_array_equal(pixels, preview(rgb, 0.5, "filmic", bits=16))
@@ -325,7 +313,7 @@ def test_16_bit_png_round_trips_through_the_image_library(tmp_path):
     assert np.abs(both[0].astype(int) - both[1] / 257.0).max() <= 0.5 + 1e-9
     # And an 8-bit file reads back as 8-bit, through the library and the spec's decoder alike.
     write_png(tmp_path / "p8.png", rgb)
-    pixels, spec = _read_with_openimageio(tmp_path / "p8.png")
+    pixels, spec = read_png_library(tmp_path / "p8.png")
     assert spec.format == oiio.UINT8
     np.testing.assert_array_equal(pixels, read_png(tmp_path / "p8.png"))
     np.testing.assert_array_equal(pixels, both[0])
