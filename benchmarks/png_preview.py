@@ -28,6 +28,13 @@ Parts (``--parts``):
     ``raytrace.film.write_png`` as shipped, from the float32 image: each tone map of
     :data:`raytrace.tonemap.TONEMAPS` at exposure 0, ``clip`` and ``reinhard2004`` with
     ``auto``, and 16-bit ``clip``.
+``cli``
+    ``raytrace render scenes/whitted.toml`` at ``--size`` on 2 threads, without and with
+    ``--png``, twice each: whole-process seconds and peak resident memory (``ru_maxrss``).
+
+``--checkout DIR`` measures the raytrace of another checkout (e.g. ``git worktree add
+/tmp/old 6261a80``, the commit before issue 20): its ``preview`` part is then the default row
+only (``clip``, exposure 0, 8-bit: all the old ``write_png`` had).
 """
 
 from __future__ import annotations
@@ -127,8 +134,10 @@ def child(args: dict) -> dict:
     if args["kind"] == "preview":
         from raytrace.film import write_png
 
+        extra = {"bits": args["bits"]} if args["bits"] != 8 else {}  # the old one had no bits
+
         def run(target):
-            write_png(target, rgb, args["exposure"], args["tonemap"], bits=args["bits"])
+            write_png(target, rgb, args["exposure"], args["tonemap"], **extra)
     else:
         from raytrace.film import preview
 
@@ -156,13 +165,16 @@ def _warm(args: dict) -> None:
     from raytrace.film import write_png
 
     small = np.random.default_rng(1).random((16, 16, 3), dtype=np.float32)
+    extra = {"bits": args["bits"]} if args["bits"] != 8 else {}
     write_png(os.path.join(tempfile.mkdtemp(), "w.png"), small, args["exposure"],
-              args["tonemap"], bits=args["bits"])
+              args["tonemap"], **extra)
 
 
 def _spawn(args: dict) -> dict:
+    checkout = args.get("checkout") or str(ROOT)
+    env = {**os.environ, "PYTHONPATH": checkout}  # ahead of the installed raytrace
     out = subprocess.run([sys.executable, __file__, "--child", json.dumps(args)],
-                         capture_output=True, text=True, cwd=ROOT)
+                         capture_output=True, text=True, cwd=checkout, env=env)
     if out.returncode:
         return {"error": out.stderr.strip().splitlines()[-1]}
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -170,14 +182,31 @@ def _spawn(args: dict) -> dict:
 
 def measure(kind: str, image: str, *, writer: str = "", tonemap: str = "clip",
             exposure: float | str = 0.0, bits: int = 8, noisy: bool = False, repeat: int = 3,
-            cold: bool = True) -> dict:
+            cold: bool = True, checkout: str | None = None) -> dict:
     """One row: warm seconds and peak MB (and cold seconds), each in a fresh process."""
     args = {"kind": kind, "image": str(image), "writer": writer, "tonemap": tonemap,
-            "exposure": exposure, "bits": bits, "noisy": noisy, "repeat": repeat, "cold": False}
+            "exposure": exposure, "bits": bits, "noisy": noisy, "repeat": repeat, "cold": False,
+            "checkout": checkout}
     row = _spawn(args)
     if cold and "error" not in row:
         row.update(_spawn({**args, "cold": True}))
     return row
+
+
+def render_cli(checkout: str, size: tuple[str, str], png: bool, workdir: str) -> dict:
+    """``raytrace render`` of the Whitted scene in a fresh process: seconds, peak MB."""
+    code = ("import resource, subprocess, sys, time\n"
+            "t = time.perf_counter()\n"
+            "subprocess.run(sys.argv[1:], check=True)\n"
+            "print(time.perf_counter() - t, "
+            "resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024)")
+    cmd = [sys.executable, "-m", "raytrace", "render", "scenes/whitted.toml", "-o",
+           os.path.join(workdir, "cli.exr"), "--width", size[0], "--height", size[1],
+           "--threads", "2", "-q"] + (["--png", os.path.join(workdir, "cli.png")] if png else [])
+    out = subprocess.run([sys.executable, "-c", code, *cmd], capture_output=True, text=True,
+                         cwd=checkout, env={**os.environ, "PYTHONPATH": checkout}, check=True)
+    seconds, mb = map(float, out.stdout.split())
+    return {"seconds": seconds, "peak_mb": mb}
 
 
 def _cells(row: dict) -> list[str]:
@@ -193,10 +222,11 @@ def main(argv: list[str] | None = None) -> int:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--size", default="4000x3000", help="WxH of the Whitted render")
     p.add_argument("--image", help="an EXR to use instead of rendering")
-    p.add_argument("--parts", default="writers,preview")
+    p.add_argument("--parts", default="writers,preview,cli")
     p.add_argument("--noisy", action="store_true", help="also the noisy variant")
     p.add_argument("--repeat", type=int, default=3, help="runs per row (fastest kept)")
     p.add_argument("--workdir", default=tempfile.gettempdir())
+    p.add_argument("--checkout", default=str(ROOT), help="the raytrace checkout to measure")
     p.add_argument("--child", help=argparse.SUPPRESS)
     a = p.parse_args(argv)
     if a.child:
@@ -215,8 +245,10 @@ def main(argv: list[str] | None = None) -> int:
     from raytrace.film import read_exr
 
     h, w = read_exr(image)[0].shape[:2]
+    checkout = str(Path(a.checkout).resolve())
     print(f"image {image}: {w}×{h}; load average {os.getloadavg()[0]:.2f}; "
-          f"{os.cpu_count()} cores; bounds {BOUND_SECONDS} s, {BOUND_MB:.0f} MB")
+          f"{os.cpu_count()} cores; bounds {BOUND_SECONDS} s, {BOUND_MB:.0f} MB; "
+          f"raytrace from {checkout}")
     heads = ["seconds", "peak MB", "file MB", "cold s", "in bounds"]
     for noisy in (False, True) if a.noisy else (False,):
         label = "noisy" if noisy else "render"
@@ -241,12 +273,22 @@ def main(argv: list[str] | None = None) -> int:
             cases = [(t, 0.0, 8) for t in TONEMAPS] + [("clip", "auto", 8),
                                                        ("reinhard2004", "auto", 8),
                                                        ("clip", 0.0, 16)]
+            if checkout != str(ROOT):
+                cases = [("clip", 0.0, 8)]
             rows = [[t, str(e), str(b),
                      *_cells(measure("preview", image, tonemap=t, exposure=e, bits=b,
-                                     noisy=noisy, repeat=a.repeat))]
+                                     noisy=noisy, repeat=a.repeat, checkout=checkout))]
                     for t, e, b in cases]
             print(f"\nraytrace.film.write_png, {label}\n")
             print(table(["tonemap", "exposure", "bits", *heads], rows))
+    if "cli" in a.parts:
+        rows = []
+        for png in (False, True, False, True):
+            r = render_cli(checkout, (str(w), str(h)), png, a.workdir)
+            rows.append(["with --png" if png else "EXR only", f"{r['seconds']:.2f}",
+                         f"{r['peak_mb']:.0f}"])
+        print(f"\nraytrace render scenes/whitted.toml at {w}×{h}, 2 threads\n")
+        print(table(["render", "seconds", "peak MB"], rows))
     return 0
 
 
