@@ -2,9 +2,9 @@
 
     raytrace render SCENE [-o OUT.exr] [--width W] [--height H] [--spp N] [--max-depth D]
                           [--min-weight W] [--seed S] [--threads T] [--png PREVIEW.png]
-                          [--exposure EV] [--tonemap clip|reinhard] [--stats STATS.json]
-                          [--compression none|rle|zips|zip|piz|zstd] [--quiet]
-                          [--aov depth,normal,albedo,id] [--crop X0 Y0 X1 Y1]
+                          [--exposure EV|auto] [--tonemap NAME] [--png-bits 8|16]
+                          [--stats STATS.json] [--compression none|rle|zips|zip|piz|zstd]
+                          [--quiet] [--aov depth,normal,albedo,id] [--crop X0 Y0 X1 Y1]
                           [--filter box|tent|gaussian|mitchell]
                           [--aa uniform|adaptive] [--aa-threshold T] [--aa-depth D]
     raytrace explain SCENE --pixel X Y [--sample S] [--json] [--width W] [--height H]
@@ -49,8 +49,19 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
+def _exposure(text: str) -> float | str:
+    """``--exposure``: stops in the accepted range, or ``auto`` (checked while parsing)."""
+    from .tonemap import check_exposure
+
+    try:
+        return check_exposure(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
 def _parser() -> argparse.ArgumentParser:
     from .film import EXR_COMPRESSIONS
+    from .tonemap import EXPOSURE_RANGE, TONEMAPS
 
     p = _Parser(prog="raytrace", description="A Whitted ray tracer on Embree.")
     p.add_argument("--version", action="version", version=f"raytrace {__version__}")
@@ -63,8 +74,14 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--threads", type=int, default=os.cpu_count() or 1,
                    help="worker threads (default: all cores)")
     r.add_argument("--png", help="also write a tone-mapped sRGB PNG preview (.png)")
-    r.add_argument("--exposure", type=float, default=0.0, help="preview exposure in stops")
-    r.add_argument("--tonemap", default="clip", help="preview tone map: clip or reinhard")
+    r.add_argument("--exposure", type=_exposure, default=0.0,
+                   help=f"preview exposure in stops, {EXPOSURE_RANGE[0]:g} to "
+                        f"{EXPOSURE_RANGE[1]:g}, or 'auto' (key 0.18 over the log-average "
+                        f"luminance, Reinhard 2002)")
+    r.add_argument("--tonemap", default="clip",
+                   help=f"preview tone map (colour-hdri's operators): {', '.join(TONEMAPS)}")
+    r.add_argument("--png-bits", type=int, choices=(8, 16), default=8,
+                   help="bits per channel of the PNG preview (default 8)")
     r.add_argument("--stats", help="write render statistics as JSON")
     r.add_argument("--compression", default="zip", type=str.lower,
                    choices=tuple(EXR_COMPRESSIONS),
@@ -168,14 +185,16 @@ class Progress:
 def _render(args: argparse.Namespace) -> int:
     from . import integrator  # noqa: F401  (the renderer and numba: imported, not timed)
     from .aov import check_aovs
-    from .film import TONEMAPS, exr_compression, write_exr, write_png
+    from .film import exr_compression, write_exr, write_png
     from .jit import cache_is_warm
     from .render import check_memory, render, render_options
     from .scene_file import load_scene
+    from .tonemap import check_tonemap
 
-    if args.tonemap not in TONEMAPS:
-        raise SceneError(f"unknown tone map {args.tonemap!r} (choose from {', '.join(TONEMAPS)})",
-                         "--tonemap")
+    try:
+        args.tonemap = check_tonemap(args.tonemap)
+    except ValueError as e:
+        raise SceneError(str(e), "--tonemap") from None
     try:  # the binding may lack a listed one (zstd before 3.5): found now, not after the render
         exr_compression(args.compression)
     except ValueError as e:
@@ -221,7 +240,7 @@ def _render(args: argparse.Namespace) -> int:
                   channels=image.channels(), crop=image.crop, frame=image.frame)
     if png:
         with outputs.stage(png) as tmp:
-            write_png(tmp, image.rgb, args.exposure, args.tonemap)
+            write_png(tmp, image.rgb, args.exposure, args.tonemap, bits=args.png_bits)
     stats = image.stats
     stats["seconds"]["load"] = load_seconds
     stats["seconds"]["write"] = time.perf_counter() - t1

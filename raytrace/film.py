@@ -6,8 +6,11 @@
   as more channels of the same file (:mod:`raytrace.aov`); a crop as the data window inside
   the full frame's display window (OpenEXR, "Technical Introduction": windows are inclusive
   pixel bounds).
-* PNG preview: exposure (stops) → tone map → clip to [0, 1] → sRGB encoding by colour-science
-  (imported only here, only when a preview is asked for).
+* PNG preview, 8- or 16-bit: exposure (stops, or automatic) → tone map (colour-hdri's
+  operators) → clip to [0, 1] → sRGB encoding by colour-science (:mod:`raytrace.tonemap`),
+  written by OpenImageIO band by band; all three are imported only when a preview is made.
+* In Jupyter an :class:`Image` shows itself (``_repr_png_``: the default preview, reduced by
+  a box filter to at most :data:`REPR_MAX_SIZE` pixels a side).
 
 Every file is written atomically: to a temporary file in the same folder, then renamed, so an
 interrupted write leaves the old file (or none), never a truncated one.
@@ -17,17 +20,15 @@ from __future__ import annotations
 
 import errno
 import os
-import struct
-import sys
 import tempfile
-import warnings
-import zlib
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from .tonemap import TONEMAPS  # noqa: F401  (the tone maps by name, as before)
 
 #: Rec. 709 / sRGB primaries and D65 white: (red xy, green xy, blue xy, white xy).
 SRGB_CHROMATICITIES = (0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290)
@@ -155,59 +156,72 @@ def _read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict, dict]:
     return rgb, ch, header
 
 
-def _clip(x: np.ndarray) -> np.ndarray:
-    return x
+#: PNG encoder settings (OpenImageIO's PNG writer, libpng underneath), measured on a
+#: 4000×3000 render (docs/performance.md, "Previews"): 8-bit with no row filter at zlib level 6
+#: was the fastest and smallest on renders; 16-bit with the Up filter at level 1 halves the file
+#: of no filter for the same time.
+PNG_SETTINGS = {8: {"png:filter": 0x08, "png:compressionLevel": 6},
+                16: {"png:filter": 0x20, "png:compressionLevel": 1}}
 
 
-def _reinhard(x: np.ndarray) -> np.ndarray:
-    """Reinhard et al. 2002, global operator on each channel: x / (1 + x)."""
-    return x / (1.0 + x)
+def preview(rgb: np.ndarray, exposure: float | str = 0.0, tonemap: str = "clip", *,
+            bits: int = 8, params: dict | None = None) -> np.ndarray:
+    """The sRGB preview (H, W, 3) uint8 (uint16 for ``bits=16``) of linear RGB: ``2^exposure``
+    (``"auto"``: the key value of Reinhard 2002), the colour-hdri operator ``tonemap``, clip,
+    sRGB encoding by colour-science (:func:`raytrace.tonemap.preview`). Non-finite values show
+    black."""
+    from . import tonemap as tm
+
+    return tm.preview(rgb, exposure, tonemap, bits=bits, params=params)
 
 
-#: Tone-mapping operators by name, applied after exposure and before clipping.
-TONEMAPS: dict[str, Callable[[np.ndarray], np.ndarray]] = {"clip": _clip, "reinhard": _reinhard}
+def write_png(path: str | os.PathLike, rgb: np.ndarray, exposure: float | str = 0.0,
+              tonemap: str = "clip", *, bits: int = 8, params: dict | None = None) -> None:
+    """Write the sRGB preview of linear RGB (see :func:`preview`) as an 8- or 16-bit PNG,
+    atomically, through OpenImageIO: band by band as they are tone-mapped, so neither a float
+    copy nor the whole 8-bit image is held. Bad arguments are a ValueError before any file is
+    made; a failing write an OSError that leaves the old file."""
+    from . import tonemap as tm
+
+    rgb = np.asarray(rgb)
+    codes = tm.bands(rgb, exposure, tonemap, bits=bits, params=params)  # checks first
+    _write_png_bands(path, rgb.shape[1], rgb.shape[0], bits, codes)
 
 
-def preview(rgb: np.ndarray, exposure: float = 0.0, tonemap: str = "clip") -> np.ndarray:
-    """8-bit sRGB preview (H, W, 3) uint8 of linear RGB: ``2^exposure``, tone map, clip,
-    then the sRGB encoding (IEC 61966-2-1) by colour-science. Non-finite values show black.
-    """
-    with warnings.catch_warnings():  # colour warns that matplotlib is absent: not needed
-        warnings.simplefilter("ignore")
-        import colour
-    # Without SciPy, colour puts a MagicMock in sys.modules["scipy"] (keeping its own
-    # reference); numba, imported later by a render, would read the mock's __version__ and fail.
-    for name in ("scipy", "scipy.interpolate"):
-        if type(sys.modules.get(name)).__module__ == "unittest.mock":
-            del sys.modules[name]
-
-    if tonemap not in TONEMAPS:
-        raise ValueError(f"unknown tone map {tonemap!r} (choose from {', '.join(TONEMAPS)})")
-    x = np.nan_to_num(np.asarray(rgb, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)
-    x = TONEMAPS[tonemap](np.maximum(x, 0.0) * 2.0**exposure)
-    encoded = colour.cctf_encoding(np.clip(x, 0.0, 1.0), function="sRGB")
-    return np.clip(np.round(encoded * 255.0), 0, 255).astype(np.uint8)
+def write_png_pixels(path: str | os.PathLike, pixels: np.ndarray) -> None:
+    """Write (H, W, 3) sRGB codes, uint8 or uint16, as a PNG, atomically (diff heatmaps and
+    side-by-side pictures, whose codes are made already)."""
+    pixels = np.ascontiguousarray(pixels)
+    if pixels.ndim != 3 or pixels.shape[2] != 3 or pixels.dtype not in (np.uint8, np.uint16):
+        raise ValueError(f"expected (H, W, 3) uint8 or uint16 codes, got {pixels.dtype} "
+                         f"{pixels.shape}")
+    _write_png_bands(path, pixels.shape[1], pixels.shape[0], 8 * pixels.itemsize,
+                     [(0, pixels.shape[0], pixels)])
 
 
-def png_bytes(pixels: np.ndarray) -> bytes:
-    """A PNG file (8-bit RGB, no filtering) of (H, W, 3) uint8 pixels."""
-    h, w, _ = pixels.shape
-    raw = np.concatenate([np.zeros((h, 1), np.uint8), pixels.reshape(h, w * 3)], axis=1)
+def _write_png_bands(path: str | os.PathLike, width: int, height: int, bits: int,
+                     bands) -> None:
+    """The PNG writer: OpenImageIO with :data:`PNG_SETTINGS` for ``bits``, band by band
+    (``(y0, y1, codes)`` from ``bands``), into a temporary file renamed into place."""
+    import OpenImageIO as oiio
 
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return (struct.pack(">I", len(data)) + kind + data
-                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
-
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
-            + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6)) + chunk(b"IEND", b""))
-
-
-def write_png(path: str | os.PathLike, rgb: np.ndarray, exposure: float = 0.0,
-              tonemap: str = "clip") -> None:
-    """Write a tone-mapped sRGB PNG preview of linear RGB, atomically."""
-    data = png_bytes(preview(rgb, exposure, tonemap))
+    spec = oiio.ImageSpec(width, height, 3, oiio.UINT8 if bits == 8 else oiio.UINT16)
+    spec.attribute("oiio:ColorSpace", "sRGB")
+    for name, value in PNG_SETTINGS[bits].items():
+        spec.attribute(name, value)
+    codes = bands
     with atomic_path(path, ".png") as tmp:
-        tmp.write_bytes(data)
+        out = oiio.ImageOutput.create("png")
+        if out is None or not out.open(str(tmp), spec):
+            raise OSError(f"{path}: {out.geterror() if out else oiio.geterror()}")
+        try:
+            for y0, y1, band in codes:
+                if not out.write_scanlines(y0, y1, 0, band):
+                    raise OSError(f"{path}: {out.geterror()}")
+        finally:
+            closed = out.close()
+        if not closed:
+            raise OSError(f"{path}: {out.geterror()}")
 
 
 @dataclass
@@ -263,11 +277,13 @@ class Image:
     def height(self) -> int:
         return self.rgb.shape[0]
 
-    def save(self, path: str | os.PathLike, exposure: float = 0.0, tonemap: str = "clip",
-             threads: int = 1, compression: str = "zip") -> None:
+    def save(self, path: str | os.PathLike, exposure: float | str = 0.0, tonemap: str = "clip",
+             threads: int = 1, compression: str = "zip", *, bits: int = 8,
+             params: dict | None = None) -> None:
         """Write ``.exr`` (float, linear; ``compression`` one of :data:`EXR_COMPRESSIONS`, run
-        on ``threads`` threads) or ``.png`` (tone-mapped sRGB preview; ``compression`` unused).
-        Like the command line's outputs, the file is written whole or not at all
+        on ``threads`` threads) or ``.png`` (the sRGB preview of :func:`preview` with
+        ``exposure``, ``tonemap``, its ``params`` and ``bits`` 8 or 16; ``compression``
+        unused). Like the command line's outputs, the file is written whole or not at all
         (:mod:`raytrace.outputs`); errors name ``path``, never a temporary file.
         """
         from .outputs import Outputs
@@ -283,7 +299,7 @@ class Image:
                     write_exr(tmp, self.rgb, self.metadata, threads, compression,
                               channels=self.channels(), crop=self.crop, frame=self.frame)
                 else:
-                    write_png(tmp, self.rgb, exposure, tonemap)
+                    write_png(tmp, self.rgb, exposure, tonemap, bits=bits, params=params)
             outputs.commit()
 
     def channels(self) -> dict[str, np.ndarray]:
@@ -293,3 +309,45 @@ class Image:
         from .aov import channels
 
         return {c: a for name, image in self.aovs.items() for c, a in channels(name, image).items()}
+
+    def preview(self, exposure: float | str = 0.0, tonemap: str = "clip", *, bits: int = 8,
+                params: dict | None = None) -> np.ndarray:
+        """The sRGB preview as an (H, W, 3) uint8 array (uint16 for ``bits=16``): the pixels
+        :meth:`save` writes to a ``.png`` (see :func:`preview`)."""
+        return preview(self.rgb, exposure, tonemap, bits=bits, params=params)
+
+    def _repr_png_(self) -> bytes:
+        """PNG bytes for Jupyter: the default preview (exposure 0, ``clip``) of the image
+        reduced by an integer box filter (in linear light) to at most :data:`REPR_MAX_SIZE`
+        pixels a side."""
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as folder:
+            path = Path(folder) / "image.png"
+            write_png(path, reduce(self.rgb, REPR_MAX_SIZE))
+            return path.read_bytes()
+
+
+#: The longest side of the picture an :class:`Image` shows in Jupyter.
+REPR_MAX_SIZE = 1024
+
+
+def reduce(rgb: np.ndarray, max_size: int) -> np.ndarray:
+    """(H, W, 3) linear RGB shrunk by the smallest integer factor f that brings both sides to
+    ``max_size`` or less, each output pixel the mean of an f×f block (a box filter; the
+    blocks on the right and bottom edges may be smaller). Non-finite and negative values
+    count as 0, as they show in a preview. Returned as is when already small enough."""
+    rgb = np.asarray(rgb)
+    f = -(-max(rgb.shape[:2]) // max_size)
+    if f <= 1:
+        return rgb
+    rows, cols = np.arange(0, rgb.shape[0], f), np.arange(0, rgb.shape[1], f)
+    out = np.empty((len(rows), len(cols), 3), np.float32)
+    for i, y0 in enumerate(rows):  # f rows at a time: no float copy of the whole image
+        block = np.nan_to_num(rgb[y0:y0 + f].astype(np.float64), nan=0.0, posinf=0.0,
+                              neginf=0.0)
+        np.maximum(block, 0.0, out=block)
+        sums = np.add.reduceat(block.sum(axis=0), cols, axis=0)
+        counts = len(block) * np.diff(np.append(cols, rgb.shape[1]))
+        out[i] = sums / counts[:, None]
+    return out

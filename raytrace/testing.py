@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from . import metrics as _metrics
-from .film import Image, atomic_path, png_bytes, preview, read_exr, write_exr
+from .film import Image, preview, read_exr, write_exr, write_png_pixels
 
 #: The environment variable naming the artefact root folder.
 ARTEFACTS_ENV = "RAYTRACE_ARTEFACTS"
@@ -281,5 +281,4 @@ def write_diff(path: str | os.PathLike, actual: np.ndarray,
 
 
 def _write_png(path: Path, pixels: np.ndarray) -> None:
-    with atomic_path(path, ".png") as tmp:
-        tmp.write_bytes(png_bytes(pixels))
+    write_png_pixels(path, pixels)

@@ -92,7 +92,8 @@ def moller_trumbore(origins: np.ndarray, directions: np.ndarray, vertices: np.nd
 
 def read_png(path: str | Path) -> np.ndarray:
     """(H, W, 3) uint8 pixels of an 8-bit RGB PNG without row filters (what
-    :func:`raytrace.film.png_bytes` writes); a small independent decoder of the PNG spec."""
+    :func:`raytrace.film.write_png` writes at 8 bits); a small independent decoder of the PNG
+    spec."""
     data = Path(path).read_bytes()
     assert data[:8] == b"\x89PNG\r\n\x1a\n", "not a PNG signature"
     pos, idat, width = 8, b"", None
@@ -111,6 +112,19 @@ def read_png(path: str | Path) -> np.ndarray:
     raw = np.frombuffer(zlib.decompress(idat), np.uint8).reshape(height, 1 + 3 * width)
     assert not raw[:, 0].any(), "row filters other than None are not supported here"
     return raw[:, 1:].reshape(height, width, 3).copy()
+
+
+def read_png_library(path: str | Path):
+    """Pixels (H, W, 3) uint8 or uint16 and the ImageSpec of a PNG read back by OpenImageIO,
+    the library that writes raytrace's previews."""
+    import OpenImageIO as oiio
+
+    f = oiio.ImageInput.open(str(path))
+    assert f is not None, oiio.geterror()
+    spec = f.spec()
+    pixels = f.read_image(spec.format)
+    f.close()
+    return pixels, spec
 
 
 def write_text(path: Path, text: str) -> Path:

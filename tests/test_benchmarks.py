@@ -239,3 +239,28 @@ def test_quick_benchmark_json(tmp_path):
         for r in res["povray"]:
             assert r["returncode"] == 0 and "trace" in r["seconds"]
             assert r["wall_ratio"] > 0
+
+
+# -- previews (benchmarks/png_preview.py) --------------------------------------------------------
+def test_a_4000x3000_preview_adds_under_150_mb(tmp_path):
+    # Issue 20's memory bound, measured the way the benchmark measures it (a fresh process,
+    # peak resident memory above what it held once the image was loaded): the default preview,
+    # and a per-pixel colour-hdri operator with the automatic exposure at 16 bits. The image is
+    # smooth and synthetic (a 4000×3000 render takes 20 s); memory does not depend on content.
+    import png_preview
+
+    from raytrace.film import write_exr
+
+    h, w = 3000, 4000
+    y = np.linspace(0.0, 1.0, h, dtype=np.float32)[:, None, None]
+    x = np.linspace(0.0, 4.0, w, dtype=np.float32)[None, :, None]
+    rgb = (x * (1.0 + y) * np.array([1.0, 0.5, 0.25], np.float32)).astype(np.float32)
+    rgb[:10, :10] = [np.nan, np.inf, 1e30]
+    path = tmp_path / "big.exr"
+    write_exr(path, rgb, compression="none")
+    del rgb
+    for tonemap, exposure, bits in (("clip", 0.0, 8), ("reinhard", "auto", 16)):
+        row = png_preview.measure("preview", path, tonemap=tonemap, exposure=exposure,
+                                  bits=bits, repeat=1, cold=False)
+        assert "error" not in row, row
+        assert row["file_mb"] > 0.01 and row["peak_mb"] < png_preview.BOUND_MB, row

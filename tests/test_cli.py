@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import write_text
+from helpers import read_png_library, write_text
 
 import raytrace
 from raytrace import cli
@@ -173,6 +173,40 @@ def test_version_comes_from_the_package_metadata(capsys):
     assert e.value.code == 0
     assert capsys.readouterr().out == f"raytrace {version('raytrace')}\n"
     assert raytrace.__version__ == version("raytrace")
+
+
+@pytest.mark.parametrize("value", ["2000", "-300", "nan", "inf", "-inf", "bright", ""])
+def test_bad_exposures_are_refused_before_rendering(tmp_path, capsys, value):
+    # Before: 2000 overflowed in the PNG writer after the EXR was written (a traceback); nan
+    # and inf wrote a blank PNG and exited 0.
+    scene = _floor(tmp_path, 4, 2)
+    with pytest.raises(SystemExit) as e:
+        cli.main(["render", str(scene), "-o", str(tmp_path / "o.exr"), "--png",
+                  str(tmp_path / "o.png"), f"--exposure={value}"])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert "--exposure" in err and repr(value) in err and "[-256, 256] or 'auto'" in err
+    assert sorted(os.listdir(tmp_path)) == ["floor.toml"]
+
+
+def test_auto_exposure_an_operator_and_16_bits_from_the_command_line(tmp_path, capsys):
+    import OpenImageIO as oiio
+
+    from raytrace.film import preview
+
+    scene = _floor(tmp_path, 8, 6)
+    rc, cap = _render([scene, "-o", tmp_path / "o.exr", "--png", tmp_path / "o.png",
+                       "--exposure", "auto", "--tonemap", "Reinhard2004", "--png-bits", "16"],
+                      capsys)
+    assert rc == 0, cap.err
+    pixels, spec = read_png_library(tmp_path / "o.png")
+    assert spec.format == oiio.UINT16
+    rgb, _ = raytrace.read_exr(tmp_path / "o.exr")
+    np.testing.assert_array_equal(pixels, preview(rgb, "auto", "reinhard2004", bits=16))
+    with pytest.raises(SystemExit) as e:
+        cli.main(["render", str(scene), "-o", str(tmp_path / "p.exr"), "--png-bits", "12"])
+    assert e.value.code == 2 and "--png-bits" in capsys.readouterr().err
 
 
 def test_bad_output_paths(tmp_path, capsys):
@@ -378,7 +412,8 @@ def test_compression_missing_from_the_binding_fails_before_the_render(tmp_path, 
 
 # -- heavy imports only where they are used ------------------------------------------------------
 ROOT = Path(__file__).resolve().parents[1]
-HEAVY = ("numba", "trimesh", "colour", "scipy", "matplotlib", "embreex")
+HEAVY = ("numba", "trimesh", "colour", "scipy", "matplotlib", "embreex", "colour_hdri",
+         "OpenImageIO", "imageio", "PIL")
 
 
 def _imported_after(code: str) -> set[str]:
@@ -403,11 +438,17 @@ def test_loading_checking_and_comparing_import_no_renderer_machinery(tmp_path):
 
 
 def test_rendering_imports_numba_but_not_the_preview_or_mesh_libraries():
-    # An analytic render to EXR needs numba; trimesh (mesh files) and colour-science (PNG
-    # previews) stay out. (numba itself imports SciPy for its BLAS check where it is installed.)
+    # An analytic render to EXR needs numba; trimesh (mesh files), colour-science, colour-hdri
+    # and OpenImageIO (PNG previews) stay out. (numba itself imports SciPy for its BLAS check
+    # where it is installed.)
     got = _imported_after("import raytrace; raytrace.render(raytrace.load_scene("
                           "'scenes/whitted.toml'), width=4, height=3)")
-    assert "numba" in got and not {"trimesh", "colour", "matplotlib", "embreex"} & got
+    assert "numba" in got and not {"trimesh", "colour", "matplotlib", "embreex", "colour_hdri",
+                                   "OpenImageIO", "imageio", "PIL"} & got
+    # A preview loads them.
+    got = _imported_after("import raytrace, numpy; raytrace.Image(numpy.ones((2, 2, 3)))"
+                          ".preview(tonemap='filmic')")
+    assert {"colour", "colour_hdri"} <= got
 
 
 class _Terminal(io.StringIO):

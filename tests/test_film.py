@@ -8,7 +8,7 @@ import os
 import numpy as np
 import OpenEXR
 import pytest
-from helpers import aimed_camera, make_scene, read_png
+from helpers import aimed_camera, make_scene, read_png, read_png_library
 
 import raytrace
 from raytrace.film import (
@@ -317,3 +317,78 @@ def test_a_preview_before_the_first_render_leaves_rendering_working():
                          timeout=300, cwd=os.path.dirname(os.path.dirname(__file__)))
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.split("\n")[:2] == ["[188, 188, 188]", "(3, 4, 3)"]
+
+
+# -- previews: 16-bit PNG, notebooks ------------------------------------------------------------
+def test_16_bit_png_round_trips_through_the_image_library(tmp_path):
+    import OpenImageIO as oiio
+
+    rng = np.random.default_rng(16)
+    rgb = (rng.random((23, 31, 3)) ** 2 * 1.2).astype(np.float32)
+    write_png(tmp_path / "p16.png", rgb, 0.5, "filmic", bits=16)
+    pixels, spec = read_png_library(tmp_path / "p16.png")
+    assert spec.format == oiio.UINT16 and pixels.dtype == np.uint16
+    assert (spec.width, spec.height, spec.nchannels) == (31, 23, 3)
+    np.testing.assert_array_equal(pixels, preview(rgb, 0.5, "filmic", bits=16))
+    # 16 bits resolve what 8 cannot: the sRGB slope at 0.5 is (1.055/2.4)·0.5^(1/2.4 − 1)
+    # = 0.659, so a ramp 0.5 .. 0.501 spans 6.59e-4: 0.17 of an 8-bit code, 43 16-bit codes.
+    ramp = np.linspace(0.5, 0.501, 64, dtype=np.float32)[None, :, None].repeat(3, axis=2)
+    assert len(np.unique(preview(ramp))) <= 2
+    assert 42 <= len(np.unique(preview(ramp, bits=16))) <= 45
+    # The 8-bit codes are the 16-bit ones to within rounding: c8 ≈ c16 / 257.
+    both = preview(rgb), preview(rgb, bits=16)
+    assert np.abs(both[0].astype(int) - both[1] / 257.0).max() <= 0.5 + 1e-9
+    # And an 8-bit file reads back as 8-bit, through the library and the spec's decoder alike.
+    write_png(tmp_path / "p8.png", rgb)
+    pixels, spec = read_png_library(tmp_path / "p8.png")
+    assert spec.format == oiio.UINT8
+    np.testing.assert_array_equal(pixels, read_png(tmp_path / "p8.png"))
+    np.testing.assert_array_equal(pixels, both[0])
+
+
+def test_bad_preview_arguments_write_nothing(tmp_path):
+    rgb = np.ones((2, 2, 3), np.float32)
+    for kwargs in ({"bits": 12}, {"exposure": float("nan")}, {"tonemap": "fancy"},
+                   {"exposure": 2000.0}):
+        with pytest.raises(ValueError):
+            write_png(tmp_path / "x.png", rgb, **kwargs)
+    assert os.listdir(tmp_path) == []
+
+
+def test_image_preview_is_what_a_png_holds(tmp_path):
+    image = raytrace.Image(_hdr_image(9, 11, seed=4))
+    pixels = image.preview(exposure=-1.0, tonemap="reinhard2004")
+    assert pixels.dtype == np.uint8 and pixels.shape == (9, 11, 3)
+    image.save(tmp_path / "p.png", exposure=-1.0, tonemap="reinhard2004")
+    np.testing.assert_array_equal(read_png(tmp_path / "p.png"), pixels)
+    assert image.preview(bits=16).dtype == np.uint16
+
+
+def test_repr_png_is_a_valid_png_of_the_default_preview(tmp_path):
+    image = raytrace.Image(_hdr_image(12, 20, seed=6))
+    data = image._repr_png_()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    (tmp_path / "r.png").write_bytes(data)
+    np.testing.assert_array_equal(read_png(tmp_path / "r.png"), image.preview())
+
+
+def test_repr_png_of_a_large_image_is_box_filtered_in_linear_light(tmp_path):
+    # 2100×1030: the factor 3 brings it to 700×344 (the last row of blocks 1 pixel tall).
+    # A 0/1 checkerboard of single pixels (0 at the top left) averages to 4/9 in a 3×3 block
+    # that starts on a 0, 5/9 in one that starts on a 1.
+    h, w = 1030, 2100
+    y, x = np.mgrid[0:h, 0:w]
+    rgb = np.repeat(((x + y) % 2).astype(np.float32)[..., None], 3, axis=2)
+    rgb[-1, :, 0] = np.nan  # non-finite counts as black
+    (tmp_path / "r.png").write_bytes(raytrace.Image(rgb)._repr_png_())
+    shown = read_png(tmp_path / "r.png")
+    assert shown.shape == (344, 700, 3)
+    means = np.where((np.arange(343)[:, None] + np.arange(700)[None, :]) % 2 == 0, 4 / 9, 5 / 9)
+    expected = preview(np.repeat(means[..., None], 3, axis=2))
+    np.testing.assert_array_equal(shown[:343], expected)
+    # The last block row is one source row (1029: 1 at even x), so 2 or 1 of 3 are lit (G, B);
+    # its red channel holds NaN, shown black.
+    last = np.where(np.arange(700) % 2 == 0, 2 / 3, 1 / 3)
+    np.testing.assert_array_equal(shown[343, :, 1], preview(np.repeat(
+        last[None, :, None], 3, axis=2))[0, :, 0])
+    assert (shown[343, :, 0] == 0).all()

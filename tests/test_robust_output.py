@@ -273,13 +273,22 @@ def test_interrupted_exr_write_keeps_the_old_file(tmp_path, capsys, monkeypatch)
     assert sorted(os.listdir(tmp_path)) == sorted([*old, "ok.toml"])
 
 
-@pytest.mark.parametrize("method,flag,name", [("write_bytes", "--png", "out.png"),
-                                               ("write_text", "--stats", "s.json")])
-def test_interrupted_png_or_stats_write_keeps_the_old_file(tmp_path, capsys, monkeypatch,
-                                                           method, flag, name):
-    old = old_outputs(tmp_path)
-    scene = tmp_path / "ok.toml"
-    scene.write_text(SMALL + SPHERE)
+def interrupt_after_half(monkeypatch, method: str, tmp_path: Path) -> None:
+    """The PNG writer (OpenImageIO, fed band by band) or the JSON writer (``Path.write_text``)
+    puts part of its file down, then is interrupted like Ctrl-C."""
+    if method == "png_bands":
+        from raytrace import tonemap
+
+        original = tonemap._bands
+
+        def first_band_then_interrupt(*args, **kwargs):
+            for band in original(*args, **kwargs):
+                yield band  # the writer puts it into its temporary file
+                assert any(n.endswith(".png.tmp") for n in os.listdir(tmp_path))
+                raise KeyboardInterrupt
+
+        monkeypatch.setattr(tonemap, "_bands", first_band_then_interrupt)
+        return
     original = getattr(Path, method)
 
     def half_then_interrupt(self, data, *a, **kw):
@@ -287,6 +296,16 @@ def test_interrupted_png_or_stats_write_keeps_the_old_file(tmp_path, capsys, mon
         raise KeyboardInterrupt
 
     monkeypatch.setattr(Path, method, half_then_interrupt)
+
+
+@pytest.mark.parametrize("method,flag,name", [("png_bands", "--png", "out.png"),
+                                               ("write_text", "--stats", "s.json")])
+def test_interrupted_png_or_stats_write_keeps_the_old_file(tmp_path, capsys, monkeypatch,
+                                                           method, flag, name):
+    old = old_outputs(tmp_path)
+    scene = tmp_path / "ok.toml"
+    scene.write_text(SMALL + SPHERE)
+    interrupt_after_half(monkeypatch, method, tmp_path)
     rc, _, err = run_cli(tmp_path, ["render", scene, "-o", tmp_path / "new.exr", flag,
                                     tmp_path / name, "-q"], capsys)
     monkeypatch.undo()
