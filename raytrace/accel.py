@@ -109,8 +109,10 @@ class Accelerator:
         t = self.n_triangles
         self.tri_corners, self.tri_vnormals = np.empty((t, 3, 3)), np.empty((t, 3, 3))
         self.tri_normal, self.tri_band = np.empty((t, 3)), np.empty(t)
-        self.tri_material = np.repeat(
-            np.array([mat_index[id(m.material)] for m in meshes], np.int64), sizes)
+        self.tri_material = np.concatenate([
+            np.array([mat_index[id(x)] for x in m.file_materials], np.int64)[m.face_material]
+            if m.file_materials else np.full(len(m.faces), mat_index[id(m.material)], np.int64)
+            for m in meshes])
         self.tri_shading = np.repeat(
             np.array([SHADING_CODES[m.shading] for m in meshes], np.int8), sizes)
         for m, first in zip(meshes, self.geom_first, strict=True):  # geomID: attach order

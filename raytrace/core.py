@@ -10,7 +10,7 @@ guard does):
   on jittered area-light cells);
 * the camera: :func:`pixel_offset` (where a sample lies in its pixel);
 * optics: :func:`reflect3` (law of reflection), :func:`refract3` (Snell, with total internal
-  reflection);
+  reflection), :func:`fresnel1` and :func:`fresnel_weights1` (angle-dependent kr, kt);
 * surfaces: :func:`facing1` (the side a ray arrives on), :func:`leave1` (where a spawned ray
   starts), :func:`checker1` (the world-space checker of SCENE_FORMAT.md).
 
@@ -34,6 +34,8 @@ _S11, _S27, _S30, _S31 = np.uint64(11), np.uint64(27), np.uint64(30), np.uint64(
 FLAT, SMOOTH, GOURAUD = 0, 1, 2
 #: Shadow rays stop this relative fraction short of the light.
 SHADOW_SHORTEN = 1e-7
+#: Fresnel weighting codes (``raytrace.shading.FRESNEL_CODES``; ``Materials.fresnel``).
+NO_FRESNEL, SCHLICK, DIELECTRIC = 0, 1, 2
 #: The checker's bias: ``floor(x/s + 1e-4)`` keeps a plane lying on a cell boundary on one side.
 CHECKER_BIAS = 1e-4
 
@@ -109,6 +111,42 @@ def refract3(dx, dy, dz, nx, ny, nz, eta):
         return rx, ry, rz, True
     c = eta * cos_i - math.sqrt(k)
     return eta * dx + c * nx, eta * dy + c * ny, eta * dz + c * nz, False
+
+
+@kernel
+def fresnel1(cos_i, eta):
+    """The exact unpolarised Fresnel reflectance of a dielectric interface, ``eta = η₁/η₂``,
+    ``cos_i`` the cosine of incidence (≥ 0): ``F = (R_s + R_p)/2`` with
+    ``R_s = ((η cos θᵢ − cos θₜ)/(η cos θᵢ + cos θₜ))²``,
+    ``R_p = ((η cos θₜ − cos θᵢ)/(η cos θₜ + cos θᵢ))²`` and ``cos θₜ = √(1 − η² sin² θᵢ)``
+    (Born & Wolf §1.5; pbrt-v4 ``FrDielectric``); 1 under total internal reflection.
+    At normal incidence on glass (η = 1/1.5) F = ((1 − 1.5)/(1 + 1.5))² = 0.04."""
+    c = min(max(cos_i, 0.0), 1.0)
+    sin2_t = eta * eta * (1.0 - c) * (1.0 + c)
+    if sin2_t >= 1.0:
+        return 1.0
+    cos_t = math.sqrt(1.0 - sin2_t)
+    rs = (eta * c - cos_t) / (eta * c + cos_t)
+    rp = (eta * cos_t - c) / (eta * cos_t + c)
+    return 0.5 * (rs * rs + rp * rp)
+
+
+@kernel
+def fresnel_weights1(model, cos_i, eta, kr, kt):
+    """kr and kt (3-tuples) weighted for the angle of incidence by ``model``:
+    NO_FRESNEL leaves them; SCHLICK gives ``kr + (1 − kr)(1 − cos θ)⁵`` (Schlick 1994 with
+    F0 = kr; the MTL ``illum 5`` "Fresnel reflection", which rises from Ks to 1 at grazing)
+    and leaves kt; DIELECTRIC gives ``kr·F`` and ``kt·(1 − F)`` with F = :func:`fresnel1`
+    (``illum 7``; glTF transmission)."""
+    if model == SCHLICK:
+        g = (1.0 - min(max(cos_i, 0.0), 1.0)) ** 5
+        return ((kr[0] + (1.0 - kr[0]) * g, kr[1] + (1.0 - kr[1]) * g,
+                 kr[2] + (1.0 - kr[2]) * g), kt)
+    if model == DIELECTRIC:
+        f = fresnel1(cos_i, eta)
+        return ((kr[0] * f, kr[1] * f, kr[2] * f),
+                (kt[0] * (1.0 - f), kt[1] * (1.0 - f), kt[2] * (1.0 - f)))
+    return kr, kt
 
 
 # -- surfaces -------------------------------------------------------------------------------

@@ -29,8 +29,13 @@ from . import values
 from .errors import SceneError
 
 HIGHLIGHTS = ("phong", "blinn")
-COLOR_KEYS = ("ka", "kd", "ks", "kr", "kt")
-MATERIAL_KEYS = ("base", *COLOR_KEYS, "shininess", "highlight", "ior", "opacity")
+#: How kr and kt vary with the angle of incidence (``raytrace.core.fresnel_weights1``):
+#: "none" constant; "schlick" kr + (1 − kr)(1 − cos θ)⁵ (Schlick 1994, F0 = kr); "dielectric"
+#: kr·F and kt·(1 − F), F the exact unpolarised Fresnel reflectance for ``ior``.
+FRESNELS = ("none", "schlick", "dielectric")
+#: The colour slots; ``ke`` is emission, a constant term added where the surface is seen.
+COLOR_KEYS = ("ka", "kd", "ks", "kr", "kt", "ke")
+MATERIAL_KEYS = ("base", *COLOR_KEYS, "shininess", "highlight", "ior", "opacity", "fresnel")
 LIBRARY_ONLY_KEYS = ("description", "source")
 
 
@@ -109,6 +114,8 @@ class Material:
     kt: Any = 0.0
     ior: float = 1.5
     opacity: float = 1.0
+    ke: Any = 0.0
+    fresnel: str = "none"
     name: str = field(default="", compare=False)
     #: The library files this material was read from (its own and its bases'): inputs that
     #: no output of a render may overwrite.
@@ -130,6 +137,7 @@ class Material:
             self.highlight = values.string(self.highlight, "highlight", HIGHLIGHTS)
             self.ior = values.number(self.ior, "ior", lo=0, lo_open=True)
             self.opacity = values.number(self.opacity, "opacity", lo=0, hi=1)
+            self.fresnel = values.string(self.fresnel, "fresnel", FRESNELS)
         except SceneError as e:
             raise e.at(key_prefix=where) from None
 
@@ -148,6 +156,10 @@ class Material:
     @property
     def transmits(self) -> bool:
         return not self._is_zero(self.kt) and self.opacity > 0
+
+    @property
+    def emits(self) -> bool:
+        return not self._is_zero(self.ke)
 
     @property
     def see_through(self) -> bool:

@@ -71,8 +71,8 @@ class Surface(NamedTuple):
 class Materials(NamedTuple):
     """The material table, indexed by ``Surface.material``."""
 
-    colors: np.ndarray     #: (M, 15) constant colours ka kd ks kr kt, three columns each
-    pattern: np.ndarray    #: (M, 5) int64 row of ``checkers`` per colour, or −1 (constant)
+    colors: np.ndarray     #: (M, 18) constant colours ka kd ks kr kt ke, three columns each
+    pattern: np.ndarray    #: (M, 6) int64 row of ``checkers`` per colour, or −1 (constant)
     checkers: np.ndarray   #: (P, 7) colour 0, colour 1, scale
     shininess: np.ndarray  #: (M,) highlight exponent n
     highlight: np.ndarray  #: (M,) int64 PHONG or BLINN
@@ -81,6 +81,8 @@ class Materials(NamedTuple):
     lit: np.ndarray        #: (M,) bool: takes direct light (kd or ks not zero)
     reflects: np.ndarray   #: (M,) bool: kr not zero
     transmits: np.ndarray  #: (M,) bool: kt not zero
+    emits: np.ndarray      #: (M,) bool: ke not zero
+    fresnel: np.ndarray    #: (M,) int64 core.NO_FRESNEL, SCHLICK or DIELECTRIC
 
 
 class Triangles(NamedTuple):

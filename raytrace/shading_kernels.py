@@ -36,9 +36,11 @@ import numpy as np
 from .core import (
     FLAT,
     GOURAUD,
+    NO_FRESNEL,
     SHADOW_SHORTEN,
     checker1,
     facing1,
+    fresnel_weights1,
     leave1,
     light_uniform,
     reflect3,
@@ -51,7 +53,7 @@ PHONG, BLINN = 0, 1
 #: Emitter kinds in :func:`incidence1`'s packed row.
 POINT, SPOT, DIRECTIONAL = 0, 1, 2
 #: First column of each colour in a material's row of colours (``raytrace.material.COLOR_KEYS``).
-KA, KD, KS, KR, KT = 0, 3, 6, 9, 12
+KA, KD, KS, KR, KT, KE = 0, 3, 6, 9, 12, 15
 #: :func:`hit_terms`' status of a child ray: none, pruned by its weight, traced.
 NONE, PRUNED, KEEP = 0, 1, 2
 
@@ -433,16 +435,20 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     r_dir, t_dir, w_r, w_t, w_s, status, tir = children
     ior, opacity = materials.ior, materials.opacity
     reflects, transmits = materials.reflects, materials.transmits
+    emits, fresnel = materials.emits, materials.fresnel
     lit = lights.shape[0] > 0
     for i in range(direction.shape[0]):
         m = material[i]
         op = opacity[m]
         wx, wy, wz = point[i, 0] + origin[0], point[i, 1] + origin[1], point[i, 2] + origin[2]
         ka = color1(materials, m, KA, wx, wy, wz)
+        ke = color1(materials, m, KE, wx, wy, wz) if emits[m] else (0.0, 0.0, 0.0)
         for c in range(3):
             here = ambient[c] * ka[c]
             if lit:
                 here += lights[i, c]
+            if emits[m]:
+                here += ke[c]
             samples[sample[i], c] += weight[i, c] * (op * here)
         status[i, 0] = status[i, 1] = status[i, 2] = NONE
         tir[i] = False
@@ -451,12 +457,20 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
         s = facing1(gx, gy, gz, dx, dy, dz)
         nx, ny, nz = shading[i, 0] * s, shading[i, 1] * s, shading[i, 2] * s
         fx, fy, fz = gx * s, gy * s, gz * s
+        kr, kt = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        if reflects[m]:
+            kr = color1(materials, m, KR, wx, wy, wz)
+        if transmits[m]:
+            kt = color1(materials, m, KT, wx, wy, wz)
+        if fresnel[m] != NO_FRESNEL:  # kr, kt for this angle (V = −d, N facing the viewer)
+            entering = dx * gx + dy * gy + dz * gz < 0.0
+            kr, kt = fresnel_weights1(fresnel[m], -(dx * nx + dy * ny + dz * nz),
+                                      1.0 / ior[m] if entering else ior[m], kr, kt)
         if reflects[m]:
             rx, ry, rz = reflect3(dx, dy, dz, nx, ny, nz)
             if rx * fx + ry * fy + rz * fz <= 0.0:
                 rx, ry, rz = reflect3(dx, dy, dz, fx, fy, fz)
             r_dir[i, 0], r_dir[i, 1], r_dir[i, 2] = rx, ry, rz
-            kr = color1(materials, m, KR, wx, wy, wz)
             for c in range(3):
                 w_r[i, c] = weight[i, c] * op * kr[c]
             status[i, 0] = _status((w_r[i, 0], w_r[i, 1], w_r[i, 2]), min_weight)
@@ -468,7 +482,6 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
                 tx, ty, tz, total = refract3(dx, dy, dz, fx, fy, fz, eta)
             t_dir[i, 0], t_dir[i, 1], t_dir[i, 2] = tx, ty, tz
             tir[i] = total
-            kt = color1(materials, m, KT, wx, wy, wz)
             for c in range(3):
                 w_t[i, c] = weight[i, c] * op * kt[c]
             if (total and not min_weight > 0.0 and reflects[m] and status[i, 0] != NONE

@@ -13,13 +13,13 @@ import numpy as np
 
 from .material import COLOR_KEYS, Checker, Material
 from .records import Materials, Scene, Triangles
-from .shading import HIGHLIGHT_CODES
+from .shading import FRESNEL_CODES, HIGHLIGHT_CODES
 
 
 class MaterialTable:
     """Per-material coefficients, looked up by material index at the hits.
 
-    ``colors`` (M, 15) holds the constant colours ka kd ks kr kt, three columns each
+    ``colors`` (M, 18) holds the constant colours ka kd ks kr kt ke, three columns each
     (``shading_kernels.KA`` …); where colour k of material m is a :class:`Checker`,
     ``pattern[m, k]`` indexes its row of ``checkers`` (colour 0, colour 1, scale), evaluated
     at the world points of the hits; −1 means constant. :attr:`record` is the whole table as
@@ -48,9 +48,11 @@ class MaterialTable:
         self.reflects = np.array([m.reflects for m in materials], dtype=bool)
         self.transmits = np.array([m.transmits for m in materials], dtype=bool)
         self.transparent = np.array([m.transparent for m in materials], dtype=bool)
+        self.emits = np.array([m.emits for m in materials], dtype=bool)
+        self.fresnel = np.array([FRESNEL_CODES[m.fresnel] for m in materials], np.int64)
         self.record = Materials(self.colors, self.pattern, self.checkers, self.shininess,
                                 self.highlight, self.ior, self.opacity, self.lit,
-                                self.reflects, self.transmits)
+                                self.reflects, self.transmits, self.emits, self.fresnel)
 
 
 def scene_record(origin: np.ndarray, table: MaterialTable, triangles: Triangles) -> Scene:
