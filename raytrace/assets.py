@@ -9,12 +9,14 @@ coordinates. A mesh object takes it with ``material = "from_file"``
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from .errors import SceneError
+from .errors import RenderWarning, SceneError
 from .material import Material
 
 #: Suffixes whose files carry their own materials.
@@ -131,6 +133,7 @@ def _corner(word: str, n_v: int, n_vt: int) -> tuple[int, int]:
 def load_obj(path: Path) -> Asset:
     """An OBJ's faces with the materials their ``usemtl`` names in its ``mtllib`` files."""
     from .mtl import read_mtl
+    from .texture import mtl_texture
 
     obj = read_obj(path)
     if not obj["libs"]:
@@ -138,7 +141,7 @@ def load_obj(path: Path) -> Asset:
                          "material")
     library: dict[str, Material] = {}
     for lib in obj["libs"]:
-        library.update(read_mtl(lib))
+        library.update(read_mtl(lib, mtl_texture))
     materials = []
     for name in obj["names"]:
         if name and name not in library:
@@ -150,6 +153,65 @@ def load_obj(path: Path) -> Asset:
         # OBJ's t runs up the image; a texture's rows run down it. No vt: (0, 0).
         uv = np.vstack([obj["uv"] * [1.0, -1.0] + [0.0, 1.0], [[0.0, 0.0]]])
         texcoords = uv[obj["face_uv"]]
-    sources = tuple(obj["libs"]) + tuple(p for m in materials for p in m.sources)
+    sources = tuple(obj["libs"]) + tuple(p for m in materials for p in m.files)
     return Asset(obj["vertices"], obj["faces"], obj["face_name"], materials, texcoords,
                  sources)
+
+
+def scene_from_model(path: Path) -> Any:
+    """A whole scene from a model file alone (``raytrace render model.glb``): the file's
+    meshes with their own materials; its camera and lights (glTF) where it has them, else a
+    camera framing the bounding box (:func:`framing_camera`) and a light over the camera's
+    shoulder, both reported as a :class:`~raytrace.errors.RenderWarning` line."""
+    from .scene import FROM_FILE, Camera, DirectionalLight, Mesh, RenderSettings, Scene
+
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError("model file not found", file=str(path))
+    found = None
+    if path.suffix.lower() in GLTF_SUFFIXES:
+        from .gltf import load_gltf
+
+        found = load_gltf(path)
+    try:
+        mesh = Mesh(file=path, material=FROM_FILE)
+    except SceneError as e:
+        raise SceneError(e.problem, e.key if e.file else None, e.file or str(path)) from None
+    render = RenderSettings()
+    notes = []
+    if found is not None and found.camera is not None:
+        cam = found.camera
+        camera = Camera(cam["position"], cam["look_at"], cam["up"], cam["fov"])
+        if cam["aspect"]:
+            render = RenderSettings(height=max(1, round(640 / cam["aspect"])))
+    else:
+        camera = framing_camera(mesh.vertices)
+        notes.append(f"no camera in the file: camera at {_vec(camera.position)} looking at "
+                     f"{_vec(camera.look_at)}, fov {camera.fov:g}")
+    lights = list(found.lights) if found is not None else []
+    if not lights:
+        right, up, forward = camera.basis()
+        lights = [DirectionalLight(direction=forward - 0.5 * up + 0.5 * right, color=1.0)]
+        notes.append(f"no lights in the file: a directional light travelling "
+                     f"{_vec(lights[0].direction)}, ambient 0.1")
+    if notes:
+        warnings.warn(f"{path}: " + "; ".join(notes), RenderWarning, stacklevel=2)
+    return Scene(camera=camera, objects=[mesh], lights=lights,
+                 ambient=0.1 if len(notes) and "no lights" in notes[-1] else 0.0,
+                 render=render, path=str(path))
+
+
+def framing_camera(vertices: np.ndarray, fov: float = 40.0) -> Any:
+    """A camera that sees the whole bounding sphere of ``vertices``: looking at the box's
+    centre from the front (+z), a little right and above, at the distance where the sphere
+    of the box's half-diagonal r fills the vertical field of view, r / sin(fov/2)."""
+    from .scene import Camera
+
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    centre, r = (lo + hi) / 2, max(float(np.linalg.norm(hi - lo)) / 2, 1e-9)
+    view = np.array([0.35, 0.3, 1.0]) / np.linalg.norm([0.35, 0.3, 1.0])
+    return Camera(centre + view * r / np.sin(np.radians(fov / 2)), centre, (0, 1, 0), fov)
+
+
+def _vec(v: np.ndarray) -> str:
+    return "[" + ", ".join(f"{x:.4g}" for x in v) + "]"

@@ -12,9 +12,11 @@ guard does):
 * optics: :func:`reflect3` (law of reflection), :func:`refract3` (Snell, with total internal
   reflection), :func:`fresnel1` and :func:`fresnel_weights1` (angle-dependent kr, kt);
 * surfaces: :func:`facing1` (the side a ray arrives on), :func:`leave1` (where a spawned ray
-  starts), :func:`checker1` (the world-space checker of SCENE_FORMAT.md).
+  starts), :func:`checker1` (the world-space checker of SCENE_FORMAT.md), :func:`texture1`
+  (a bilinear image texture, with :func:`wrap1`).
 
-Array versions for numpy callers and tests: :func:`checker_rows`, :func:`leave_rows`.
+Array versions for numpy callers and tests: :func:`checker_rows`, :func:`leave_rows`,
+:func:`texture_rows`.
 """
 
 from __future__ import annotations
@@ -180,7 +182,49 @@ def checker1(x, y, z, scale):
     return 1 if half - math.floor(half) == 0.5 else 0
 
 
+@kernel
+def wrap1(i, n, mode):
+    """Texel index ``i`` of a row of ``n`` wrapped by ``mode`` (``raytrace.texture.WRAPS``):
+    0 repeat (i mod n), 1 clamp to the edge, 2 mirrored repeat (period 2n)."""
+    if mode == 1:
+        return min(max(i, 0), n - 1)
+    if mode == 2:
+        k = i % (2 * n)
+        return k if k < n else 2 * n - 1 - k
+    return i % n
+
+
+@kernel
+def texture1(texels, info, q, s, t):
+    """Texture ``q`` bilinearly filtered at (s, t): with ``x = s·W − ½``, ``y = t·H − ½``, the
+    four texels around (x, y) weighted by their distances (texel (i, j)'s centre is at
+    ((i + ½)/W, (j + ½)/H), where the result is that texel exactly). ``texels``: every
+    texture's RGBA rows, flat float32; ``info[q]`` = (offset, W, H, wrap s, wrap t)."""
+    off, w, h = info[q, 0], info[q, 1], info[q, 2]
+    x, y = s * w - 0.5, t * h - 0.5
+    fx, fy = math.floor(x), math.floor(y)
+    ax, ay = x - fx, y - fy
+    i0, i1 = wrap1(int(fx), w, info[q, 3]), wrap1(int(fx) + 1, w, info[q, 3])
+    j0, j1 = wrap1(int(fy), h, info[q, 4]), wrap1(int(fy) + 1, h, info[q, 4])
+    a, b = off + 4 * (j0 * w + i0), off + 4 * (j0 * w + i1)
+    c, d = off + 4 * (j1 * w + i0), off + 4 * (j1 * w + i1)
+    r0 = (1.0 - ay) * ((1.0 - ax) * texels[a] + ax * texels[b]) + ay * (
+        (1.0 - ax) * texels[c] + ax * texels[d])
+    r1 = (1.0 - ay) * ((1.0 - ax) * texels[a + 1] + ax * texels[b + 1]) + ay * (
+        (1.0 - ax) * texels[c + 1] + ax * texels[d + 1])
+    r2 = (1.0 - ay) * ((1.0 - ax) * texels[a + 2] + ax * texels[b + 2]) + ay * (
+        (1.0 - ax) * texels[c + 2] + ax * texels[d + 2])
+    return r0, r1, r2
+
+
 # -- array versions -------------------------------------------------------------------------
+@kernel
+def texture_rows(texels, info, st, out):
+    """:func:`texture1` of texture 0 at each (s, t) row of ``st`` into ``out`` (n, 3)."""
+    for i in range(st.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = texture1(texels, info, 0, st[i, 0], st[i, 1])
+
+
 @kernel
 def checker_rows(points, scale, out):
     """:func:`checker1` at each world point (n, 3) into ``out`` (n,) int64."""

@@ -80,10 +80,21 @@ PATTERN_KEYS = ("pattern", "colors", "scale")
 
 
 def parse_color(value: Any, key: str, *, hi: float | None = None) -> Color:
-    """A colour, or an inline pattern table ``{ pattern = "checker", colors, scale }``; a
+    """A colour, an inline pattern table ``{ pattern = "checker", colors, scale }`` or an image
+    texture ``{ texture = "file.png", wrap, srgb, scale }`` (:mod:`raytrace.texture`); a
     :class:`Checker` built in Python is checked by the same rules."""
     if isinstance(value, Checker):
         value = {"pattern": "checker", "colors": list(value.colors), "scale": value.scale}
+    from .texture import Texture, parse_texture
+
+    if isinstance(value, Texture):
+        return value
+    if isinstance(value, Mapping) and "texture" in value:
+        texture = parse_texture(value, key)
+        if hi is not None and np.any(texture.max > hi):
+            raise SceneError(f"texture values must be <= {hi:g}, got up to "
+                             f"{texture.max.max():g}", key)
+        return texture
     if isinstance(value, Mapping):
         values.check_keys(value, PATTERN_KEYS, key)
         values.string(value.get("pattern"), f"{key}.pattern", ["checker"])
@@ -147,7 +158,7 @@ class Material:
         return self.kd if self.ka is None else self.ka
 
     def _is_zero(self, c: Color) -> bool:
-        return not np.any(c.max if isinstance(c, Checker) else c)
+        return not np.any(c.max if hasattr(c, "max") and not isinstance(c, np.ndarray) else c)
 
     @property
     def reflects(self) -> bool:
@@ -174,6 +185,12 @@ class Material:
     def lit(self) -> bool:
         """Has a term that lights affect (kd or ks non-zero)."""
         return not (self._is_zero(self.kd) and self._is_zero(self.ks))
+
+    @property
+    def files(self) -> tuple[Path, ...]:
+        """The files this material was read from: its library files and its textures'."""
+        return (*self.sources, *(c.file for c in (getattr(self, k) for k in COLOR_KEYS)
+                                 if getattr(c, "file", None) is not None))
 
     def replace(self, **changes: Any) -> Material:
         return dataclasses.replace(self, **changes)

@@ -83,6 +83,10 @@ class Materials(NamedTuple):
     transmits: np.ndarray  #: (M,) bool: kt not zero
     emits: np.ndarray      #: (M,) bool: ke not zero
     fresnel: np.ndarray    #: (M,) int64 core.NO_FRESNEL, SCHLICK or DIELECTRIC
+    texture: np.ndarray    #: (M, 6) int64 image texture per colour (row of tex_info), or −1
+    textured: np.ndarray   #: (M,) bool: some colour is an image texture
+    texels: np.ndarray     #: (N,) float32 every texture's RGBA rows, one after another
+    tex_info: np.ndarray   #: (K, 5) int64 offset into texels, width, height, wrap s, wrap t
 
 
 class Triangles(NamedTuple):
@@ -95,6 +99,8 @@ class Triangles(NamedTuple):
     shading: np.ndarray     #: (T,) int8 core.FLAT, SMOOTH or GOURAUD
     material: np.ndarray    #: (T,) int64 row of the material table
     band: np.ndarray        #: (T,) float32 error band (accel_kernels.triangle_tables)
+    #: (T, 3, 2) (s, t) at the corners; none (0, 3, 2) where no material has a texture
+    texcoords: np.ndarray = np.zeros((0, 3, 2))
 
 
 class Scene(NamedTuple):

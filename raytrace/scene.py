@@ -329,7 +329,7 @@ class Mesh:
         if from_file:
             verts, faces = self._load_with_materials(Path(self.file))
         elif self.file is not None:
-            verts, faces = _load_mesh_file(Path(self.file))
+            verts, faces, self.texcoords = _load_mesh_file(Path(self.file))
         elif self.mesh is not None:
             verts, faces = _from_trimesh(self.mesh, "mesh")
         else:
@@ -363,8 +363,8 @@ class Mesh:
         self.vertices, self.faces = world, faces[keep]
         if from_file:
             self.face_material = self.face_material[keep]
-            if self.texcoords is not None:
-                self.texcoords = np.ascontiguousarray(self.texcoords[keep])
+        if self.texcoords is not None:
+            self.texcoords = np.ascontiguousarray(self.texcoords[keep])
 
     def _load_with_materials(self, path: Path) -> tuple[np.ndarray, np.ndarray]:
         """The file's triangles; its materials, faces' materials and texture coordinates
@@ -427,7 +427,8 @@ def _from_trimesh(mesh: Any, key: str) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)
 
 
-def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray]:
+def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Vertices, faces and, for a single textured mesh, texture coordinates (F, 3, 2)."""
     if path.is_dir():
         raise SceneError(f"is a folder, not a mesh file: {path}", "file")
     if not path.is_file():
@@ -444,10 +445,17 @@ def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray]:
             # (the exception alone can mislead: random bytes in an .stl fail on a text codec)
             raise SceneError(f"cannot read mesh {path}: not a mesh file trimesh can load "
                              f"({type(e).__name__}: {e})", "file") from None
+        texcoords = None
         if isinstance(loaded, trimesh.Scene):
             if not loaded.geometry:
                 raise SceneError(f"{path} holds no triangles", "file")
-            loaded = loaded.dump(concatenate=True)
+            loaded = loaded.dump(concatenate=True)  # (its uv would be an atlas's: not kept)
+        else:
+            uv = getattr(loaded.visual, "uv", None)
+            if uv is not None and len(uv) == len(loaded.vertices):
+                # per face corner, t = 0 at the image's top row (trimesh's t runs up)
+                texcoords = np.asarray(uv, np.float64)[np.asarray(loaded.faces)] * [1, -1] + [
+                    0, 1]
         if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
             raise SceneError(f"{path} holds no triangle mesh (got {type(loaded).__name__})",
                              "file")
@@ -458,7 +466,7 @@ def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray]:
                              "silently drop its triangles", "file")
         # Merge coincident vertices so smooth shading can average across faces (STL repeats).
         loaded.merge_vertices(merge_tex=True, merge_norm=True)
-    return np.asarray(loaded.vertices, dtype=np.float64), np.asarray(loaded.faces)
+    return np.asarray(loaded.vertices, dtype=np.float64), np.asarray(loaded.faces), texcoords
 
 
 Shape = Sphere | Plane | Mesh
@@ -554,7 +562,7 @@ class Scene:
                   for i, o in enumerate(self.objects) if isinstance(o, Mesh) for p in o.sources]
         used = [m for o in self.objects for m in getattr(o, "materials", [o.material])]
         for m in [*self.materials.values(), *used]:
-            files += [(p, f"the file of material {m.name!r}") for p in m.sources]
+            files += [(p, f"the file of material {m.name!r}") for p in m.files]
         return files
 
     @property

@@ -45,6 +45,7 @@ from .core import (
     light_uniform,
     reflect3,
     refract3,
+    texture1,
 )
 from .jit import kernel
 
@@ -173,15 +174,31 @@ def direct1(normal, light, view, kd, ks, n, model):
 
 # -- surfaces ---------------------------------------------------------------------------------
 @kernel
-def color1(materials, m, slot, x, y, z):
-    """Colour ``slot`` (KA … KT) of material ``m`` at the world point (x, y, z): its constant,
-    or its checker pattern there (``materials``: a :class:`raytrace.records.Materials`)."""
+def color1(materials, m, slot, x, y, z, st):
+    """Colour ``slot`` (KA … KE) of material ``m`` at the world point (x, y, z) with texture
+    coordinates ``st`` = (s, t): its constant, its checker pattern there, or its image texture
+    (:func:`raytrace.core.texture1`) (``materials``: a :class:`raytrace.records.Materials`)."""
     colors, pattern, checkers = materials.colors, materials.pattern, materials.checkers
     p = pattern[m, slot // 3]
     if p < 0:
+        q = materials.texture[m, slot // 3]
+        if q >= 0:
+            return texture1(materials.texels, materials.tex_info, q, st[0], st[1])
         return colors[m, slot], colors[m, slot + 1], colors[m, slot + 2]
     c = 3 * checker1(x, y, z, checkers[p, 6])
     return checkers[p, c], checkers[p, c + 1], checkers[p, c + 2]
+
+
+@kernel
+def texcoord1(materials, m, triangles, tri, u, v):
+    """The texture coordinates (s, t) at barycentrics (u, v) of triangle ``tri``,
+    ``(1 − u − v)·st₀ + u·st₁ + v·st₂``, where material ``m`` has a texture (else (0, 0): no
+    work where no texture is read)."""
+    if not materials.textured[m] or tri < 0:
+        return 0.0, 0.0
+    tc, w = triangles.texcoords, 1.0 - u - v
+    return (w * tc[tri, 0, 0] + u * tc[tri, 1, 0] + v * tc[tri, 2, 0],
+            w * tc[tri, 0, 1] + u * tc[tri, 1, 1] + v * tc[tri, 2, 1])
 
 
 # -- batch kernels of the integrator ----------------------------------------------------------
@@ -278,11 +295,12 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
         hit_key = key[i] if jittered else -1
         lx, ly, lz, d, f = incidence1((px, py, pz), em, hit_key, depth)
         wx, wy, wz = px + origin[0], py + origin[1], pz + origin[2]
-        kd = color1(materials, m, KD, wx, wy, wz)
-        ks = color1(materials, m, KS, wx, wy, wz)
         tri = surf.triangle[i]
-        smooth = tri >= 0 and code[tri] != FLAT
         u, v = surf.uv[i, 0], surf.uv[i, 1]
+        st = texcoord1(materials, m, triangles, tri, u, v)
+        kd = color1(materials, m, KD, wx, wy, wz, st)
+        ks = color1(materials, m, KS, wx, wy, wz, st)
+        smooth = tri >= 0 and code[tri] != FLAT
         if smooth and code[tri] == GOURAUD:
             r, g, b = gouraud1((tri, u, v, s), (eye[i, 0], eye[i, 1], eye[i, 2]), triangles,
                                (em, hit_key, depth), kd, ks, shininess[m], highlight[m])
@@ -372,8 +390,10 @@ def cross_surfaces(factor, live, surf, walk, scene):
     through = np.empty(n, np.bool_)
     for j in range(n):
         op = opacity[material[j]]
+        st = texcoord1(materials, material[j], scene.triangles, surf.triangle[j],
+                       surf.uv[j, 0], surf.uv[j, 1])
         kt = color1(materials, material[j], KT, point[j, 0] + origin[0],
-                    point[j, 1] + origin[1], point[j, 2] + origin[2])
+                    point[j, 1] + origin[1], point[j, 2] + origin[2], st)
         r = live[j]
         for c in range(3):
             factor[r, c] *= op * kt[c] + (1.0 - op)
@@ -441,8 +461,10 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
         m = material[i]
         op = opacity[m]
         wx, wy, wz = point[i, 0] + origin[0], point[i, 1] + origin[1], point[i, 2] + origin[2]
-        ka = color1(materials, m, KA, wx, wy, wz)
-        ke = color1(materials, m, KE, wx, wy, wz) if emits[m] else (0.0, 0.0, 0.0)
+        st = texcoord1(materials, m, scene.triangles, surf.triangle[i], surf.uv[i, 0],
+                       surf.uv[i, 1])
+        ka = color1(materials, m, KA, wx, wy, wz, st)
+        ke = color1(materials, m, KE, wx, wy, wz, st) if emits[m] else (0.0, 0.0, 0.0)
         for c in range(3):
             here = ambient[c] * ka[c]
             if lit:
@@ -459,9 +481,9 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
         fx, fy, fz = gx * s, gy * s, gz * s
         kr, kt = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         if reflects[m]:
-            kr = color1(materials, m, KR, wx, wy, wz)
+            kr = color1(materials, m, KR, wx, wy, wz, st)
         if transmits[m]:
-            kt = color1(materials, m, KT, wx, wy, wz)
+            kt = color1(materials, m, KT, wx, wy, wz, st)
         if fresnel[m] != NO_FRESNEL:  # kr, kt for this angle (V = −d, N facing the viewer)
             entering = dx * gx + dy * gy + dz * gz < 0.0
             kr, kt = fresnel_weights1(fresnel[m], -(dx * nx + dy * ny + dz * nz),
@@ -600,8 +622,10 @@ def aov_hits(rays, t, surf, scene, objects, aovs):
             for c in range(3):
                 normal[s, c] = f * shading[i, c]
         if albedo.shape[0]:
+            st = texcoord1(materials, material[i], scene.triangles, triangle[i],
+                           surf.uv[i, 0], surf.uv[i, 1])
             kd = color1(materials, material[i], KD, point[i, 0] + origin[0],
-                        point[i, 1] + origin[1], point[i, 2] + origin[2])
+                        point[i, 1] + origin[1], point[i, 2] + origin[2], st)
             for c in range(3):
                 albedo[s, c] = kd[c]
         if ident.shape[0]:

@@ -14,6 +14,7 @@ import numpy as np
 from .material import COLOR_KEYS, Checker, Material
 from .records import Materials, Scene, Triangles
 from .shading import FRESNEL_CODES, HIGHLIGHT_CODES
+from .texture import WRAPS, Texture
 
 
 class MaterialTable:
@@ -30,15 +31,29 @@ class MaterialTable:
         self.materials = materials
         self.colors = np.zeros((len(materials), 3 * len(COLOR_KEYS)))
         self.pattern = np.full((len(materials), len(COLOR_KEYS)), -1, np.int64)
-        checkers = []
+        self.texture = np.full((len(materials), len(COLOR_KEYS)), -1, np.int64)
+        checkers, textures = [], []
         for i, m in enumerate(materials):
             for k, key in enumerate(COLOR_KEYS):
                 c = m.ambient if key == "ka" else getattr(m, key)
                 if isinstance(c, Checker):
                     self.pattern[i, k] = len(checkers)
                     checkers.append([*c.colors[0], *c.colors[1], c.scale])
+                elif isinstance(c, Texture):
+                    if c not in textures:
+                        textures.append(c)
+                    self.texture[i, k] = textures.index(c)
                 else:
                     self.colors[i, 3 * k:3 * k + 3] = c
+        self.textured = (self.texture >= 0).any(axis=1)
+        # only scenes with textures pay for them: one float a texture channel, else none
+        sizes = [t.texels.size for t in textures]
+        self.tex_info = np.array(
+            [[off, t.texels.shape[1], t.texels.shape[0], WRAPS[t.wrap[0]], WRAPS[t.wrap[1]]]
+             for off, t in zip(np.cumsum([0, *sizes])[:-1], textures, strict=True)],
+            np.int64).reshape(-1, 5)
+        self.texels = (np.concatenate([t.texels.reshape(-1) for t in textures])
+                       if textures else np.zeros(0, np.float32))
         self.checkers = np.array(checkers, dtype=np.float64).reshape(-1, 7)
         self.shininess = np.array([m.shininess for m in materials], dtype=np.float64)
         self.highlight = np.array([HIGHLIGHT_CODES[m.highlight] for m in materials], np.int64)
@@ -52,7 +67,8 @@ class MaterialTable:
         self.fresnel = np.array([FRESNEL_CODES[m.fresnel] for m in materials], np.int64)
         self.record = Materials(self.colors, self.pattern, self.checkers, self.shininess,
                                 self.highlight, self.ior, self.opacity, self.lit,
-                                self.reflects, self.transmits, self.emits, self.fresnel)
+                                self.reflects, self.transmits, self.emits, self.fresnel,
+                                self.texture, self.textured, self.texels, self.tex_info)
 
 
 def scene_record(origin: np.ndarray, table: MaterialTable, triangles: Triangles) -> Scene:
