@@ -16,9 +16,14 @@ from typing import Any
 
 import numpy as np
 
+from . import values
 from .errors import RenderWarning, SceneError
 from .material import Material
 
+#: What a model file alone is rendered with: a grey world (a glTF or OBJ file has no
+#: background) and a little ambient light, so the unlit sides are not black.
+MODEL_BACKGROUND = 0.3
+MODEL_AMBIENT = 0.1
 #: Suffixes whose files carry their own materials.
 OBJ_SUFFIXES = (".obj",)
 GLTF_SUFFIXES = (".gltf", ".glb")
@@ -193,11 +198,11 @@ def scene_from_model(path: Path) -> Any:
         right, up, forward = camera.basis()
         lights = [DirectionalLight(direction=forward - 0.5 * up + 0.5 * right, color=1.0)]
         notes.append(f"no lights in the file: a directional light travelling "
-                     f"{_vec(lights[0].direction)}, ambient 0.1")
+                     f"{_vec(lights[0].direction)}")
     if notes:
         warnings.warn(f"{path}: " + "; ".join(notes), RenderWarning, stacklevel=2)
-    return Scene(camera=camera, objects=[mesh], lights=lights,
-                 ambient=0.1 if len(notes) and "no lights" in notes[-1] else 0.0,
+    render.background = values.color(MODEL_BACKGROUND, "background")
+    return Scene(camera=camera, objects=[mesh], lights=lights, ambient=MODEL_AMBIENT,
                  render=render, path=str(path))
 
 

@@ -183,8 +183,11 @@ def _render(args: argparse.Namespace) -> int:
     with warnings.catch_warnings(record=True) as caught:  # a model file's notes, one line each
         warnings.simplefilter("always", RenderWarning)
         scene = load_scene(args.scene)
-    for w in caught:
-        print(f"raytrace: warning: {w.message}", file=sys.stderr)
+    for w in caught:  # ours as one line each; anything else as Python would
+        if issubclass(w.category, RenderWarning):
+            print(f"raytrace: warning: {w.message}", file=sys.stderr)
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     load_seconds = time.perf_counter() - t0
     outputs.refuse_inputs(scene.input_files())
     outputs.preflight()

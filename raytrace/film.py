@@ -168,10 +168,8 @@ def _reinhard(x: np.ndarray) -> np.ndarray:
 TONEMAPS: dict[str, Callable[[np.ndarray], np.ndarray]] = {"clip": _clip, "reinhard": _reinhard}
 
 
-def preview(rgb: np.ndarray, exposure: float = 0.0, tonemap: str = "clip") -> np.ndarray:
-    """8-bit sRGB preview (H, W, 3) uint8 of linear RGB: ``2^exposure``, tone map, clip,
-    then the sRGB encoding (IEC 61966-2-1) by colour-science. Non-finite values show black.
-    """
+def import_colour():
+    """colour-science, imported quietly and safely (for the PNG preview and sRGB textures)."""
     with warnings.catch_warnings():  # colour warns that matplotlib is absent: not needed
         warnings.simplefilter("ignore")
         import colour
@@ -180,7 +178,14 @@ def preview(rgb: np.ndarray, exposure: float = 0.0, tonemap: str = "clip") -> np
     for name in ("scipy", "scipy.interpolate"):
         if type(sys.modules.get(name)).__module__ == "unittest.mock":
             del sys.modules[name]
+    return colour
 
+
+def preview(rgb: np.ndarray, exposure: float = 0.0, tonemap: str = "clip") -> np.ndarray:
+    """8-bit sRGB preview (H, W, 3) uint8 of linear RGB: ``2^exposure``, tone map, clip,
+    then the sRGB encoding (IEC 61966-2-1) by colour-science. Non-finite values show black.
+    """
+    colour = import_colour()
     if tonemap not in TONEMAPS:
         raise ValueError(f"unknown tone map {tonemap!r} (choose from {', '.join(TONEMAPS)})")
     x = np.nan_to_num(np.asarray(rgb, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)

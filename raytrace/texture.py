@@ -57,8 +57,9 @@ class Texture:
         except (OSError, UnidentifiedImageError, ValueError) as e:
             raise SceneError(f"cannot read texture {file}: {e}", key, where) from None
         if srgb:
-            import colour
+            from .film import import_colour
 
+            colour = import_colour()
             rgba[..., :3] = colour.cctf_decoding(rgba[..., :3], function="sRGB")
         return cls(rgba, wrap, Path(file) if data is None else None)
 

@@ -118,47 +118,23 @@ def write_text(path: Path, text: str) -> Path:
     return path
 
 
+
 def write_gltf(path: Path, nodes: list[dict], meshes: list[dict] | None = None,
                materials: list[dict] | None = None, extra: dict | None = None) -> Path:
-    """A small glTF 2.0 file written by hand (JSON, buffers as a data URI), independent of
-    the loader under test. ``meshes``: ``{"positions": (n, 3), "indices": (m, 3),
-    "uv": (n, 2) or None, "material": index or None}``; ``nodes`` and ``materials`` are glTF
-    JSON objects as the specification writes them; ``extra`` is merged into the top level."""
+    """A small glTF 2.0 file (JSON, its buffer as a data URI) built by
+    scenes/models/make_models.py's ``write_gltf_doc``, which writes the specification's JSON
+    by hand, independent of the loader under test. ``nodes`` and ``materials`` are glTF JSON
+    objects as the specification writes them; ``extra`` is merged into the top level."""
     import base64
+    import importlib.util
     import json
 
-    blob = b""
-    accessors, views, gl_meshes = [], [], []
-
-    def add(array: np.ndarray, kind: str, ctype: int, target: int) -> int:
-        nonlocal blob
-        data = np.ascontiguousarray(array).tobytes()
-        views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(data),
-                      "target": target})
-        blob += data + b"\0" * (-len(data) % 4)
-        acc = {"bufferView": len(views) - 1, "componentType": ctype,
-               "count": len(array), "type": kind}
-        if kind == "VEC3":
-            acc.update(min=array.min(axis=0).tolist(), max=array.max(axis=0).tolist())
-        accessors.append(acc)
-        return len(accessors) - 1
-
-    for m in meshes or []:
-        attrs = {"POSITION": add(np.asarray(m["positions"], np.float32), "VEC3", 5126, 34962)}
-        if m.get("uv") is not None:
-            attrs["TEXCOORD_0"] = add(np.asarray(m["uv"], np.float32), "VEC2", 5126, 34962)
-        idx = add(np.asarray(m["indices"], np.uint32).reshape(-1), "SCALAR", 5125, 34963)
-        prim = {"attributes": attrs, "indices": idx}
-        if m.get("material") is not None:
-            prim["material"] = m["material"]
-        gl_meshes.append({"primitives": [prim]})
-    doc = {"asset": {"version": "2.0"}, "scene": 0,
-           "scenes": [{"nodes": [i for i, n in enumerate(nodes) if not n.pop("_child", False)]}],
-           "nodes": nodes, "meshes": gl_meshes, "accessors": accessors, "bufferViews": views,
-           "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64,"
-                        + base64.b64encode(blob).decode()}]}
-    if materials:
-        doc["materials"] = materials
-    doc.update(extra or {})
+    spec = importlib.util.spec_from_file_location(
+        "make_models", Path(__file__).resolve().parent.parent / "scenes/models/make_models.py")
+    make_models = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(make_models)
+    doc, blob = make_models.write_gltf_doc(nodes, meshes or [], materials, extra)
+    doc["buffers"][0]["uri"] = ("data:application/octet-stream;base64,"
+                                + base64.b64encode(blob).decode())
     path.write_text(json.dumps(doc))
     return path

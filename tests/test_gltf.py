@@ -97,6 +97,8 @@ def test_each_khr_light_matches_the_equivalent_toml_light(tmp_path, kind):
     path = _lit_square(tmp_path, light, down, kind)
     gl = raytrace.load_scene(path)
     (tmp_path / "s.toml").write_text(
+        f'[render]\nbackground = {gl.render.background.tolist()}\n[ambient]\ncolor = '
+        f'{gl.ambient.tolist()}\n'
         f'[camera]\nposition = {gl.camera.position.tolist()}\nlook_at = '
         f'{gl.camera.look_at.tolist()}\n[[lights]]\n{toml}\ncolor = '
         f'{[c * intensity for c in color]}\n[[objects]]\ntype = "mesh"\nfile = "{kind}.gltf"\n'
