@@ -85,7 +85,7 @@ class Accelerator:
         self._build_meshes(meshes, mat_index)
         #: The triangle tables, as every kernel takes them.
         textured = any(isinstance(getattr(m, k), Texture) for m in materials
-                       for k in COLOR_KEYS)
+                       for k in COLOR_KEYS) or any(m.alpha is not None for m in materials)
         #: (T, 3, 2) texture coordinates at the corners, only where a material has a texture
         self.tri_texcoords = np.ascontiguousarray(np.concatenate(
             [m.texcoords if m.texcoords is not None else np.zeros((len(m.faces), 3, 2))

@@ -195,26 +195,29 @@ def wrap1(i, n, mode):
 
 
 @kernel
-def texture1(texels, info, q, s, t):
-    """Texture ``q`` bilinearly filtered at (s, t): with ``x = s·W − ½``, ``y = t·H − ½``, the
-    four texels around (x, y) weighted by their distances (texel (i, j)'s centre is at
-    ((i + ½)/W, (j + ½)/H), where the result is that texel exactly). ``texels``: every
-    texture's RGBA rows, flat float32; ``info[q]`` = (offset, W, H, wrap s, wrap t)."""
+def bilinear1(texels, info, q, s, t, channel):
+    """Channel ``channel`` (0 … 3: R, G, B, A) of texture ``q`` bilinearly filtered at (s, t):
+    with ``x = s·W − ½``, ``y = t·H − ½``, the four texels around (x, y) weighted by their
+    distances (texel (i, j)'s centre is at ((i + ½)/W, (j + ½)/H), where the result is that
+    texel exactly). ``texels``: every texture's RGBA rows, flat float32; ``info[q]`` =
+    (offset, W, H, wrap s, wrap t)."""
     off, w, h = info[q, 0], info[q, 1], info[q, 2]
     x, y = s * w - 0.5, t * h - 0.5
     fx, fy = math.floor(x), math.floor(y)
     ax, ay = x - fx, y - fy
     i0, i1 = wrap1(int(fx), w, info[q, 3]), wrap1(int(fx) + 1, w, info[q, 3])
     j0, j1 = wrap1(int(fy), h, info[q, 4]), wrap1(int(fy) + 1, h, info[q, 4])
-    a, b = off + 4 * (j0 * w + i0), off + 4 * (j0 * w + i1)
-    c, d = off + 4 * (j1 * w + i0), off + 4 * (j1 * w + i1)
-    r0 = (1.0 - ay) * ((1.0 - ax) * texels[a] + ax * texels[b]) + ay * (
+    a, b = off + 4 * (j0 * w + i0) + channel, off + 4 * (j0 * w + i1) + channel
+    c, d = off + 4 * (j1 * w + i0) + channel, off + 4 * (j1 * w + i1) + channel
+    return (1.0 - ay) * ((1.0 - ax) * texels[a] + ax * texels[b]) + ay * (
         (1.0 - ax) * texels[c] + ax * texels[d])
-    r1 = (1.0 - ay) * ((1.0 - ax) * texels[a + 1] + ax * texels[b + 1]) + ay * (
-        (1.0 - ax) * texels[c + 1] + ax * texels[d + 1])
-    r2 = (1.0 - ay) * ((1.0 - ax) * texels[a + 2] + ax * texels[b + 2]) + ay * (
-        (1.0 - ax) * texels[c + 2] + ax * texels[d + 2])
-    return r0, r1, r2
+
+
+@kernel
+def texture1(texels, info, q, s, t):
+    """The RGB of texture ``q`` at (s, t), each channel by :func:`bilinear1`."""
+    return (bilinear1(texels, info, q, s, t, 0), bilinear1(texels, info, q, s, t, 1),
+            bilinear1(texels, info, q, s, t, 2))
 
 
 # -- array versions -------------------------------------------------------------------------

@@ -218,6 +218,11 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
                     "baseColorTexture", mode)
         scale = base * (1 - metallic) * (1 - trans)
         fields["kd"] = t.scaled(scale)
+        if mode in ("BLEND", "MASK"):  # the texture's alpha times the factor's
+            fields["alpha"] = t
+            fields["opacity"] = alpha
+            fields["alpha_cutoff"] = (m.alphaCutoff if m.alphaCutoff is not None else 0.5
+                                      ) if mode == "MASK" else -1.0
     try:
         out = Material(**fields, name=name)
     except SceneError as e:

@@ -127,6 +127,10 @@ class Material:
     opacity: float = 1.0
     ke: Any = 0.0
     fresnel: str = "none"
+    #: A texture whose alpha channel multiplies ``opacity`` per hit (glTF alphaMode BLEND),
+    #: or with ``alpha_cutoff`` ≥ 0 makes it 1 or 0 (MASK); Python and model files only.
+    alpha: Any = None
+    alpha_cutoff: float = -1.0
     name: str = field(default="", compare=False)
     #: The library files this material was read from (its own and its bases'): inputs that
     #: no output of a render may overwrite.
@@ -149,6 +153,9 @@ class Material:
             self.ior = values.number(self.ior, "ior", lo=0, lo_open=True)
             self.opacity = values.number(self.opacity, "opacity", lo=0, hi=1)
             self.fresnel = values.string(self.fresnel, "fresnel", FRESNELS)
+            self.alpha_cutoff = values.number(self.alpha_cutoff, "alpha_cutoff", lo=-1, hi=1)
+            if self.alpha is not None and not hasattr(self.alpha, "texels"):
+                raise SceneError("must be a raytrace.texture.Texture or None", "alpha")
         except SceneError as e:
             raise e.at(key_prefix=where) from None
 
@@ -174,7 +181,7 @@ class Material:
 
     @property
     def see_through(self) -> bool:
-        return self.opacity < 1
+        return self.opacity < 1 or self.alpha is not None
 
     @property
     def transparent(self) -> bool:

@@ -87,6 +87,8 @@ class Materials(NamedTuple):
     textured: np.ndarray   #: (M,) bool: some colour is an image texture
     texels: np.ndarray     #: (N,) float32 every texture's RGBA rows, one after another
     tex_info: np.ndarray   #: (K, 5) int64 offset into texels, width, height, wrap s, wrap t
+    alpha: np.ndarray      #: (M,) int64 texture whose alpha multiplies the opacity, or −1
+    alpha_cutoff: np.ndarray  #: (M,) alpha ≥ cutoff: opaque, else clear; −1: blend
 
 
 class Triangles(NamedTuple):

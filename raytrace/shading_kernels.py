@@ -38,6 +38,7 @@ from .core import (
     GOURAUD,
     NO_FRESNEL,
     SHADOW_SHORTEN,
+    bilinear1,
     checker1,
     facing1,
     fresnel_weights1,
@@ -187,6 +188,21 @@ def color1(materials, m, slot, x, y, z, st):
         return colors[m, slot], colors[m, slot + 1], colors[m, slot + 2]
     c = 3 * checker1(x, y, z, checkers[p, 6])
     return checkers[p, c], checkers[p, c + 1], checkers[p, c + 2]
+
+
+@kernel
+def opacity1(materials, m, st):
+    """Opacity t of material ``m`` at texture coordinates ``st``: its constant, times its
+    texture's alpha where it has one (glTF BLEND), or 1 / 0 by the alpha cutoff (MASK)."""
+    q = materials.alpha[m]
+    if q < 0:
+        return materials.opacity[m]
+    a = materials.opacity[m] * bilinear1(materials.texels, materials.tex_info, q, st[0], st[1],
+                                         3)
+    cutoff = materials.alpha_cutoff[m]
+    if cutoff >= 0.0:
+        return 1.0 if a >= cutoff else 0.0
+    return a
 
 
 @kernel
@@ -385,13 +401,12 @@ def cross_surfaces(factor, live, surf, walk, scene):
     direction, t, tmax = walk
     material, point, geometric = surf.material, surf.point, surf.geometric
     origin, materials = scene.origin, scene.materials
-    opacity = materials.opacity
     n, on = live.shape[0], 0
     through = np.empty(n, np.bool_)
     for j in range(n):
-        op = opacity[material[j]]
         st = texcoord1(materials, material[j], scene.triangles, surf.triangle[j],
                        surf.uv[j, 0], surf.uv[j, 1])
+        op = opacity1(materials, material[j], st)
         kt = color1(materials, material[j], KT, point[j, 0] + origin[0],
                     point[j, 1] + origin[1], point[j, 2] + origin[2], st)
         r = live[j]
@@ -453,16 +468,16 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     origin, materials = scene.origin, scene.materials
     samples, sample = into
     r_dir, t_dir, w_r, w_t, w_s, status, tir = children
-    ior, opacity = materials.ior, materials.opacity
+    ior = materials.ior
     reflects, transmits = materials.reflects, materials.transmits
     emits, fresnel = materials.emits, materials.fresnel
     lit = lights.shape[0] > 0
     for i in range(direction.shape[0]):
         m = material[i]
-        op = opacity[m]
         wx, wy, wz = point[i, 0] + origin[0], point[i, 1] + origin[1], point[i, 2] + origin[2]
         st = texcoord1(materials, m, scene.triangles, surf.triangle[i], surf.uv[i, 0],
                        surf.uv[i, 1])
+        op = opacity1(materials, m, st)
         ka = color1(materials, m, KA, wx, wy, wz, st)
         ke = color1(materials, m, KE, wx, wy, wz, st) if emits[m] else (0.0, 0.0, 0.0)
         for c in range(3):

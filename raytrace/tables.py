@@ -45,7 +45,14 @@ class MaterialTable:
                     self.texture[i, k] = textures.index(c)
                 else:
                     self.colors[i, 3 * k:3 * k + 3] = c
-        self.textured = (self.texture >= 0).any(axis=1)
+        self.alpha = np.full(len(materials), -1, np.int64)
+        for i, m in enumerate(materials):
+            if m.alpha is not None:
+                if m.alpha not in textures:
+                    textures.append(m.alpha)
+                self.alpha[i] = textures.index(m.alpha)
+        self.alpha_cutoff = np.array([m.alpha_cutoff for m in materials], np.float64)
+        self.textured = (self.texture >= 0).any(axis=1) | (self.alpha >= 0)
         # only scenes with textures pay for them: one float a texture channel, else none
         sizes = [t.texels.size for t in textures]
         self.tex_info = np.array(
@@ -68,7 +75,8 @@ class MaterialTable:
         self.record = Materials(self.colors, self.pattern, self.checkers, self.shininess,
                                 self.highlight, self.ior, self.opacity, self.lit,
                                 self.reflects, self.transmits, self.emits, self.fresnel,
-                                self.texture, self.textured, self.texels, self.tex_info)
+                                self.texture, self.textured, self.texels, self.tex_info,
+                                self.alpha, self.alpha_cutoff)
 
 
 def scene_record(origin: np.ndarray, table: MaterialTable, triangles: Triangles) -> Scene:

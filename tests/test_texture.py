@@ -140,3 +140,30 @@ def test_scenes_without_textures_carry_no_texture_arrays():
     integ = WhittedIntegrator(scene, render_options(scene, width=8, height=6))
     assert integ.tables.materials.texels.size == 0
     assert integ.tables.triangles.texcoords.size == 0
+
+
+@pytest.mark.parametrize("mode, cutoff", [("BLEND", None), ("MASK", 0.6)])
+def test_gltf_texture_alpha_is_opacity_in_blend_and_mask_modes(tmp_path, mode, cutoff):
+    """A 2 × 1 RGBA texture, white, alpha 128/255 on the left and 1 on the right; baseColor
+    0.5, metallic 0, roughness 1: the surface alone is 0.5 + ks 0.04 under a unit light at the
+    eye. BLEND: t·0.54 + (1 − t)·0.2 over a 0.2 background; MASK at 0.6: clear, opaque."""
+    Image.fromarray(np.array([[[255, 255, 255, 128], [255, 255, 255, 255]]], np.uint8),
+                    "RGBA").save(tmp_path / "a.png")
+    square = {"positions": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+              "indices": [[0, 1, 2], [0, 2, 3]], "uv": [[0, 1], [1, 1], [1, 0], [0, 0]],
+              "material": 0}
+    mat = {"alphaMode": mode, "pbrMetallicRoughness": {
+        "baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0, "roughnessFactor": 1,
+        "baseColorTexture": {"index": 0}}}
+    if cutoff is not None:
+        mat["alphaCutoff"] = cutoff
+    path = write_gltf(tmp_path / "a.gltf", [{"mesh": 0}], [square], [mat], extra={
+        "textures": [{"source": 0, "sampler": 0}], "images": [{"uri": "a.png"}],
+        "samplers": [{"wrapS": 33071, "wrapT": 33071}]})
+    mesh = raytrace.Mesh(file=path, material="from_file")
+    t = 128 / 255
+    want = {"BLEND": (t * 0.54 + (1 - t) * 0.2, 0.54), "MASK": (0.2, 0.54)}[mode]
+    for x, value in zip((-0.5, 0.5), want, strict=True):
+        cam, lights = _at(x, 0.0)
+        got = pixel(make_scene([mesh], lights, cam, background=0.2))
+        np.testing.assert_allclose(got, value, rtol=1e-6)
