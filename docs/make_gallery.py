@@ -35,14 +35,20 @@ FIRST = ("whitted", "cornell_box", "materials_showcase")
 
 
 def scene_files() -> list[Path]:
-    """Every scene file in scenes/ (TOML or JSON), the FIRST ones first."""
-    files = sorted(p for p in SCENES.iterdir() if p.suffix in (".toml", ".json"))
+    """Every scene file in scenes/ (TOML, JSON or a GLB alone), the FIRST ones first."""
+    files = sorted(p for p in SCENES.iterdir() if p.suffix in (".toml", ".json", ".glb"))
     rank = {name: i for i, name in enumerate(FIRST)}
     return sorted(files, key=lambda p: (rank.get(p.stem, len(rank)), p.stem))
 
 
 def header_comment(path: Path) -> list[str]:
-    """The scene file's leading comment block, without the ``#``."""
+    """The scene file's leading comment block, without the ``#``; a GLB's
+    ``asset.extras.description`` lines."""
+    if path.suffix == ".glb":
+        import pygltflib
+
+        extras = pygltflib.GLTF2().load(str(path)).asset.extras or {}
+        return list(extras.get("description", []))
     lines = []
     for line in path.read_text(encoding="utf-8").splitlines():
         if not line.startswith("#"):

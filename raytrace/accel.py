@@ -28,9 +28,11 @@ import numpy as np
 from . import accel_kernels as ak  # the compiled passes of this stage
 from .analytic import NO_TMAX, AnalyticShapes, f64, i64
 from .core import FLAT, GOURAUD, SHADOW_SHORTEN, SMOOTH
+from .material import COLOR_KEYS
 from .rays import NO_SHAPE
 from .records import Hits, Surface, Triangles
 from .scene import Mesh, Plane, Scene, Sphere
+from .texture import Texture
 
 #: A triangle's error band in float32 ulps (2⁻²³ relative) of its largest coordinate: how far
 #: along its normal a ray must start for Embree never to report it again (EMBREEX_NOTES.md).
@@ -82,9 +84,15 @@ class Accelerator:
         self._none_columns = (np.zeros(0, np.int64), np.zeros((0, 2)))
         self._build_meshes(meshes, mat_index)
         #: The triangle tables, as every kernel takes them.
+        textured = any(isinstance(getattr(m, k), Texture) for m in materials
+                       for k in COLOR_KEYS) or any(m.alpha is not None for m in materials)
+        #: (T, 3, 2) texture coordinates at the corners, only where a material has a texture
+        self.tri_texcoords = np.ascontiguousarray(np.concatenate(
+            [m.texcoords if m.texcoords is not None else np.zeros((len(m.faces), 3, 2))
+             for m in meshes]) if textured and meshes else np.zeros((0, 3, 2)))
         self.triangles = Triangles(self.geom_first, self.tri_corners, self.tri_normal,
                                    self.tri_vnormals, self.tri_shading, self.tri_material,
-                                   self.tri_band)
+                                   self.tri_band, self.tri_texcoords)
 
     # -- construction --------------------------------------------------------------------
     def _build_meshes(self, meshes: list[Mesh], mat_index: dict) -> None:
@@ -109,8 +117,10 @@ class Accelerator:
         t = self.n_triangles
         self.tri_corners, self.tri_vnormals = np.empty((t, 3, 3)), np.empty((t, 3, 3))
         self.tri_normal, self.tri_band = np.empty((t, 3)), np.empty(t)
-        self.tri_material = np.repeat(
-            np.array([mat_index[id(m.material)] for m in meshes], np.int64), sizes)
+        self.tri_material = np.concatenate([
+            np.array([mat_index[id(x)] for x in m.file_materials], np.int64)[m.face_material]
+            if m.file_materials else np.full(len(m.faces), mat_index[id(m.material)], np.int64)
+            for m in meshes])
         self.tri_shading = np.repeat(
             np.array([SHADING_CODES[m.shading] for m in meshes], np.int8), sizes)
         for m, first in zip(meshes, self.geom_first, strict=True):  # geomID: attach order

@@ -209,7 +209,14 @@ def _render(args: argparse.Namespace) -> int:
     outputs.refuse_inputs([(args.scene, "the scene file")])
     aovs = check_aovs(args.aov, "--aov")  # found now, not after the render
     t0 = time.perf_counter()
-    scene = load_scene(args.scene)
+    with warnings.catch_warnings(record=True) as caught:  # a model file's notes, one line each
+        warnings.simplefilter("always", RenderWarning)
+        scene = load_scene(args.scene)
+    for w in caught:  # ours as one line each; anything else as Python would
+        if issubclass(w.category, RenderWarning):
+            print(f"raytrace: warning: {w.message}", file=sys.stderr)
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     load_seconds = time.perf_counter() - t0
     outputs.refuse_inputs(scene.input_files())
     outputs.preflight()

@@ -10,11 +10,13 @@ guard does):
   on jittered area-light cells);
 * the camera: :func:`pixel_offset` (where a sample lies in its pixel);
 * optics: :func:`reflect3` (law of reflection), :func:`refract3` (Snell, with total internal
-  reflection);
+  reflection), :func:`fresnel1` and :func:`fresnel_weights1` (angle-dependent kr, kt);
 * surfaces: :func:`facing1` (the side a ray arrives on), :func:`leave1` (where a spawned ray
-  starts), :func:`checker1` (the world-space checker of SCENE_FORMAT.md).
+  starts), :func:`checker1` (the world-space checker of SCENE_FORMAT.md), :func:`texture1`
+  (a bilinear image texture, with :func:`wrap1`).
 
-Array versions for numpy callers and tests: :func:`checker_rows`, :func:`leave_rows`.
+Array versions for numpy callers and tests: :func:`checker_rows`, :func:`leave_rows`,
+:func:`texture_rows`.
 """
 
 from __future__ import annotations
@@ -34,6 +36,8 @@ _S11, _S27, _S30, _S31 = np.uint64(11), np.uint64(27), np.uint64(30), np.uint64(
 FLAT, SMOOTH, GOURAUD = 0, 1, 2
 #: Shadow rays stop this relative fraction short of the light.
 SHADOW_SHORTEN = 1e-7
+#: Fresnel weighting codes (``raytrace.shading.FRESNEL_CODES``; ``Materials.fresnel``).
+NO_FRESNEL, SCHLICK, DIELECTRIC = 0, 1, 2
 #: The checker's bias: ``floor(x/s + 1e-4)`` keeps a plane lying on a cell boundary on one side.
 CHECKER_BIAS = 1e-4
 
@@ -111,6 +115,42 @@ def refract3(dx, dy, dz, nx, ny, nz, eta):
     return eta * dx + c * nx, eta * dy + c * ny, eta * dz + c * nz, False
 
 
+@kernel
+def fresnel1(cos_i, eta):
+    """The exact unpolarised Fresnel reflectance of a dielectric interface, ``eta = η₁/η₂``,
+    ``cos_i`` the cosine of incidence (≥ 0): ``F = (R_s + R_p)/2`` with
+    ``R_s = ((η cos θᵢ − cos θₜ)/(η cos θᵢ + cos θₜ))²``,
+    ``R_p = ((η cos θₜ − cos θᵢ)/(η cos θₜ + cos θᵢ))²`` and ``cos θₜ = √(1 − η² sin² θᵢ)``
+    (Born & Wolf §1.5; pbrt-v4 ``FrDielectric``); 1 under total internal reflection.
+    At normal incidence on glass (η = 1/1.5) F = ((1 − 1.5)/(1 + 1.5))² = 0.04."""
+    c = min(max(cos_i, 0.0), 1.0)
+    sin2_t = eta * eta * (1.0 - c) * (1.0 + c)
+    if sin2_t >= 1.0:
+        return 1.0
+    cos_t = math.sqrt(1.0 - sin2_t)
+    rs = (eta * c - cos_t) / (eta * c + cos_t)
+    rp = (eta * cos_t - c) / (eta * cos_t + c)
+    return 0.5 * (rs * rs + rp * rp)
+
+
+@kernel
+def fresnel_weights1(model, cos_i, eta, kr, kt):
+    """kr and kt (3-tuples) weighted for the angle of incidence by ``model``:
+    NO_FRESNEL leaves them; SCHLICK gives ``kr + (1 − kr)(1 − cos θ)⁵`` (Schlick 1994 with
+    F0 = kr; the MTL ``illum 5`` "Fresnel reflection", which rises from Ks to 1 at grazing)
+    and leaves kt; DIELECTRIC gives ``kr·F`` and ``kt·(1 − F)`` with F = :func:`fresnel1`
+    (``illum 7``; glTF transmission)."""
+    if model == SCHLICK:
+        g = (1.0 - min(max(cos_i, 0.0), 1.0)) ** 5
+        return ((kr[0] + (1.0 - kr[0]) * g, kr[1] + (1.0 - kr[1]) * g,
+                 kr[2] + (1.0 - kr[2]) * g), kt)
+    if model == DIELECTRIC:
+        f = fresnel1(cos_i, eta)
+        return ((kr[0] * f, kr[1] * f, kr[2] * f),
+                (kt[0] * (1.0 - f), kt[1] * (1.0 - f), kt[2] * (1.0 - f)))
+    return kr, kt
+
+
 # -- surfaces -------------------------------------------------------------------------------
 @kernel
 def facing1(gx, gy, gz, dx, dy, dz):
@@ -145,7 +185,52 @@ def checker1(x, y, z, scale):
     return 1 if half - math.floor(half) == 0.5 else 0
 
 
+@kernel
+def wrap1(i, n, mode):
+    """Texel index ``i`` of a row of ``n`` wrapped by ``mode`` (``raytrace.texture.WRAPS``):
+    0 repeat (i mod n), 1 clamp to the edge, 2 mirrored repeat (period 2n)."""
+    if mode == 1:
+        return min(max(i, 0), n - 1)
+    if mode == 2:
+        k = i % (2 * n)
+        return k if k < n else 2 * n - 1 - k
+    return i % n
+
+
+@kernel
+def bilinear1(texels, info, q, s, t, channel):
+    """Channel ``channel`` (0 … 3: R, G, B, A) of texture ``q`` bilinearly filtered at (s, t):
+    with ``x = s·W − ½``, ``y = t·H − ½``, the four texels around (x, y) weighted by their
+    distances (texel (i, j)'s centre is at ((i + ½)/W, (j + ½)/H), where the result is that
+    texel exactly). ``texels``: every texture's RGBA rows, flat float32; ``info[q]`` =
+    (offset, W, H, wrap s, wrap t)."""
+    off, w, h = info[q, 0], info[q, 1], info[q, 2]
+    x, y = s * w - 0.5, t * h - 0.5
+    fx, fy = math.floor(x), math.floor(y)
+    ax, ay = x - fx, y - fy
+    i0, i1 = wrap1(int(fx), w, info[q, 3]), wrap1(int(fx) + 1, w, info[q, 3])
+    j0, j1 = wrap1(int(fy), h, info[q, 4]), wrap1(int(fy) + 1, h, info[q, 4])
+    a, b = off + 4 * (j0 * w + i0) + channel, off + 4 * (j0 * w + i1) + channel
+    c, d = off + 4 * (j1 * w + i0) + channel, off + 4 * (j1 * w + i1) + channel
+    return (1.0 - ay) * ((1.0 - ax) * texels[a] + ax * texels[b]) + ay * (
+        (1.0 - ax) * texels[c] + ax * texels[d])
+
+
+@kernel
+def texture1(texels, info, q, s, t):
+    """The RGB of texture ``q`` at (s, t), each channel by :func:`bilinear1`."""
+    return (bilinear1(texels, info, q, s, t, 0), bilinear1(texels, info, q, s, t, 1),
+            bilinear1(texels, info, q, s, t, 2))
+
+
 # -- array versions -------------------------------------------------------------------------
+@kernel
+def texture_rows(texels, info, st, out):
+    """:func:`texture1` of texture 0 at each (s, t) row of ``st`` into ``out`` (n, 3)."""
+    for i in range(st.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = texture1(texels, info, 0, st[i, 0], st[i, 1])
+
+
 @kernel
 def checker_rows(points, scale, out):
     """:func:`checker1` at each world point (n, 3) into ``out`` (n,) int64."""

@@ -86,7 +86,9 @@ class Recorder:
             m = int(surf.material[j])
             material = integ.materials[m]
             point = surf.point[j] + self.origin
-            ka = sk.color1(integ.table.record, m, sk.KA, *point)
+            st = sk.texcoord1(integ.table.record, m, integ.tables.triangles,
+                             int(surf.triangle[j]), *surf.uv[j])
+            ka = sk.color1(integ.table.record, m, sk.KA, *point, st)
             obj = int(ident[j])
             entering = float(np.dot(rays.direction[j], surf.geometric[j])) < 0.0
             self.rays[rid]["hit"] = {

@@ -199,6 +199,14 @@ def write_png_pixels(path: str | os.PathLike, pixels: np.ndarray) -> None:
                      [(0, pixels.shape[0], pixels)])
 
 
+def import_colour():
+    """colour-science, imported quietly and safely (:func:`raytrace.tonemap.colour`: no
+    warnings, numpy's print options kept, no SciPy mock left behind), for sRGB textures."""
+    from .tonemap import colour
+
+    return colour()
+
+
 def _write_png_bands(path: str | os.PathLike, width: int, height: int, bits: int,
                      bands) -> None:
     """The PNG writer: OpenImageIO with :data:`PNG_SETTINGS` for ``bits``, band by band

@@ -184,7 +184,8 @@ class WhittedIntegrator:
         self._aov_out = NO_AOV_PIXELS  # the AOV images of the render in progress, flat
         seen: dict[int, Material] = {}
         for o in scene.objects:
-            seen.setdefault(id(o.material), o.material)
+            for m in getattr(o, "materials", [o.material]):  # a mesh's faces may use several
+                seen.setdefault(id(m), m)
         self.materials = list(seen.values())
         self.table = MaterialTable(self.materials)
         t0 = time.perf_counter()

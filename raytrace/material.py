@@ -29,8 +29,13 @@ from . import values
 from .errors import SceneError
 
 HIGHLIGHTS = ("phong", "blinn")
-COLOR_KEYS = ("ka", "kd", "ks", "kr", "kt")
-MATERIAL_KEYS = ("base", *COLOR_KEYS, "shininess", "highlight", "ior", "opacity")
+#: How kr and kt vary with the angle of incidence (``raytrace.core.fresnel_weights1``):
+#: "none" constant; "schlick" kr + (1 − kr)(1 − cos θ)⁵ (Schlick 1994, F0 = kr); "dielectric"
+#: kr·F and kt·(1 − F), F the exact unpolarised Fresnel reflectance for ``ior``.
+FRESNELS = ("none", "schlick", "dielectric")
+#: The colour slots; ``ke`` is emission, a constant term added where the surface is seen.
+COLOR_KEYS = ("ka", "kd", "ks", "kr", "kt", "ke")
+MATERIAL_KEYS = ("base", *COLOR_KEYS, "shininess", "highlight", "ior", "opacity", "fresnel")
 LIBRARY_ONLY_KEYS = ("description", "source")
 
 
@@ -75,10 +80,21 @@ PATTERN_KEYS = ("pattern", "colors", "scale")
 
 
 def parse_color(value: Any, key: str, *, hi: float | None = None) -> Color:
-    """A colour, or an inline pattern table ``{ pattern = "checker", colors, scale }``; a
+    """A colour, an inline pattern table ``{ pattern = "checker", colors, scale }`` or an image
+    texture ``{ texture = "file.png", wrap, srgb, scale }`` (:mod:`raytrace.texture`); a
     :class:`Checker` built in Python is checked by the same rules."""
     if isinstance(value, Checker):
         value = {"pattern": "checker", "colors": list(value.colors), "scale": value.scale}
+    from .texture import Texture, parse_texture
+
+    if isinstance(value, Texture):
+        return value
+    if isinstance(value, Mapping) and "texture" in value:
+        texture = parse_texture(value, key)
+        if hi is not None and np.any(texture.max > hi):
+            raise SceneError(f"texture values must be <= {hi:g}, got up to "
+                             f"{texture.max.max():g}", key)
+        return texture
     if isinstance(value, Mapping):
         values.check_keys(value, PATTERN_KEYS, key)
         values.string(value.get("pattern"), f"{key}.pattern", ["checker"])
@@ -109,6 +125,12 @@ class Material:
     kt: Any = 0.0
     ior: float = 1.5
     opacity: float = 1.0
+    ke: Any = 0.0
+    fresnel: str = "none"
+    #: A texture whose alpha channel multiplies ``opacity`` per hit (glTF alphaMode BLEND),
+    #: or with ``alpha_cutoff`` ≥ 0 makes it 1 or 0 (MASK); Python and model files only.
+    alpha: Any = None
+    alpha_cutoff: float = -1.0
     name: str = field(default="", compare=False)
     #: The library files this material was read from (its own and its bases'): inputs that
     #: no output of a render may overwrite.
@@ -130,6 +152,10 @@ class Material:
             self.highlight = values.string(self.highlight, "highlight", HIGHLIGHTS)
             self.ior = values.number(self.ior, "ior", lo=0, lo_open=True)
             self.opacity = values.number(self.opacity, "opacity", lo=0, hi=1)
+            self.fresnel = values.string(self.fresnel, "fresnel", FRESNELS)
+            self.alpha_cutoff = values.number(self.alpha_cutoff, "alpha_cutoff", lo=-1, hi=1)
+            if self.alpha is not None and not hasattr(self.alpha, "texels"):
+                raise SceneError("must be a raytrace.texture.Texture or None", "alpha")
         except SceneError as e:
             raise e.at(key_prefix=where) from None
 
@@ -139,7 +165,7 @@ class Material:
         return self.kd if self.ka is None else self.ka
 
     def _is_zero(self, c: Color) -> bool:
-        return not np.any(c.max if isinstance(c, Checker) else c)
+        return not np.any(c.max if hasattr(c, "max") and not isinstance(c, np.ndarray) else c)
 
     @property
     def reflects(self) -> bool:
@@ -150,8 +176,12 @@ class Material:
         return not self._is_zero(self.kt) and self.opacity > 0
 
     @property
+    def emits(self) -> bool:
+        return not self._is_zero(self.ke)
+
+    @property
     def see_through(self) -> bool:
-        return self.opacity < 1
+        return self.opacity < 1 or self.alpha is not None
 
     @property
     def transparent(self) -> bool:
@@ -162,6 +192,12 @@ class Material:
     def lit(self) -> bool:
         """Has a term that lights affect (kd or ks non-zero)."""
         return not (self._is_zero(self.kd) and self._is_zero(self.ks))
+
+    @property
+    def files(self) -> tuple[Path, ...]:
+        """The files this material was read from: its library files and its textures'."""
+        return (*self.sources, *(c.file for c in (getattr(self, k) for k in COLOR_KEYS)
+                                 if getattr(c, "file", None) is not None))
 
     def replace(self, **changes: Any) -> Material:
         return dataclasses.replace(self, **changes)

@@ -71,8 +71,8 @@ class Surface(NamedTuple):
 class Materials(NamedTuple):
     """The material table, indexed by ``Surface.material``."""
 
-    colors: np.ndarray     #: (M, 15) constant colours ka kd ks kr kt, three columns each
-    pattern: np.ndarray    #: (M, 5) int64 row of ``checkers`` per colour, or −1 (constant)
+    colors: np.ndarray     #: (M, 18) constant colours ka kd ks kr kt ke, three columns each
+    pattern: np.ndarray    #: (M, 6) int64 row of ``checkers`` per colour, or −1 (constant)
     checkers: np.ndarray   #: (P, 7) colour 0, colour 1, scale
     shininess: np.ndarray  #: (M,) highlight exponent n
     highlight: np.ndarray  #: (M,) int64 PHONG or BLINN
@@ -81,6 +81,14 @@ class Materials(NamedTuple):
     lit: np.ndarray        #: (M,) bool: takes direct light (kd or ks not zero)
     reflects: np.ndarray   #: (M,) bool: kr not zero
     transmits: np.ndarray  #: (M,) bool: kt not zero
+    emits: np.ndarray      #: (M,) bool: ke not zero
+    fresnel: np.ndarray    #: (M,) int64 core.NO_FRESNEL, SCHLICK or DIELECTRIC
+    texture: np.ndarray    #: (M, 6) int64 image texture per colour (row of tex_info), or −1
+    textured: np.ndarray   #: (M,) bool: some colour is an image texture
+    texels: np.ndarray     #: (N,) float32 every texture's RGBA rows, one after another
+    tex_info: np.ndarray   #: (K, 5) int64 offset into texels, width, height, wrap s, wrap t
+    alpha: np.ndarray      #: (M,) int64 texture whose alpha multiplies the opacity, or −1
+    alpha_cutoff: np.ndarray  #: (M,) alpha ≥ cutoff: opaque, else clear; −1: blend
 
 
 class Triangles(NamedTuple):
@@ -93,6 +101,8 @@ class Triangles(NamedTuple):
     shading: np.ndarray     #: (T,) int8 core.FLAT, SMOOTH or GOURAUD
     material: np.ndarray    #: (T,) int64 row of the material table
     band: np.ndarray        #: (T,) float32 error band (accel_kernels.triangle_tables)
+    #: (T, 3, 2) (s, t) at the corners; none (0, 3, 2) where no material has a texture
+    texcoords: np.ndarray = np.zeros((0, 3, 2))
 
 
 class Scene(NamedTuple):

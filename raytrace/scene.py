@@ -280,6 +280,8 @@ class Plane:
 
 
 SHADINGS = ("flat", "smooth", "gouraud")
+#: ``material = "from_file"``: a mesh file's own materials (OBJ + MTL, glTF), per face.
+FROM_FILE = "from_file"
 
 
 def rotation_matrix(degrees: np.ndarray) -> np.ndarray:
@@ -314,6 +316,13 @@ class Mesh:
     scale: Any = 1.0
     material: Any = None
     degenerate: int = field(default=0, init=False)
+    #: With ``material = "from_file"``: the file's own materials, each face's index into
+    #: them, each face corner's texture coordinates (F, 3, 2) where the file has them, and
+    #: the files read besides the mesh file (:class:`raytrace.assets.Asset`).
+    file_materials: list = field(default_factory=list, init=False, repr=False)
+    face_material: Any = field(default=None, init=False, repr=False)
+    texcoords: Any = field(default=None, init=False, repr=False)
+    sources: tuple = field(default=(), init=False, repr=False)
     type = "mesh"
 
     def __post_init__(self) -> None:
@@ -332,8 +341,13 @@ class Mesh:
             raise SceneError(f"must be non-zero, got {np.asarray(self.scale).tolist()}", "scale")
         self.translate, self.rotate, self.scale = translate, rotate, scale
 
-        if self.file is not None:
-            verts, faces = _load_mesh_file(Path(self.file))
+        from_file = isinstance(self.material, str) and self.material == FROM_FILE
+        if from_file and self.file is None:
+            raise SceneError(f'"{FROM_FILE}" needs a mesh file (file = ...)', "material")
+        if from_file:
+            verts, faces = self._load_with_materials(Path(self.file))
+        elif self.file is not None:
+            verts, faces, self.texcoords = _load_mesh_file(Path(self.file))
         elif self.mesh is not None:
             verts, faces = _from_trimesh(self.mesh, "mesh")
         else:
@@ -356,6 +370,8 @@ class Mesh:
             # A mirroring scale turns counter-clockwise into clockwise: reverse each face so
             # the winding still gives the outward normal (entering vs leaving for refraction).
             faces = faces[:, ::-1]
+            if self.texcoords is not None:
+                self.texcoords = self.texcoords[:, ::-1]
         a, b, c = world[faces[:, 0]], world[faces[:, 1]], world[faces[:, 2]]
         area2 = np.linalg.norm(np.cross(b - a, c - a), axis=1)
         keep = area2 > 0
@@ -363,6 +379,28 @@ class Mesh:
         if not keep.any():
             raise SceneError("has no triangle with non-zero area", "faces")
         self.vertices, self.faces = world, faces[keep]
+        if from_file:
+            self.face_material = self.face_material[keep]
+        if self.texcoords is not None:
+            self.texcoords = np.ascontiguousarray(self.texcoords[keep])
+
+    def _load_with_materials(self, path: Path) -> tuple[np.ndarray, np.ndarray]:
+        """The file's triangles; its materials, faces' materials and texture coordinates
+        kept on the mesh (:func:`raytrace.assets.load_with_materials`)."""
+        if not path.is_file():
+            raise SceneError(f"mesh file not found: {path}", "file")
+        from .assets import load_with_materials
+
+        asset = load_with_materials(path)
+        self.file_materials, self.face_material = asset.materials, asset.face_material
+        self.texcoords, self.sources = asset.texcoords, asset.sources
+        self.material = asset.materials[0]
+        return asset.vertices, asset.faces
+
+    @property
+    def materials(self) -> list:
+        """Every material the mesh's faces use."""
+        return self.file_materials or [self.material]
 
 
 def _check_arrays(verts: Any, faces: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -407,7 +445,8 @@ def _from_trimesh(mesh: Any, key: str) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)
 
 
-def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray]:
+def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Vertices, faces and, for a single textured mesh, texture coordinates (F, 3, 2)."""
     if path.is_dir():
         raise SceneError(f"is a folder, not a mesh file: {path}", "file")
     if not path.is_file():
@@ -424,10 +463,17 @@ def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray]:
             # (the exception alone can mislead: random bytes in an .stl fail on a text codec)
             raise SceneError(f"cannot read mesh {path}: not a mesh file trimesh can load "
                              f"({type(e).__name__}: {e})", "file") from None
+        texcoords = None
         if isinstance(loaded, trimesh.Scene):
             if not loaded.geometry:
                 raise SceneError(f"{path} holds no triangles", "file")
-            loaded = loaded.dump(concatenate=True)
+            loaded = loaded.dump(concatenate=True)  # (its uv would be an atlas's: not kept)
+        else:
+            uv = getattr(loaded.visual, "uv", None)
+            if uv is not None and len(uv) == len(loaded.vertices):
+                # per face corner, t = 0 at the image's top row (trimesh's t runs up)
+                texcoords = np.asarray(uv, np.float64)[np.asarray(loaded.faces)] * [1, -1] + [
+                    0, 1]
         if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
             raise SceneError(f"{path} holds no triangle mesh (got {type(loaded).__name__})",
                              "file")
@@ -438,7 +484,7 @@ def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray]:
                              "silently drop its triangles", "file")
         # Merge coincident vertices so smooth shading can average across faces (STL repeats).
         loaded.merge_vertices(merge_tex=True, merge_norm=True)
-    return np.asarray(loaded.vertices, dtype=np.float64), np.asarray(loaded.faces)
+    return np.asarray(loaded.vertices, dtype=np.float64), np.asarray(loaded.faces), texcoords
 
 
 @dataclass
@@ -499,6 +545,11 @@ class Scene:
             if not isinstance(m, Material):
                 raise SceneError("must be a Material", f"materials.{name}", self.path)
         for i, o in enumerate(self.objects):
+            if isinstance(o, Mesh) and o.file_materials:
+                # a scene material of the same name as one of the file's replaces it
+                o.file_materials = [self.materials.get(m.name, m) for m in o.file_materials]
+                o.material = o.file_materials[0]
+                continue
             o.material = self._resolve(o.material, f"objects[{i}].material")
 
     def _resolve(self, m: Any, key: str) -> Material:
@@ -522,8 +573,11 @@ class Scene:
         files = [(Path(self.path), "the scene file")] if self.path else []
         files += [(Path(o.file), f"the mesh file of objects[{i}]")
                   for i, o in enumerate(self.objects) if isinstance(o, Mesh) and o.file]
-        for m in [*self.materials.values(), *(o.material for o in self.objects)]:
-            files += [(p, f"the file of material {m.name!r}") for p in m.sources]
+        files += [(p, f"a file read by the mesh of objects[{i}]")
+                  for i, o in enumerate(self.objects) if isinstance(o, Mesh) for p in o.sources]
+        used = [m for o in self.objects for m in getattr(o, "materials", [o.material])]
+        for m in [*self.materials.values(), *used]:
+            files += [(p, f"the file of material {m.name!r}") for p in m.files]
         return files
 
 

@@ -55,9 +55,16 @@ REQUIRED = {cls: _required(cls) for cls in (*LIGHT_TYPES.values(), *OBJECT_TYPES
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read a ``.toml`` or ``.json`` scene file into a :class:`Scene`."""
+    """Read a ``.toml`` or ``.json`` scene file into a :class:`Scene`; an ``.obj``, ``.gltf``
+    or ``.glb`` model alone becomes a scene too (:func:`raytrace.assets.scene_from_model`)."""
     path = Path(path)
     name = str(path)
+    from .assets import GLTF_SUFFIXES, OBJ_SUFFIXES
+
+    if path.suffix.lower() in GLTF_SUFFIXES + OBJ_SUFFIXES:  # a model alone: no TOML
+        from .assets import scene_from_model
+
+        return scene_from_model(path)
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
@@ -92,7 +99,7 @@ def scene_from_dict(data: Mapping, folder: str | Path = ".", name: str | None = 
     camera = Camera(**cam_table)
     amb = _table(data, "ambient")
     values.check_keys(amb, ("color",), "ambient")
-    materials = _materials(_table(data, "materials"))
+    materials = _materials(_in_folder(_table(data, "materials"), folder))
     lights = [_light(t, f"lights[{i}]") for i, t in enumerate(_array(data, "lights"))]
     objects = [_object(t, f"objects[{i}]", folder) for i, t in enumerate(_array(data, "objects"))]
     return Scene(camera=camera, objects=objects, lights=lights, materials=materials,
@@ -152,6 +159,17 @@ def _materials(tables: Mapping) -> dict[str, Material]:
     return done
 
 
+def _in_folder(table: Any, folder: Path) -> Any:
+    """A copy of ``table`` with every ``{ texture = "file" }`` relative to ``folder`` (the scene
+    file's), at any depth."""
+    if not isinstance(table, Mapping):
+        return table
+    out = {k: _in_folder(v, folder) for k, v in table.items()}
+    if isinstance(out.get("texture"), str):
+        out["texture"] = str(folder / out["texture"])
+    return out
+
+
 def _construct(cls: type, table: Mapping, key: str, **extra: Any):
     for req in REQUIRED.get(cls, ()):
         if req not in table:
@@ -179,6 +197,8 @@ def _object(table: Mapping, key: str, folder: Path):
     cls = OBJECT_TYPES[kind]
     values.check_keys(table, OBJECT_KEYS[cls], key)
     extra = {}
+    if isinstance(table.get("material"), Mapping):
+        extra["material"] = _in_folder(table["material"], folder)
     if cls is Mesh and "file" in table:
         extra["file"] = folder / values.string(table["file"], f"{key}.file")
     return _construct(cls, table, key, **extra)

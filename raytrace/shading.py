@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import shading_kernels as sk  # the compiled passes of this stage
+from .core import DIELECTRIC, NO_FRESNEL, SCHLICK
 from .optics import rows3
 
 
@@ -65,6 +66,9 @@ def blinn(normal: np.ndarray, to_light: np.ndarray, to_eye: np.ndarray, n: np.nd
 #: The highlight models' kernel codes by name (``Material.highlight``; the names are
 #: ``raytrace.material.HIGHLIGHTS``).
 HIGHLIGHT_CODES = {"phong": sk.PHONG, "blinn": sk.BLINN}
+#: Fresnel weightings of kr and kt by name (``raytrace.material.FRESNELS``), the codes the
+#: kernels read (:func:`raytrace.core.fresnel_weights1`).
+FRESNEL_CODES = {"none": NO_FRESNEL, "schlick": SCHLICK, "dielectric": DIELECTRIC}
 
 
 def direct(normal, to_light, to_eye, kd, ks, shininess, model) -> np.ndarray:

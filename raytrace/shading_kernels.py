@@ -36,13 +36,17 @@ import numpy as np
 from .core import (
     FLAT,
     GOURAUD,
+    NO_FRESNEL,
     SHADOW_SHORTEN,
+    bilinear1,
     checker1,
     facing1,
+    fresnel_weights1,
     leave1,
     light_uniform,
     reflect3,
     refract3,
+    texture1,
 )
 from .jit import kernel
 
@@ -51,7 +55,7 @@ PHONG, BLINN = 0, 1
 #: Emitter kinds in :func:`incidence1`'s packed row.
 POINT, SPOT, DIRECTIONAL = 0, 1, 2
 #: First column of each colour in a material's row of colours (``raytrace.material.COLOR_KEYS``).
-KA, KD, KS, KR, KT = 0, 3, 6, 9, 12
+KA, KD, KS, KR, KT, KE = 0, 3, 6, 9, 12, 15
 #: :func:`hit_terms`' status of a child ray: none, pruned by its weight, traced.
 NONE, PRUNED, KEEP = 0, 1, 2
 
@@ -171,15 +175,46 @@ def direct1(normal, light, view, kd, ks, n, model):
 
 # -- surfaces ---------------------------------------------------------------------------------
 @kernel
-def color1(materials, m, slot, x, y, z):
-    """Colour ``slot`` (KA … KT) of material ``m`` at the world point (x, y, z): its constant,
-    or its checker pattern there (``materials``: a :class:`raytrace.records.Materials`)."""
+def color1(materials, m, slot, x, y, z, st):
+    """Colour ``slot`` (KA … KE) of material ``m`` at the world point (x, y, z) with texture
+    coordinates ``st`` = (s, t): its constant, its checker pattern there, or its image texture
+    (:func:`raytrace.core.texture1`) (``materials``: a :class:`raytrace.records.Materials`)."""
     colors, pattern, checkers = materials.colors, materials.pattern, materials.checkers
     p = pattern[m, slot // 3]
     if p < 0:
+        q = materials.texture[m, slot // 3]
+        if q >= 0:
+            return texture1(materials.texels, materials.tex_info, q, st[0], st[1])
         return colors[m, slot], colors[m, slot + 1], colors[m, slot + 2]
     c = 3 * checker1(x, y, z, checkers[p, 6])
     return checkers[p, c], checkers[p, c + 1], checkers[p, c + 2]
+
+
+@kernel
+def opacity1(materials, m, st):
+    """Opacity t of material ``m`` at texture coordinates ``st``: its constant, times its
+    texture's alpha where it has one (glTF BLEND), or 1 / 0 by the alpha cutoff (MASK)."""
+    q = materials.alpha[m]
+    if q < 0:
+        return materials.opacity[m]
+    a = materials.opacity[m] * bilinear1(materials.texels, materials.tex_info, q, st[0], st[1],
+                                         3)
+    cutoff = materials.alpha_cutoff[m]
+    if cutoff >= 0.0:
+        return 1.0 if a >= cutoff else 0.0
+    return a
+
+
+@kernel
+def texcoord1(materials, m, triangles, tri, u, v):
+    """The texture coordinates (s, t) at barycentrics (u, v) of triangle ``tri``,
+    ``(1 − u − v)·st₀ + u·st₁ + v·st₂``, where material ``m`` has a texture (else (0, 0): no
+    work where no texture is read)."""
+    if not materials.textured[m] or tri < 0:
+        return 0.0, 0.0
+    tc, w = triangles.texcoords, 1.0 - u - v
+    return (w * tc[tri, 0, 0] + u * tc[tri, 1, 0] + v * tc[tri, 2, 0],
+            w * tc[tri, 0, 1] + u * tc[tri, 1, 1] + v * tc[tri, 2, 1])
 
 
 # -- batch kernels of the integrator ----------------------------------------------------------
@@ -277,11 +312,12 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
         hit_key = key[i] if jittered else -1
         lx, ly, lz, d, f = incidence1((px, py, pz), em, hit_key, depth)
         wx, wy, wz = px + origin[0], py + origin[1], pz + origin[2]
-        kd = color1(materials, m, KD, wx, wy, wz)
-        ks = color1(materials, m, KS, wx, wy, wz)
         tri = surf.triangle[i]
-        smooth = tri >= 0 and code[tri] != FLAT
         u, v = surf.uv[i, 0], surf.uv[i, 1]
+        st = texcoord1(materials, m, triangles, tri, u, v)
+        kd = color1(materials, m, KD, wx, wy, wz, st)
+        ks = color1(materials, m, KS, wx, wy, wz, st)
+        smooth = tri >= 0 and code[tri] != FLAT
         if smooth and code[tri] == GOURAUD:
             r, g, b = gouraud1((tri, u, v, s), (eye[i, 0], eye[i, 1], eye[i, 2]), triangles,
                                (em, hit_key, depth), kd, ks, shininess[m], highlight[m])
@@ -371,13 +407,14 @@ def cross_surfaces(factor, live, surf, walk, scene):
     direction, t, tmax = walk
     material, point, geometric = surf.material, surf.point, surf.geometric
     origin, materials = scene.origin, scene.materials
-    opacity = materials.opacity
     n, on = live.shape[0], 0
     through = np.empty(n, np.bool_)
     for j in range(n):
-        op = opacity[material[j]]
+        st = texcoord1(materials, material[j], scene.triangles, surf.triangle[j],
+                       surf.uv[j, 0], surf.uv[j, 1])
+        op = opacity1(materials, material[j], st)
         kt = color1(materials, material[j], KT, point[j, 0] + origin[0],
-                    point[j, 1] + origin[1], point[j, 2] + origin[2])
+                    point[j, 1] + origin[1], point[j, 2] + origin[2], st)
         r = live[j]
         for c in range(3):
             factor[r, c] *= op * kt[c] + (1.0 - op)
@@ -437,18 +474,24 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     origin, materials = scene.origin, scene.materials
     samples, sample = into
     r_dir, t_dir, w_r, w_t, w_s, status, tir = children
-    ior, opacity = materials.ior, materials.opacity
+    ior = materials.ior
     reflects, transmits = materials.reflects, materials.transmits
+    emits, fresnel = materials.emits, materials.fresnel
     lit = lights.shape[0] > 0
     for i in range(direction.shape[0]):
         m = material[i]
-        op = opacity[m]
         wx, wy, wz = point[i, 0] + origin[0], point[i, 1] + origin[1], point[i, 2] + origin[2]
-        ka = color1(materials, m, KA, wx, wy, wz)
+        st = texcoord1(materials, m, scene.triangles, surf.triangle[i], surf.uv[i, 0],
+                       surf.uv[i, 1])
+        op = opacity1(materials, m, st)
+        ka = color1(materials, m, KA, wx, wy, wz, st)
+        ke = color1(materials, m, KE, wx, wy, wz, st) if emits[m] else (0.0, 0.0, 0.0)
         for c in range(3):
             here = ambient[c] * ka[c]
             if lit:
                 here += lights[i, c]
+            if emits[m]:
+                here += ke[c]
             samples[sample[i], c] += weight[i, c] * (op * here)
         status[i, 0] = status[i, 1] = status[i, 2] = NONE
         tir[i] = False
@@ -457,12 +500,20 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
         s = facing1(gx, gy, gz, dx, dy, dz)
         nx, ny, nz = shading[i, 0] * s, shading[i, 1] * s, shading[i, 2] * s
         fx, fy, fz = gx * s, gy * s, gz * s
+        kr, kt = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        if reflects[m]:
+            kr = color1(materials, m, KR, wx, wy, wz, st)
+        if transmits[m]:
+            kt = color1(materials, m, KT, wx, wy, wz, st)
+        if fresnel[m] != NO_FRESNEL:  # kr, kt for this angle (V = −d, N facing the viewer)
+            entering = dx * gx + dy * gy + dz * gz < 0.0
+            kr, kt = fresnel_weights1(fresnel[m], -(dx * nx + dy * ny + dz * nz),
+                                      1.0 / ior[m] if entering else ior[m], kr, kt)
         if reflects[m]:
             rx, ry, rz = reflect3(dx, dy, dz, nx, ny, nz)
             if rx * fx + ry * fy + rz * fz <= 0.0:
                 rx, ry, rz = reflect3(dx, dy, dz, fx, fy, fz)
             r_dir[i, 0], r_dir[i, 1], r_dir[i, 2] = rx, ry, rz
-            kr = color1(materials, m, KR, wx, wy, wz)
             for c in range(3):
                 w_r[i, c] = weight[i, c] * op * kr[c]
             status[i, 0] = _status((w_r[i, 0], w_r[i, 1], w_r[i, 2]), min_weight)
@@ -474,7 +525,6 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
                 tx, ty, tz, total = refract3(dx, dy, dz, fx, fy, fz, eta)
             t_dir[i, 0], t_dir[i, 1], t_dir[i, 2] = tx, ty, tz
             tir[i] = total
-            kt = color1(materials, m, KT, wx, wy, wz)
             for c in range(3):
                 w_t[i, c] = weight[i, c] * op * kt[c]
             if (total and not min_weight > 0.0 and reflects[m] and status[i, 0] != NONE
@@ -593,8 +643,10 @@ def aov_hits(rays, t, surf, scene, objects, aovs):
             for c in range(3):
                 normal[s, c] = f * shading[i, c]
         if albedo.shape[0]:
+            st = texcoord1(materials, material[i], scene.triangles, triangle[i],
+                           surf.uv[i, 0], surf.uv[i, 1])
             kd = color1(materials, material[i], KD, point[i, 0] + origin[0],
-                        point[i, 1] + origin[1], point[i, 2] + origin[2])
+                        point[i, 1] + origin[1], point[i, 2] + origin[2], st)
             for c in range(3):
                 albedo[s, c] = kd[c]
         if ident.shape[0]:

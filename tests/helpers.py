@@ -130,3 +130,25 @@ def read_png_library(path: str | Path):
 def write_text(path: Path, text: str) -> Path:
     path.write_text(text, encoding="utf-8")
     return path
+
+
+
+def write_gltf(path: Path, nodes: list[dict], meshes: list[dict] | None = None,
+               materials: list[dict] | None = None, extra: dict | None = None) -> Path:
+    """A small glTF 2.0 file (JSON, its buffer as a data URI) built by
+    scenes/models/make_models.py's ``write_gltf_doc``, which writes the specification's JSON
+    by hand, independent of the loader under test. ``nodes`` and ``materials`` are glTF JSON
+    objects as the specification writes them; ``extra`` is merged into the top level."""
+    import base64
+    import importlib.util
+    import json
+
+    spec = importlib.util.spec_from_file_location(
+        "make_models", Path(__file__).resolve().parent.parent / "scenes/models/make_models.py")
+    make_models = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(make_models)
+    doc, blob = make_models.write_gltf_doc(nodes, meshes or [], materials, extra)
+    doc["buffers"][0]["uri"] = ("data:application/octet-stream;base64,"
+                                + base64.b64encode(blob).decode())
+    path.write_text(json.dumps(doc))
+    return path

@@ -58,7 +58,7 @@ EDGE_FRACTION = 0.03
 # raytrace.sampling holds the names and checks of [render]'s filter and aa keys, which
 # RenderSettings validates: data, no renderer code.
 ALLOWED = {"raytrace", "raytrace.scene", "raytrace.material", "raytrace.values",
-           "raytrace.errors", "raytrace.sampling"}
+           "raytrace.errors", "raytrace.sampling", "raytrace.texture"}
 
 
 def test_reference_tracer_imports_only_the_scene_description():
@@ -260,7 +260,11 @@ def check_scene(path: Path, width: int, max_depth: int | None) -> None:
     assert len(result["edges"]) <= EDGE_FRACTION * result["size"], result["edges"]
 
 
-CASES = [pytest.param(p, id=p.stem) for p in SCENES]
+#: Scenes using what the reference does not implement yet (MTL Fresnel weighting, emission
+#: ke, image textures: issue 17's material inputs).
+UNSUPPORTED = {"obj_mtl": "the reference tracer has no MTL Fresnel weighting, ke or textures"}
+CASES = [pytest.param(p, id=p.stem, marks=pytest.mark.skip(reason=UNSUPPORTED[p.stem]))
+         if p.stem in UNSUPPORTED else pytest.param(p, id=p.stem) for p in SCENES]
 
 
 @pytest.mark.parametrize("path", CASES)

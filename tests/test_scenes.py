@@ -34,7 +34,7 @@ SCENE_DIR = ROOT / "scenes"
 REF_DIR = Path(__file__).resolve().parent / "references"
 MODELS = SCENE_DIR / "models"
 
-SCENES = sorted(p for p in SCENE_DIR.glob("*") if p.suffix in (".toml", ".json"))
+SCENES = sorted(p for p in SCENE_DIR.glob("*") if p.suffix in (".toml", ".json", ".glb"))
 MATERIAL_FILES = sorted((ROOT / "materials").glob("*.toml"))
 
 WIDTH = 48
@@ -181,6 +181,17 @@ def test_model_files_are_what_make_models_generates():
         np.testing.assert_allclose(loaded.vertices, mesh.vertices, atol=1e-6, err_msg=name)
     knot = trimesh.load(MODELS / "torus_knot.ply", process=False)
     assert knot.is_watertight and knot.is_winding_consistent and knot.volume > 0
+
+
+def test_obj_and_gltf_models_are_what_make_models_generates():
+    mm = _make_models()
+    obj, mtl = mm.still_life_obj()
+    assert (MODELS / "still_life.obj").read_text() == obj
+    assert (MODELS / "still_life.mtl").read_text() == mtl
+    doc, blob = mm.gltf_scene()
+    glb = (SCENE_DIR / "gltf_scene.glb").read_bytes()
+    assert blob in glb  # the binary chunk, byte for byte
+    assert b'"KHR_lights_punctual"' in glb and len(doc["nodes"]) == 9
 
 
 def test_model_files_are_small():

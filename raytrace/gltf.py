@@ -1,0 +1,375 @@
+"""glTF 2.0 and GLB files: meshes, node hierarchy, cameras, lights and materials.
+
+The file is read with pygltflib (Khronos glTF 2.0 specification, 2021); accessors are decoded
+here with numpy (componentType, type, byteOffset, byteStride, normalized; §3.6). The scene's
+node tree is walked from its roots with each node's matrix or T·R·S (§3.5.3: M = T·R·S, the
+rotation a unit quaternion x, y, z, w), the parent's world matrix on the left.
+
+* every TRIANGLES primitive of every mesh node, in world space, with its material;
+* the first perspective camera met (it looks down its node's −z with +y up; ``yfov`` is the
+  vertical field of view);
+* ``KHR_lights_punctual`` lights (:data:`LIGHTS`);
+* materials by :func:`material` (the mapping is in docs/scene_format.md).
+
+Extensions that change the look and are not read are listed on one warning line; an
+``extensionsRequired`` entry not read is an error.
+"""
+
+from __future__ import annotations
+
+import base64
+import functools
+import math
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import values
+from .assets import Asset
+from .errors import RenderWarning, SceneError
+from .material import Material
+
+COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32,
+             5126: np.float32}
+WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+#: Extensions read (the rest of ``extensionsUsed`` that changes appearance is warned about).
+SUPPORTED = ("KHR_lights_punctual", "KHR_materials_ior", "KHR_materials_transmission",
+             "KHR_materials_specular", "KHR_materials_emissive_strength",
+             "KHR_materials_unlit")
+#: Extensions that do not change how the scene looks.
+NEUTRAL = ("KHR_mesh_quantization", "KHR_xmp_json_ld", "KHR_materials_variants",
+           "EXT_mesh_gpu_instancing")
+TRIANGLES = 4
+
+
+@dataclass
+class GltfScene:
+    """What a glTF file holds for raytrace."""
+
+    asset: Asset
+    camera: dict | None = None          #: position, look_at, up, fov, aspect
+    lights: list = field(default_factory=list)
+
+
+def _buffers(gltf: Any, path: Path) -> list[bytes]:
+    out = []
+    for i, b in enumerate(gltf.buffers):
+        uri = b.uri
+        if uri is None:
+            blob = gltf.binary_blob()
+            if blob is None:
+                raise SceneError("has no uri and the file has no binary chunk",
+                                 f"buffers[{i}]", str(path))
+            out.append(blob)
+        elif uri.startswith("data:"):
+            out.append(base64.b64decode(uri.split(",", 1)[1]))
+        else:
+            file = path.parent / uri
+            if not file.is_file():
+                raise SceneError(f"buffer file not found: {file}", f"buffers[{i}].uri",
+                                 str(path))
+            out.append(file.read_bytes())
+    return out
+
+
+def accessor(gltf: Any, buffers: list[bytes], index: int, path: Path) -> np.ndarray:
+    """Accessor ``index`` as an (count, width) array (§3.6.2), normalised integers as floats
+    in [0, 1] (unsigned) or [−1, 1] (signed)."""
+    key = f"accessors[{index}]"
+    try:
+        a = gltf.accessors[index]
+    except (IndexError, TypeError):
+        raise SceneError("no such accessor", key, str(path)) from None
+    if a.sparse is not None:
+        raise SceneError("sparse accessors are not supported", key, str(path))
+    if a.componentType not in COMPONENT or a.type not in WIDTH:
+        raise SceneError(f"unknown componentType {a.componentType} or type {a.type!r}", key,
+                         str(path))
+    dtype, width = np.dtype(COMPONENT[a.componentType]).newbyteorder("<"), WIDTH[a.type]
+    if a.bufferView is None:
+        return np.zeros((a.count, width), np.float64)
+    view = gltf.bufferViews[a.bufferView]
+    data = buffers[view.buffer]
+    start = (view.byteOffset or 0) + (a.byteOffset or 0)
+    stride = view.byteStride or dtype.itemsize * width
+    end = start + stride * (a.count - 1) + dtype.itemsize * width
+    if a.count and end > (view.byteOffset or 0) + view.byteLength or end > len(data):
+        raise SceneError("reaches past the end of its buffer view", key, str(path))
+    rows = np.ndarray((a.count, width), dtype, data, start, (stride, dtype.itemsize))
+    out = rows.astype(np.float64 if a.componentType == 5126 or a.normalized else np.int64)
+    if a.normalized and a.componentType != 5126:
+        info = np.iinfo(COMPONENT[a.componentType])
+        out = np.maximum(out / info.max, -1.0)
+    return out
+
+
+def local_matrix(node: Any) -> np.ndarray:
+    """A node's 4×4 local transform: its column-major ``matrix``, or T·R·S (§3.5.3)."""
+    if node.matrix is not None:
+        return np.array(node.matrix, np.float64).reshape(4, 4).T
+    t = np.eye(4)
+    t[:3, 3] = node.translation or (0.0, 0.0, 0.0)
+    x, y, z, w = node.rotation or (0.0, 0.0, 0.0, 1.0)
+    r = np.eye(4)
+    r[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                 [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                 [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+    s = np.diag([*(node.scale or (1.0, 1.0, 1.0)), 1.0])
+    return t @ r @ s
+
+
+def world_matrices(gltf: Any) -> list[tuple[int, np.ndarray]]:
+    """(node, world matrix) for every node of the default scene, parents before children."""
+    scene = gltf.scenes[gltf.scene or 0] if gltf.scenes else None
+    roots = scene.nodes if scene is not None else range(len(gltf.nodes))
+    out, stack = [], [(n, np.eye(4)) for n in reversed(roots or [])]
+    while stack:
+        n, parent = stack.pop()
+        m = parent @ local_matrix(gltf.nodes[n])
+        out.append((n, m))
+        stack += [(c, m) for c in reversed(gltf.nodes[n].children or [])]
+    return out
+
+
+def _ext(obj: Any, name: str) -> dict:
+    return (obj.extensions or {}).get(name) or {} if obj is not None else {}
+
+
+def roughness_exponent(roughness: float) -> float:
+    """Blinn–Phong exponent of a GGX/Beckmann roughness: n = 2/α² − 2 with α = roughness²
+    (Walter et al. 2007, eq. 30; Karis 2013's α), capped at 10 000."""
+    alpha2 = max(roughness, 1e-3) ** 4
+    return min(max(2.0 / alpha2 - 2.0, 0.0), 10_000.0)
+
+
+def material(gltf: Any, index: int | None, texture: Any = None, path: Path | None = None
+             ) -> Material:
+    """A glTF material as a raytrace :class:`Material` (docs/scene_format.md has the table):
+    ``kd = baseColor·(1 − metallic)·(1 − transmission)``, specular colour
+    ``F0 = mix(((ior − 1)/(ior + 1))²·specularColor·specular, baseColor, metallic)``,
+    ``shininess`` = :func:`roughness_exponent`, ``ks = F0·(n + 8)/8`` (normalised
+    Blinn–Phong, Akenine-Möller et al., Real-Time Rendering 4th ed., eq. 7.48, times π as the
+    seeds' kd is), ``kr = F0·(1 − roughness)²``; transmission t: ``kt = t·baseColor·(1 −
+    metallic)``, ``kr = 1`` and the dielectric Fresnel split; ``ke = emissive·strength``;
+    BLEND alpha as opacity, MASK as 0 or 1 by the cutoff; unlit: ``ke = baseColor``."""
+    if index is None:
+        m = None
+        name = "default"
+    else:
+        m = gltf.materials[index]
+        name = m.name or f"materials[{index}]"
+    pbr = m.pbrMetallicRoughness if m is not None else None
+    key = f"materials[{index}]"
+
+    def factor(value: Any, default: Any, field: str, hi: float | None = 1.0) -> Any:
+        """A factor checked against the glTF schema's range, named by its key."""
+        value = default if value is None else value
+        try:
+            if isinstance(default, list):
+                return np.array([values.number(x, f"{key}.{field}[{i}]", lo=0, hi=hi)
+                                 for i, x in enumerate(value)], np.float64)
+            return values.number(value, f"{key}.{field}", lo=0, hi=hi)
+        except SceneError as e:
+            raise SceneError(e.problem, e.key, str(path)) from None
+
+    rgba = factor(pbr.baseColorFactor if pbr else None, [1.0] * 4,
+                  "pbrMetallicRoughness.baseColorFactor")
+    base, alpha = rgba[:3], rgba[3]
+    metallic = factor(pbr.metallicFactor if pbr else None, 1.0,
+                      "pbrMetallicRoughness.metallicFactor")
+    rough = factor(pbr.roughnessFactor if pbr else None, 1.0,
+                   "pbrMetallicRoughness.roughnessFactor")
+    ior = factor(_ext(m, "KHR_materials_ior").get("ior"), 1.5,
+                 "extensions.KHR_materials_ior.ior", None)
+    spec = _ext(m, "KHR_materials_specular")
+    trans = factor(_ext(m, "KHR_materials_transmission").get("transmissionFactor"), 0.0,
+                   "extensions.KHR_materials_transmission.transmissionFactor")
+    strength = factor(_ext(m, "KHR_materials_emissive_strength").get("emissiveStrength"),
+                      1.0, "extensions.KHR_materials_emissive_strength.emissiveStrength",
+                      None)
+    f0_dielectric = (((ior - 1) / (ior + 1)) ** 2 if ior > 0 else 0.04) * np.minimum(
+        np.array(spec.get("specularColorFactor", [1, 1, 1]), np.float64)
+        * spec.get("specularFactor", 1.0), 1.0)
+    f0 = f0_dielectric * (1 - metallic) + base * metallic
+    n = roughness_exponent(rough)
+    fields: dict[str, Any] = {
+        "kd": base * (1 - metallic) * (1 - trans), "ks": f0 * (n + 8) / 8, "shininess": n,
+        "highlight": "blinn", "kr": np.clip(f0 * (1 - rough) ** 2, 0, 1),
+        "ior": ior if ior > 0 else 1.5,
+        "ke": np.array(m.emissiveFactor if m is not None and m.emissiveFactor else [0, 0, 0],
+                       np.float64) * strength}
+    if trans > 0:
+        fields.update(kt=np.clip(trans * base * (1 - metallic), 0, 1), kr=1.0,
+                      fresnel="dielectric")
+    mode = (m.alphaMode if m is not None else None) or "OPAQUE"
+    if mode == "BLEND":
+        fields["opacity"] = alpha
+    elif mode == "MASK":
+        cutoff = m.alphaCutoff if m.alphaCutoff is not None else 0.5
+        fields["opacity"] = 1.0 if alpha >= cutoff else 0.0
+    if m is not None and "KHR_materials_unlit" in (m.extensions or {}):
+        fields.update(ke=base, kd=0.0, ks=0.0, kr=0.0, ka=0.0)
+    tex = pbr.baseColorTexture if pbr is not None else None
+    if tex is not None and texture is not None:
+        t = texture(gltf, tex, path, f"materials[{index}].pbrMetallicRoughness."
+                    "baseColorTexture", mode)
+        scale = base * (1 - metallic) * (1 - trans)
+        fields["kd"] = t.scaled(scale)
+        if mode in ("BLEND", "MASK"):  # the texture's alpha times the factor's
+            fields["alpha"] = t
+            fields["opacity"] = alpha
+            fields["alpha_cutoff"] = (m.alphaCutoff if m.alphaCutoff is not None else 0.5
+                                      ) if mode == "MASK" else -1.0
+    try:
+        out = Material(**fields, name=name)
+    except SceneError as e:
+        raise SceneError(e.problem, f"materials[{index}].{e.key}", str(path)) from None
+    return out
+
+
+def _light(spec: dict, world: np.ndarray, where: str, path: Path):
+    """A KHR_lights_punctual light at its node (:data:`LIGHTS`)."""
+    from .scene import DirectionalLight, PointLight, SpotLight
+
+    kind = spec.get("type")
+    color = np.array(spec.get("color", [1, 1, 1]), np.float64) * spec.get("intensity", 1.0)
+    position = world[:3, 3]
+    axis = world[:3, :3] @ [0.0, 0.0, -1.0]
+    try:
+        if kind == "point":
+            return PointLight(position=position, color=color, attenuation=(0, 0, 1))
+        if kind == "directional":
+            return DirectionalLight(direction=axis, color=color)
+        if kind == "spot":
+            cone = spec.get("spot", {})
+            inner = cone.get("innerConeAngle", 0.0)
+            outer = cone.get("outerConeAngle", math.pi / 4)
+            return SpotLight(position=position, direction=axis, cutoff=math.degrees(outer),
+                             exponent=spot_exponent(inner, outer), color=color,
+                             attenuation=(0, 0, 1))
+    except SceneError as e:
+        raise SceneError(e.problem, f"{where}.{e.key}", str(path)) from None
+    raise SceneError(f"type must be point, spot or directional, got {kind!r}", where,
+                     str(path))
+
+
+def spot_exponent(inner: float, outer: float) -> float:
+    """The exponent a of (cos α)^a that halves a spot's light midway between its glTF inner and
+    outer cone angles (radians): a = ln ½ / ln cos((inner + outer)/2), 0 for a hard edge
+    (inner = outer). glTF fades linearly in cos α from inner to outer; raytrace's spot cuts
+    off at ``outer`` and falls off as (cos α)^a inside."""
+    mid = 0.5 * (inner + outer)
+    if outer - inner < 1e-9 or math.cos(mid) >= 1.0:
+        return 0.0
+    return math.log(0.5) / math.log(math.cos(mid))
+
+
+#: KHR_lights_punctual: light type → what it becomes (intensity times colour as the light's
+#: colour; candela for point and spot at an inverse-square attenuation (0, 0, 1), lux for
+#: directional; ``range`` is not modelled and warned about).
+LIGHTS = {"point": "PointLight", "spot": "SpotLight", "directional": "DirectionalLight"}
+
+
+def _check_extensions(gltf: Any, path: Path) -> None:
+    required = [e for e in (gltf.extensionsRequired or []) if e not in SUPPORTED]
+    if required:
+        raise SceneError(f"requires extensions raytrace cannot read: {', '.join(required)}",
+                         "extensionsRequired", str(path))
+    dropped = [e for e in (gltf.extensionsUsed or []) if e not in SUPPORTED + NEUTRAL]
+    if dropped:
+        warnings.warn(f"{path}: extensions that change the look, drawn without them: "
+                      f"{', '.join(dropped)}", RenderWarning, stacklevel=3)
+
+
+@functools.lru_cache(maxsize=4)
+def _load_cached(path: str, stamp: tuple) -> GltfScene:
+    return _load(Path(path))
+
+
+def load_gltf(path: Path) -> GltfScene:
+    """The meshes, materials, first camera and lights of a .gltf or .glb file."""
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError("glTF file not found", file=str(path))
+    st = path.stat()
+    return _load_cached(str(path.resolve()), (st.st_mtime_ns, st.st_size))
+
+
+def _load(path: Path) -> GltfScene:
+    import pygltflib
+
+    from .texture import gltf_texture
+
+    try:
+        gltf = pygltflib.GLTF2().load(str(path))
+    except Exception as e:  # pygltflib raises what json, struct or its own code raise
+        raise SceneError(f"cannot read glTF: {type(e).__name__}: {e}", file=str(path)
+                         ) from None
+    if gltf is None:
+        raise SceneError("cannot read glTF", file=str(path))
+    _check_extensions(gltf, path)
+    buffers = _buffers(gltf, path)
+    materials: dict = {}
+    verts, faces, face_mat, uvs, sources = [], [], [], [], []
+    camera, lights, offset = None, [], 0
+    light_specs = _ext(gltf, "KHR_lights_punctual").get("lights", [])
+    ranged = False
+    for n, world in world_matrices(gltf):
+        node = gltf.nodes[n]
+        where = f"nodes[{n}]"
+        if node.camera is not None and camera is None:
+            cam = gltf.cameras[node.camera]
+            if cam.type == "perspective" and cam.perspective is not None:
+                r = world[:3, :3]
+                camera = {"position": world[:3, 3], "look_at": world[:3, 3] + r @ [0, 0, -1.0],
+                          "up": r @ [0, 1.0, 0], "fov": math.degrees(cam.perspective.yfov),
+                          "aspect": cam.perspective.aspectRatio}
+        light_ref = _ext(node, "KHR_lights_punctual").get("light")
+        if light_ref is not None:
+            if not 0 <= light_ref < len(light_specs):
+                raise SceneError(f"no such light {light_ref}",
+                                 f"{where}.extensions.KHR_lights_punctual.light", str(path))
+            lights.append(_light(light_specs[light_ref], world, f"KHR_lights_punctual.lights"
+                                 f"[{light_ref}]", path))
+            ranged |= "range" in light_specs[light_ref]
+        if node.mesh is None:
+            continue
+        for p, prim in enumerate(gltf.meshes[node.mesh].primitives):
+            if (prim.mode if prim.mode is not None else TRIANGLES) != TRIANGLES:
+                raise SceneError("only TRIANGLES (mode 4) primitives are supported, got mode "
+                                 f"{prim.mode}", f"meshes[{node.mesh}].primitives[{p}].mode",
+                                 str(path))
+            if prim.attributes.POSITION is None:
+                continue
+            pos = accessor(gltf, buffers, prim.attributes.POSITION, path)
+            idx = (accessor(gltf, buffers, prim.indices, path).reshape(-1, 3)
+                   if prim.indices is not None else np.arange(len(pos)).reshape(-1, 3))
+            uv = (accessor(gltf, buffers, prim.attributes.TEXCOORD_0, path)
+                  if prim.attributes.TEXCOORD_0 is not None else None)
+            if idx.size and (idx.min() < 0 or idx.max() >= len(pos)):
+                raise SceneError(f"index out of range 0..{len(pos) - 1}",
+                                 f"meshes[{node.mesh}].primitives[{p}].indices", str(path))
+            w = pos @ world[:3, :3].T + world[:3, 3]
+            if np.linalg.det(world[:3, :3]) < 0:  # a mirroring transform flips the winding
+                idx = idx[:, ::-1]
+            if prim.material not in materials:
+                materials[prim.material] = material(gltf, prim.material, gltf_texture, path)
+            verts.append(w)
+            faces.append(idx + offset)
+            face_mat.append(np.full(len(idx), list(materials).index(prim.material)))
+            uvs.append(uv[:, :2][idx] if uv is not None else np.zeros((len(idx), 3, 2)))
+            offset += len(pos)
+    if ranged:
+        warnings.warn(f"{path}: KHR_lights_punctual range is not modelled: lights fall off as "
+                      "1/d² without a cut-off", RenderWarning, stacklevel=2)
+    if not faces:
+        raise SceneError("holds no triangles", "meshes", str(path))
+    mats = list(materials.values())
+    sources += [p for m in mats for p in m.sources]
+    asset = Asset(np.concatenate(verts), np.concatenate(faces).astype(np.int64),
+                  np.concatenate(face_mat).astype(np.int64), mats,
+                  np.concatenate(uvs) if any(len(u) for u in uvs) else None, tuple(sources))
+    return GltfScene(asset, camera, lights)

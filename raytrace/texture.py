@@ -1,0 +1,152 @@
+"""Image textures for a material colour: ``kd = { texture = "wood.png" }``, MTL ``map_Kd``,
+glTF ``baseColorTexture``.
+
+A :class:`Texture` holds the image as linear float32 RGBA (H, W, 4), row 0 at the top: 8- and
+16-bit sRGB images are decoded with colour-science (``colour.cctf_decoding(x,
+function="sRGB")``, IEC 61966-2-1), alpha stays linear. The renderer samples it at the hit's
+texture coordinates (s, t) (t = 0 at the top row, as in glTF; OBJ's t is flipped on loading)
+with bilinear filtering between texel centres (texel (i, j) is at ((i + ½)/W, (j + ½)/H)),
+and the wrap mode per axis from :data:`WRAPS` (:func:`raytrace.core.texture1`). Images are
+read with Pillow.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import values
+from .errors import SceneError
+
+#: Wrap modes by name → the code :func:`raytrace.core.wrap1` reads.
+WRAPS = {"repeat": 0, "clamp": 1, "mirror": 2}
+#: glTF sampler wrap codes (§5.26: REPEAT, CLAMP_TO_EDGE, MIRRORED_REPEAT).
+GLTF_WRAPS = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
+TEXTURE_KEYS = ("texture", "wrap", "srgb", "scale")
+
+
+class Texture:
+    """An image as a colour: linear RGBA texels (H, W, 4) float32, wrap modes, a tint."""
+
+    def __init__(self, texels: np.ndarray, wrap: tuple[str, str] = ("repeat", "repeat"),
+                 file: Path | None = None):
+        self.texels = np.ascontiguousarray(texels, np.float32)
+        if self.texels.ndim != 3 or self.texels.shape[2] != 4 or 0 in self.texels.shape:
+            raise SceneError(f"texels must be (H, W, 4), got {self.texels.shape}", "texture")
+        self.wrap = tuple(values.string(w, "wrap", WRAPS) for w in wrap)
+        self.file = file
+
+    @classmethod
+    def from_file(cls, file: Path, key: str, *, srgb: bool = True,
+                  wrap: tuple[str, str] = ("repeat", "repeat"), where: str | None = None,
+                  data: bytes | None = None) -> Texture:
+        """An image file (or its bytes) decoded to linear RGBA."""
+        import io
+
+        from PIL import Image, UnidentifiedImageError
+
+        if data is None and not Path(file).is_file():
+            raise SceneError(f"texture file not found: {file}", key, where)
+        try:
+            with Image.open(io.BytesIO(data) if data is not None else file) as im:
+                im.load()
+                rgba = _pixels(im)
+        except (OSError, UnidentifiedImageError, ValueError) as e:
+            raise SceneError(f"cannot read texture {file}: {e}", key, where) from None
+        if srgb:
+            from .film import import_colour
+
+            colour = import_colour()
+            rgba[..., :3] = colour.cctf_decoding(rgba[..., :3], function="sRGB")
+        return cls(rgba, wrap, Path(file) if data is None else None)
+
+    def scaled(self, factor: Any) -> Texture:
+        """The texture times a colour (glTF's baseColorFactor), alpha kept."""
+        t = self.texels.copy()
+        t[..., :3] *= np.asarray(factor, np.float32)
+        return Texture(t, self.wrap, self.file)
+
+    @property
+    def max(self) -> np.ndarray:
+        return self.texels[..., :3].reshape(-1, 3).max(axis=0).astype(np.float64)
+
+    def sample(self, st: np.ndarray) -> np.ndarray:
+        """Bilinear RGB at texture coordinates (n, 2): the renderer's own rule,
+        :func:`raytrace.core.texture1`."""
+        from .core import texture_rows
+
+        st = np.ascontiguousarray(np.asarray(st, np.float64).reshape(-1, 2))
+        out = np.empty((len(st), 3))
+        h, w = self.texels.shape[:2]
+        info = np.array([[0, w, h, WRAPS[self.wrap[0]], WRAPS[self.wrap[1]]]], np.int64)
+        texture_rows(self.texels.reshape(-1), info, st, out)
+        return out
+
+
+def _pixels(im: Any) -> np.ndarray:
+    """RGBA in [0, 1] from any Pillow image (8 or 16 bits a channel)."""
+    if im.mode in ("I;16", "I;16B", "I;16L", "I"):
+        grey = np.asarray(im, np.float64) / 65535.0
+        return np.dstack([grey, grey, grey, np.ones_like(grey)])
+    if im.mode == "F":
+        grey = np.asarray(im, np.float64)
+        return np.dstack([grey, grey, grey, np.ones_like(grey)])
+    return np.asarray(im.convert("RGBA"), np.float64) / 255.0
+
+
+def parse_texture(table: Mapping, key: str) -> Texture:
+    """``{ texture = "file.png", wrap = "repeat" | "clamp" | "mirror", srgb = true, scale }``;
+    a relative file is relative to the scene file's folder (the loader makes it so)."""
+    values.check_keys(table, TEXTURE_KEYS, key)
+    file = Path(values.string(table["texture"], f"{key}.texture"))
+    wrap = values.string(table.get("wrap", "repeat"), f"{key}.wrap", WRAPS)
+    srgb = values.boolean(table.get("srgb", True), f"{key}.srgb")
+    t = Texture.from_file(file, f"{key}.texture", srgb=srgb, wrap=(wrap, wrap))
+    if "scale" in table:
+        t = t.scaled(values.color(table["scale"], f"{key}.scale"))
+    return t
+
+
+def mtl_texture(file: Path, options: dict, key: str, where: str) -> Texture:
+    """An MTL ``map_Kd`` (sRGB; ``-clamp on`` clamps, else repeats)."""
+    wrap = options.get("wrap", "repeat")
+    return Texture.from_file(file, key, wrap=(wrap, wrap), where=where)
+
+
+def gltf_texture(gltf: Any, info: Any, path: Path, key: str, alpha_mode: str) -> Texture:
+    """A glTF ``textureInfo``: its image (a file, a data URI or a buffer view) decoded as sRGB,
+    its sampler's wrapS / wrapT. TEXCOORD_0 only."""
+    import base64
+
+    where = str(path)
+    try:
+        tex = gltf.textures[info.index]
+        image = gltf.images[tex.source]
+    except (IndexError, TypeError):
+        raise SceneError("names no texture with an image", f"{key}.index", where) from None
+    if (info.texCoord or 0) != 0:
+        raise SceneError("only TEXCOORD_0 is supported", f"{key}.texCoord", where)
+    wrap = ("repeat", "repeat")
+    if tex.sampler is not None:
+        s = gltf.samplers[tex.sampler]
+        wrap = (GLTF_WRAPS.get(s.wrapS or 10497, "repeat"),
+                GLTF_WRAPS.get(s.wrapT or 10497, "repeat"))
+    if image.bufferView is not None:
+        from .gltf import _buffers
+
+        view = gltf.bufferViews[image.bufferView]
+        data = _buffers(gltf, path)[view.buffer]
+        start = view.byteOffset or 0
+        return Texture.from_file(Path(f"{path.name}#images[{tex.source}]"), key, wrap=wrap,
+                                 where=where, data=data[start:start + view.byteLength])
+    uri = image.uri or ""
+    if uri.startswith("data:"):
+        return Texture.from_file(Path(f"{path.name}#images[{tex.source}]"), key, wrap=wrap,
+                                 where=where, data=base64.b64decode(uri.split(",", 1)[1]))
+    from urllib.parse import unquote
+
+    return Texture.from_file(path.parent / unquote(uri), f"images[{tex.source}].uri",
+                             wrap=wrap, where=where)

@@ -1,0 +1,214 @@
+"""glTF 2.0 scenes (raytrace/gltf.py): node transforms, the camera, KHR_lights_punctual
+against the equivalent TOML lights, the material mapping and one-line errors."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from helpers import make_scene, pixel, write_gltf
+
+import raytrace
+from raytrace.camera import camera_rays
+from raytrace.errors import RenderWarning, SceneError
+
+#: The square |x|, |y| ≤ 1 in z = 0, counter-clockwise from +z (normal +z).
+SQUARE = {"positions": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+          "indices": [[0, 1, 2], [0, 2, 3]], "uv": [[0, 1], [1, 1], [1, 0], [0, 0]],
+          "material": 0}
+MATTE = [{"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.4, 0.2, 1.0],
+                                   "metallicFactor": 0.0, "roughnessFactor": 1.0}}]
+
+
+def quaternion(axis, degrees):
+    """Unit quaternion (x, y, z, w) of a rotation about ``axis``."""
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    h = math.radians(degrees) / 2
+    return [*(a * math.sin(h)), math.cos(h)]
+
+
+def test_a_child_of_a_rotated_and_scaled_parent_lands_where_it_should(tmp_path):
+    """Parent: translate (1, 0, 0) · rotate 90° about z · scale 2; child: translate (1, 0, 0).
+    The child's local (0, 0, 0) → (1, 0, 0) → ×2 (2, 0, 0) → Rz90 (0, 2, 0) → (1, 2, 0);
+    local (0.1, 0, 0) → (1, 2.2, 0); local (0, 0.1, 0) → (1.1 → ... ) = (0.8, 2, 0)."""
+    tri = {"positions": [[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0]], "indices": [[0, 1, 2]]}
+    nodes = [{"translation": [1, 0, 0], "rotation": quaternion([0, 0, 1], 90),
+              "scale": [2, 2, 2], "children": [1]},
+             {"translation": [1, 0, 0], "mesh": 0, "_child": True}]
+    path = write_gltf(tmp_path / "h.gltf", nodes, [tri])
+    mesh = raytrace.Mesh(file=path, material="from_file")
+    np.testing.assert_allclose(mesh.vertices, [[1, 2, 0], [1, 2.2, 0], [0.8, 2, 0]],
+                               atol=1e-6)
+    # the same through a column-major matrix on the parent
+    m = np.array([[0, -2, 0, 1], [2, 0, 0, 0], [0, 0, 2, 0], [0, 0, 0, 1]], float)
+    nodes = [{"matrix": m.T.reshape(-1).tolist(), "children": [1]},
+             {"translation": [1, 0, 0], "mesh": 0, "_child": True}]
+    path = write_gltf(tmp_path / "m.gltf", nodes, [tri])
+    np.testing.assert_allclose(raytrace.Mesh(file=path, material="from_file").vertices,
+                               [[1, 2, 0], [1, 2.2, 0], [0.8, 2, 0]], atol=1e-6)
+
+
+def test_the_gltf_camera_reproduces_a_known_pixel_ray(tmp_path):
+    """A camera node at (1, 2, 5) turned 30° about y (its −z looks towards −x a little), yfov
+    0.6 rad: pixel (row 1, col 6) of an 8×6 image goes along forward + x·right + y·up with
+    x = (2·6.5/8 − 1)·tan(0.3)·8/6, y = (1 − 2·1.5/6)·tan(0.3), right = R x̂, up = R ŷ."""
+    nodes = [{"translation": [1, 2, 5], "rotation": quaternion([0, 1, 0], 30), "camera": 0},
+             {"mesh": 0}]
+    path = write_gltf(tmp_path / "c.gltf", nodes, [SQUARE], MATTE, extra={"cameras": [
+        {"type": "perspective", "perspective": {"yfov": 0.6, "znear": 0.1}}]})
+    scene = raytrace.load_scene(path)
+    np.testing.assert_allclose(scene.camera.position, [1, 2, 5], atol=1e-12)
+    frame = raytrace.RenderSettings(width=8, height=6)
+    rays = camera_rays(scene.camera, frame, 0, 48).direction.reshape(6, 8, 3)
+    c, s = math.cos(math.radians(30)), math.sin(math.radians(30))
+    right, up, forward = np.array([c, 0, -s]), np.array([0, 1.0, 0]), np.array([-s, 0, -c])
+    t = math.tan(0.3)
+    d = forward + (2 * 6.5 / 8 - 1) * t * 8 / 6 * right + (1 - 2 * 1.5 / 6) * t * up
+    np.testing.assert_allclose(rays[1, 6], d / np.linalg.norm(d), atol=1e-12)
+
+
+def _lit_square(tmp_path, light: dict, node: dict, name: str):
+    """The square under one KHR light, seen from (0, 0, 3)."""
+    node = {**node, "extensions": {"KHR_lights_punctual": {"light": 0}}}
+    return write_gltf(tmp_path / f"{name}.gltf", [{"mesh": 0}, node], [SQUARE], MATTE, extra={
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [light]}}})
+
+
+@pytest.mark.parametrize("kind", ["point", "spot", "directional"])
+def test_each_khr_light_matches_the_equivalent_toml_light(tmp_path, kind):
+    """The same square lit by the glTF light and by the TOML light docs/scene_format.md maps
+    it to (colour × intensity; 1/d²; the spot's cutoff at the outer cone and an exponent that
+    halves it midway between the cones): the same pixels."""
+    color, intensity = [1.0, 0.5, 0.25], 3.0
+    down = {"translation": [0.2, 0.1, 1.5], "rotation": quaternion([1, 0, 0], -20)}
+    light = {"type": kind, "color": color, "intensity": intensity}
+    if kind == "spot":
+        light["spot"] = {"innerConeAngle": 0.2, "outerConeAngle": 0.5}
+    axis = [0, math.sin(math.radians(-20)), -math.cos(math.radians(20))]  # R(−20° x)·(−ẑ)
+    toml = {"point": 'type = "point"\nposition = [0.2, 0.1, 1.5]\nattenuation = [0, 0, 1]',
+            "spot": f'type = "spot"\nposition = [0.2, 0.1, 1.5]\nattenuation = [0, 0, 1]\n'
+                    f'direction = {axis}\ncutoff = {math.degrees(0.5)!r}\n'
+                    f'exponent = {math.log(0.5) / math.log(math.cos(0.35))!r}',
+            "directional": f"type = \"directional\"\ndirection = {axis}"}[kind]
+    path = _lit_square(tmp_path, light, down, kind)
+    gl = raytrace.load_scene(path)
+    (tmp_path / "s.toml").write_text(
+        f'[render]\nbackground = {gl.render.background.tolist()}\n[ambient]\ncolor = '
+        f'{gl.ambient.tolist()}\n'
+        f'[camera]\nposition = {gl.camera.position.tolist()}\nlook_at = '
+        f'{gl.camera.look_at.tolist()}\n[[lights]]\n{toml}\ncolor = '
+        f'{[c * intensity for c in color]}\n[[objects]]\ntype = "mesh"\nfile = "{kind}.gltf"\n'
+        f'material = "from_file"\n')
+    ref = raytrace.load_scene(tmp_path / "s.toml")
+    a = raytrace.render(gl, width=24, height=18).rgb
+    b = raytrace.render(ref, width=24, height=18).rgb
+    assert a.max() > 0.05 and (a > 0).mean() > 0.1  # it is lit
+    np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-7)
+
+
+def test_metallic_roughness_maps_onto_kd_ks_shininess_kr(tmp_path):
+    """baseColor (0.8, 0.4, 0.2), metallic 0, roughness 1: kd = baseColor, n = 2/1 − 2 = 0,
+    ks = F0·(n + 8)/8 = 0.04, kr = 0. Head-on under a unit light at the eye: kd + ks."""
+    path = write_gltf(tmp_path / "m.gltf", [{"mesh": 0}], [SQUARE], MATTE)
+    mesh = raytrace.Mesh(file=path, material="from_file")
+    cam = raytrace.Camera(position=(0, 0, 2), look_at=(0, 0, 0))
+    got = pixel(make_scene([mesh], [raytrace.PointLight(position=(0, 0, 2))], cam))
+    np.testing.assert_allclose(got, [0.84, 0.44, 0.24], rtol=1e-6)
+    gold = [{"pbrMetallicRoughness": {"baseColorFactor": [1.0, 0.8, 0.3, 1],
+                                      "metallicFactor": 1.0, "roughnessFactor": 0.0},
+             "emissiveFactor": [0.1, 0.0, 0.0]}]
+    path = write_gltf(tmp_path / "g.gltf", [{"mesh": 0}], [SQUARE], gold)
+    m = raytrace.Mesh(file=path, material="from_file").material
+    np.testing.assert_allclose(m.kd, 0.0)
+    np.testing.assert_allclose(m.kr, [1.0, 0.8, 0.3])  # a polished metal: a tinted mirror
+    np.testing.assert_allclose(m.ke, [0.1, 0, 0])
+    assert m.shininess == 10_000.0
+
+
+def test_transmission_and_ior_make_fresnel_glass(tmp_path):
+    glass = [{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0,
+                                       "roughnessFactor": 0},
+              "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+                             "KHR_materials_ior": {"ior": 1.5}}}]
+    path = write_gltf(tmp_path / "g.gltf", [{"mesh": 0}], [SQUARE], glass)
+    mesh = raytrace.Mesh(file=path, material="from_file")
+    assert mesh.material.fresnel == "dielectric" and mesh.material.ior == 1.5
+    cam = raytrace.Camera(position=(0, 0, 2), look_at=(0, 0, 0))
+    got = pixel(make_scene([mesh], [], cam, background=1.0))
+    np.testing.assert_allclose(got, 1.0, rtol=1e-6)  # F + (1 − F)·1 head on, no absorption
+
+
+def test_unsupported_extensions_are_one_warning_and_required_ones_an_error(tmp_path):
+    extra = {"extensionsUsed": ["KHR_materials_clearcoat", "KHR_texture_transform",
+                                "KHR_materials_ior"]}
+    path = write_gltf(tmp_path / "w.gltf", [{"mesh": 0}], [SQUARE], MATTE, extra=extra)
+    with pytest.warns(RenderWarning, match=r"w.gltf: extensions .*: KHR_materials_clearcoat, "
+                                           r"KHR_texture_transform$"):
+        raytrace.Mesh(file=path, material="from_file")
+    path = write_gltf(tmp_path / "r.gltf", [{"mesh": 0}], [SQUARE], MATTE, extra={
+        "extensionsUsed": ["KHR_draco_mesh_compression"],
+        "extensionsRequired": ["KHR_draco_mesh_compression"]})
+    with pytest.raises(SceneError, match="r.gltf: extensionsRequired: .*draco"):
+        raytrace.load_scene(path)
+
+
+def test_bad_gltf_input_is_one_line_naming_file_and_field(tmp_path):
+    path = write_gltf(tmp_path / "b.gltf", [{"mesh": 0}], [SQUARE], MATTE)
+    doc = json.loads(path.read_text())
+    doc["buffers"][0]["uri"] = "missing.bin"
+    path.write_text(json.dumps(doc))
+    r = subprocess.run([sys.executable, "-m", "raytrace", "render", str(path), "-o",
+                        str(tmp_path / "o.exr")], capture_output=True, text=True)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert "b.gltf: buffers[0].uri: buffer file not found" in r.stderr
+    doc = json.loads(write_gltf(tmp_path / "c.gltf", [{"mesh": 0}], [SQUARE],
+                                MATTE).read_text())
+    doc["accessors"][1]["count"] = 99  # indices past their buffer view
+    path.write_text(json.dumps(doc))
+    with pytest.raises(SceneError, match=r"b.gltf: accessors\[1\]: reaches past the end"):
+        raytrace.load_scene(path)
+    doc["accessors"][1]["count"] = 4
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] = [2, 0, 0, 1]
+    doc["materials"][0]["pbrMetallicRoughness"]["metallicFactor"] = 1.0
+    doc["materials"][0]["pbrMetallicRoughness"]["roughnessFactor"] = 0.0
+    path.write_text(json.dumps(doc))
+    with pytest.raises(SceneError, match=r"b.gltf: materials\[0\]\.pbrMetallicRoughness\."
+                                         r"baseColorFactor\[0\]: must be <= 1"):
+        raytrace.load_scene(path)
+    with pytest.raises(SceneError, match="nope.glb: model file not found"):
+        raytrace.load_scene(tmp_path / "nope.glb")
+
+
+def test_render_a_gltf_with_no_camera_or_light_reports_the_defaults(tmp_path):
+    path = write_gltf(tmp_path / "a.gltf", [{"mesh": 0}], [SQUARE], MATTE)
+    out = tmp_path / "a.exr"
+    r = subprocess.run([sys.executable, "-m", "raytrace", "render", str(path), "-o", str(out),
+                        "--width", "16", "--height", "12", "--quiet"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "no camera in the file: camera at" in r.stderr
+    assert "no lights in the file: a directional light" in r.stderr
+    assert out.is_file()
+    with pytest.warns(RenderWarning):
+        scene = raytrace.load_scene(path)
+    image = raytrace.render(scene, width=16, height=12)
+    assert image.rgb[6, 8].min() > 0  # the square fills the middle of the frame
+
+
+def test_import_raytrace_and_a_toml_render_do_not_import_the_asset_libraries(tmp_path):
+    code = ("import sys, raytrace\n"
+            "s = raytrace.load_scene(sys.argv[1])\n"
+            "raytrace.render(s, width=4, height=3)\n"
+            "print(sorted(m for m in ('pygltflib', 'PIL', 'raytrace.gltf', 'raytrace.mtl')"
+            " if m in sys.modules))\n")
+    (tmp_path / "s.toml").write_text('[[objects]]\ntype = "sphere"\ncenter = [0, 0, -3]\n'
+                                     'radius = 1\n[[lights]]\nposition = [0, 2, 0]\n')
+    r = subprocess.run([sys.executable, "-c", code, str(tmp_path / "s.toml")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "[]"

@@ -1,0 +1,211 @@
+"""OBJ + MTL materials (raytrace/mtl.py, raytrace/assets.py): each illum model on a flat quad
+against a hand-worked pixel, and the one-line errors of bad MTL input."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from helpers import make_scene, pixel
+
+import raytrace
+from raytrace.errors import RenderWarning, SceneError
+
+B = np.array([0.3, 0.5, 0.7])  # the background every secondary ray ends in
+
+QUAD = """mtllib quad.mtl
+v -1 -1 0
+v 1 -1 0
+v 1 1 0
+v -1 1 0
+vt 0 0
+vt 1 0
+vt 1 1
+vt 0 1
+usemtl m
+f 1/1 2/2 3/3
+f 1/1 3/3 4/4
+"""
+
+
+def quad(tmp_path, mtl: str, obj: str = QUAD) -> raytrace.Mesh:
+    """The quad z = 0, |x|, |y| ≤ 1 (normal +z) with material ``m`` of ``mtl``."""
+    (tmp_path / "quad.obj").write_text(obj)
+    (tmp_path / "quad.mtl").write_text(mtl)
+    return raytrace.Mesh(file=tmp_path / "quad.obj", material="from_file")
+
+
+def camera_at(angle: float) -> raytrace.Camera:
+    """A one-pixel camera looking at the quad's centre at ``angle`` degrees from its normal."""
+    a = math.radians(angle)
+    return raytrace.Camera(position=(2 * math.sin(a), 0.0, 2 * math.cos(a)),
+                           look_at=(0.0, 0.0, 0.0))
+
+
+#: a directional light arriving at 60° from the normal: N·L = 1/2, N·H = cos 30° seen from +z
+LIGHT = raytrace.DirectionalLight(direction=(-math.sin(math.pi / 3), 0.0,
+                                             -math.cos(math.pi / 3)))
+LIT = "Ka 0.1\nKd 0.5\nKs 0.25\nNs 10\n"
+
+
+def lit_value(ks_term: bool = True) -> float:
+    """Ka·Ia + Kd·(N·L) + Ks·(N·H)^Ns with Ia = 0.2 (Blinn: the MTL spec's H)."""
+    return 0.1 * 0.2 + 0.5 * 0.5 + (0.25 * math.cos(math.radians(30)) ** 10 if ks_term else 0)
+
+
+def render_quad(tmp_path, mtl, angle=0.0, lights=(LIGHT,), ambient=0.2):
+    scene = make_scene([quad(tmp_path, "newmtl m\n" + mtl)], lights, camera_at(angle),
+                       ambient=ambient, background=B)
+    return pixel(scene)
+
+
+def test_illum_0_is_the_constant_colour_kd(tmp_path):
+    got = render_quad(tmp_path, "Kd 0.2 0.4 0.6\nKs 1\nillum 0\n")
+    np.testing.assert_allclose(got, [0.2, 0.4, 0.6], rtol=1e-6)
+
+
+def test_illum_1_is_ambient_and_lambert_only(tmp_path):
+    got = render_quad(tmp_path, LIT + "illum 1\n")
+    np.testing.assert_allclose(got, lit_value(ks_term=False), rtol=1e-6)
+
+
+@pytest.mark.parametrize("illum", [2, 8, 10])
+def test_illum_2_adds_the_blinn_highlight(tmp_path, illum):
+    got = render_quad(tmp_path, LIT + f"illum {illum}\n")
+    np.testing.assert_allclose(got, lit_value(), rtol=1e-6)
+
+
+def test_illum_3_adds_ray_traced_reflection_weighted_by_ks(tmp_path):
+    got = render_quad(tmp_path, LIT + "illum 3\n")
+    np.testing.assert_allclose(got, lit_value() + 0.25 * B, rtol=1e-6)
+
+
+def test_illum_4_dissolves_with_d(tmp_path):
+    got = render_quad(tmp_path, LIT + "d 0.6\nillum 4\n")
+    np.testing.assert_allclose(got, 0.6 * (lit_value() + 0.25 * B) + 0.4 * B, rtol=1e-6)
+
+
+def test_illum_9_dissolves_without_reflection_and_tr_is_one_minus_d(tmp_path):
+    got = render_quad(tmp_path, LIT + "Tr 0.4\nillum 9\n")
+    np.testing.assert_allclose(got, 0.6 * lit_value() + 0.4 * B, rtol=1e-6)
+
+
+def test_illum_5_fresnel_reflection_rises_from_ks_towards_grazing(tmp_path):
+    """At 60°: kr = Ks + (1 − Ks)(1 − cos 60°)⁵ = 0.25 + 0.75/32 (Schlick, F0 = Ks)."""
+    got = render_quad(tmp_path, "Kd 0\nKs 0.25\nillum 5\n", angle=60.0, lights=(), ambient=0)
+    np.testing.assert_allclose(got, (0.25 + 0.75 / 32) * B, rtol=1e-6)
+    head_on = render_quad(tmp_path, "Kd 0\nKs 0.25\nillum 5\n", lights=(), ambient=0)
+    np.testing.assert_allclose(head_on, 0.25 * B, rtol=1e-6)
+
+
+def test_illum_6_refracts_with_one_minus_ks_times_tf(tmp_path):
+    got = render_quad(tmp_path, "Kd 0\nKs 0.25\nTf 0.8 0.6 0.4\nNi 1.5\nillum 6\n",
+                      lights=(), ambient=0)
+    np.testing.assert_allclose(got, 0.25 * B + 0.75 * np.array([0.8, 0.6, 0.4]) * B,
+                               rtol=1e-6)
+
+
+def fresnel_by_hand(theta_deg: float, n: float) -> float:
+    """Unpolarised Fresnel reflectance from air into index n, by Snell's law's angles."""
+    ti = math.radians(theta_deg)
+    tt = math.asin(math.sin(ti) / n)
+    rs = math.sin(ti - tt) ** 2 / math.sin(ti + tt) ** 2 if ti else ((1 - n) / (1 + n)) ** 2
+    rp = math.tan(ti - tt) ** 2 / math.tan(ti + tt) ** 2 if ti else rs
+    return (rs + rp) / 2
+
+
+@pytest.mark.parametrize("angle", [0.0, 60.0])
+def test_illum_7_splits_reflection_and_refraction_by_the_fresnel_reflectance(tmp_path, angle):
+    """Glass (Ni 1.5): F = 0.04 head on; at 60° F from the Fresnel equations by hand."""
+    f = fresnel_by_hand(angle, 1.5)
+    if angle == 0.0:
+        assert f == pytest.approx(0.04)
+    got = render_quad(tmp_path, "Kd 0\nKs 0.25\nTf 0.9\nNi 1.5\nillum 7\n", angle=angle,
+                      lights=(), ambient=0)
+    np.testing.assert_allclose(got, f * B + (1 - f) * 0.9 * B, rtol=1e-6)
+
+
+def test_fresnel_is_one_beyond_the_critical_angle():
+    from raytrace.core import fresnel1
+
+    assert fresnel1(math.cos(math.radians(45)), 1.5) == 1.0  # leaving glass past 41.8°
+    assert fresnel1(1.0, 1 / 1.5) == pytest.approx(0.04, abs=1e-15)
+
+
+def test_ke_adds_a_constant_term(tmp_path):
+    got = render_quad(tmp_path, LIT + "Ke 0.1 0.2 0.3\nillum 2\n")
+    np.testing.assert_allclose(got, lit_value() + np.array([0.1, 0.2, 0.3]), rtol=1e-6)
+
+
+def test_faces_take_their_own_materials_and_scene_materials_override_by_name(tmp_path):
+    obj = QUAD.replace("usemtl m\nf 1/1 2/2 3/3\n", "usemtl red\nf 1/1 2/2 3/3\nusemtl m\n")
+    mesh = quad(tmp_path, "newmtl red\nKd 1 0 0\nillum 1\nnewmtl m\nKd 0 0 1\nillum 1\n", obj)
+    light = raytrace.PointLight(position=(0, 0, 2))
+    lower_right = raytrace.Camera(position=(0.5, -0.5, 2), look_at=(0.5, -0.5, 0))
+    upper_left = raytrace.Camera(position=(-0.5, 0.5, 2), look_at=(-0.5, 0.5, 0))
+    red = pixel(make_scene([mesh], [light], lower_right))
+    blue = pixel(make_scene([mesh], [light], upper_left))
+    assert red[0] > 0 and red[1] == red[2] == 0
+    assert blue[2] > 0 and blue[0] == blue[1] == 0
+    mesh = quad(tmp_path, "newmtl red\nKd 1 0 0\nillum 1\nnewmtl m\nKd 0 0 1\nillum 1\n", obj)
+    green = raytrace.Material(kd=[0, 1, 0], name="red")
+    got = pixel(make_scene([mesh], [light], lower_right, materials={"red": green}))
+    assert got[1] > 0 and got[0] == got[2] == 0
+
+
+def test_a_toml_scene_takes_from_file(tmp_path):
+    quad(tmp_path, "newmtl m\nKd 0.25\nillum 1\n")
+    (tmp_path / "s.toml").write_text(
+        '[camera]\nposition = [0, 0, 2]\nlook_at = [0, 0, 0]\n[[lights]]\ntype = "point"\n'
+        'position = [0, 0, 2]\n[[objects]]\ntype = "mesh"\nfile = "quad.obj"\n'
+        'material = "from_file"\n')
+    scene = raytrace.load_scene(tmp_path / "s.toml")
+    np.testing.assert_allclose(pixel(scene), 0.25, rtol=1e-6)
+    assert tmp_path / "quad.mtl" in [p for p, _ in scene.input_files()]
+
+
+@pytest.mark.parametrize("mtl, words", [
+    ("newmtl m\nNi -1\n", ["quad.mtl: line 2", "Ni", ">= 0"]),
+    ("newmtl m\nd 1.5\n", ["quad.mtl: line 2", "d", "[0, 1]"]),
+    ("newmtl m\nillum 12\n", ["quad.mtl: line 2", "illum", "0..10"]),
+    ("newmtl m\nKd 0.1 0.2\n", ["quad.mtl: line 2", "Kd", "1 or 3 numbers"]),
+    ("newmtl m\nKs x\n", ["quad.mtl: line 2", "Ks", "number"]),
+    ("Kd 1\n", ["quad.mtl: line 1", "Kd", "before any newmtl"]),
+    ("newmtl other\n", ["quad.obj", "usemtl 'm'", "no such material"]),
+])
+def test_bad_mtl_values_give_one_line(tmp_path, mtl, words):
+    with pytest.raises(SceneError) as e:
+        quad(tmp_path, mtl)
+    line = str(e.value)
+    assert "\n" not in line
+    for w in words:
+        assert w in line
+
+
+def test_a_missing_mtl_file_is_one_line_through_the_cli(tmp_path):
+    (tmp_path / "quad.obj").write_text(QUAD)
+    (tmp_path / "s.toml").write_text('[[objects]]\ntype = "mesh"\nfile = "quad.obj"\n'
+                                     'material = "from_file"\n')
+    r = subprocess.run([sys.executable, "-m", "raytrace", "render", str(tmp_path / "s.toml"),
+                        "-o", str(tmp_path / "out.exr")], capture_output=True, text=True)
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1
+    assert "quad.mtl" in r.stderr and "MTL file not found" in r.stderr
+    assert not (tmp_path / "out.exr").exists()
+
+
+def test_unmodelled_statements_are_listed_on_one_warning(tmp_path):
+    with pytest.warns(RenderWarning, match=r"not modelled.*bump, map_Ks, refl"):
+        quad(tmp_path, "newmtl m\nmap_Ks a.png\nbump b.png\nrefl -type sphere c.png\n")
+
+
+def test_from_file_needs_a_file_and_a_format_with_materials(tmp_path):
+    with pytest.raises(SceneError, match="needs a mesh file"):
+        raytrace.Mesh(vertices=[[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces=[[0, 1, 2]],
+                      material="from_file")
+    (tmp_path / "t.stl").write_text("solid t\nendsolid t\n")
+    with pytest.raises(SceneError, match="OBJ .* or a glTF/GLB"):
+        raytrace.Mesh(file=tmp_path / "t.stl", material="from_file")

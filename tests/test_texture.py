@@ -1,0 +1,169 @@
+"""Image textures (raytrace/texture.py, core.texture1): texel centres and bilinear midpoints
+exact, wrap modes, sRGB decoding, textures on kd from TOML, MTL map_Kd and glTF."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import make_scene, pixel, write_gltf
+from PIL import Image
+
+import raytrace
+from raytrace.errors import SceneError
+from raytrace.texture import Texture
+
+#: 4 × 2 texels, RGBA, values exact in binary so every bilinear blend below is exact
+TEXELS = np.array([[[0.0, 0.25, 0.5, 1], [0.5, 0.5, 0.5, 1], [1.0, 0.0, 0.25, 1],
+                    [0.25, 1.0, 0.75, 1]],
+                   [[0.75, 0.5, 0.0, 1], [0.125, 0.375, 1.0, 1], [0.5, 0.75, 0.25, 1],
+                    [0.0, 0.0, 0.0, 1]]], np.float32)
+
+
+@pytest.mark.parametrize("wrap", ["repeat", "clamp", "mirror"])
+def test_texel_centres_are_exact(wrap):
+    tex = Texture(TEXELS, (wrap, wrap))
+    i, j = np.meshgrid(np.arange(4), np.arange(2))
+    st = np.column_stack([(i.ravel() + 0.5) / 4, (j.ravel() + 0.5) / 2])
+    np.testing.assert_array_equal(tex.sample(st), TEXELS[j.ravel(), i.ravel(), :3])
+
+
+def test_bilinear_midpoints_are_exact_means():
+    tex = Texture(TEXELS)
+    # between texels (0, 0) and (1, 0): s = 1/4, t = 1/4
+    np.testing.assert_array_equal(tex.sample([[0.25, 0.25]]),
+                                  [(TEXELS[0, 0, :3] + TEXELS[0, 1, :3]) / 2])
+    # the centre of four texels (1, 0), (2, 0), (1, 1), (2, 1): s = 1/2, t = 1/2
+    four = (TEXELS[0, 1, :3] + TEXELS[0, 2, :3] + TEXELS[1, 1, :3] + TEXELS[1, 2, :3]) / 4
+    np.testing.assert_array_equal(tex.sample([[0.5, 0.5]]), [four])
+
+
+def test_wrap_modes_at_the_edges():
+    """s = 0 lies half a texel left of texel 0's centre: repeat blends texel 3 and texel 0,
+    clamp gives texel 0, mirror (texel −1 is texel 0) gives texel 0; s = 1 + 1/8 is texel 0
+    under repeat."""
+    row = np.float64(TEXELS[0, :, :3])
+    t = 0.25
+    assert np.array_equal(Texture(TEXELS, ("repeat",) * 2).sample([[0.0, t]])[0],
+                          (row[3] + row[0]) / 2)
+    assert np.array_equal(Texture(TEXELS, ("clamp",) * 2).sample([[0.0, t]])[0], row[0])
+    assert np.array_equal(Texture(TEXELS, ("mirror",) * 2).sample([[0.0, t]])[0], row[0])
+    assert np.array_equal(Texture(TEXELS).sample([[1.125, t]])[0], row[0])
+    # mirror: texel 4 is texel 3, texel 5 texel 2: s = 1.25 (x = 4.5) blends texels 3 and 2
+    assert np.array_equal(Texture(TEXELS, ("mirror",) * 2).sample([[1.25, t]])[0],
+                          (row[3] + row[2]) / 2)
+
+
+def test_an_srgb_png_is_decoded_to_linear(tmp_path):
+    Image.fromarray(np.full((2, 2, 3), 128, np.uint8)).save(tmp_path / "g.png")
+    tex = Texture.from_file(tmp_path / "g.png", "kd")
+    c = 128 / 255
+    by_hand = ((c + 0.055) / 1.055) ** 2.4  # IEC 61966-2-1
+    np.testing.assert_allclose(tex.texels[..., :3], by_hand, rtol=1e-6)
+    linear = Texture.from_file(tmp_path / "g.png", "kd", srgb=False)
+    np.testing.assert_allclose(linear.texels[..., :3], c, rtol=1e-6)
+
+
+def _square_obj(tmp_path, extra_mtl=""):
+    """A square z = 0, |x|, |y| ≤ 1, uv (0, 0) at the bottom left (OBJ's t runs up)."""
+    (tmp_path / "sq.obj").write_text(
+        "mtllib sq.mtl\nv -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
+        "vt 0 1\nusemtl m\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n")
+    (tmp_path / "sq.mtl").write_text(f"newmtl m\nKa 0\nillum 1\n{extra_mtl}")
+    return tmp_path / "sq.obj"
+
+
+def _png(path, rgb):
+    Image.fromarray(np.asarray(rgb, np.uint8)).save(path)
+
+
+def _at(x, y):
+    """A one-pixel camera head-on at (x, y) on the square, a unit light at the eye."""
+    cam = raytrace.Camera(position=(x, y, 2), look_at=(x, y, 0))
+    return cam, [raytrace.PointLight(position=(x, y, 2))]
+
+
+def test_map_kd_textures_the_obj_at_its_uvs(tmp_path):
+    """A 2 × 2 texture: the image's top-left texel (red) is at uv (0.25, 0.75), the top of the
+    square's left half. Texel centres are exact: the pixel is the decoded texel."""
+    _png(tmp_path / "t.png", [[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [255, 255, 255]]])
+    mesh = raytrace.Mesh(file=_square_obj(tmp_path, "map_Kd -clamp on t.png\n"),
+                         material="from_file")
+    for (x, y), want in [((-0.5, 0.5), [1, 0, 0]), ((0.5, 0.5), [0, 1, 0]),
+                         ((-0.5, -0.5), [0, 0, 1]), ((0.5, -0.5), [1, 1, 1])]:
+        cam, lights = _at(x, y)
+        np.testing.assert_allclose(pixel(make_scene([mesh], lights, cam)), want, atol=1e-6)
+    assert tmp_path / "t.png" in [p for p, _ in make_scene([mesh]).input_files()]
+
+
+def test_a_toml_kd_texture_beside_the_checker(tmp_path):
+    _png(tmp_path / "t.png", [[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [255, 255, 255]]])
+    (tmp_path / "sq.obj").write_text(_square_obj(tmp_path).read_text())
+    (tmp_path / "s.toml").write_text(
+        '[camera]\nposition = [0.5, -0.5, 2]\nlook_at = [0.5, -0.5, 0]\n[[lights]]\n'
+        'position = [0.5, -0.5, 2]\n[[objects]]\ntype = "mesh"\nfile = "sq.obj"\n'
+        'material = { kd = { texture = "t.png", wrap = "clamp", scale = 0.5 }, ka = 0 }\n')
+    np.testing.assert_allclose(pixel(raytrace.load_scene(tmp_path / "s.toml")), 0.5, atol=1e-6)
+
+
+def test_a_gltf_base_color_texture_times_its_factor(tmp_path):
+    _png(tmp_path / "t.png", [[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [255, 255, 255]]])
+    square = {"positions": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+              "indices": [[0, 1, 2], [0, 2, 3]], "uv": [[0, 1], [1, 1], [1, 0], [0, 0]],
+              "material": 0}
+    mat = [{"pbrMetallicRoughness": {"baseColorFactor": [0.5, 1, 1, 1], "metallicFactor": 0,
+                                     "roughnessFactor": 1, "baseColorTexture": {"index": 0}}}]
+    path = write_gltf(tmp_path / "t.gltf", [{"mesh": 0}], [square], mat, extra={
+        "textures": [{"source": 0, "sampler": 0}], "images": [{"uri": "t.png"}],
+        "samplers": [{"wrapS": 33071, "wrapT": 33071}]})
+    mesh = raytrace.Mesh(file=path, material="from_file")
+    cam, lights = _at(-0.5, 0.5)  # the top-left texel: red, times 0.5 in red; + ks = 0.04
+    np.testing.assert_allclose(pixel(make_scene([mesh], lights, cam)), [0.54, 0.04, 0.04],
+                               atol=1e-6)
+
+
+def test_texture_errors_are_one_line(tmp_path):
+    with pytest.raises(SceneError, match=r"sq.mtl: material 'm': map_Kd: texture file not "
+                                         r"found: .*nope.png"):
+        raytrace.Mesh(file=_square_obj(tmp_path, "map_Kd nope.png\n"), material="from_file")
+    (tmp_path / "bad.png").write_text("not a png")
+    with pytest.raises(SceneError, match="kd.texture: cannot read texture"):
+        raytrace.Material(kd={"texture": str(tmp_path / "bad.png")})
+    with pytest.raises(SceneError, match="kd.wrap: must be one of"):
+        raytrace.Material(kd={"texture": str(tmp_path / "bad.png"), "wrap": "tile"})
+
+
+def test_scenes_without_textures_carry_no_texture_arrays():
+    from raytrace.integrator import WhittedIntegrator
+    from raytrace.render import render_options
+
+    scene = raytrace.load_scene("scenes/mesh_model.toml")
+    integ = WhittedIntegrator(scene, render_options(scene, width=8, height=6))
+    assert integ.tables.materials.texels.size == 0
+    assert integ.tables.triangles.texcoords.size == 0
+
+
+@pytest.mark.parametrize("mode, cutoff", [("BLEND", None), ("MASK", 0.6)])
+def test_gltf_texture_alpha_is_opacity_in_blend_and_mask_modes(tmp_path, mode, cutoff):
+    """A 2 × 1 RGBA texture, white, alpha 128/255 on the left and 1 on the right; baseColor
+    0.5, metallic 0, roughness 1: the surface alone is 0.5 + ks 0.04 under a unit light at the
+    eye. BLEND: t·0.54 + (1 − t)·0.2 over a 0.2 background; MASK at 0.6: clear, opaque."""
+    Image.fromarray(np.array([[[255, 255, 255, 128], [255, 255, 255, 255]]], np.uint8),
+                    "RGBA").save(tmp_path / "a.png")
+    square = {"positions": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+              "indices": [[0, 1, 2], [0, 2, 3]], "uv": [[0, 1], [1, 1], [1, 0], [0, 0]],
+              "material": 0}
+    mat = {"alphaMode": mode, "pbrMetallicRoughness": {
+        "baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0, "roughnessFactor": 1,
+        "baseColorTexture": {"index": 0}}}
+    if cutoff is not None:
+        mat["alphaCutoff"] = cutoff
+    path = write_gltf(tmp_path / "a.gltf", [{"mesh": 0}], [square], [mat], extra={
+        "textures": [{"source": 0, "sampler": 0}], "images": [{"uri": "a.png"}],
+        "samplers": [{"wrapS": 33071, "wrapT": 33071}]})
+    mesh = raytrace.Mesh(file=path, material="from_file")
+    t = 128 / 255
+    want = {"BLEND": (t * 0.54 + (1 - t) * 0.2, 0.54), "MASK": (0.2, 0.54)}[mode]
+    for x, value in zip((-0.5, 0.5), want, strict=True):
+        cam, lights = _at(x, 0.0)
+        got = pixel(make_scene([mesh], lights, cam, background=0.2))
+        np.testing.assert_allclose(got, value, rtol=1e-6)
