@@ -86,9 +86,12 @@ class Recorder:
             m = int(surf.material[j])
             material = integ.materials[m]
             point = surf.point[j] + self.origin
-            st = sk.texcoord1(integ.table.record, m, integ.tables.triangles,
-                             int(surf.triangle[j]), *surf.uv[j])
-            ka = sk.color1(integ.table.record, m, sk.KA, *point, st)
+            mats = integ.table.record
+            ka = sk.color1((mats.colors, mats.pattern, mats.checkers), m, sk.KA, *point)
+            if mats.textured[m]:
+                st = sk.texcoord1(integ.tables.triangles.texcoords, int(surf.triangle[j]),
+                                  *surf.uv[j])
+                ka = sk.texel1(mats, m, sk.KA, st, ka)
             obj = int(ident[j])
             entering = float(np.dot(rays.direction[j], surf.geometric[j])) < 0.0
             self.rays[rid]["hit"] = {

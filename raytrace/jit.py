@@ -29,6 +29,7 @@ import numba
 #: Decorator for every kernel.
 kernel = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
+
 PACKAGE = Path(__file__).resolve().parent
 #: The file beside a cache that holds the hash of the sources its files were compiled from.
 STAMP = "raytrace-kernels.sha256"

@@ -175,30 +175,37 @@ def direct1(normal, light, view, kd, ks, n, model):
 
 # -- surfaces ---------------------------------------------------------------------------------
 @kernel
-def color1(materials, m, slot, x, y, z, st):
-    """Colour ``slot`` (KA … KE) of material ``m`` at the world point (x, y, z) with texture
-    coordinates ``st`` = (s, t): its constant, its checker pattern there, or its image texture
-    (:func:`raytrace.core.texture1`) (``materials``: a :class:`raytrace.records.Materials`)."""
-    colors, pattern, checkers = materials.colors, materials.pattern, materials.checkers
+def color1(palette, m, slot, x, y, z):
+    """Colour ``slot`` (KA … KE) of material ``m`` at the world point (x, y, z): its constant
+    or its checker pattern there (``palette`` = the materials' colours, patterns and
+    checkers). A material with an image texture then takes :func:`texel1` instead."""
+    colors, pattern, checkers = palette
     p = pattern[m, slot // 3]
     if p < 0:
-        q = materials.texture[m, slot // 3]
-        if q >= 0:
-            return texture1(materials.texels, materials.tex_info, q, st[0], st[1])
         return colors[m, slot], colors[m, slot + 1], colors[m, slot + 2]
     c = 3 * checker1(x, y, z, checkers[p, 6])
     return checkers[p, c], checkers[p, c + 1], checkers[p, c + 2]
 
 
 @kernel
-def opacity1(materials, m, st):
-    """Opacity t of material ``m`` at texture coordinates ``st``: its constant, times its
-    texture's alpha where it has one (glTF BLEND), or 1 / 0 by the alpha cutoff (MASK)."""
-    q = materials.alpha[m]
+def texel1(materials, m, slot, st, other):
+    """Colour ``slot`` of a textured material ``m`` at texture coordinates ``st``: its image
+    texture (:func:`raytrace.core.texture1`) where that colour has one, else ``other``. Called
+    only for materials with ``textured[m]``, so scenes without textures never pay for it (a
+    per-hit helper that takes arrays costs reference counts on every call)."""
+    q = materials.texture[m, slot // 3]
     if q < 0:
-        return materials.opacity[m]
-    a = materials.opacity[m] * bilinear1(materials.texels, materials.tex_info, q, st[0], st[1],
-                                         3)
+        return other
+    return texture1(materials.texels, materials.tex_info, q, st[0], st[1])
+
+
+@kernel
+def opacity1(materials, m, st):
+    """Opacity t of a material ``m`` with an alpha texture (``materials.alpha[m] >= 0``) at
+    texture coordinates ``st``: its constant times the texture's alpha (glTF BLEND), or 1 / 0
+    by the alpha cutoff (MASK). Others take ``materials.opacity[m]`` without this call."""
+    a = materials.opacity[m] * bilinear1(materials.texels, materials.tex_info,
+                                         materials.alpha[m], st[0], st[1], 3)
     cutoff = materials.alpha_cutoff[m]
     if cutoff >= 0.0:
         return 1.0 if a >= cutoff else 0.0
@@ -206,13 +213,13 @@ def opacity1(materials, m, st):
 
 
 @kernel
-def texcoord1(materials, m, triangles, tri, u, v):
+def texcoord1(tc, tri, u, v):
     """The texture coordinates (s, t) at barycentrics (u, v) of triangle ``tri``,
-    ``(1 − u − v)·st₀ + u·st₁ + v·st₂``, where material ``m`` has a texture (else (0, 0): no
-    work where no texture is read)."""
-    if not materials.textured[m] or tri < 0:
+    ``(1 − u − v)·st₀ + u·st₁ + v·st₂`` from its corners' ``tc`` (T, 3, 2); (0, 0) off a
+    triangle. Called only for textured materials."""
+    if tri < 0:
         return 0.0, 0.0
-    tc, w = triangles.texcoords, 1.0 - u - v
+    w = 1.0 - u - v
     return (w * tc[tri, 0, 0] + u * tc[tri, 1, 0] + v * tc[tri, 2, 0],
             w * tc[tri, 0, 1] + u * tc[tri, 1, 1] + v * tc[tri, 2, 1])
 
@@ -294,6 +301,8 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
     direction, eye = rays.direction, rays.origin
     point, geometric, shading, material = surf.point, surf.geometric, surf.shading, surf.material
     materials, triangles, origin = scene.materials, scene.triangles, scene.origin
+    palette = (materials.colors, materials.pattern, materials.checkers)
+    textured, texcoords = materials.textured, scene.triangles.texcoords
     code = triangles.shading
     rows, s_origin, s_direction, s_tmax, s_shape = shadow
     jittered = em.stream >= 0.0
@@ -314,9 +323,12 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
         wx, wy, wz = px + origin[0], py + origin[1], pz + origin[2]
         tri = surf.triangle[i]
         u, v = surf.uv[i, 0], surf.uv[i, 1]
-        st = texcoord1(materials, m, triangles, tri, u, v)
-        kd = color1(materials, m, KD, wx, wy, wz, st)
-        ks = color1(materials, m, KS, wx, wy, wz, st)
+        kd = color1(palette, m, KD, wx, wy, wz)
+        ks = color1(palette, m, KS, wx, wy, wz)
+        if textured[m]:
+            st = texcoord1(texcoords, tri, u, v)
+            kd = texel1(materials, m, KD, st, kd)
+            ks = texel1(materials, m, KS, st, ks)
         smooth = tri >= 0 and code[tri] != FLAT
         if smooth and code[tri] == GOURAUD:
             r, g, b = gouraud1((tri, u, v, s), (eye[i, 0], eye[i, 1], eye[i, 2]), triangles,
@@ -407,14 +419,21 @@ def cross_surfaces(factor, live, surf, walk, scene):
     direction, t, tmax = walk
     material, point, geometric = surf.material, surf.point, surf.geometric
     origin, materials = scene.origin, scene.materials
+    palette = (materials.colors, materials.pattern, materials.checkers)
+    textured, texcoords = materials.textured, scene.triangles.texcoords
+    alpha = materials.alpha
     n, on = live.shape[0], 0
     through = np.empty(n, np.bool_)
     for j in range(n):
-        st = texcoord1(materials, material[j], scene.triangles, surf.triangle[j],
-                       surf.uv[j, 0], surf.uv[j, 1])
-        op = opacity1(materials, material[j], st)
-        kt = color1(materials, material[j], KT, point[j, 0] + origin[0],
-                    point[j, 1] + origin[1], point[j, 2] + origin[2], st)
+        mj = material[j]
+        op = materials.opacity[mj]
+        kt = color1(palette, mj, KT, point[j, 0] + origin[0], point[j, 1] + origin[1],
+                    point[j, 2] + origin[2])
+        if textured[mj]:
+            st = texcoord1(texcoords, surf.triangle[j], surf.uv[j, 0], surf.uv[j, 1])
+            kt = texel1(materials, mj, KT, st, kt)
+            if alpha[mj] >= 0:
+                op = opacity1(materials, mj, st)
         r = live[j]
         for c in range(3):
             factor[r, c] *= op * kt[c] + (1.0 - op)
@@ -472,6 +491,9 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     direction, weight = rays.direction, rays.weight
     geometric, shading, material, point = surf.geometric, surf.shading, surf.material, surf.point
     origin, materials = scene.origin, scene.materials
+    palette = (materials.colors, materials.pattern, materials.checkers)
+    textured, texcoords = materials.textured, scene.triangles.texcoords
+    alpha = materials.alpha
     samples, sample = into
     r_dir, t_dir, w_r, w_t, w_s, status, tir = children
     ior = materials.ior
@@ -481,11 +503,18 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     for i in range(direction.shape[0]):
         m = material[i]
         wx, wy, wz = point[i, 0] + origin[0], point[i, 1] + origin[1], point[i, 2] + origin[2]
-        st = texcoord1(materials, m, scene.triangles, surf.triangle[i], surf.uv[i, 0],
-                       surf.uv[i, 1])
-        op = opacity1(materials, m, st)
-        ka = color1(materials, m, KA, wx, wy, wz, st)
-        ke = color1(materials, m, KE, wx, wy, wz, st) if emits[m] else (0.0, 0.0, 0.0)
+        tex = textured[m]
+        op = materials.opacity[m]
+        ka = color1(palette, m, KA, wx, wy, wz)
+        ke = color1(palette, m, KE, wx, wy, wz) if emits[m] else (0.0, 0.0, 0.0)
+        st = (0.0, 0.0)
+        if tex:
+            st = texcoord1(texcoords, surf.triangle[i], surf.uv[i, 0], surf.uv[i, 1])
+            ka = texel1(materials, m, KA, st, ka)
+            if emits[m]:
+                ke = texel1(materials, m, KE, st, ke)
+            if alpha[m] >= 0:
+                op = opacity1(materials, m, st)
         for c in range(3):
             here = ambient[c] * ka[c]
             if lit:
@@ -502,9 +531,13 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
         fx, fy, fz = gx * s, gy * s, gz * s
         kr, kt = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         if reflects[m]:
-            kr = color1(materials, m, KR, wx, wy, wz, st)
+            kr = color1(palette, m, KR, wx, wy, wz)
+            if tex:
+                kr = texel1(materials, m, KR, st, kr)
         if transmits[m]:
-            kt = color1(materials, m, KT, wx, wy, wz, st)
+            kt = color1(palette, m, KT, wx, wy, wz)
+            if tex:
+                kt = texel1(materials, m, KT, st, kt)
         if fresnel[m] != NO_FRESNEL:  # kr, kt for this angle (V = −d, N facing the viewer)
             entering = dx * gx + dy * gy + dz * gz < 0.0
             kr, kt = fresnel_weights1(fresnel[m], -(dx * nx + dy * ny + dz * nz),
@@ -631,6 +664,8 @@ def aov_hits(rays, t, surf, scene, objects, aovs):
     geometric, shading, material, point = surf.geometric, surf.shading, surf.material, surf.point
     shape, triangle = surf.shape, surf.triangle
     origin, materials, geom_first = scene.origin, scene.materials, scene.triangles.geom_first
+    palette = (materials.colors, materials.pattern, materials.checkers)
+    textured, texcoords = materials.textured, scene.triangles.texcoords
     shape_object, geom_object = objects
     depth, normal, albedo, ident = aovs
     for i in range(sample.shape[0]):
@@ -643,10 +678,12 @@ def aov_hits(rays, t, surf, scene, objects, aovs):
             for c in range(3):
                 normal[s, c] = f * shading[i, c]
         if albedo.shape[0]:
-            st = texcoord1(materials, material[i], scene.triangles, triangle[i],
-                           surf.uv[i, 0], surf.uv[i, 1])
-            kd = color1(materials, material[i], KD, point[i, 0] + origin[0],
-                        point[i, 1] + origin[1], point[i, 2] + origin[2], st)
+            mi = material[i]
+            kd = color1(palette, mi, KD, point[i, 0] + origin[0], point[i, 1] + origin[1],
+                        point[i, 2] + origin[2])
+            if textured[mi]:
+                kd = texel1(materials, mi, KD,
+                            texcoord1(texcoords, triangle[i], surf.uv[i, 0], surf.uv[i, 1]), kd)
             for c in range(3):
                 albedo[s, c] = kd[c]
         if ident.shape[0]:
