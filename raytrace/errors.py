@@ -27,6 +27,11 @@ class SceneError(ValueError):
         self.file = file
         super().__init__(str(self))
 
+    def __reduce__(self):
+        # Pickled whole (a distributed render's worker sends it back to the client): the
+        # default would rebuild it from the message alone and lose the key and the file.
+        return (SceneError, (self.problem, self.key, self.file))
+
     def __str__(self) -> str:
         parts = [p for p in (self.file, self.key) if p]
         return ": ".join([*parts, self.problem])
@@ -38,3 +43,9 @@ class SceneError(ValueError):
             key = f"{key_prefix}.{key}" if key and not key.startswith("[") else (
                 f"{key_prefix}{key}" if key else key_prefix)
         return SceneError(self.problem, key, self.file or file)
+
+
+class ClusterError(RuntimeError):
+    """A Dask cluster could not do the work (no scheduler at an address, a task that killed
+    its workers each time it ran): the command line prints it as one line, like a
+    :class:`SceneError`."""

@@ -27,6 +27,8 @@ rendered which pass.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import os
 import threading
 import time
@@ -233,6 +235,27 @@ class WhittedIntegrator:
         self._renders = 0  # renders started: each counts its rays afresh
         self._stats_per_thread: list[Stats] = []
         self._worker = Worker()
+
+    def for_window(self, crop: tuple[int, int, int, int] | None,
+                   threads: int | None = None) -> WhittedIntegrator:
+        """This integrator for another window (``crop``, checked by the caller) of the same
+        frame, on ``threads`` threads (default: as this one), without building anything again:
+        the copy shares the accelerator (BVH), materials and lights, which are read-only once
+        built, and has its own per-render state, so copies may render at the same time on
+        different threads. Its images report 0 build seconds (a distributed render's tiles,
+        :mod:`raytrace.distributed`, count each build once)."""
+        other = copy.copy(self)
+        other.opt = dataclasses.replace(
+            self.opt, crop=crop, threads=self.opt.threads if threads is None else threads)
+        x0, y0, x1, y1 = crop or (0, 0, self.opt.width, self.opt.height)
+        other.size = (x1 - x0, y1 - y0)
+        other.build_seconds = 0.0
+        other._aov_out = NO_AOV_PIXELS
+        other._lock = threading.Lock()
+        other._renders = 0
+        other._stats_per_thread = []
+        other._worker = Worker()
+        return other
 
     @property
     def scratch(self) -> Scratch:
