@@ -13,6 +13,8 @@ from .film import Image
 from .scene import RenderSettings, Scene
 
 if TYPE_CHECKING:
+    from distributed import Client
+
     from .integrator import RenderOptions
 
 
@@ -22,7 +24,8 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
            progress: Callable[[int, int], None] | None = None,
            pass_samples: int | None = None,
            crop: Sequence[int] | None = None,
-           aovs: str | Iterable[str] | None = None) -> Image:
+           aovs: str | Iterable[str] | None = None,
+           client: Client | None = None, tile: int | None = None) -> Image:
     """Render ``scene``; keyword arguments override its ``[render]`` settings.
 
     Returns an :class:`Image` whose ``rgb`` is (height, width, 3) float32 linear RGB and whose
@@ -35,14 +38,30 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     of the full render. ``aovs``: names from :data:`raytrace.aov.AOVS` (depth, normal,
     albedo, id) to render besides the colour, read with ``Image.aov(name)``.
 
+    ``client``: a ``dask.distributed.Client``; the image (or the crop) is then rendered as
+    ``tile``×``tile``-pixel crops (default :data:`raytrace.distributed.TILE`) on its cluster's
+    workers, each on one thread, and put together: bit-identical to the render on one process
+    (:func:`raytrace.distributed.render_tiles`; docs/distributed.md).
+
     The integrator, and with it numba, is imported on the first call, so ``import raytrace``
     (loading and checking scenes, reading EXRs) does not pay for the compiler.
     """
-    from .integrator import WhittedIntegrator
-
     options = render_options(scene, width=width, height=height, spp=spp, max_depth=max_depth,
                              min_weight=min_weight, seed=seed, threads=threads,
                              pass_samples=pass_samples, crop=crop, aovs=aovs)
+    if client is not None:
+        from .distributed import check_tile, render_tiles
+
+        try:
+            tile = check_tile(tile)
+        except SceneError as e:
+            raise SceneError(e.problem, e.key, scene.path) from None
+        return render_tiles(client, scene, options, tile, progress)
+    if tile is not None:
+        raise SceneError("tiles need a client: render(scene, client=..., tile=...)", "tile",
+                         scene.path)
+    from .integrator import WhittedIntegrator
+
     return WhittedIntegrator(scene, options).render(progress)
 
 
