@@ -18,6 +18,7 @@ The pipeline, one module per stage::
 from .errors import SceneError
 from .explain import explain
 from .film import Image, read_exr
+from .frames import render_frames
 from .material import Checker, Material, MaterialLibrary
 from .material import library as materials
 from .render import render
@@ -40,5 +41,6 @@ __version__ = "0.1.0"
 __all__ = [
     "AreaLight", "Camera", "Checker", "DirectionalLight", "Image", "Material", "explain",
     "MaterialLibrary", "Mesh", "Plane", "PointLight", "RenderSettings", "Scene", "SceneError",
-    "Sphere", "SpotLight", "load_scene", "materials", "read_exr", "render", "scene_from_dict",
+    "Sphere", "SpotLight", "load_scene", "materials", "read_exr", "render", "render_frames",
+    "scene_from_dict",
 ]
