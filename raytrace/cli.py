@@ -86,7 +86,7 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--scheduler", metavar="ADDRESS",
                    help="render on an existing Dask cluster, e.g. tls://host:8786")
     d.add_argument("--tile", type=int, metavar="PIXELS",
-                   help="tile side with --workers or --scheduler (default 64)")
+                   help="tile side with --workers or --scheduler (default 256)")
     d.add_argument("--tls-ca-file", metavar="CA.pem", help="with --scheduler: the CA "
                    "certificate the scheduler's certificate is checked against")
     d.add_argument("--tls-cert", metavar="CERT.pem", help="with --scheduler: this client's "
@@ -202,8 +202,15 @@ def _cluster(args: argparse.Namespace):
     if "://" in args.scheduler and args.scheduler.split("://")[0] not in ("tcp", "tls"):
         raise SceneError(f"{args.scheduler!r}: use tcp://HOST:PORT or tls://HOST:PORT",
                          "--scheduler")
-    return connect(scheduler=args.scheduler,
-                   security=security(*tls, flags=("--tls-ca-file", "--tls-cert", "--tls-key")))
+    secure = security(*tls, flags=("--tls-ca-file", "--tls-cert", "--tls-key"))
+    if secure is None and args.scheduler.startswith("tls://"):
+        from distributed import Security
+
+        if not Security().tls_client_cert:  # nor in Dask's configuration
+            raise SceneError("a tls:// scheduler needs --tls-ca-file, --tls-cert and --tls-key "
+                             "(or distributed.comm.tls.* in Dask's configuration)",
+                             "--scheduler")
+    return connect(scheduler=args.scheduler, security=secure)
 
 
 def _render(args: argparse.Namespace) -> int:

@@ -55,9 +55,9 @@ if TYPE_CHECKING:
 
     from .integrator import RenderOptions, WhittedIntegrator
 
-#: Default tile side in pixels (docs/distributed.md: with ~5 ms of Dask overhead per task, a
-#: 64×64 tile of the Whitted scene is 30–40 ms of work on this machine).
-TILE = 64
+#: Default tile side in pixels. Each tile costs about 10 ms of CPU in Dask on top of its work
+#: (docs/distributed.md); a 256×256 tile of the Whitted scene is about 60 ms of work.
+TILE = 256
 #: Built integrators (BVH and tables) a worker process keeps, most recently used first.
 KEEP = 2
 #: Seconds to wait for a scheduler to answer before giving up.
@@ -119,7 +119,8 @@ def load_payload(payload: bytes) -> Scene:
 @dataclass
 class TileResult:
     """One tile back from a worker: its pixels (and AOVs), its statistics, who rendered it,
-    whether that worker built the scene for it, and the worker's seconds on it."""
+    whether that worker built the scene for it, and the worker's wall and CPU (its thread's)
+    seconds on it."""
 
     crop: tuple[int, int, int, int]
     rgb: np.ndarray
@@ -130,6 +131,7 @@ class TileResult:
     pid: int
     build_seconds: float
     seconds: float
+    cpu_seconds: float
     built: bool
 
 
@@ -170,12 +172,12 @@ def render_tile(scene: Scene, key: str, options: RenderOptions,
                 crop: tuple[int, int, int, int]) -> TileResult:
     """Render the window ``crop`` of ``options``' frame on one thread, with this worker's
     integrator for ``key`` (:func:`cached_integrator`): a worker task."""
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.thread_time()
     base, built = cached_integrator(key, scene, options)
     image = base.for_window(crop, threads=1).render()
     return TileResult(crop, image.rgb, image.aovs, image.stats, image.metadata, worker_name(),
                       os.getpid(), base.build_seconds if built else 0.0,
-                      time.perf_counter() - t0, built)
+                      time.perf_counter() - t0, time.thread_time() - c0, built)
 
 
 def render_tiles(client: Client, scene: Scene, options: RenderOptions, tile: int | None = None,
@@ -185,7 +187,7 @@ def render_tiles(client: Client, scene: Scene, options: RenderOptions, tile: int
     ``raytrace.render`` on one process. ``progress(done, total)`` counts camera samples, as a
     local render's does, after each tile. ``stats`` sums the tiles' ray counts and adds
     ``distributed``: the scheduler, tiles, tile size, scene bytes and per worker its tiles,
-    seconds, builds and rays."""
+    wall and CPU seconds on them, builds and rays."""
     t_start = time.perf_counter()
     tile = check_tile(tile)
     window = options.crop or (0, 0, options.width, options.height)
@@ -220,8 +222,8 @@ def gather_each(client: Client, futures: list) -> Iterator:
     from distributed.scheduler import KilledWorker
 
     try:
-        for future in as_completed(futures, loop=client.loop):
-            yield future.result()
+        for _, result in as_completed(futures, loop=client.loop, with_results=True):
+            yield result
     except SceneError as e:
         raise SceneError(e.problem, e.key, e.file) from None
     except KilledWorker as e:
@@ -250,14 +252,16 @@ def assemble(parts: list[TileResult], options: RenderOptions, window: tuple[int,
         "trace": sum(p.stats["seconds"]["trace"] for p in parts),
         "shade": sum(p.stats["seconds"]["shade"] for p in parts),
         "tiles": sum(p.seconds for p in parts),
+        "tiles_cpu": sum(p.cpu_seconds for p in parts),
         "total": wall}
     stats["threads"] = 1
     workers: dict[str, dict] = {}
     for p in sorted(parts, key=lambda p: p.worker):
-        w = workers.setdefault(p.worker, {"tiles": 0, "seconds": 0.0, "builds": 0,
-                                          "build_seconds": 0.0, "rays": 0})
+        w = workers.setdefault(p.worker, {"tiles": 0, "seconds": 0.0, "cpu_seconds": 0.0,
+                                          "builds": 0, "build_seconds": 0.0, "rays": 0})
         w["tiles"] += 1
         w["seconds"] += p.seconds
+        w["cpu_seconds"] += p.cpu_seconds
         w["builds"] += int(p.built)
         w["build_seconds"] += p.build_seconds
         w["rays"] += p.stats["rays"]["total"]
@@ -313,19 +317,21 @@ def security(ca_file: str | None = None, cert: str | None = None, key: str | Non
                     require_encryption=True)
 
 
-def local_cluster(workers: int, threads_per_worker: int = 1):
+def local_cluster(workers: int, threads_per_worker: int = 1, tls: bool = True):
     """A ``LocalCluster`` of ``workers`` processes with ``threads_per_worker`` threads each,
-    listening on 127.0.0.1 only, without a dashboard, and over TLS with temporary certificates
-    (in memory, this process's and its workers' only) when ``cryptography`` is installed: on a
-    shared machine other users can reach the loopback interface too."""
+    listening on 127.0.0.1 only, without a dashboard; with ``tls`` (and ``cryptography``
+    installed) over TLS with temporary certificates that only this process and its workers
+    hold, since on a shared machine other users reach the loopback interface too."""
     from distributed import LocalCluster
 
-    try:
-        import cryptography  # noqa: F401
+    secure = None
+    if tls:
+        try:
+            import cryptography  # noqa: F401
 
-        secure = True
-    except ImportError:
-        secure = None
+            secure = True  # Security.temporary(): a self-signed pair, in memory
+        except ImportError:
+            pass
     return LocalCluster(n_workers=workers, threads_per_worker=threads_per_worker,
                         processes=True, host="127.0.0.1", dashboard_address=None,
                         # its HTTP routes (health, metrics) on a free loopback port, not 8787
@@ -335,20 +341,21 @@ def local_cluster(workers: int, threads_per_worker: int = 1):
 
 @contextmanager
 def connect(workers: int | None = None, scheduler: str | None = None,
-            security: Security | None = None, timeout: float = CONNECT_TIMEOUT
+            security: Security | None = None, timeout: float | None = None
             ) -> Iterator[Client]:
     """A Dask client, closed (with its local cluster) at the end of the block: of a new
     :func:`local_cluster` of ``workers`` processes, or of the scheduler at ``scheduler``
-    (``tcp://host:8786``, ``tls://host:8786``) with ``security``. A scheduler that does not
-    answer within ``timeout`` seconds is a :class:`ClusterError`."""
+    (``tcp://host:8786``, ``tls://host:8786``) with ``security`` (None: Dask's configuration,
+    ``distributed.comm.tls.*``). A scheduler that does not answer within ``timeout`` seconds
+    (default :data:`CONNECT_TIMEOUT`) is a :class:`ClusterError`."""
     from distributed import Client
 
     if (workers is None) == (scheduler is None):
         raise ValueError("give workers or scheduler, not both")
     if scheduler is not None:
         try:
-            client = Client(scheduler, security=security, timeout=timeout,
-                            set_as_default=False)
+            client = Client(scheduler, security=security,
+                            timeout=timeout or CONNECT_TIMEOUT, set_as_default=False)
         except (OSError, TimeoutError) as e:
             raise ClusterError(f"cannot reach the Dask scheduler at {scheduler}: "
                                f"{str(e).splitlines()[0] if str(e) else type(e).__name__}"

@@ -313,6 +313,7 @@ def test_the_workers_flag_renders_the_same_exr(tmp_path):
     (["--tile", "16"], "--tile", "needs --workers or --scheduler"),
     (["--tls-cert", "c.pem"], "--tls-cert", "needs --workers or --scheduler"),
     (["--scheduler", "udp://h:1"], "--scheduler", "tcp://HOST:PORT"),
+    (["--scheduler", "tls://h:1"], "--scheduler", "needs --tls-ca-file, --tls-cert and"),
     (["--scheduler", "tls://h:1", "--tls-ca-file", "ca.pem", "--tls-cert", "c.pem"],
      "--tls-key", "missing"),
     (["--scheduler", "tls://h:1", "--tls-ca-file", "no.pem", "--tls-cert", "c.pem",
@@ -375,8 +376,44 @@ def test_the_tls_options_reach_the_client(tmp_path, monkeypatch, capsys):
     assert sec.require_encryption is True
     assert (sec.tls_ca_file, sec.tls_client_cert, sec.tls_client_key) == (
         str(files["--tls-ca-file"]), str(files["--tls-cert"]), str(files["--tls-key"]))
-    assert seen["timeout"] == rd.CONNECT_TIMEOUT
+    assert seen["timeout"] == rd.CONNECT_TIMEOUT == 20
     assert not (tmp_path / "o.exr").exists()
+
+
+def test_the_tls_flags_open_a_real_tls_connection_and_nothing_else_does(clusters, scenes,
+                                                                       tmp_path, monkeypatch,
+                                                                       capsys):
+    """The local cluster's temporary certificates written to PEM files: with the three flags
+    the command line renders on it over TLS; without a client certificate it is refused."""
+    client = clusters.get()
+    sec = clusters.cluster.security
+    pem = {"--tls-ca-file": sec.tls_ca_file, "--tls-cert": sec.tls_client_cert,
+           "--tls-key": sec.tls_client_key}
+    flags = []
+    for flag, text in pem.items():
+        assert text.startswith("-----BEGIN")
+        (tmp_path / f"{flag[2:]}.pem").write_text(text)
+        flags += [flag, str(tmp_path / f"{flag[2:]}.pem")]
+    shutil.copy(ROOT / "scenes" / "whitted.toml", tmp_path / "s.toml")
+    address = client.scheduler.address
+    assert address.startswith("tls://127.0.0.1:")
+    common = ["render", str(tmp_path / "s.toml"), "--width", str(W), "--height", str(H),
+              "--spp", "4", "--tile", "32", "--scheduler", address, "-q"]
+    assert cli.main([*common, "-o", str(tmp_path / "tls.exr"), *flags]) == 0
+    assert same_bits(raytrace.read_exr(tmp_path / "tls.exr")[0], scenes["whitted"][2].rgb)
+    # Certificates of another authority (a stranger's) are refused, in one line.
+    from distributed import Security
+
+    other, stranger = Security.temporary(), []
+    for flag, text in {"--tls-ca-file": other.tls_ca_file, "--tls-cert": other.tls_client_cert,
+                       "--tls-key": other.tls_client_key}.items():
+        (tmp_path / f"other-{flag[2:]}.pem").write_text(text)
+        stranger += [flag, str(tmp_path / f"other-{flag[2:]}.pem")]
+    monkeypatch.setattr(rd, "CONNECT_TIMEOUT", 3)
+    assert cli.main([*common, "-o", str(tmp_path / "stranger.exr"), *stranger]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"raytrace: error: cannot reach the Dask scheduler at {address}: ")
+    assert len(err.splitlines()) == 1 and not (tmp_path / "stranger.exr").exists()
 
 
 def test_the_local_cluster_listens_on_loopback_only(clusters):
