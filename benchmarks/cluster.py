@@ -24,7 +24,9 @@ What is measured, all in this process, which is the Dask client (and, as in
     tiles (their threads' time in :func:`raytrace.distributed.render_tile`) and the rest of
     the CPU per tile (Dask: scheduling, serialising, TLS, heartbeats); ``work`` is the local
     1-thread seconds less its BVH build (the local render builds each time). The 1-worker rows
-    at every tile size give a least-squares fit ``wall = work + fixed + per_tile · tiles``.
+    at every tile size give a least-squares fit ``wall = work + fixed + per_tile · tiles``, and
+    every cluster a fit of the Dask CPU (all the CPU less the tiles' rendering) against the
+    number of tiles: ``fixed + per_tile · tiles``.
 ``transfer``
     The pickled scene's bytes and the seconds from submitting it to its arrival on every worker
     (a task that reads it on each), less the same round trip with an empty payload.
@@ -213,16 +215,20 @@ def report(results: dict) -> str:
         for name, r in c["scenes"].items():
             t, cold = r["transfer"], r["cold"]
             fit = r.get("fit", {})
+            per_tile, fixed = np.polyfit([x["tiles"] for x in r["tiles"]],
+                                         [x["cpu"] - x["tiles_cpu"] for x in r["tiles"]], 1)
             rows.append([name, str(c["workers"]), "tls" if c["tls"] else "tcp",
                          f(c["start_seconds"], "{:.2f}"), f(cold["wall"], "{:.2f}"),
                          str(cold["builds"]), f(cold["build_seconds"], "{:.4f}"),
                          f"{t['bytes'] / 1e6:.3f}", f(1e3 * t["net_seconds"], "{:.1f}"),
                          f(1e3 * fit["per_tile"], "{:.1f}") if fit else "-",
                          f(fit["fixed"], "{:.3f}") if fit else "-",
+                         f(1e3 * per_tile, "{:.1f}"), f(fixed, "{:.2f}"),
                          f(c["close_seconds"], "{:.2f}")])
     parts.append("cluster set-up (cold: the first render, tile 64)\n" + bench.table(
         ["scene", "workers", "comm", "start s", "cold s", "builds", "build s", "scene MB",
-         "transfer ms", "fit ms/tile", "fit fixed s", "close s"], rows))
+         "transfer ms", "fit ms/tile", "fit fixed s", "dask cpu ms/tile", "dask cpu fixed s",
+         "close s"], rows))
     return "\n\n".join(parts)
 
 
@@ -233,7 +239,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--json", default=str(ROOT / "benchmarks" / "cluster.json"))
     p.add_argument("--no-tcp", action="store_true",
                    help="skip the 2-worker run without TLS (plain tcp://)")
+    p.add_argument("--report", metavar="JSON", help="print the tables of an earlier run's JSON")
     args = p.parse_args(argv)
+    if args.report:
+        print(report(json.loads(Path(args.report).read_text())))
+        return 0
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:

@@ -279,14 +279,15 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
     """``render --frames``: a sequence (:func:`raytrace.frames.render_frames`), each frame
     written when it is finished, the frames already written skipped unless ``--overwrite``."""
     from .aov import check_aovs
-    from .frames import check_pattern, parse_frames, render_frames, scene_source
+    from .frames import PLACEHOLDER, check_pattern, parse_frames, render_frames, scene_source
     from .render import render_options
     from .scene import Scene
 
     frames = parse_frames(args.frames, "--frames")
     source = scene_source(args.scene, "SCENE")
     stem = Path(source.files or source.name.rpartition(":")[0]).stem
-    out = check_pattern(args.output or f"{stem.removesuffix('.####')}.####.exr", "-o")
+    stem = PLACEHOLDER.sub("", stem).rstrip("._-") or "frame"  # shot_####.toml → shot
+    out = check_pattern(args.output or f"{stem}.####.exr", "-o")
     if Path(out).suffix.lower() != ".exr":
         raise SceneError(f"output must be an .exr file pattern, got {out!r}", "-o")
     png = None if args.png is None else check_pattern(args.png, "--png")

@@ -171,3 +171,13 @@ def test_a_bad_scene_file_of_one_frame_names_its_file(tmp_path, capsys):
     assert rc == 2 and err == (f"raytrace: error: {tmp_path / 'shot_2.toml'}: objects[0].radius:"
                                " must be > 0, got -1\n")
     assert sorted(os.listdir(tmp_path)) == ["o.1.exr", "shot_1.toml", "shot_2.toml"]
+
+
+def test_without_o_the_frames_are_named_after_the_scene_pattern(tmp_path, monkeypatch):
+    (tmp_path / "shots").mkdir()
+    for f in (9, 10):
+        write_text(tmp_path / "shots" / f"shot_{f:02d}.toml", SHOT.format(x=0.1 * f, radius=0.5))
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["render", "shots/shot_##.toml", "--frames", "9-10", "-q"]) == 0
+    assert sorted(p for p in os.listdir(tmp_path) if p.endswith(".exr")) == [
+        "shot.0009.exr", "shot.0010.exr"]
