@@ -216,13 +216,15 @@ def render_tiles(client: Client, scene: Scene, options: RenderOptions, tile: int
 def gather_each(client: Client, futures: list) -> Iterator:
     """The results of ``futures`` as each finishes. The first failure cancels the others and
     is raised: a :class:`SceneError` from a worker as a fresh one (the same line as a local
-    render's, without the remote traceback), a task that killed workers as a
+    render's, without the remote traceback), a task that killed workers or was cancelled as a
     :class:`ClusterError`."""
     from distributed import as_completed
     from distributed.scheduler import KilledWorker
 
     try:
-        for _, result in as_completed(futures, loop=client.loop, with_results=True):
+        for future, result in as_completed(futures, loop=client.loop, with_results=True):
+            if future.cancelled():  # its data lost with no way to compute it again, say
+                raise ClusterError(f"task {future.key} was cancelled: {result}")
             yield result
     except SceneError as e:
         raise SceneError(e.problem, e.key, e.file) from None

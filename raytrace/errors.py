@@ -27,11 +27,6 @@ class SceneError(ValueError):
         self.file = file
         super().__init__(str(self))
 
-    def __reduce__(self):
-        # Pickled whole (a distributed render's worker sends it back to the client): the
-        # default would rebuild it from the message alone and lose the key and the file.
-        return (SceneError, (self.problem, self.key, self.file))
-
     def __str__(self) -> str:
         parts = [p for p in (self.file, self.key) if p]
         return ": ".join([*parts, self.problem])
