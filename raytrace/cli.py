@@ -279,7 +279,7 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
     """``render --frames``: a sequence (:func:`raytrace.frames.render_frames`), each frame
     written when it is finished, the frames already written skipped unless ``--overwrite``."""
     from .aov import check_aovs
-    from .frames import PLACEHOLDER, check_pattern, parse_frames, render_frames, scene_source
+    from .frames import PLACEHOLDER, check_outputs, parse_frames, render_frames, scene_source
     from .render import render_options
     from .scene import Scene
 
@@ -287,15 +287,9 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
     source = scene_source(args.scene, "SCENE")
     stem = Path(source.files or source.name.rpartition(":")[0]).stem
     stem = PLACEHOLDER.sub("", stem).rstrip("._-") or "frame"  # shot_####.toml → shot
-    out = check_pattern(args.output or f"{stem}.####.exr", "-o")
-    if Path(out).suffix.lower() != ".exr":
-        raise SceneError(f"output must be an .exr file pattern, got {out!r}", "-o")
-    png = None if args.png is None else check_pattern(args.png, "--png")
-    if png is not None and Path(png).suffix.lower() != ".png":
-        raise SceneError(f"must be a .png file pattern, got {png!r}", "--png")
-    for flag, path in (("-o", out), ("--png", png), ("--stats", args.stats)):
-        if path and not Path(path).resolve().parent.is_dir():
-            raise SceneError(f"folder does not exist: {Path(path).parent}", flag)
+    out, png = check_outputs(args.output or f"{stem}.####.exr", args.png, ("-o", "--png"))
+    if args.stats and not Path(args.stats).resolve().parent.is_dir():
+        raise SceneError(f"folder does not exist: {Path(args.stats).parent}", "--stats")
     aovs = check_aovs(args.aov, "--aov")
     overrides = {"width": args.width, "height": args.height, "spp": args.spp,
                  "max_depth": args.max_depth, "min_weight": args.min_weight, "seed": args.seed,

@@ -86,6 +86,24 @@ def check_pattern(pattern: str | os.PathLike, key: str) -> str:
     return text
 
 
+def check_outputs(output: str | os.PathLike, png: str | os.PathLike | None,
+                  keys: tuple[str, str] = ("output", "png")) -> tuple[str, str | None]:
+    """The EXR and PNG patterns, checked: one frame number each (:func:`check_pattern`), the
+    right suffix, an existing folder; a :class:`SceneError` naming ``keys``' one otherwise."""
+    checked = []
+    for pattern, key, suffix in ((output, keys[0], ".exr"), (png, keys[1], ".png")):
+        if pattern is None:
+            checked.append(None)
+            continue
+        text = check_pattern(pattern, key)
+        if Path(text).suffix.lower() != suffix:
+            raise SceneError(f"must end in {suffix}, got {text!r}", key)
+        if not Path(text).resolve().parent.is_dir():
+            raise SceneError(f"folder does not exist: {Path(text).parent}", key)
+        checked.append(text)
+    return checked[0], checked[1]
+
+
 def frame_path(pattern: str, frame: int) -> Path:
     """``pattern`` with its placeholder replaced by ``frame``.
 
@@ -206,13 +224,7 @@ def render_frames(scenes: str | os.PathLike | Callable[[int], Scene] | SceneSour
     t0 = time.perf_counter()
     source = scene_source(scenes)
     numbers = parse_frames(frames)
-    output = check_pattern(output, "output")
-    if Path(output).suffix.lower() != ".exr":
-        raise SceneError(f"must be an .exr file pattern, got {output!r}", "output")
-    if png is not None:
-        png = check_pattern(png, "png")
-        if Path(png).suffix.lower() != ".png":
-            raise SceneError(f"must be a .png file pattern, got {png!r}", "png")
+    output, png = check_outputs(output, png)
     from .film import exr_compression
 
     exr_compression(compression)  # a bad name now, not after the first frame
@@ -225,10 +237,6 @@ def render_frames(scenes: str | os.PathLike | Callable[[int], Scene] | SceneSour
             result.skipped.append(frame)
         else:
             todo.append(frame)
-    for p in (output, png):
-        if p is not None and todo and not frame_path(p, todo[0]).resolve().parent.is_dir():
-            raise SceneError(f"folder does not exist: {frame_path(p, todo[0]).parent}",
-                             "png" if p is png else "output")
 
     def write(frame: int, image: Image) -> None:
         threads = overrides.get("threads") or os.cpu_count() or 1

@@ -181,3 +181,17 @@ def test_without_o_the_frames_are_named_after_the_scene_pattern(tmp_path, monkey
     assert cli.main(["render", "shots/shot_##.toml", "--frames", "9-10", "-q"]) == 0
     assert sorted(p for p in os.listdir(tmp_path) if p.endswith(".exr")) == [
         "shot.0009.exr", "shot.0010.exr"]
+
+
+@pytest.mark.parametrize(("flags", "says"), [
+    (["-o", "missing/o.####.exr"], "-o: folder does not exist: missing"),
+    (["-o", "o.####.tif"], "-o: must end in .exr, got 'o.####.tif'"),
+    (["--png", "p.####.jpg"], "--png: must end in .png"),
+    (["--png", "p/#/x.png"], "--png: 'p/#/x.png' needs one frame number in its file name")])
+def test_bad_frame_output_patterns_are_one_line(tmp_path, monkeypatch, capsys, flags, says):
+    write_text(tmp_path / "shot_1.toml", SHOT.format(x=0.0, radius=0.5))
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["render", "shot_#.toml", "--frames", "1", *flags]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"raytrace: error: {says}") and len(err.splitlines()) == 1, err
+    assert os.listdir(tmp_path) == ["shot_1.toml"]
