@@ -337,6 +337,16 @@ def test_bad_cluster_and_frame_flags_are_one_line_and_write_nothing(tmp_path, ca
     assert sorted(os.listdir(tmp_path)) == before
 
 
+def test_without_dask_the_cluster_flags_say_what_to_install(tmp_path, monkeypatch, capsys):
+    shutil.copy(ROOT / "scenes" / "whitted.toml", tmp_path / "s.toml")
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed: ImportError
+    assert cli.main(["render", str(tmp_path / "s.toml"), "-o", str(tmp_path / "o.exr"),
+                     "--workers", "2"]) == 2
+    assert capsys.readouterr().err == ("raytrace: error: --workers: needs Dask's distributed "
+                                       "scheduler: pip install 'raytrace[distributed]'\n")
+    assert os.listdir(tmp_path) == ["s.toml"]
+
+
 @pytest.mark.parametrize(("out", "png"), [("o.exr", None), ("o.####.exr", "p.png")])
 def test_frame_outputs_need_a_frame_number(tmp_path, capsys, out, png):
     shutil.copy(ROOT / "scenes" / "whitted.toml", tmp_path / "s_0001.toml")
