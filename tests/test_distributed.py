@@ -476,3 +476,21 @@ def test_the_doctests():
 
     for module in (rd, frames):
         assert doctest.testmod(module).failed == 0
+
+
+@pytest.mark.slow
+def test_the_cluster_benchmark_s_quick_run(tmp_path):
+    out = tmp_path / "cluster.json"
+    run = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "cluster.py"), "--quick",
+                          "--repeat", "1", "--no-tcp", "--json", str(out)],
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    import json
+
+    results = json.loads(out.read_text())
+    rows = [x for c in results["clusters"] for r in c["scenes"].values() for x in r["tiles"]]
+    assert [c["workers"] for c in results["clusters"]] == [1, 2]
+    assert len(rows) == 2 * 2 * 2 and all(x["identical"] for x in rows)
+    cold = [r["cold"] for c in results["clusters"] for r in c["scenes"].values()]
+    assert all(x["identical"] and 1 <= x["builds"] <= 2 for x in cold)
+    assert "dask cpu ms/tile" in run.stdout
