@@ -279,7 +279,14 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
     """``render --frames``: a sequence (:func:`raytrace.frames.render_frames`), each frame
     written when it is finished, the frames already written skipped unless ``--overwrite``."""
     from .aov import check_aovs
-    from .frames import PLACEHOLDER, check_outputs, parse_frames, render_frames, scene_source
+    from .frames import (
+        PLACEHOLDER,
+        check_outputs,
+        frame_path,
+        parse_frames,
+        render_frames,
+        scene_source,
+    )
     from .render import render_options
     from .scene import Scene
 
@@ -290,6 +297,9 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
     out, png = check_outputs(args.output or f"{stem}.####.exr", args.png, ("-o", "--png"))
     if args.stats and not Path(args.stats).resolve().parent.is_dir():
         raise SceneError(f"folder does not exist: {Path(args.stats).parent}", "--stats")
+    if args.stats and source.files and any(
+            Path(args.stats).resolve() == frame_path(source.files, f).resolve() for f in frames):
+        raise SceneError(f"would overwrite the input {args.stats}", "--stats")
     aovs = check_aovs(args.aov, "--aov")
     overrides = {"width": args.width, "height": args.height, "spp": args.spp,
                  "max_depth": args.max_depth, "min_weight": args.min_weight, "seed": args.seed,

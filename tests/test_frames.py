@@ -187,7 +187,8 @@ def test_without_o_the_frames_are_named_after_the_scene_pattern(tmp_path, monkey
     (["-o", "missing/o.####.exr"], "-o: folder does not exist: missing"),
     (["-o", "o.####.tif"], "-o: must end in .exr, got 'o.####.tif'"),
     (["--png", "p.####.jpg"], "--png: must end in .png"),
-    (["--png", "p/#/x.png"], "--png: 'p/#/x.png' needs one frame number in its file name")])
+    (["--png", "p/#/x.png"], "--png: 'p/#/x.png' needs one frame number in its file name"),
+    (["--stats", "shot_1.toml"], "--stats: would overwrite the input shot_1.toml")])
 def test_bad_frame_output_patterns_are_one_line(tmp_path, monkeypatch, capsys, flags, says):
     write_text(tmp_path / "shot_1.toml", SHOT.format(x=0.0, radius=0.5))
     monkeypatch.chdir(tmp_path)
