@@ -20,6 +20,7 @@ from importlib import metadata as _metadata
 from .errors import RenderWarning, SceneError
 from .explain import explain
 from .film import Image, read_exr
+from .frames import render_frames
 from .material import Checker, Material, MaterialLibrary
 from .material import library as materials
 from .render import render
@@ -46,5 +47,6 @@ __all__ = [
     "AreaLight", "Camera", "Checker", "DirectionalLight", "Image", "Material", "explain",
     "MaterialLibrary", "Mesh", "Plane", "PointLight", "RenderSettings", "RenderWarning", "Scene",
     "SceneError", "Sphere", "SpotLight", "load_scene", "materials", "read_exr", "render",
+    "render_frames",
     "scene_from_dict",
 ]

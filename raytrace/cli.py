@@ -7,6 +7,8 @@
                           [--quiet] [--aov depth,normal,albedo,id] [--crop X0 Y0 X1 Y1]
                           [--filter box|tent|gaussian|mitchell]
                           [--aa uniform|adaptive] [--aa-threshold T] [--aa-depth D]
+                          [--frames LIST [--overwrite]] [--workers N | --scheduler ADDRESS
+                          [--tls-ca-file CA --tls-cert CERT --tls-key KEY]] [--tile PIXELS]
     raytrace explain SCENE --pixel X Y [--sample S] [--json] [--width W] [--height H]
                           [--spp N] [--max-depth D] [--min-weight W] [--seed S]
     raytrace compare TEST.exr REFERENCE.exr [--metric rmse|mae|max|relmse|psnr|flip]
@@ -35,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .errors import RenderWarning, SceneError
+from .errors import ClusterError, RenderWarning, SceneError
 from .outputs import Outputs
 
 EXIT_BAD_INPUT = 2
@@ -102,6 +104,28 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--aa-threshold", type=float,
                    help="adaptive: refine where corners differ by more than this")
     r.add_argument("--aa-depth", type=int, help="adaptive: most halvings of a pixel")
+    f = r.add_argument_group("sequences (docs/distributed.md)")
+    f.add_argument("--frames", metavar="LIST",
+                   help="render frames 1-24, 1..24 or 1,5,9-12: SCENE is a pattern of scene "
+                        "files (shot_####.toml, shot_%%04d.toml) or FILE.py:FUNCTION of the "
+                        "frame number; -o and --png are patterns too (out.####.exr)")
+    f.add_argument("--overwrite", action="store_true",
+                   help="with --frames: render frames whose outputs exist (default: skip them)")
+    d = r.add_argument_group("Dask cluster (pip install 'raytrace[distributed]'; "
+                             "docs/distributed.md)")
+    d.add_argument("--workers", type=int, metavar="N",
+                   help="render tiles (frames with --frames) on a local cluster of N worker "
+                        "processes, one thread each, listening on 127.0.0.1 only")
+    d.add_argument("--scheduler", metavar="ADDRESS",
+                   help="render on an existing Dask cluster, e.g. tls://host:8786")
+    d.add_argument("--tile", type=int, metavar="PIXELS",
+                   help="tile side with --workers or --scheduler (default 256)")
+    d.add_argument("--tls-ca-file", metavar="CA.pem", help="with --scheduler: the CA "
+                   "certificate the scheduler's certificate is checked against")
+    d.add_argument("--tls-cert", metavar="CERT.pem", help="with --scheduler: this client's "
+                   "TLS certificate")
+    d.add_argument("--tls-key", metavar="KEY.pem", help="with --scheduler: this client's "
+                   "TLS private key")
 
     e = sub.add_parser("explain", help="the ray tree of one pixel sample, term by term")
     e.add_argument("scene", help="scene file (.toml or .json)")
@@ -141,7 +165,7 @@ def _overrides(p: argparse.ArgumentParser) -> None:
 FLAGS = {"width": "--width", "height": "--height", "spp": "--spp", "max_depth": "--max-depth",
          "min_weight": "--min-weight", "seed": "--seed", "threads": "--threads",
          "crop": "--crop", "aovs": "--aov", "filter": "--filter", "aa": "--aa",
-         "aa_threshold": "--aa-threshold", "aa_depth": "--aa-depth"}
+         "aa_threshold": "--aa-threshold", "aa_depth": "--aa-depth", "tile": "--tile"}
 
 
 def _flag_error(e: SceneError) -> SceneError:
@@ -182,6 +206,47 @@ class Progress:
         sys.stderr.flush()
 
 
+def _cluster(args: argparse.Namespace):
+    """The Dask client the flags ask for, as a context manager (``nullcontext(None)``
+    without ``--workers`` or ``--scheduler``); bad flags are found now, before the render."""
+    from contextlib import nullcontext
+
+    tls = (args.tls_ca_file, args.tls_cert, args.tls_key)
+    if args.workers is not None and args.scheduler is not None:
+        raise SceneError("give --workers (a local cluster) or --scheduler, not both",
+                         "--scheduler")
+    if args.workers is None and args.scheduler is None:
+        for flag, value in (("--tile", args.tile), ("--tls-ca-file", tls[0]),
+                            ("--tls-cert", tls[1]), ("--tls-key", tls[2])):
+            if value is not None:
+                raise SceneError("needs --workers or --scheduler", flag)
+        return nullcontext(None)
+    from .distributed import check_tile, connect, require_distributed, security
+
+    require_distributed("--workers" if args.workers is not None else "--scheduler")
+    check_tile(args.tile, "--tile")
+    if args.workers is not None:
+        from . import values
+
+        if any(tls):
+            raise SceneError("TLS files are for --scheduler (a local cluster makes its own "
+                             "certificates)", "--tls-ca-file")
+        return connect(workers=values.number(args.workers, "--workers", lo=1, hi=256,
+                                             integer=True))
+    if "://" in args.scheduler and args.scheduler.split("://")[0] not in ("tcp", "tls"):
+        raise SceneError(f"{args.scheduler!r}: use tcp://HOST:PORT or tls://HOST:PORT",
+                         "--scheduler")
+    secure = security(*tls, flags=("--tls-ca-file", "--tls-cert", "--tls-key"))
+    if secure is None and args.scheduler.startswith("tls://"):
+        from distributed import Security
+
+        if not Security().tls_client_cert:  # nor in Dask's configuration
+            raise SceneError("a tls:// scheduler needs --tls-ca-file, --tls-cert and --tls-key "
+                             "(or distributed.comm.tls.* in Dask's configuration)",
+                             "--scheduler")
+    return connect(scheduler=args.scheduler, security=secure)
+
+
 def _render(args: argparse.Namespace) -> int:
     from . import integrator  # noqa: F401  (the renderer and numba: imported, not timed)
     from .aov import check_aovs
@@ -199,6 +264,12 @@ def _render(args: argparse.Namespace) -> int:
         exr_compression(args.compression)
     except ValueError as e:
         raise SceneError(str(e), "--compression") from None
+    cluster = _cluster(args)
+    if args.frames is not None:
+        return _render_frames(args, cluster)
+    if args.overwrite:
+        raise SceneError("is for --frames (a single render always writes its outputs)",
+                         "--overwrite")
     outputs = args.outputs
     # Every output is checked before anything is rendered (outputs.py): its suffix and that it
     # is no other output and not the scene file now; after loading, that it is no mesh or
@@ -233,7 +304,9 @@ def _render(args: argparse.Namespace) -> int:
             sys.stderr.write("raytrace: compiling kernels, first run only (about 15 s)\n")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", RenderWarning)
-            image = render(scene, progress=progress, **overrides)
+            with cluster as client:
+                image = render(scene, progress=progress, client=client, tile=args.tile,
+                               **overrides)
     except SceneError as e:  # a flag's value: name the flag, not the scene key
         raise _flag_error(e) from None
     for w in caught:  # ours as one line each, terminal or not; anything else as Python would
@@ -258,6 +331,71 @@ def _render(args: argparse.Namespace) -> int:
             tmp.write_text(json.dumps(stats, indent=2) + "\n")
     outputs.commit()  # the renames, only now that every output is complete
     progress.summary(outputs.written, stats)
+    return 0
+
+
+def _render_frames(args: argparse.Namespace, cluster) -> int:
+    """``render --frames``: a sequence (:func:`raytrace.frames.render_frames`), each frame
+    written when it is finished, the frames already written skipped unless ``--overwrite``."""
+    from .aov import check_aovs
+    from .frames import (
+        PLACEHOLDER,
+        check_outputs,
+        frame_path,
+        parse_frames,
+        render_frames,
+        scene_source,
+    )
+    from .render import render_options
+    from .scene import Scene
+
+    frames = parse_frames(args.frames, "--frames")
+    source = scene_source(args.scene, "SCENE")
+    stem = Path(source.files or source.name.rpartition(":")[0]).stem
+    stem = PLACEHOLDER.sub("", stem).rstrip("._-") or "frame"  # shot_####.toml → shot
+    out, png = check_outputs(args.output or f"{stem}.####.exr", args.png, ("-o", "--png"))
+    if args.stats and not Path(args.stats).resolve().parent.is_dir():
+        raise SceneError(f"folder does not exist: {Path(args.stats).parent}", "--stats")
+    if args.stats and source.files and any(
+            Path(args.stats).resolve() == frame_path(source.files, f).resolve() for f in frames):
+        raise SceneError(f"would overwrite the input {args.stats}", "--stats")
+    aovs = check_aovs(args.aov, "--aov")
+    overrides = {"width": args.width, "height": args.height, "spp": args.spp,
+                 "max_depth": args.max_depth, "min_weight": args.min_weight, "seed": args.seed,
+                 "threads": args.threads, "aovs": aovs}
+    try:  # the flags' values, found now (the crop is checked against each frame's size)
+        render_options(Scene(), **overrides)
+    except SceneError as e:
+        raise _flag_error(e) from None
+    progress = Progress(not args.quiet)
+
+    def written(frame: int, paths: list[str]) -> None:
+        args.written.extend(paths)
+
+    with cluster as client:
+        try:
+            result = render_frames(source, out, frames, png=png, client=client,
+                                   overwrite=args.overwrite, progress=progress,
+                                   compression=args.compression, exposure=args.exposure,
+                                   tonemap=args.tonemap, on_frame=written, crop=args.crop,
+                                   **overrides)
+        except SceneError as e:
+            raise (_flag_error(e) if e.key == "crop" else e) from None
+    rays = sum(st["rays"]["total"] for st in result.stats.values())
+    if args.stats:
+        from .film import atomic_path
+
+        summary = {"frames": {str(f): st for f, st in sorted(result.stats.items())},
+                   "rendered": sorted(result.rendered), "skipped": result.skipped,
+                   "rays": {"total": rays}, "seconds": {"total": result.seconds}}
+        with atomic_path(args.stats, ".json") as tmp:
+            tmp.write_text(json.dumps(summary, indent=2) + "\n")
+    if progress.enabled:
+        done = sorted(result.rendered)
+        span = f"{result.outputs[done[0]][0]} … {result.outputs[done[-1]][0]}" if done else ""
+        skipped = f", {len(result.skipped)} skipped (already written)" if result.skipped else ""
+        sys.stderr.write(f"wrote {len(done)} frames {span}{skipped}: {rays / 1e6:.2f} M rays, "
+                         f"{result.seconds:.2f} s\n")
     return 0
 
 
@@ -358,12 +496,13 @@ def _what_was_written(outputs: Outputs) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    args.written = []  # frames of a sequence written so far (each is written atomically)
     handler = {"render": _render, "explain": _explain, "compare": _compare,
                "materials": _materials}[args.command]
     with Outputs() as args.outputs:  # all or nothing (outputs.py); temporary files removed
         try:
             return handler(args)
-        except SceneError as e:
+        except (SceneError, ClusterError) as e:
             print(f"raytrace: error: {e}", file=sys.stderr)
             return EXIT_BAD_INPUT
         except BrokenPipeError:  # e.g. `raytrace materials | head`
@@ -371,8 +510,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 0
         except KeyboardInterrupt:
             end_bar = "\n" if sys.stderr.isatty() else ""  # leave the progress bar's line
-            print(f"{end_bar}raytrace: interrupted; {_what_was_written(args.outputs)}",
-                  file=sys.stderr)
+            done = (f"wrote {', '.join(args.written)} only" if args.written  # frames
+                    else _what_was_written(args.outputs))
+            print(f"{end_bar}raytrace: interrupted; {done}", file=sys.stderr)
             return 130
         except OSError as e:  # e.g. no permission or no space left writing an output
             where = ": ".join(str(p) for p in (e.filename, getattr(e, "key", None)) if p)

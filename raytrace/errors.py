@@ -44,3 +44,9 @@ class RenderWarning(UserWarning):
     """A render that completes but is probably not what was meant: a scene with no objects,
     pixels that overflowed float32. The command line prints each as one line
     ``raytrace: warning: FILE: problem`` on stderr, terminal or not."""
+
+
+class ClusterError(RuntimeError):
+    """A Dask cluster could not do the work (no scheduler at an address, a task that killed
+    its workers each time it ran): the command line prints it as one line, like a
+    :class:`SceneError`."""

@@ -27,6 +27,8 @@ rendered which pass.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import os
 import threading
 import time
@@ -167,20 +169,8 @@ class WhittedIntegrator:
     observer = None
 
     def __init__(self, scene: Scene, options: RenderOptions):
-        self.scene, self.opt = scene, options
-        #: The window of the image (the crop or the frame) and the window traced: the same,
-        #: or, for a filter wider than a pixel, grown by its reach (clipped to the frame).
-        self.window = options.crop or (0, 0, options.width, options.height)
-        self.reach = sampling.margin(options.filter)
-        x0, y0, x1, y1 = self.window
-        m = self.reach
-        self.traced = (max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, options.width),
-                       min(y1 + m, options.height))
-        #: The traced window as a crop of the frame (None: the whole frame).
-        self.trace_crop = None if self.traced == (0, 0, options.width, options.height) \
-            else self.traced
-        #: Columns and rows of the window traced.
-        self.size = (self.traced[2] - self.traced[0], self.traced[3] - self.traced[1])
+        self.scene = scene
+        self._set_options(options)
         self._aov_out = NO_AOV_PIXELS  # the AOV images of the render in progress, flat
         seen: dict[int, Material] = {}
         for o in scene.objects:
@@ -204,6 +194,42 @@ class WhittedIntegrator:
         self._renders = 0  # renders started: each counts its rays afresh
         self._stats_per_thread: list[Stats] = []
         self._worker = Worker()
+
+    def _set_options(self, options: RenderOptions) -> None:
+        """The options and the windows they give: the window of the image (the crop or the
+        frame) and the window traced: the same, or, for a filter wider than a pixel, grown by
+        its reach (clipped to the frame)."""
+        self.opt = options
+        self.window = options.crop or (0, 0, options.width, options.height)
+        self.reach = sampling.margin(options.filter)
+        x0, y0, x1, y1 = self.window
+        m = self.reach
+        self.traced = (max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, options.width),
+                       min(y1 + m, options.height))
+        #: The traced window as a crop of the frame (None: the whole frame).
+        self.trace_crop = None if self.traced == (0, 0, options.width, options.height) \
+            else self.traced
+        #: Columns and rows of the window traced.
+        self.size = (self.traced[2] - self.traced[0], self.traced[3] - self.traced[1])
+
+    def for_window(self, crop: tuple[int, int, int, int] | None,
+                   threads: int | None = None) -> WhittedIntegrator:
+        """This integrator for another window (``crop``, checked by the caller) of the same
+        frame, on ``threads`` threads (default: as this one), without building anything again:
+        the copy shares the accelerator (BVH), materials and lights, which are read-only once
+        built, and has its own per-render state, so copies may render at the same time on
+        different threads. Its images report 0 build seconds (a distributed render's tiles,
+        :mod:`raytrace.distributed`, count each build once)."""
+        other = copy.copy(self)
+        other._set_options(dataclasses.replace(
+            self.opt, crop=crop, threads=self.opt.threads if threads is None else threads))
+        other.build_seconds = 0.0
+        other._aov_out = NO_AOV_PIXELS
+        other._lock = threading.Lock()
+        other._renders = 0
+        other._stats_per_thread = []
+        other._worker = Worker()
+        return other
 
     @property
     def scratch(self) -> Scratch:

@@ -18,6 +18,8 @@ from .film import Image
 from .scene import RenderSettings, Scene
 
 if TYPE_CHECKING:
+    from distributed import Client
+
     from .integrator import RenderOptions
 
 #: Peak resident memory of a render, measured (``ru_maxrss`` at 3000² and 6000² pixels, 2
@@ -68,7 +70,8 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
            crop: Sequence[int] | None = None,
            aovs: str | Iterable[str] | None = None, filter: str | None = None,
            aa: str | None = None, aa_threshold: float | None = None,
-           aa_depth: int | None = None) -> Image:
+           aa_depth: int | None = None, client: Client | None = None,
+           tile: int | None = None) -> Image:
     """Render ``scene``; keyword arguments override its ``[render]`` settings.
 
     Returns an :class:`Image` whose ``rgb`` is (height, width, 3) float32 linear RGB and whose
@@ -89,6 +92,11 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     (written as 0, counted in ``stats["nonfinite_pixels"]``), give a
     :class:`~raytrace.errors.RenderWarning`.
 
+    ``client``: a ``dask.distributed.Client``; the image (or the crop) is then rendered as
+    ``tile``×``tile``-pixel crops (default :data:`raytrace.distributed.TILE`) on its cluster's
+    workers, each on one thread, and put together: bit-identical to the render on one process
+    (:func:`raytrace.distributed.render_tiles`; docs/distributed.md).
+
     The integrator, and with it numba, is imported on the first call, so ``import raytrace``
     (loading and checking scenes, reading EXRs) does not pay for the compiler.
     """
@@ -104,18 +112,30 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     x0, y0, x1, y1 = options.crop or (0, 0, options.width, options.height)
     try:
         check_memory(x1 - x0, y1 - y0)
+        if client is None and tile is not None:
+            raise SceneError("tiles need a client: render(scene, client=..., tile=...)", "tile")
+        if client is not None:
+            from .distributed import check_tile
+
+            tile = check_tile(tile)
     except SceneError as e:
         raise SceneError(e.problem, e.key, scene.path) from None
     where = f"{scene.path}: " if scene.path else ""
     if not scene.objects:
         warnings.warn(f"{where}the scene has no objects: the image is the background",
                       RenderWarning, stacklevel=2)
-    image = WhittedIntegrator(scene, options).render(progress)
-    bad = image.stats["nonfinite_pixels"]
+    if client is not None:
+        from .distributed import render_tiles
+
+        image = render_tiles(client, scene, options, tile, progress)
+    else:
+        image = WhittedIntegrator(scene, options).render(progress)
+    bad = image.stats.get("nonfinite_pixels", 0)
     if bad:
-        x, y = image.stats["nonfinite_first_pixel"]
-        warnings.warn(f"{where}{bad} pixel{'s' if bad > 1 else ''} overflowed to inf or NaN "
-                      f"(the first at x={x}, y={y}), written as 0", RenderWarning, stacklevel=2)
+        first = image.stats.get("nonfinite_first_pixel")  # tiles sum counts, not places
+        at = f" (the first at x={first[0]}, y={first[1]})" if first else ""
+        warnings.warn(f"{where}{bad} pixel{'s' if bad > 1 else ''} overflowed to inf or NaN"
+                      f"{at}, written as 0", RenderWarning, stacklevel=2)
     return image
 
 

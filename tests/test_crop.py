@@ -127,3 +127,49 @@ def test_the_terminal_summary_names_the_crop(tmp_path, monkeypatch):
     assert cli.main(["render", str(scene), "-o", str(out), "--crop", "1", "2", "5", "7"]) == 0
     last = sys.stderr.getvalue().replace("\r", "\n").strip().splitlines()[-1]
     assert last.startswith(f"wrote {out}: crop 1 2 5 7 of 12×8, 1 spp, ")
+
+
+@pytest.mark.parametrize("tile", [1, 7, 16, 36, 100])
+def test_tiles_of_any_size_put_together_are_the_full_render(full, tile):
+    """A distributed render's tiles (raytrace.distributed.tile_grid) are crops: rendered one
+    by one and put in place they are the full image, bit for bit, whatever the tile size
+    (cut tiles at the right and bottom edges included), and cover each pixel once."""
+    from raytrace.distributed import tile_grid
+
+    grid = tile_grid((0, 0, W, H), tile)
+    covered = np.zeros((H, W), np.int64)
+    image = np.full((H, W, 3), np.nan, np.float32)
+    for x0, y0, x1, y1 in (grid if tile > 1 else grid[::97]):  # 1728 one-pixel tiles: a few
+        part = raytrace.render(every_ray_scene(), width=W, height=H, spp=SPP, threads=1,
+                               pass_samples=SMALL_PASS, crop=(x0, y0, x1, y1))
+        image[y0:y1, x0:x1] = part.rgb
+        assert same_bits(part.rgb, full.rgb[y0:y1, x0:x1])
+    for x0, y0, x1, y1 in grid:
+        covered[y0:y1, x0:x1] += 1
+    assert (covered == 1).all()
+    if tile > 1:
+        assert same_bits(image, full.rgb)
+
+
+def test_for_window_reuses_the_build_for_any_window_even_at_once(full):
+    """WhittedIntegrator.for_window: a copy for another crop sharing the built accelerator
+    (no second BVH build), with its own per-render state, so copies render side by side."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from raytrace.integrator import WhittedIntegrator
+    from raytrace.render import render_options
+
+    options = render_options(every_ray_scene(), width=W, height=H, spp=SPP, threads=1,
+                             pass_samples=SMALL_PASS)
+    base = WhittedIntegrator(every_ray_scene(), options)
+    crops = [(0, 0, 20, 36), (20, 0, 48, 13), (20, 13, 48, 36), None]
+    copies = [base.for_window(c, threads=2) for c in crops]
+    assert all(c.accel is base.accel and c.table is base.table for c in copies)
+    with ThreadPoolExecutor(4) as pool:
+        images = list(pool.map(lambda c: c.render(), copies))
+    for crop, image in zip(crops, images, strict=True):
+        x0, y0, x1, y1 = crop or (0, 0, W, H)
+        assert same_bits(image.rgb, full.rgb[y0:y1, x0:x1])
+        assert image.stats["seconds"]["build"] == 0.0 and image.stats["threads"] == 2
+        assert image.stats["rays"]["camera"] == (x1 - x0) * (y1 - y0) * SPP
+    assert base.opt.crop is None and base.opt.threads == 1  # the original is untouched
