@@ -76,13 +76,10 @@ def read_obj(path: Path) -> dict:
     names: list[str] = []
     libs: list[Path] = []
     current = -1
+    from .mtl import statements
+
     with open(path, encoding="utf-8", errors="replace") as f:
-        for number, line in enumerate(f, 1):
-            words = line.split("#", 1)[0].split()
-            if not words:
-                continue
-            stmt, args = words[0], words[1:]
-            where = f"{path}: line {number}"
+        for _, stmt, args, where in statements(f, path):
             try:
                 if stmt == "v":
                     v.append([float(x) for x in args[:3]])
@@ -110,7 +107,7 @@ def read_obj(path: Path) -> dict:
                 elif stmt == "mtllib":
                     libs += [path.parent / n for n in args]
             except (ValueError, IndexError) as e:
-                raise SceneError(f"{e}: {line.strip()!r}", stmt, where) from None
+                raise SceneError(f"{e}: {' '.join([stmt, *args])!r}", stmt, where) from None
     if not faces:
         raise SceneError(f"{path} holds no faces", "file")
     return {"vertices": np.array(v, np.float64).reshape(-1, 3),

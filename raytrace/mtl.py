@@ -105,6 +105,16 @@ def _color(words: list[str], where: str, stmt: str) -> np.ndarray:
     return np.repeat(c, 3) if len(c) == 1 else c
 
 
+def statements(lines, path: Path):
+    """The statements of a Wavefront OBJ or MTL text, one a line: ``(number, stmt, args,
+    where)`` for each line that is not blank or a comment (``#`` to the end of a line),
+    ``where`` naming the file and the line ``number`` for error messages."""
+    for number, line in enumerate(lines, 1):
+        words = line.split("#", 1)[0].split()
+        if words:
+            yield number, words[0], words[1:], f"{path}: line {number}"
+
+
 def read_mtl(path: Path, texture: Callable[[Path, dict, str, str], Any] | None = None
              ) -> dict[str, Material]:
     """The materials of an MTL file by name. ``texture(file, options, key, where)`` builds a
@@ -119,12 +129,7 @@ def read_mtl(path: Path, texture: Callable[[Path, dict, str, str], Any] | None =
     tables: dict[str, dict] = {}
     unsupported: set[str] = set()
     current: dict | None = None
-    for number, line in enumerate(lines, 1):
-        words = line.split("#", 1)[0].split()
-        if not words:
-            continue
-        stmt, args = words[0], words[1:]
-        where = f"{path}: line {number}"
+    for number, stmt, args, where in statements(lines, path):
         if stmt == "newmtl":
             if not args:
                 raise SceneError("needs a material name", stmt, where)
