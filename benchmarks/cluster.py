@@ -1,7 +1,7 @@
 """Tiles on a local Dask cluster against the threaded render on one process (issue 18).
 
-    .venv/bin/python benchmarks/cluster.py             # the full run, a few minutes
-    .venv/bin/python benchmarks/cluster.py --quick     # a smoke run (small images)
+    python3 benchmarks/cluster.py             # the full run, a few minutes
+    python3 benchmarks/cluster.py --quick     # a smoke run (small images)
 
 Scenes (those of ``bench.py``): **whitted** (scenes/whitted.toml, 1280×960, depth 5, analytic:
 no BVH to speak of) and **mesh** (an 81 920-triangle smooth icosphere on a ground quad,

@@ -1,8 +1,8 @@
 """What a PNG preview costs: PNG libraries compared, and raytrace's preview per tone map.
 
-    .venv/bin/python benchmarks/png_preview.py                  # 4000×3000 (renders it once, ~20 s)
-    .venv/bin/python benchmarks/png_preview.py --size 640x480   # a smoke run
-    .venv/bin/python benchmarks/png_preview.py --parts preview --image my_render.exr
+    python3 benchmarks/png_preview.py                  # 4000×3000 (renders it once, ~20 s)
+    python3 benchmarks/png_preview.py --size 640x480   # a smoke run
+    python3 benchmarks/png_preview.py --parts preview --image my_render.exr
 
 The image is ``scenes/whitted.toml`` rendered at ``--size`` (kept in ``--workdir``), or any EXR
 (``--image``); ``--noisy`` also runs every row on it times (1 + 5 % Gaussian noise), a stand-in
