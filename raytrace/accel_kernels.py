@@ -8,10 +8,10 @@ spawned rays' origins; and, at build time, the triangle tables and vertex normal
 Every kernel loops over rays and writes only that ray's rows, so no result depends on the
 number of threads or on how a batch is split (tests/test_threads.py). All are serial
 ``nogil`` kernels (:data:`raytrace.jit.kernel`): the integrator's threads run them side by
-side on batches of their own, beside Embree. Their arguments are always C-contiguous
-float64 / int64 arrays (Embree's own float32 / int32 outputs aside), so each kernel compiles
-once, into numba's cache. Where a spawned ray starts is :func:`raytrace.core.leave1`, shared
-with the shading kernels.
+side on batches of their own, beside Embree. Their arguments are the named records of
+:mod:`raytrace.records` and C-contiguous arrays of fixed dtypes (Embree's own float32 / int32
+outputs among them), so each kernel compiles once, into numba's cache. Where a spawned ray
+starts is :func:`raytrace.core.leave1`, shared with the shading kernels.
 """
 
 from __future__ import annotations

@@ -26,6 +26,7 @@ adds a line ``raytrace: warning: FILE: problem``.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import sys
@@ -236,6 +237,13 @@ def _cluster(args: argparse.Namespace):
     if "://" in args.scheduler and args.scheduler.split("://")[0] not in ("tcp", "tls"):
         raise SceneError(f"{args.scheduler!r}: use tcp://HOST:PORT or tls://HOST:PORT",
                          "--scheduler")
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:  # a missing or bad port: one line now, not a traceback and a stalled client
+        parse_host_port(parse_address(args.scheduler)[1])
+    except ValueError as e:
+        raise SceneError(f"{args.scheduler!r}: {e} (use tcp://HOST:PORT or tls://HOST:PORT)",
+                         "--scheduler") from None
     secure = security(*tls, flags=("--tls-ca-file", "--tls-cert", "--tls-key"))
     if secure is None and args.scheduler.startswith("tls://"):
         from distributed import Security
@@ -280,14 +288,8 @@ def _render(args: argparse.Namespace) -> int:
     outputs.refuse_inputs([(args.scene, "the scene file")])
     aovs = check_aovs(args.aov, "--aov")  # found now, not after the render
     t0 = time.perf_counter()
-    with warnings.catch_warnings(record=True) as caught:  # a model file's notes, one line each
-        warnings.simplefilter("always", RenderWarning)
+    with _warnings_as_lines():  # a model file's notes
         scene = load_scene(args.scene)
-    for w in caught:  # ours as one line each; anything else as Python would
-        if issubclass(w.category, RenderWarning):
-            print(f"raytrace: warning: {w.message}", file=sys.stderr)
-        else:
-            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     load_seconds = time.perf_counter() - t0
     outputs.refuse_inputs(scene.input_files())
     outputs.preflight()
@@ -302,18 +304,11 @@ def _render(args: argparse.Namespace) -> int:
         check_memory(x1 - x0, y1 - y0, ("exr", "png") if png else ("exr",))
         if progress.enabled and not cache_is_warm():
             sys.stderr.write("raytrace: compiling kernels, first run only (about 15 s)\n")
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", RenderWarning)
-            with cluster as client:
-                image = render(scene, progress=progress, client=client, tile=args.tile,
-                               **overrides)
+        with _warnings_as_lines(), cluster as client:
+            image = render(scene, progress=progress, client=client, tile=args.tile,
+                           **overrides)
     except SceneError as e:  # a flag's value: name the flag, not the scene key
         raise _flag_error(e) from None
-    for w in caught:  # ours as one line each, terminal or not; anything else as Python would
-        if issubclass(w.category, RenderWarning):
-            print(f"raytrace: warning: {w.message}", file=sys.stderr)
-        else:
-            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     t1 = time.perf_counter()
     with outputs.stage(exr) as tmp:
         write_exr(tmp, image.rgb, image.metadata, args.threads, args.compression,
@@ -334,6 +329,23 @@ def _render(args: argparse.Namespace) -> int:
     return 0
 
 
+@contextlib.contextmanager
+def _warnings_as_lines():
+    """Print the :class:`RenderWarning` s raised in the block as one line each
+    (``raytrace: warning: FILE: problem``), terminal or not, once it ends; other warnings as
+    Python would."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RenderWarning)
+        try:
+            yield
+        finally:
+            for w in caught:
+                if issubclass(w.category, RenderWarning):
+                    print(f"raytrace: warning: {w.message}", file=sys.stderr)
+                else:
+                    warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+
+
 def _render_frames(args: argparse.Namespace, cluster) -> int:
     """``render --frames``: a sequence (:func:`raytrace.frames.render_frames`), each frame
     written when it is finished, the frames already written skipped unless ``--overwrite``."""
@@ -349,6 +361,9 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
     from .render import render_options
     from .scene import Scene
 
+    for flag, value, default in (("--tile", args.tile, None), ("--png-bits", args.png_bits, 8)):
+        if value != default:  # frames are rendered whole, their previews at 8 bits
+            raise SceneError("is not used with --frames", flag)
     frames = parse_frames(args.frames, "--frames")
     source = scene_source(args.scene, "SCENE")
     stem = Path(source.files or source.name.rpartition(":")[0]).stem
@@ -362,7 +377,8 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
     aovs = check_aovs(args.aov, "--aov")
     overrides = {"width": args.width, "height": args.height, "spp": args.spp,
                  "max_depth": args.max_depth, "min_weight": args.min_weight, "seed": args.seed,
-                 "threads": args.threads, "aovs": aovs}
+                 "threads": args.threads, "aovs": aovs, "filter": args.filter, "aa": args.aa,
+                 "aa_threshold": args.aa_threshold, "aa_depth": args.aa_depth}
     try:  # the flags' values, found now (the crop is checked against each frame's size)
         render_options(Scene(), **overrides)
     except SceneError as e:
@@ -372,7 +388,7 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
     def written(frame: int, paths: list[str]) -> None:
         args.written.extend(paths)
 
-    with cluster as client:
+    with _warnings_as_lines(), cluster as client:
         try:
             result = render_frames(source, out, frames, png=png, client=client,
                                    overwrite=args.overwrite, progress=progress,
@@ -458,8 +474,12 @@ def _compare(args: argparse.Namespace) -> int:
         raise SceneError(str(e), "--metric") from None
     value = report.metrics[metric.name]
     within = metric.within(value, threshold)
-    if args.diff:
-        write_diff(args.diff, a, b)
+    if args.diff:  # through the outputs' transaction: errors name --diff's path, not a temp
+        out = args.outputs.add(args.diff, "--diff", ".png")
+        args.outputs.preflight()
+        with args.outputs.stage(out) as tmp:
+            write_diff(tmp, a, b)
+        args.outputs.commit()
     if args.json:
         d = report.to_dict()
         print(json.dumps({"test": args.test, "reference": args.reference,
@@ -517,7 +537,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         except OSError as e:  # e.g. no permission or no space left writing an output
             where = ": ".join(str(p) for p in (e.filename, getattr(e, "key", None)) if p)
             partial = f" ({_what_was_written(args.outputs)})" if args.outputs.written else ""
-            print(f"raytrace: error: {where}: {e.strerror or e}{partial}", file=sys.stderr)
+            print(f"raytrace: error: {where + ': ' if where else ''}{e.strerror or e}{partial}",
+                  file=sys.stderr)
             return EXIT_BAD_INPUT
 
 

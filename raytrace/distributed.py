@@ -293,6 +293,9 @@ def merge_stats(parts: list[dict]) -> dict:
     merged["pruned"] = {k: sum(p["pruned"][k] for p in parts) for k in parts[0]["pruned"]}
     for k in ADDITIVE:
         merged[k] = sum(p[k] for p in parts)
+    # the first non-finite pixel in reading order (frame coordinates), whichever tile ran first
+    firsts = [p["nonfinite_first_pixel"] for p in parts if p.get("nonfinite_first_pixel")]
+    merged["nonfinite_first_pixel"] = min(firsts, key=lambda xy: (xy[1], xy[0])) if firsts else None
     return merged
 
 

@@ -88,10 +88,13 @@ class Recorder:
             point = surf.point[j] + self.origin
             mats = integ.table.record
             ka = sk.color1((mats.colors, mats.pattern, mats.checkers), m, sk.KA, *point)
-            if mats.textured[m]:
+            opacity = float(mats.opacity[m])
+            if mats.textured[m]:  # the kernels' own texture and alpha lookups
                 st = sk.texcoord1(integ.tables.triangles.texcoords, int(surf.triangle[j]),
                                   *surf.uv[j])
                 ka = sk.texel1(mats, m, sk.KA, st, ka)
+                if mats.alpha[m] >= 0:
+                    opacity = float(sk.opacity1(mats, m, st))
             obj = int(ident[j])
             entering = float(np.dot(rays.direction[j], surf.geometric[j])) < 0.0
             self.rays[rid]["hit"] = {
@@ -100,7 +103,7 @@ class Recorder:
                 "distance": float(depth[j]), "side": "outside" if entering else "inside",
                 "point": _vec(point), "normal": _vec(normal[j]),
                 **({"triangle": int(surf.triangle[j])} if surf.triangle[j] >= 0 else {}),
-                "kd": _vec(albedo[j]), "ka": _vec(ka), "opacity": float(material.opacity),
+                "kd": _vec(albedo[j]), "ka": _vec(ka), "opacity": opacity,
             }
             self.rays[rid]["lights"] = []
 

@@ -199,14 +199,6 @@ def write_png_pixels(path: str | os.PathLike, pixels: np.ndarray) -> None:
                      [(0, pixels.shape[0], pixels)])
 
 
-def import_colour():
-    """colour-science, imported quietly and safely (:func:`raytrace.tonemap.colour`: no
-    warnings, numpy's print options kept, no SciPy mock left behind), for sRGB textures."""
-    from .tonemap import colour
-
-    return colour()
-
-
 def _write_png_bands(path: str | os.PathLike, width: int, height: int, bits: int,
                      bands) -> None:
     """The PNG writer: OpenImageIO with :data:`PNG_SETTINGS` for ``bits``, band by band
@@ -217,13 +209,12 @@ def _write_png_bands(path: str | os.PathLike, width: int, height: int, bits: int
     spec.attribute("oiio:ColorSpace", "sRGB")
     for name, value in PNG_SETTINGS[bits].items():
         spec.attribute(name, value)
-    codes = bands
     with atomic_path(path, ".png") as tmp:
         out = oiio.ImageOutput.create("png")
         if out is None or not out.open(str(tmp), spec):
             raise OSError(f"{path}: {out.geterror() if out else oiio.geterror()}")
         try:
-            for y0, y1, band in codes:
+            for y0, y1, band in bands:
                 if not out.write_scanlines(y0, y1, 0, band):
                     raise OSError(f"{path}: {out.geterror()}")
         finally:
@@ -328,8 +319,6 @@ class Image:
         """PNG bytes for Jupyter: the default preview (exposure 0, ``clip``) of the image
         reduced by an integer box filter (in linear light) to at most :data:`REPR_MAX_SIZE`
         pixels a side."""
-        import tempfile
-
         with tempfile.TemporaryDirectory() as folder:
             path = Path(folder) / "image.png"
             write_png(path, reduce(self.rgb, REPR_MAX_SIZE))

@@ -170,7 +170,10 @@ def load_function(path: str, name: str, key: str) -> Callable[[int], Scene]:
     spec = importlib.util.spec_from_file_location(name_here, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[name_here] = module  # for pickle (cloudpickle) to find it
-    spec.loader.exec_module(module)
+    try:
+        spec.loader.exec_module(module)
+    except Exception as e:  # the user's file: one line, not its traceback
+        raise SceneError(f"cannot run {path}: {type(e).__name__}: {e}", key) from None
     function = getattr(module, name, None)
     if not callable(function):
         raise SceneError(f"{path} has no function {name!r}", key)
@@ -226,8 +229,10 @@ def render_frames(scenes: str | os.PathLike | Callable[[int], Scene] | SceneSour
     numbers = parse_frames(frames)
     output, png = check_outputs(output, png)
     from .film import exr_compression
+    from .tonemap import check_exposure, check_tonemap
 
-    exr_compression(compression)  # a bad name now, not after the first frame
+    exr_compression(compression)  # bad names and values now, not after the first frame
+    exposure, tonemap = check_exposure(exposure), check_tonemap(tonemap)
     result = FramesResult()
     todo = []
     for frame in numbers:

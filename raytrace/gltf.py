@@ -122,12 +122,18 @@ def local_matrix(node: Any) -> np.ndarray:
 
 
 def world_matrices(gltf: Any) -> list[tuple[int, np.ndarray]]:
-    """(node, world matrix) for every node of the default scene, parents before children."""
+    """(node, world matrix) for every node of the default scene, parents before children. A
+    node met twice (a cycle, or a child of two parents: not a tree, against the glTF spec) is
+    an error."""
     scene = gltf.scenes[gltf.scene or 0] if gltf.scenes else None
     roots = scene.nodes if scene is not None else range(len(gltf.nodes))
     out, stack = [], [(n, np.eye(4)) for n in reversed(roots or [])]
+    seen: set[int] = set()
     while stack:
         n, parent = stack.pop()
+        if n in seen:
+            raise SceneError("is reached twice: the node hierarchy is not a tree", f"nodes[{n}]")
+        seen.add(n)
         m = parent @ local_matrix(gltf.nodes[n])
         out.append((n, m))
         stack += [(c, m) for c in reversed(gltf.nodes[n].children or [])]
@@ -286,7 +292,13 @@ def _check_extensions(gltf: Any, path: Path) -> None:
 
 @functools.lru_cache(maxsize=4)
 def _load_cached(path: str, stamp: tuple) -> GltfScene:
-    return _load(Path(path))
+    try:
+        return _load(Path(path))
+    except SceneError as e:
+        raise e.at(file=path) from None
+    except (IndexError, KeyError, TypeError, ValueError, AttributeError) as e:
+        # an index or a field that the file gets wrong, wherever it is read: one line
+        raise SceneError(f"malformed glTF: {type(e).__name__}: {e}", file=path) from None
 
 
 def load_gltf(path: Path) -> GltfScene:

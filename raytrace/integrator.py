@@ -44,7 +44,7 @@ from . import shading_kernels as sk  # the compiled passes of this stage
 from .accel import Accelerator, Hits, Surface
 from .camera import camera_columns, camera_rays, directions_at, global_samples, grid
 from .film import Image
-from .lights import Emitter, emitters
+from .lights import NO_KEY, Emitter, emitters
 from .material import Material
 from .rays import (
     KIND_NAMES,
@@ -76,7 +76,6 @@ CHILD_KINDS = np.array([REFLECTION, REFRACTION, SEE_THROUGH], np.int8)
 #: ``RAYTRACE_DEBUG=1`` in the environment. Off by default (it costs a pass over each batch).
 DEBUG = os.environ.get("RAYTRACE_DEBUG", "") not in ("", "0")
 NO_LIGHT = np.zeros((0, 3))
-NO_KEY = np.zeros(0, np.int64)
 #: :func:`add`'s factor for contributions that are already weighted.
 ONE = np.ones((1, 3))
 #: Per-sample AOV columns (depth, normal, albedo, id) of a render without AOVs, and of an

@@ -100,7 +100,8 @@ class Triangles(NamedTuple):
     vnormals: np.ndarray    #: (T, 3, 3) unit vertex normals at the corners
     shading: np.ndarray     #: (T,) int8 core.FLAT, SMOOTH or GOURAUD
     material: np.ndarray    #: (T,) int64 row of the material table
-    band: np.ndarray        #: (T,) float32 error band (accel_kernels.triangle_tables)
+    band: np.ndarray        #: (T,) float64 error band: the float32 rounding scale of the
+                            #: corners (accel_kernels.triangle_tables)
     #: (T, 3, 2) (s, t) at the corners; none (0, 3, 2) where no material has a texture
     texcoords: np.ndarray = np.zeros((0, 3, 2))
 

@@ -22,9 +22,9 @@ Two layers, in pipeline order:
 All are serial ``nogil`` kernels (``raytrace.jit.kernel``): the integrator's threads run them
 side by side, each on the batches of its own pass, and ``hit_terms`` and ``accumulate`` add
 into a pixel sample in batch order, one fixed order, so no result depends on the number of
-threads. Arguments are always C-contiguous float64 / int64 (bool for flags) arrays, so each
-kernel compiles once, into numba's cache (which :mod:`raytrace.jit` keeps true when
-:mod:`raytrace.core` changes).
+threads. Arguments are the named records of :mod:`raytrace.records` and C-contiguous
+arrays of fixed dtypes, so each kernel compiles once, into numba's cache (which
+:mod:`raytrace.jit` keeps true when :mod:`raytrace.core` changes).
 """
 
 from __future__ import annotations
@@ -52,7 +52,7 @@ from .jit import kernel
 
 #: Highlight model codes (``raytrace.shading.HIGHLIGHT_CODES``).
 PHONG, BLINN = 0, 1
-#: Emitter kinds in :func:`incidence1`'s packed row.
+#: Emitter kinds (``raytrace.records.Emitter.kind``).
 POINT, SPOT, DIRECTIONAL = 0, 1, 2
 #: First column of each colour in a material's row of colours (``raytrace.material.COLOR_KEYS``).
 KA, KD, KS, KR, KT, KE = 0, 3, 6, 9, 12, 15
@@ -67,7 +67,8 @@ def incidence1(p, em, key, depth):
 
     ``p`` is the point (a 3-tuple), ``em`` a :class:`raytrace.records.Emitter`. A jittered
     area-light cell (stream ≥ 0) is sampled at ``position + (ξ₁ − ½)·u + (ξ₂ − ½)·v``,
-    ξ = :func:`raytrace.core.light_uniform` of (``key``, stream, depth): a point of its own
+    ξ = :func:`raytrace.core.light_uniform` of (``key``, stream, 2·depth and 2·depth + 1): a
+    point of its own
     for each shading point (``key`` ≥ 0, the hit's camera sample) and depth; with ``key`` <
     0, at the cell centre. Seed 000:
     ``f_radial = 1/(a0 + a1·d + a2·d²)`` (0 where that is not finite, and at the light itself,
@@ -226,7 +227,7 @@ def texcoord1(tc, tri, u, v):
 
 # -- batch kernels of the integrator ----------------------------------------------------------
 @kernel
-def bulge1(p, tri, u, v, side, triangles):
+def bulge1(p, tri, u, v, side, smooth):
     """Hanika's shading point for a ray leaving a smooth-shaded triangle ("Hacking the Shadow
     Terminator", Ray Tracing Gems II, 2021, ch. 4): ``P' = Σ_k b_k·P_k`` with ``P_k`` the hit
     point ``P`` lifted onto the tangent plane of vertex k where it lies below it, ``P_k = P −
@@ -234,9 +235,10 @@ def bulge1(p, tri, u, v, side, triangles):
     normals turned to ``side`` (+1 outward, −1 inward). On a convex patch P' rises to about
     the smooth surface the normals describe, so a shadow ray near the terminator does not
     start inside the neighbouring facets; where P is above every tangent plane (concave), P'
-    = P. ``p`` is a 3-tuple, ``triangles`` a :class:`raytrace.records.Triangles`."""
+    = P. ``p`` is a 3-tuple; ``smooth`` = the triangles' (corners, vertex normals) only: a
+    per-hit helper handed the whole record pays reference counts for every array of it."""
     px, py, pz = p
-    corners, vnormals = triangles.corners, triangles.vnormals
+    corners, vnormals = smooth
     w = 1.0 - u - v
     dx = dy = dz = 0.0  # Σ_k b_k·(P_k − P): exactly P where nothing lifts
     for k in range(3):
@@ -252,18 +254,18 @@ def bulge1(p, tri, u, v, side, triangles):
 
 
 @kernel
-def gouraud1(hit, eye, triangles, light, kd, ks, n, model):
+def gouraud1(hit, eye, smooth, light, kd, ks, n, model):
     """Seed 000's Gouraud shading at a hit on triangle ``tri`` (barycentrics ``1 − (u + v)``,
     ``u``, ``v``): the unshadowed ``f·[kd·max(N·L, 0) + ks·spec]`` of one emitter evaluated at
     the three corners, with their vertex normals turned by ``s`` (+1 outward, −1 inward) and V
     towards the ``eye`` (a 3-tuple), then interpolated; ``hit`` = (tri, u, v, s), ``light`` =
     (emitter, key, depth). Every corner sees a jittered area light at the one point drawn for
     this hit (``key``, ``depth``): the point its shadow ray aims at. ``kd``, ``ks`` are the
-    colours at the hit."""
+    colours at the hit; ``smooth`` = the triangles' (corners, vertex normals)."""
     tri, u, v, s = hit
     em, key, depth = light
     ex, ey, ez = eye
-    corners, vnormals = triangles.corners, triangles.vnormals
+    corners, vnormals = smooth
     r = g = b = 0.0
     for k in range(3):
         w = 1.0 - (u + v) if k == 0 else (u if k == 1 else v)
@@ -304,6 +306,7 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
     palette = (materials.colors, materials.pattern, materials.checkers)
     textured, texcoords = materials.textured, scene.triangles.texcoords
     code = triangles.shading
+    smooth_tables = (triangles.corners, triangles.vnormals)
     rows, s_origin, s_direction, s_tmax, s_shape = shadow
     jittered = em.stream >= 0.0
     shininess, highlight, lit = materials.shininess, materials.highlight, materials.lit
@@ -331,7 +334,7 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
             ks = texel1(materials, m, KS, st, ks)
         smooth = tri >= 0 and code[tri] != FLAT
         if smooth and code[tri] == GOURAUD:
-            r, g, b = gouraud1((tri, u, v, s), (eye[i, 0], eye[i, 1], eye[i, 2]), triangles,
+            r, g, b = gouraud1((tri, u, v, s), (eye[i, 0], eye[i, 1], eye[i, 2]), smooth_tables,
                                (em, hit_key, depth), kd, ks, shininess[m], highlight[m])
         else:
             normal = (shading[i, 0] * s, shading[i, 1] * s, shading[i, 2] * s)
@@ -342,7 +345,7 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
         if not (r > 0.0 or g > 0.0 or b > 0.0):
             continue
         if smooth:  # from Hanika's lifted point P′ to the same point of the light
-            qx, qy, qz = bulge1((px, py, pz), tri, u, v, s, triangles)
+            qx, qy, qz = bulge1((px, py, pz), tri, u, v, s, smooth_tables)
             if math.isfinite(d) and (qx != px or qy != py or qz != pz):
                 lx, ly, lz = px + d * lx - qx, py + d * ly - qy, pz + d * lz - qz
                 d = math.sqrt(lx * lx + ly * ly + lz * lz)

@@ -54,12 +54,12 @@ class Texture:
             with Image.open(io.BytesIO(data) if data is not None else file) as im:
                 im.load()
                 rgba = _pixels(im)
-        except (OSError, UnidentifiedImageError, ValueError) as e:
+        except (OSError, UnidentifiedImageError, ValueError, Image.DecompressionBombError) as e:
             raise SceneError(f"cannot read texture {file}: {e}", key, where) from None
         if srgb:
-            from .film import import_colour
+            from .tonemap import colour as quiet_colour
 
-            colour = import_colour()
+            colour = quiet_colour()
             rgba[..., :3] = colour.cctf_decoding(rgba[..., :3], function="sRGB")
         return cls(rgba, wrap, Path(file) if data is None else None)
 

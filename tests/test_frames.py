@@ -159,6 +159,11 @@ def test_a_bad_flag_with_frames_names_the_flag(tmp_path, capsys):
                    str(tmp_path / "o.#.exr"), "--crop", "0", "0", "13", "8"])
     err = capsys.readouterr().err
     assert rc == 2 and "--crop: x bounds 0..13" in err and "shot_1.toml" in err
+    # the sampling flags reach every frame (they were dropped without a word)
+    rc = cli.main(["render", str(tmp_path / "shot_#.toml"), "--frames", "1", "-o",
+                   str(tmp_path / "o.#.exr"), "--aa", "adaptive", "--filter", "tent"])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.startswith("raytrace: error: --filter: ") and "adaptive" in err
     assert os.listdir(tmp_path) == ["shot_1.toml"]
 
 

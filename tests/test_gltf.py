@@ -212,3 +212,13 @@ def test_import_raytrace_and_a_toml_render_do_not_import_the_asset_libraries(tmp
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "[]"
+
+
+def test_a_node_cycle_and_a_bad_index_are_one_line(tmp_path):
+    # A node that is its own child looped for ever; an index past a list was a traceback.
+    cyclic = write_gltf(tmp_path / "c.gltf", [{"mesh": 0, "children": [0]}], [SQUARE], MATTE)
+    with pytest.raises(SceneError, match=r"c\.gltf: nodes\[0\]: is reached twice"):
+        raytrace.load_scene(cyclic)
+    bad = write_gltf(tmp_path / "i.gltf", [{"mesh": 5}], [SQUARE], MATTE)
+    with pytest.raises(SceneError, match=r"i\.gltf: malformed glTF: IndexError"):
+        raytrace.load_scene(bad)

@@ -157,9 +157,17 @@ def test_every_spawned_direction_is_a_unit_vector_on_random_smooth_meshes(
                            objects=[raytrace.Mesh(vertices=v, faces=ico.faces, shading="smooth",
                                                   material=glass)],
                            render=raytrace.RenderSettings(max_depth=5, background=1.0))
-    before, integrator.DEBUG = integrator.DEBUG, True
+    checked, check = [], integrator.check_spawned
+
+    def counting(rays):
+        checked.append(len(rays))
+        check(rays)
+
+    before = integrator.DEBUG, integrator.check_spawned
+    integrator.DEBUG, integrator.check_spawned = True, counting
     try:
         image = raytrace.render(scene, width=32, height=24, threads=1)
     finally:
-        integrator.DEBUG = before
+        integrator.DEBUG, integrator.check_spawned = before
+    assert checked, "the debug path checked the spawned batches"
     assert np.isfinite(image.rgb).all()

@@ -218,11 +218,8 @@ def _patch(bend: float):
 
 
 def _triangles(corners: np.ndarray, vnormals: np.ndarray):
-    """One triangle's tables as the kernels take them (only corners and normals matter)."""
-    from raytrace.records import Triangles
-
-    return Triangles(np.zeros(1, np.int64), corners, np.zeros((1, 3)), vnormals,
-                     np.ones(1, np.int8), np.zeros(1, np.int64), np.zeros(1))
+    """One triangle's (corners, vertex normals), as :func:`bulge1` takes them."""
+    return corners, vnormals
 
 
 def test_lifted_origin_rises_on_a_convex_patch_and_stays_on_a_concave_one():
@@ -289,7 +286,10 @@ def test_light_pass_terms_and_the_shadow_rays_of_the_lit_hits_only():
     term, rows = np.empty((n, 3)), np.empty(n, np.int64)
     s_origin, s_direction = np.empty((n, 3)), np.empty((n, 3))
     s_tmax, s_shape = np.empty(n), np.empty(n, np.int64)
-    from raytrace.core import SHADOW_SHORTEN as shorten
+    from raytrace.core import SHADOW_SHORTEN
+
+    shorten = 1e-7  # the documented value (docs/architecture.md), not read from the code
+    assert SHADOW_SHORTEN == shorten
     rays = Rays(eye, direction, np.arange(n), np.ones((n, 3)), shape, np.zeros(n, np.int8))
     surf = Surface(point, up, up, material, offset, shape, triangle, uv)
     k = light_pass(rays, surf, Scene(np.zeros(3), table.record, triangles), em.record,

@@ -946,12 +946,16 @@ def test_debug_checks_pass_on_smooth_glass_and_catch_a_bad_direction(monkeypatch
     from raytrace.rays import RayBatch
 
     monkeypatch.setattr(integrator, "DEBUG", True)
+    checked, check = [], integrator.check_spawned
+    monkeypatch.setattr(integrator, "check_spawned", lambda rays: (checked.append(len(rays)),
+                                                                   check(rays)))
     ico = trimesh.creation.icosphere(subdivisions=0, radius=1.0)
     scene = Scene(camera=Camera([0, 0.6, 4], [0, 0, 0], fov=40),
                   objects=[Mesh(mesh=ico, shading="smooth",
                                 material=Material(kd=0.0, kr=0.1, kt=0.9, ior=1.5))],
                   render=RenderSettings(max_depth=4))
     render_checked(scene, width=48, height=36)
+    assert sum(checked) > 1000  # the render ran the debug check on its spawned batches
     bad = RayBatch(np.zeros((2, 3)), np.array([[0.0, 0.0, 1.0], [0.0, 0.6, 0.6]]),
                    np.zeros(2, np.int64), np.ones((2, 3)), 1, np.full(2, -1), np.zeros(2, np.int8))
     with pytest.raises(AssertionError, match="not a unit vector"):
