@@ -57,7 +57,10 @@ def test_two_sizes(raytrace_golden):
 def _renderer_loaded():
     """One render in this process before pytester's in-process runs: each of those runs drops
     the modules it imported, and numba's first kernel call imports modules that register
-    types globally, which a second import would register twice (KeyError)."""
+    types globally, which a second import would register twice (KeyError). OpenImageIO,
+    which the artefacts' PNGs use, is loaded here too: a nanobind module imported a second
+    time aborts the process."""
+    import OpenImageIO  # noqa: F401
     raytrace.render(raytrace.load_scene(Path(__file__).resolve().parents[1] / "scenes" /
                                         "whitted.toml"), width=2, height=2, threads=1)
 
