@@ -12,8 +12,9 @@ record              what it holds (n rays or hits, M materials, T triangles)
 :class:`Rays`       a batch's columns (``raytrace.rays.RayBatch.record``)
 :class:`Hits`       closest hits (``raytrace.accel.Hits`` is this)
 :class:`Surface`    what shading needs at the hits (``raytrace.accel.Surface`` is this)
+:class:`Shapes`     the analytic shapes' tables (``raytrace.tables.SceneArrays.shapes``)
 :class:`Materials`  the material table (``raytrace.tables.MaterialTable.record``)
-:class:`Triangles`  the float64 triangle tables (``raytrace.accel.Accelerator.triangles``)
+:class:`Triangles`  the float64 triangle tables (``raytrace.tables.SceneArrays.triangles``)
 :class:`Scene`      what every shading kernel needs of the scene: camera position,
                     materials, triangles
 :class:`Emitter`    one point-like light sample, 19 floats (``raytrace.lights.Emitter.record``)
@@ -66,6 +67,17 @@ class Surface(NamedTuple):
     shape: np.ndarray      #: (n,) int64 analytic shape, or NO_SHAPE
     triangle: np.ndarray   #: (n,) int64, or −1
     uv: np.ndarray         #: (n, 2) barycentrics
+
+
+class Shapes(NamedTuple):
+    """The analytic shapes, N of them, numbered kind by kind (``accel_kernels.SHAPE_KINDS``'
+    order) and in the scene's order within a kind (``raytrace.tables.shape_tables``)."""
+
+    kind: np.ndarray      #: (N,) int64 accel_kernels.SPHERE, PLANE, …
+    rows: np.ndarray      #: (N, accel_kernels.ROW) float64 camera-relative parameters, the
+                          #: scene record's ``row`` zero-padded (``Sphere.row``, …)
+    material: np.ndarray  #: (N,) int64 row of the material table
+    object: np.ndarray    #: (N,) int64 index in ``Scene.objects``
 
 
 class Materials(NamedTuple):

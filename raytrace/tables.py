@@ -1,20 +1,134 @@
 """Scene → arrays: the tables the kernels read, built once per render.
 
-:class:`MaterialTable` turns the scene's materials into :class:`raytrace.records.Materials`
-(one row per material, colours per channel, checker patterns by reference); the emitters
-(:func:`raytrace.lights.emitters`) and the camera-relative triangle tables
-(:class:`raytrace.accel.Accelerator`) are the other two; :func:`scene_record` puts what the
-shading kernels need into one :class:`raytrace.records.Scene`.
+:func:`scene_arrays` is the stage between :mod:`raytrace.scene` and both
+:mod:`raytrace.accel` and :mod:`raytrace.integrator`: it recentres the geometry on the camera
+in float64 and turns the scene into :class:`SceneArrays`:
+
+* the material table, :class:`MaterialTable` (one row per material, colours per channel,
+  checker patterns and image textures by reference; :class:`raytrace.records.Materials`);
+* the analytic shapes, :func:`shape_tables` (:class:`raytrace.records.Shapes`: each shape
+  record's ``row`` with its kind, material and object);
+* the triangles, :func:`triangle_tables` (:class:`raytrace.records.Triangles`, float64,
+  camera-relative) and each mesh's camera-relative vertices and faces, which the
+  accelerator hands to Embree;
+* :func:`scene_record`: what the shading kernels need, one :class:`raytrace.records.Scene`.
+
+The emitters (:func:`raytrace.lights.emitters`) are the integrator's, per light pass.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from . import accel_kernels as ak  # the build kernels of the triangle tables
+from .core import FLAT, GOURAUD, SMOOTH
 from .material import COLOR_KEYS, Checker, Material
-from .records import Materials, Scene, Triangles
+from .records import Materials, Scene, Shapes, Triangles
+from .scene import SHAPE_TYPES, Mesh
+from .scene import Scene as SceneDescription
 from .shading import FRESNEL_CODES, HIGHLIGHT_CODES
 from .texture import WRAPS, Texture
+
+#: A triangle's error band in float32 ulps (2⁻²³ relative) of its largest coordinate: how far
+#: along its normal a ray must start for Embree never to report it again (EMBREEX_NOTES.md).
+BAND_ULPS = 3.0
+#: ``Triangles.shading`` of each ``Mesh.shading``.
+SHADING_CODES = {"flat": FLAT, "smooth": SMOOTH, "gouraud": GOURAUD}
+
+
+@dataclass(frozen=True)
+class SceneArrays:
+    """A scene as arrays, camera-relative: what :func:`scene_arrays` gives the accelerator
+    and the integrator (neither reads the other's)."""
+
+    origin: np.ndarray       #: (3,) float64 the camera position: world = relative + origin
+    materials: list          #: the Materials that ``material`` columns index
+    table: MaterialTable     #: their table
+    shapes: Shapes           #: the analytic shapes
+    triangles: Triangles     #: the float64 triangle tables, in Embree's geomID order
+    #: Each mesh's camera-relative float64 vertices (V, 3) and int64 faces (F, 3), geomID order.
+    meshes: list
+    geom_object: np.ndarray  #: (G,) int64 index in ``scene.objects`` of each mesh (geomID)
+    degenerate: int          #: zero-area faces the meshes dropped
+    record: Scene            #: what every shading kernel needs (:func:`scene_record`)
+
+    @property
+    def n_triangles(self) -> int:
+        return len(self.triangles.material)
+
+
+def scene_arrays(scene: SceneDescription) -> SceneArrays:
+    """The stage: the scene's materials (each once, in the order objects first use them),
+    their table, the analytic shapes and the triangles, recentred on the camera in float64
+    before anything is rounded to float32 for Embree."""
+    seen: dict[int, Material] = {}
+    for o in scene.objects:
+        for m in getattr(o, "materials", [o.material]):  # a mesh's faces may use several
+            seen.setdefault(id(m), m)
+    materials = list(seen.values())
+    table = MaterialTable(materials)
+    origin = np.asarray(scene.camera.position, dtype=np.float64)
+    index = {id(m): i for i, m in enumerate(materials)}
+    meshes = [(i, o) for i, o in enumerate(scene.objects) if isinstance(o, Mesh)]
+    triangles, relative = triangle_tables([o for _, o in meshes], origin, index, table)
+    return SceneArrays(origin, materials, table, shape_tables(scene.objects, origin, index),
+                       triangles, relative, np.array([i for i, _ in meshes], np.int64),
+                       sum(o.degenerate for _, o in meshes),
+                       scene_record(origin, table, triangles))
+
+
+def shape_tables(objects: list, origin: np.ndarray, index: dict[int, int]) -> Shapes:
+    """The analytic shapes of ``objects`` (those of :data:`raytrace.scene.SHAPE_TYPES`),
+    kind by kind in ``accel_kernels.SHAPE_KINDS``' order, in scene order within a kind: each
+    one's kind code, its ``row(origin)`` zero-padded to ``accel_kernels.ROW`` floats, its
+    material's row (``index``: ``id(material)`` → row) and its index in ``objects``."""
+    kinds = tuple(SHAPE_TYPES.values())
+    order = sorted((ak.SHAPE_KINDS[o.type], i) for i, o in enumerate(objects)
+                   if isinstance(o, kinds))
+    rows = np.zeros((len(order), ak.ROW))
+    for j, (_, i) in enumerate(order):
+        row = objects[i].row(origin)
+        rows[j, :len(row)] = row
+    return Shapes(np.array([k for k, _ in order], np.int64), rows,
+                  np.array([index[id(objects[i].material)] for _, i in order], np.int64),
+                  np.array([i for _, i in order], np.int64))
+
+
+def triangle_tables(meshes: list[Mesh], origin: np.ndarray, index: dict[int, int],
+                    table: MaterialTable) -> tuple[Triangles, list]:
+    """The float64 triangle tables of ``meshes`` (T, …) in their order (Embree's geomIDs),
+    camera-relative, and each mesh's camera-relative vertices and faces for Embree. The
+    per-triangle work is the build kernels' (``accel_kernels.vertex_normals``,
+    ``accel_kernels.triangle_tables``); texture coordinates only where a material has a
+    texture."""
+    sizes = [len(m.faces) for m in meshes]
+    t = sum(sizes)
+    geom_first = np.cumsum([0, *sizes[:-1]], dtype=np.int64) if meshes else np.zeros(0, np.int64)
+    corners, vnormals = np.empty((t, 3, 3)), np.empty((t, 3, 3))
+    normal, band = np.empty((t, 3)), np.empty(t)
+    material = np.concatenate([
+        np.array([index[id(x)] for x in m.file_materials], np.int64)[m.face_material]
+        if m.file_materials else np.full(len(m.faces), index[id(m.material)], np.int64)
+        for m in meshes]) if meshes else np.zeros(0, np.int64)
+    shading = np.repeat(np.array([SHADING_CODES[m.shading] for m in meshes], np.int8), sizes)
+    relative = []
+    for m, first in zip(meshes, geom_first, strict=True):
+        v = np.ascontiguousarray(m.vertices - origin, dtype=np.float64)
+        faces = np.ascontiguousarray(m.faces, dtype=np.int64)
+        vn = np.empty_like(v)
+        ak.vertex_normals(v, faces, vn)
+        s = slice(first, first + len(faces))
+        ak.triangle_tables(v, faces, vn, BAND_ULPS * 2.0**-23, corners[s], normal[s],
+                           vnormals[s], band[s])
+        relative.append((v, faces))
+    textured = bool(table.textured.any()) if len(table.materials) else False
+    texcoords = np.ascontiguousarray(np.concatenate(
+        [m.texcoords if m.texcoords is not None else np.zeros((len(m.faces), 3, 2))
+         for m in meshes]) if textured and meshes else np.zeros((0, 3, 2)))
+    return Triangles(geom_first, corners, normal, vnormals, shading, material, band,
+                     texcoords), relative
 
 
 class MaterialTable:
