@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from .core import FLAT
-from .jit import kernel
+from .jit import inline, kernel
 from .rays import NO_SHAPE
 
 #: Rounding tolerance of analytic shapes, relative to the coordinates' magnitude.
@@ -150,7 +150,7 @@ def plane_surface(row, p):
     return x - off * nx, y - off * ny, z - off * nz, nx, ny, nz
 
 
-@kernel
+@inline
 def shape_t(kind, row, o, d, extent, on_it, spawned):
     """The one dispatch of the intersections: the ray parameter of shape kind ``kind``
     (SHAPE_KINDS) with parameters ``row`` for the ray ``o``, ``d`` (inf on a miss); ``on_it``:
@@ -162,7 +162,7 @@ def shape_t(kind, row, o, d, extent, on_it, spawned):
     return math.inf
 
 
-@kernel
+@inline
 def shape_surface(kind, row, p):
     """The one dispatch of the surfaces: hit point ``p`` snapped onto shape kind ``kind``
     and its unit outward normal, as a 6-tuple (scalars, not array views: a view per ray
@@ -172,7 +172,7 @@ def shape_surface(kind, row, p):
     return plane_surface(row, p)
 
 
-@kernel
+@inline
 def shape_row(rows, s):
     """Row ``s`` of the shapes' parameters as an 8-tuple (:data:`ROW`)."""
     return (rows[s, 0], rows[s, 1], rows[s, 2], rows[s, 3], rows[s, 4], rows[s, 5],
