@@ -24,11 +24,10 @@ import numpy as np
 
 from . import accel_kernels as ak  # the build kernels of the triangle tables
 from .core import FLAT, GOURAUD, SMOOTH
-from .material import COLOR_KEYS, Checker, Material
+from .material import COLOR_KEYS, COLUMNS, Checker, Material
 from .records import Materials, Scene, Shapes, Triangles
 from .scene import SHAPE_TYPES, Mesh
 from .scene import Scene as SceneDescription
-from .shading import FRESNEL_CODES, HIGHLIGHT_CODES
 from .texture import WRAPS, Texture
 
 #: A triangle's error band in float32 ulps (2⁻²³ relative) of its largest coordinate: how far
@@ -137,8 +136,10 @@ class MaterialTable:
     ``colors`` (M, 18) holds the constant colours ka kd ks kr kt ke, three columns each
     (``shading_kernels.KA`` …); where colour k of material m is a :class:`Checker`,
     ``pattern[m, k]`` indexes its row of ``checkers`` (colour 0, colour 1, scale), evaluated
-    at the world points of the hits; −1 means constant. :attr:`record` is the whole table as
-    the kernels take it (:class:`raytrace.records.Materials`).
+    at the world points of the hits; −1 means constant; ``texture[m, k]`` likewise names
+    an image texture. Each entry of :data:`raytrace.material.COLUMNS` is an (M,) attribute
+    of its name. :attr:`record` is the whole table as the kernels take it
+    (:class:`raytrace.records.Materials`).
     """
 
     def __init__(self, materials: list[Material]):
@@ -165,7 +166,6 @@ class MaterialTable:
                 if m.alpha not in textures:
                     textures.append(m.alpha)
                 self.alpha[i] = textures.index(m.alpha)
-        self.alpha_cutoff = np.array([m.alpha_cutoff for m in materials], np.float64)
         self.textured = (self.texture >= 0).any(axis=1) | (self.alpha >= 0)
         # only scenes with textures pay for them: one float a texture channel, else none
         sizes = [t.texels.size for t in textures]
@@ -176,21 +176,10 @@ class MaterialTable:
         self.texels = (np.concatenate([t.texels.reshape(-1) for t in textures])
                        if textures else np.zeros(0, np.float32))
         self.checkers = np.array(checkers, dtype=np.float64).reshape(-1, 7)
-        self.shininess = np.array([m.shininess for m in materials], dtype=np.float64)
-        self.highlight = np.array([HIGHLIGHT_CODES[m.highlight] for m in materials], np.int64)
-        self.ior = np.array([m.ior for m in materials], dtype=np.float64)
-        self.opacity = np.array([m.opacity for m in materials], dtype=np.float64)
-        self.lit = np.array([m.lit for m in materials], dtype=bool)
-        self.reflects = np.array([m.reflects for m in materials], dtype=bool)
-        self.transmits = np.array([m.transmits for m in materials], dtype=bool)
+        for name, (dtype, value, _) in COLUMNS.items():  # one declaration, material.COLUMNS
+            setattr(self, name, np.array([value(m) for m in materials], dtype))
         self.transparent = np.array([m.transparent for m in materials], dtype=bool)
-        self.emits = np.array([m.emits for m in materials], dtype=bool)
-        self.fresnel = np.array([FRESNEL_CODES[m.fresnel] for m in materials], np.int64)
-        self.record = Materials(self.colors, self.pattern, self.checkers, self.shininess,
-                                self.highlight, self.ior, self.opacity, self.lit,
-                                self.reflects, self.transmits, self.emits, self.fresnel,
-                                self.texture, self.textured, self.texels, self.tex_info,
-                                self.alpha, self.alpha_cutoff)
+        self.record = Materials(**{name: getattr(self, name) for name in Materials._fields})
 
 
 def scene_record(origin: np.ndarray, table: MaterialTable, triangles: Triangles) -> Scene:
