@@ -60,15 +60,16 @@ class Accelerator:
 
     def __init__(self, arrays: SceneArrays):
         self.shapes = AnalyticShapes(arrays.shapes)
-        #: The triangle tables, as every kernel takes them.
-        self.triangles = arrays.triangles
         self._none_columns = (np.zeros(0, np.int64), np.zeros((0, 2)))
-        self._build_meshes(arrays.meshes)
+        self._build_meshes(arrays)
 
     # -- construction --------------------------------------------------------------------
-    def _build_meshes(self, meshes: list[tuple[np.ndarray, np.ndarray]]) -> None:
+    def _build_meshes(self, arrays: SceneArrays) -> None:
         """Embree's scene of the camera-relative meshes (vertices, faces), rounded to float32,
-        attached in order (their geomIDs)."""
+        attached in order (their geomIDs), and the triangle tables its hits index."""
+        #: The triangle tables, as every kernel takes them.
+        self.triangles = arrays.triangles
+        meshes = arrays.meshes
         self.embree = None
         if not meshes:
             return

@@ -18,7 +18,7 @@ The emitters (:func:`raytrace.lights.emitters`) are the integrator's, per light 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -37,25 +37,51 @@ BAND_ULPS = 3.0
 SHADING_CODES = {"flat": FLAT, "smooth": SMOOTH, "gouraud": GOURAUD}
 
 
-@dataclass(frozen=True)
 class SceneArrays:
     """A scene as arrays, camera-relative: what :func:`scene_arrays` gives the accelerator
-    and the integrator (neither reads the other's)."""
+    and the integrator (neither reads the other's). Read-only once built.
 
-    origin: np.ndarray       #: (3,) float64 the camera position: world = relative + origin
-    materials: list          #: the Materials that ``material`` columns index
-    table: MaterialTable     #: their table
-    shapes: Shapes           #: the analytic shapes
-    triangles: Triangles     #: the float64 triangle tables, in Embree's geomID order
-    #: Each mesh's camera-relative float64 vertices (V, 3) and int64 faces (F, 3), geomID order.
-    meshes: list
-    geom_object: np.ndarray  #: (G,) int64 index in ``scene.objects`` of each mesh (geomID)
-    degenerate: int          #: zero-area faces the meshes dropped
-    record: Scene            #: what every shading kernel needs (:func:`scene_record`)
+    The triangle tables (and the camera-relative meshes) are built on first use, which is
+    the accelerator's build of its BVH: a profile of ``Accelerator._build_meshes`` (as
+    benchmarks/bench.py takes) counts them in the build. That first use comes before any
+    render thread starts.
+    """
+
+    def __init__(self, origin: np.ndarray, materials: list, shapes: Shapes, meshes: list,
+                 geom_object: np.ndarray):
+        #: (3,) float64 the camera position: world = camera-relative + origin
+        self.origin = origin
+        #: The Materials that ``material`` columns index, and their table.
+        self.materials, self.table = materials, MaterialTable(materials)
+        self.shapes = shapes  #: the analytic shapes
+        self.geom_object = geom_object  #: (G,) int64 index in the scene's objects of each mesh
+        self.degenerate = sum(m.degenerate for m in meshes)  #: zero-area faces dropped
+        self._meshes = meshes
+
+    @cached_property
+    def _tables(self) -> tuple[Triangles, list]:
+        index = {id(m): i for i, m in enumerate(self.materials)}
+        return triangle_tables(self._meshes, self.origin, index, self.table)
+
+    @property
+    def triangles(self) -> Triangles:
+        """The float64 triangle tables, in Embree's geomID order."""
+        return self._tables[0]
+
+    @property
+    def meshes(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Each mesh's camera-relative float64 vertices (V, 3) and int64 faces (F, 3), in
+        geomID order."""
+        return self._tables[1]
+
+    @cached_property
+    def record(self) -> Scene:
+        """What every shading kernel needs (:func:`scene_record`)."""
+        return scene_record(self.origin, self.table, self.triangles)
 
     @property
     def n_triangles(self) -> int:
-        return len(self.triangles.material)
+        return sum(len(m.faces) for m in self._meshes)
 
 
 def scene_arrays(scene: SceneDescription) -> SceneArrays:
@@ -67,15 +93,11 @@ def scene_arrays(scene: SceneDescription) -> SceneArrays:
         for m in getattr(o, "materials", [o.material]):  # a mesh's faces may use several
             seen.setdefault(id(m), m)
     materials = list(seen.values())
-    table = MaterialTable(materials)
     origin = np.asarray(scene.camera.position, dtype=np.float64)
     index = {id(m): i for i, m in enumerate(materials)}
     meshes = [(i, o) for i, o in enumerate(scene.objects) if isinstance(o, Mesh)]
-    triangles, relative = triangle_tables([o for _, o in meshes], origin, index, table)
-    return SceneArrays(origin, materials, table, shape_tables(scene.objects, origin, index),
-                       triangles, relative, np.array([i for i, _ in meshes], np.int64),
-                       sum(o.degenerate for _, o in meshes),
-                       scene_record(origin, table, triangles))
+    return SceneArrays(origin, materials, shape_tables(scene.objects, origin, index),
+                       [o for _, o in meshes], np.array([i for i, _ in meshes], np.int64))
 
 
 def shape_tables(objects: list, origin: np.ndarray, index: dict[int, int]) -> Shapes:
