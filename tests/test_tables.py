@@ -104,3 +104,14 @@ def test_the_integrator_reads_the_stage_not_the_accelerator():
         width=8, height=6))
     assert integ.tables is integ.arrays.record
     assert integ.tables.triangles is integ.accel.triangles is integ.arrays.triangles
+
+
+def test_every_shape_type_has_a_kernel_kind():
+    # A shape's two registrations agree: its record in scene.SHAPE_TYPES (scene-file type,
+    # keys, row) and its kind code in accel_kernels.SHAPE_KINDS (the dispatchers' cases),
+    # each code once, so a record without kernels fails here and not at its first render.
+    from raytrace.scene import SHAPE_TYPES
+
+    assert set(SHAPE_TYPES) == set(ak.SHAPE_KINDS)
+    assert sorted(ak.SHAPE_KINDS.values()) == list(range(len(ak.SHAPE_KINDS)))
+    assert all(cls.type == name for name, cls in SHAPE_TYPES.items())
