@@ -3,7 +3,8 @@
 This is the only module that imports ``embreex``. Embree works in float32 with ``tnear = 0``
 (EMBREEX_NOTES.md), so:
 
-* the whole scene is recentred on the camera in float64 before anything is rounded to float32;
+* the scene arrives recentred on the camera in float64 (:mod:`raytrace.tables`), before
+  anything is rounded to float32;
 * a mesh hit point is rebuilt from Embree's barycentrics, re-solved in float64, on the float64
   triangle (on its plane);
 * a ray spawned from a mesh hit starts off the surface along the geometric normal, on the side
@@ -27,20 +28,14 @@ import numpy as np
 
 from . import accel_kernels as ak  # the compiled passes of this stage
 from .analytic import NO_TMAX, AnalyticShapes, f64, i64
-from .core import FLAT, GOURAUD, SHADOW_SHORTEN, SMOOTH
-from .material import COLOR_KEYS
+from .core import SHADOW_SHORTEN
 from .rays import NO_SHAPE
-from .records import Hits, Surface, Triangles
-from .scene import Mesh, Plane, Scene, Sphere
-from .texture import Texture
+from .records import Hits, Surface
+from .tables import SceneArrays
 
-#: A triangle's error band in float32 ulps (2⁻²³ relative) of its largest coordinate: how far
-#: along its normal a ray must start for Embree never to report it again (EMBREEX_NOTES.md).
-BAND_ULPS = 3.0
 #: Most second passes of a query over the rays whose hits were float32 artefacts.
 MAX_RETRACES = 4
 
-SHADING_CODES = {"flat": FLAT, "smooth": SMOOTH, "gouraud": GOURAUD}
 __all__ = ["SHADOW_SHORTEN", "Accelerator", "Hits", "Surface", "spawn_origins",
            "vertex_normals"]
 #: Rows and advances of a first pass: every ray, from its origin.
@@ -52,10 +47,9 @@ class Accelerator:
 
     Parameters
     ----------
-    scene : Scene
-        Its objects' materials must be resolved (``Scene`` does so on construction).
-    materials : list of Material
-        The table that ``Surface.material`` indexes; objects' materials are looked up in it.
+    arrays : SceneArrays
+        The scene as arrays (:func:`raytrace.tables.scene_arrays`): its analytic shapes, its
+        triangle tables and the camera-relative meshes Embree builds its BVH of.
     """
 
     #: Benchmark hook (off by default): when set, ``recorder(query, origins, directions, tfar)``
@@ -64,73 +58,27 @@ class Accelerator:
     #: ``benchmarks/bench.py`` replays them through embreex alone. None costs one test a batch.
     recorder = None
 
-    def __init__(self, scene: Scene, materials: list):
-        self.origin = np.asarray(scene.camera.position, dtype=np.float64)
-        mat_index = {id(m): i for i, m in enumerate(materials)}
-        spheres = [o for o in scene.objects if isinstance(o, Sphere)]
-        planes = [o for o in scene.objects if isinstance(o, Plane)]
-        meshes = [o for o in scene.objects if isinstance(o, Mesh)]
-        self.shapes = AnalyticShapes(
-            [s.center - self.origin for s in spheres], [s.radius for s in spheres],
-            [p.point - self.origin for p in planes], [p.normal for p in planes])
-        self.shape_material = np.array(
-            [mat_index[id(o.material)] for o in (*spheres, *planes)], dtype=np.int64)
-        #: Index in ``scene.objects`` of each analytic shape and of each mesh (geomID).
-        where = {kind: [i for i, o in enumerate(scene.objects) if isinstance(o, kind)]
-                 for kind in (Sphere, Plane, Mesh)}
-        self.shape_object = np.array([*where[Sphere], *where[Plane]], dtype=np.int64)
-        self.geom_object = np.array(where[Mesh], dtype=np.int64)
-        self.degenerate = sum(m.degenerate for m in meshes)
+    def __init__(self, arrays: SceneArrays):
+        self.shapes = AnalyticShapes(arrays.shapes)
         self._none_columns = (np.zeros(0, np.int64), np.zeros((0, 2)))
-        self._build_meshes(meshes, mat_index)
-        #: The triangle tables, as every kernel takes them.
-        textured = any(isinstance(getattr(m, k), Texture) for m in materials
-                       for k in COLOR_KEYS) or any(m.alpha is not None for m in materials)
-        #: (T, 3, 2) texture coordinates at the corners, only where a material has a texture
-        self.tri_texcoords = np.ascontiguousarray(np.concatenate(
-            [m.texcoords if m.texcoords is not None else np.zeros((len(m.faces), 3, 2))
-             for m in meshes]) if textured and meshes else np.zeros((0, 3, 2)))
-        self.triangles = Triangles(self.geom_first, self.tri_corners, self.tri_normal,
-                                   self.tri_vnormals, self.tri_shading, self.tri_material,
-                                   self.tri_band, self.tri_texcoords)
+        self._build_meshes(arrays)
 
     # -- construction --------------------------------------------------------------------
-    def _build_meshes(self, meshes: list[Mesh], mat_index: dict) -> None:
-        """Embree's scene and the float64 triangle tables, (T, …) in geomID order."""
-        self.n_triangles = sum(len(m.faces) for m in meshes)
+    def _build_meshes(self, arrays: SceneArrays) -> None:
+        """Embree's scene of the camera-relative meshes (vertices, faces), rounded to float32,
+        attached in order (their geomIDs), and the triangle tables its hits index."""
+        #: The triangle tables, as every kernel takes them.
+        self.triangles = arrays.triangles
+        meshes = arrays.meshes
         self.embree = None
-        self.geom_first = np.zeros(0, np.int64)
-        self.tri_corners = np.zeros((0, 3, 3))      # float64 corners
-        self.tri_vnormals = np.zeros((0, 3, 3))     # unit vertex normals at the corners
-        self.tri_normal = np.zeros((0, 3))          # unit face normals
-        self.tri_material = np.zeros(0, np.int64)
-        self.tri_shading = np.zeros(0, np.int8)     # SHADING_CODES
-        self.tri_band = np.zeros(0)                 # float32 error bands
         if not meshes:
             return
         from embreex import rtcore_scene
         from embreex.mesh_construction import TriangleMesh
 
         self.embree = rtcore_scene.EmbreeScene()
-        sizes = [len(m.faces) for m in meshes]
-        self.geom_first = np.cumsum([0, *sizes[:-1]], dtype=np.int64)
-        t = self.n_triangles
-        self.tri_corners, self.tri_vnormals = np.empty((t, 3, 3)), np.empty((t, 3, 3))
-        self.tri_normal, self.tri_band = np.empty((t, 3)), np.empty(t)
-        self.tri_material = np.concatenate([
-            np.array([mat_index[id(x)] for x in m.file_materials], np.int64)[m.face_material]
-            if m.file_materials else np.full(len(m.faces), mat_index[id(m.material)], np.int64)
-            for m in meshes])
-        self.tri_shading = np.repeat(
-            np.array([SHADING_CODES[m.shading] for m in meshes], np.int8), sizes)
-        for m, first in zip(meshes, self.geom_first, strict=True):  # geomID: attach order
-            v = f64(m.vertices - self.origin)
-            faces = i64(m.faces)
+        for v, faces in meshes:  # geomID: attach order
             TriangleMesh(self.embree, v.astype(np.float32), faces.astype(np.int32))
-            s = slice(first, first + len(faces))
-            ak.triangle_tables(v, faces, vertex_normals(v, faces), BAND_ULPS * 2.0**-23,
-                              self.tri_corners[s], self.tri_normal[s], self.tri_vnormals[s],
-                              self.tri_band[s])
         # The first run() commits the scene and is not thread-safe: do it once here.
         one = np.zeros((1, 3), np.float32)
         self.embree.run(one, np.array([[0, 0, 1]], np.float32), output=0)
@@ -259,8 +207,8 @@ class Accelerator:
         surface = Surface(point, geometric, shading, material, offset, hits.shape,
                           hits.triangle, hits.uv)
         hits = Hits(f64(hits.t), i64(hits.shape), i64(hits.triangle), f64(hits.uv))
-        ak.hit_surfaces(hits, f64(origin), f64(direction), self.shapes.surface_table,
-                       self.shape_material, self.triangles, surface)
+        ak.hit_surfaces(hits, f64(origin), f64(direction), self.shapes.table, self.triangles,
+                        surface)
         return surface
 
 

@@ -1,7 +1,7 @@
 """Compiled per-ray kernels of the intersection stage, used by :mod:`raytrace.analytic` and
 :mod:`raytrace.accel`.
 
-In pipeline order: analytic spheres and planes (closest hit with the self-hit rules) → the
+In pipeline order: analytic shapes (closest hit with the self-hit rules) → the
 float32 rays Embree takes → Embree's hits re-solved in float64 → the surfaces of all hits →
 spawned rays' origins; and, at build time, the triangle tables and vertex normals.
 
@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from .core import FLAT
-from .jit import kernel
+from .jit import inline, kernel
 from .rays import NO_SHAPE
 
 #: Rounding tolerance of analytic shapes, relative to the coordinates' magnitude.
@@ -39,19 +39,33 @@ SPAWN_OFFSET = 3.0 * 2.0**-23
 
 
 # -- analytic shapes ------------------------------------------------------------------------
+# A shape kind is an intersection function and a surface function of one row of its
+# parameters (``row``, an 8-tuple of floats: what the scene record's ``row`` method packs,
+# camera-relative, zero-padded), registered by a kind code in SHAPE_KINDS and named once in
+# each of the two dispatchers, :func:`shape_t` and :func:`shape_surface`. The shape loops
+# number the shapes kind by kind, in SHAPE_KINDS' order (spheres, then planes), and in the
+# scene's order within a kind (:func:`raytrace.tables.shape_tables`).
+
+#: Floats in a shape's row (``raytrace.records.Shapes.rows``).
+ROW = 8
+#: The shape kinds by their scene-file ``type``: the code each row's ``kind`` holds.
+SPHERE, PLANE = 0, 1
+SHAPE_KINDS = {"sphere": SPHERE, "plane": PLANE}
+
+
 @kernel
-def sphere_t(o, d, c, r, c_max, extent, on_it):
+def sphere_t(o, d, row, extent, on_it, spawned):
     """Ray parameter of the hit of one ray with one sphere (inf on a miss), float64.
 
     Haines et al. (Ray Tracing Gems, 2019, ch. 7): ``b = d·(o − c)``, the perpendicular offset
     ``f = (o − c) − b·d``, discriminant ``r² − |f|²``, roots ``q = −b − sign(b)·√disc`` and
-    ``c/q``. ``o``, ``d``, ``c``: origin, unit direction and centre as 3-tuples; ``on_it``:
-    the ray starts on this sphere; ``extent``: the largest absolute coordinate of the origin,
-    ``c_max`` that of the centre (the rounding scale).
+    ``c/q``. ``o``, ``d``: origin and unit direction as 3-tuples; ``row`` = (centre, radius,
+    the centre's largest absolute coordinate: the rounding scale, ``Sphere.row``); ``on_it``:
+    the ray starts on this sphere; ``extent``: the largest absolute coordinate of the origin.
     """
     ox, oy, oz = o
     dx, dy, dz = d
-    cx, cy, cz = c
+    cx, cy, cz, r, c_max = row[0], row[1], row[2], row[3], row[4]
     ocx, ocy, ocz = ox - cx, oy - cy, oz - cz
     b = ocx * dx + ocy * dy + ocz * dz                    # d·(o − c), |d| = 1
     fx, fy, fz = ocx - b * dx, ocy - b * dy, ocz - b * dz
@@ -91,17 +105,31 @@ def sphere_t(o, d, c, r, c_max, extent, on_it):
 
 
 @kernel
-def plane_t(o, d, p, n, p_max, extent, spawned):
+def sphere_surface(row, p):
+    """The point ``p`` (a 3-tuple) snapped onto the sphere of ``row``, ``c + r·n``, and its
+    unit outward normal ``n``, the normalised radial vector, as a 6-tuple."""
+    x, y, z = p
+    cx, cy, cz, r = row[0], row[1], row[2], row[3]
+    rx, ry, rz = x - cx, y - cy, z - cz
+    length = math.sqrt(rx * rx + ry * ry + rz * rz)
+    rx, ry, rz = rx / length, ry / length, rz / length
+    return cx + r * rx, cy + r * ry, cz + r * rz, rx, ry, rz
+
+
+@kernel
+def plane_t(o, d, row, extent, on_it, spawned):
     """Ray parameter of the hit of one ray with one plane (inf on a miss): ``(p − o)·n / d·n``.
 
-    ``o``, ``d``, the plane's point ``p`` and unit normal ``n`` are 3-tuples. A ray spawned
-    on another analytic shape that touches this plane (a sphere resting on it) starts on the
-    plane within rounding: it crosses here, at t = 0.
+    ``o``, ``d`` are 3-tuples, ``row`` = (the plane's point p, unit normal n, p's largest
+    absolute coordinate, ``Plane.row``). A ray leaving the plane (``on_it``) never re-hits
+    it. A ray spawned on another analytic shape that touches this plane (a sphere resting on
+    it) starts on the plane within rounding: it crosses here, at t = 0.
     """
+    if on_it:
+        return math.inf
     ox, oy, oz = o
     dx, dy, dz = d
-    px, py, pz = p
-    nx, ny, nz = n
+    px, py, pz, nx, ny, nz, p_max = row[0], row[1], row[2], row[3], row[4], row[5], row[6]
     denom = dx * nx + dy * ny + dz * nz
     dist = (px - ox) * nx + (py - oy) * ny + (pz - oz) * nz
     t = dist / denom
@@ -113,16 +141,54 @@ def plane_t(o, d, p, n, p_max, extent, spawned):
 
 
 @kernel
+def plane_surface(row, p):
+    """The point ``p`` moved onto the plane of ``row`` along its normal by its signed
+    distance, and the plane's unit normal, as a 6-tuple."""
+    x, y, z = p
+    px, py, pz, nx, ny, nz = row[0], row[1], row[2], row[3], row[4], row[5]
+    off = (x - px) * nx + (y - py) * ny + (z - pz) * nz
+    return x - off * nx, y - off * ny, z - off * nz, nx, ny, nz
+
+
+@inline
+def shape_t(kind, row, o, d, extent, on_it, spawned):
+    """The one dispatch of the intersections: the ray parameter of shape kind ``kind``
+    (SHAPE_KINDS) with parameters ``row`` for the ray ``o``, ``d`` (inf on a miss); ``on_it``:
+    the ray starts on this shape, ``spawned``: on some analytic shape."""
+    if kind == SPHERE:
+        return sphere_t(o, d, row, extent, on_it, spawned)
+    if kind == PLANE:
+        return plane_t(o, d, row, extent, on_it, spawned)
+    return math.inf
+
+
+@inline
+def shape_surface(kind, row, p):
+    """The one dispatch of the surfaces: hit point ``p`` snapped onto shape kind ``kind``
+    and its unit outward normal, as a 6-tuple (scalars, not array views: a view per ray
+    costs reference counting)."""
+    if kind == SPHERE:
+        return sphere_surface(row, p)
+    return plane_surface(row, p)
+
+
+@inline
+def shape_row(rows, s):
+    """Row ``s`` of the shapes' parameters as an 8-tuple (:data:`ROW`)."""
+    return (rows[s, 0], rows[s, 1], rows[s, 2], rows[s, 3], rows[s, 4], rows[s, 5],
+            rows[s, 6], rows[s, 7])
+
+
+@kernel
 def closest_analytic(o, d, origin_shape, tmax, has_tmax, shapes, t_out, shape_out):
     """Closest analytic hit of each ray with ``0 < t < tmax`` into ``t_out`` (inf on a miss)
     and ``shape_out`` (NO_SHAPE on a miss).
 
-    ``shapes`` = (centers (S, 3), radii (S,), center_max (S,), points (P, 3), normals (P, 3),
-    point_max (P,)), spheres numbered 0..S−1, planes S..S+P−1; ``tmax`` is read only when
-    ``has_tmax``. A ray never hits the plane it starts on; see :func:`sphere_t` for spheres.
+    ``shapes`` is a :class:`raytrace.records.Shapes`; ``tmax`` is read only when
+    ``has_tmax``. The first shape in the shapes' order wins a tie. See :func:`sphere_t` and
+    :func:`plane_t` for the self-hit rules.
     """
-    centers, radii, center_max, points, normals, point_max = shapes
-    n_spheres = radii.shape[0]
+    kinds, rows = shapes.kind, shapes.rows
     for i in range(o.shape[0]):
         ox, oy, oz = o[i, 0], o[i, 1], o[i, 2]
         dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
@@ -131,22 +197,14 @@ def closest_analytic(o, d, origin_shape, tmax, has_tmax, shapes, t_out, shape_ou
         extent = max(max(abs(ox), abs(oy)), abs(oz))     # scale of the rounding tolerances
         best_t = tmax[i] if has_tmax else math.inf
         best = NO_SHAPE
-        own_t = math.inf                                  # where it leaves its own sphere
-        for s in range(n_spheres):
-            t = sphere_t(o3, d3, (centers[s, 0], centers[s, 1], centers[s, 2]), radii[s],
-                         center_max[s], extent, own == s)
+        own_t = math.inf                                  # where it leaves its own shape
+        for s in range(kinds.shape[0]):
+            t = shape_t(kinds[s], shape_row(rows, s), o3, d3, extent, own == s,
+                        own != NO_SHAPE)
             if own == s:
                 own_t = t
             if t < best_t:
                 best_t, best = t, s
-        for p in range(points.shape[0]):
-            if own == n_spheres + p:                      # a ray leaving a plane never re-hits it
-                continue
-            t = plane_t(o3, d3, (points[p, 0], points[p, 1], points[p, 2]),
-                        (normals[p, 0], normals[p, 1], normals[p, 2]), point_max[p], extent,
-                        own != NO_SHAPE)
-            if t < best_t:
-                best_t, best = t, n_spheres + p
         # Touching solids: leaving the ray's own sphere where another shape begins (equal t
         # within rounding), the exit comes first, so the contact counts both crossings.
         if best != NO_SHAPE and best != own and own_t <= best_t + TOL * (extent + best_t):
@@ -156,39 +214,18 @@ def closest_analytic(o, d, origin_shape, tmax, has_tmax, shapes, t_out, shape_ou
 
 
 @kernel
-def analytic_surface(shape, point, analytic, point_out, normal_out):
+def analytic_surface(shape, point, shapes, point_out, normal_out):
     """Rows with an analytic ``shape``: ``point`` snapped onto the surface into
-    ``point_out`` and the unit outward normal into ``normal_out``; other rows are left as they
-    are. ``analytic`` = (centers, radii, points, normals). A sphere's normal is the normalised
-    radial vector, the point ``c + r·n``; a plane's point is moved along its normal by its
-    signed distance."""
+    ``point_out`` and the unit outward normal into ``normal_out`` (:func:`shape_surface`);
+    other rows are left as they are. ``shapes``: a :class:`raytrace.records.Shapes`."""
+    kinds, rows = shapes.kind, shapes.rows
     for i in range(shape.shape[0]):
         s = shape[i]
         if s == NO_SHAPE:
             continue
         (point_out[i, 0], point_out[i, 1], point_out[i, 2], normal_out[i, 0], normal_out[i, 1],
-         normal_out[i, 2]) = _snap(s, (point[i, 0], point[i, 1], point[i, 2]), analytic)
-
-
-@kernel
-def _snap(s, p, analytic):
-    """One hit point ``p`` (a 3-tuple) on analytic shape ``s`` of ``analytic`` = (centers,
-    radii, points, normals): the snapped point and the unit normal, as a 6-tuple (scalars, not
-    array views: a view per ray costs reference counting)."""
-    x, y, z = p
-    centers, radii, points, normals = analytic
-    n_spheres = radii.shape[0]
-    if s < n_spheres:
-        rx, ry, rz = x - centers[s, 0], y - centers[s, 1], z - centers[s, 2]
-        length = math.sqrt(rx * rx + ry * ry + rz * rz)
-        rx, ry, rz = rx / length, ry / length, rz / length
-        r = radii[s]
-        return (centers[s, 0] + r * rx, centers[s, 1] + r * ry, centers[s, 2] + r * rz,
-                rx, ry, rz)
-    k = s - n_spheres
-    nx, ny, nz = normals[k, 0], normals[k, 1], normals[k, 2]
-    off = (x - points[k, 0]) * nx + (y - points[k, 1]) * ny + (z - points[k, 2]) * nz
-    return x - off * nx, y - off * ny, z - off * nz, nx, ny, nz
+         normal_out[i, 2]) = shape_surface(kinds[s], shape_row(rows, s),
+                                           (point[i, 0], point[i, 1], point[i, 2]))
 
 
 # -- Embree's rays ------------------------------------------------------------------------
@@ -216,14 +253,11 @@ def shadow_prepass(rays, shapes, to_embree, blocked, embree):
     it does not block are written, as Embree takes them, into the first rows of ``embree`` =
     (idx (their indices), o32, d32 (float32 origins and directions), far
     (``min(tmax, f32 max)``)); returns how many.
-    One pass where a closest-hit pass, a column of t and a gathering pass were. Its loops
-    over the shapes repeat :func:`closest_analytic`'s on purpose: one helper taking the shape
-    tables for both made both kernels 2.4–3× slower (numba then counts references to the
-    table's arrays on every call)."""
+    One pass where a closest-hit pass, a column of t and a gathering pass were. ``shapes``: a
+    :class:`raytrace.records.Shapes`."""
     o, d, origin_shape, tmax = rays
     idx, o32, d32, far = embree
-    centers, radii, center_max, points, normals, point_max = shapes
-    n_spheres = radii.shape[0]
+    kinds, rows = shapes.kind, shapes.rows
     k = 0
     for i in range(o.shape[0]):
         ox, oy, oz = o[i, 0], o[i, 1], o[i, 2]
@@ -232,20 +266,11 @@ def shadow_prepass(rays, shapes, to_embree, blocked, embree):
         own, limit = origin_shape[i], tmax[i]
         extent = max(max(abs(ox), abs(oy)), abs(oz))
         hit = False
-        for s in range(n_spheres):
-            if sphere_t(o3, d3, (centers[s, 0], centers[s, 1], centers[s, 2]), radii[s],
-                        center_max[s], extent, own == s) < limit:
+        for s in range(kinds.shape[0]):
+            if shape_t(kinds[s], shape_row(rows, s), o3, d3, extent, own == s,
+                       own != NO_SHAPE) < limit:
                 hit = True
                 break
-        if not hit:
-            for p in range(points.shape[0]):
-                if own == n_spheres + p:                  # a ray leaving a plane never re-hits it
-                    continue
-                if plane_t(o3, d3, (points[p, 0], points[p, 1], points[p, 2]),
-                           (normals[p, 0], normals[p, 1], normals[p, 2]), point_max[p], extent,
-                           own != NO_SHAPE) < limit:
-                    hit = True
-                    break
         blocked[i] = hit
         if hit or not to_embree:
             continue
@@ -404,12 +429,13 @@ def retrace_rays(redo, rays, t, out):
 
 # -- surfaces -------------------------------------------------------------------------------
 @kernel
-def hit_surfaces(hits, o, d, analytic, shape_material, tables, out):
+def hit_surfaces(hits, o, d, shapes, tables, out):
     """Everything the shading needs at each of ``hits`` (:class:`raytrace.records.Hits`) of
     rays ``o``, ``d``, written into the point, geometric, shading, material and offset
     columns of ``out`` (:class:`raytrace.records.Surface`).
 
-    Analytic hits: the point ``o + t·d`` snapped onto the shape (:func:`_snap`), its normal
+    Analytic hits: the point ``o + t·d`` snapped onto the shape (:func:`shape_surface`), its
+    normal
     for both normals, offset 0. Triangle hits: the point at the barycentrics ``uv`` on the
     float64 triangle, its unit face normal, and for smooth and Gouraud triangles the
     interpolated vertex normals, normalised (the face normal where they cancel); the spawn
@@ -419,9 +445,10 @@ def hit_surfaces(hits, o, d, analytic, shape_material, tables, out):
     error band (:func:`triangle_tables`) is at most twice that, the offset is the band itself
     (a small triangle: Embree never reports it again to such a ray). Elsewhere a ray leaving
     the hit may meet its own triangle as a float32 artefact, which the queries discard
-    (:func:`refine_hits`). ``analytic`` = (centers, radii, points, normals); ``tables`` the
+    (:func:`refine_hits`). ``shapes``: the :class:`raytrace.records.Shapes`; ``tables`` the
     :class:`raytrace.records.Triangles`.
     """
+    kinds, rows, shape_material = shapes.kind, shapes.rows, shapes.material
     t, shape, triangle, uv = hits
     point, geometric, shading, material, offset = (out.point, out.geometric, out.shading,
                                                    out.material, out.offset)
@@ -430,8 +457,9 @@ def hit_surfaces(hits, o, d, analytic, shape_material, tables, out):
     for i in range(t.shape[0]):
         s = shape[i]
         if s != NO_SHAPE:
-            px, py, pz, nx, ny, nz = _snap(s, (o[i, 0] + t[i] * d[i, 0], o[i, 1] + t[i] * d[i, 1],
-                                               o[i, 2] + t[i] * d[i, 2]), analytic)
+            px, py, pz, nx, ny, nz = shape_surface(
+                kinds[s], shape_row(rows, s), (o[i, 0] + t[i] * d[i, 0],
+                                               o[i, 1] + t[i] * d[i, 1], o[i, 2] + t[i] * d[i, 2]))
             point[i, 0], point[i, 1], point[i, 2] = px, py, pz
             geometric[i, 0], geometric[i, 1], geometric[i, 2] = nx, ny, nz
             shading[i, 0], shading[i, 1], shading[i, 2] = nx, ny, nz

@@ -1,4 +1,4 @@
-"""Analytic spheres and planes, intersected in float64 by compiled per-ray kernels.
+"""Analytic shapes (spheres, planes, …), intersected in float64 by compiled per-ray kernels.
 
 Self-intersection is avoided without an epsilon (EMBREEX_NOTES.md, "Precision"): a ray that
 starts on a convex primitive and leaves it cannot hit it again, so that primitive is skipped;
@@ -12,8 +12,9 @@ Improvements for Ray/Sphere Intersection" (Ray Tracing Gems, 2019, ch. 7): the d
 ``r² − |f|²`` uses the ray's perpendicular offset ``f``, and the second root comes from
 ``c/q`` (Vieta), so neither cancels catastrophically.
 
-The per-ray arithmetic is in :mod:`raytrace.accel_kernels` (``sphere_t``, ``plane_t``,
-``closest_analytic``, ``analytic_surface``); this class holds the shape tables.
+The per-ray arithmetic is in :mod:`raytrace.accel_kernels` (one intersection and one surface
+function per kind behind ``shape_t`` and ``shape_surface``, the loops ``closest_analytic`` and
+``analytic_surface``); the tables are :func:`raytrace.tables.shape_tables`'.
 """
 
 from __future__ import annotations
@@ -22,40 +23,22 @@ import numpy as np
 
 from . import accel_kernels as ak  # the compiled passes of this stage
 from .rays import NO_SHAPE
+from .records import Shapes
 
 #: Stands for "no tmax" in the kernels' float64 tmax argument.
 NO_TMAX = np.empty(0)
 
 
 class AnalyticShapes:
-    """Spheres then planes, numbered 0..S−1 then S..S+P−1, in camera-relative coordinates.
+    """Queries over the analytic shapes of a :class:`raytrace.records.Shapes` (camera-relative,
+    numbered as :func:`raytrace.tables.shape_tables` numbers them)."""
 
-    Parameters
-    ----------
-    centers : (S, 3) float64
-    radii : (S,) float64
-    points : (P, 3) float64
-        A point on each plane.
-    normals : (P, 3) float64
-        Unit outward normals of the planes.
-    """
-
-    def __init__(self, centers, radii, points, normals):
-        self.centers = f64(centers).reshape(-1, 3)
-        self.radii = f64(radii).reshape(-1)
-        self.points = f64(points).reshape(-1, 3)
-        self.normals = f64(normals).reshape(-1, 3)
-        self.n_spheres = len(self.radii)
-        # Largest absolute coordinate of each centre and plane point: the rounding scale.
-        center_max = np.abs(self.centers).max(axis=1, initial=0.0)
-        point_max = np.abs(self.points).max(axis=1, initial=0.0)
+    def __init__(self, shapes: Shapes):
         #: The tables as the kernels take them.
-        self.table = (self.centers, self.radii, center_max, self.points, self.normals,
-                      point_max)
-        self.surface_table = (self.centers, self.radii, self.points, self.normals)
+        self.table = shapes
 
     def __len__(self) -> int:
-        return self.n_spheres + len(self.points)
+        return len(self.table.kind)
 
     def intersect(self, origin: np.ndarray, direction: np.ndarray, origin_shape: np.ndarray,
                   tmax: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -80,7 +63,7 @@ class AnalyticShapes:
         (rows whose shape is NO_SHAPE: the point as it is, normal 0)."""
         point = f64(point)
         snapped, normal = point.copy(), np.zeros_like(point)
-        ak.analytic_surface(i64(shape), point, self.surface_table, snapped, normal)
+        ak.analytic_surface(i64(shape), point, self.table, snapped, normal)
         return snapped, normal
 
 

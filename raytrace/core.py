@@ -32,7 +32,7 @@ M1, M2, M3 = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xBF58476D1CE4E5B9),
               np.uint64(0x94D049BB133111EB))
 _TWO = np.uint64(2)
 _S11, _S27, _S30, _S31 = np.uint64(11), np.uint64(27), np.uint64(30), np.uint64(31)
-#: Mesh shading codes (``raytrace.accel.SHADING_CODES``; ``Triangles.shading``).
+#: Mesh shading codes (``raytrace.tables.SHADING_CODES``; ``Triangles.shading``).
 FLAT, SMOOTH, GOURAUD = 0, 1, 2
 #: Shadow rays stop this relative fraction short of the light.
 SHADOW_SHORTEN = 1e-7

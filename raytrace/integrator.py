@@ -45,7 +45,6 @@ from .accel import Accelerator, Hits, Surface
 from .camera import camera_columns, camera_rays, directions_at, global_samples, grid
 from .film import Image
 from .lights import NO_KEY, Emitter, emitters
-from .material import Material
 from .rays import (
     KIND_NAMES,
     REFLECTION,
@@ -59,7 +58,7 @@ from .rays import (
 )
 from .records import Children, Shadows, Spawned
 from .scene import RenderSettings, Scene
-from .tables import MaterialTable, scene_record
+from .tables import scene_arrays
 
 #: Camera samples per pass (whole pixels): the unit of work of a thread. Memory is bounded by
 #: threads × pass size, independently of the resolution.
@@ -171,16 +170,13 @@ class WhittedIntegrator:
         self.scene = scene
         self._set_options(options)
         self._aov_out = NO_AOV_PIXELS  # the AOV images of the render in progress, flat
-        seen: dict[int, Material] = {}
-        for o in scene.objects:
-            for m in getattr(o, "materials", [o.material]):  # a mesh's faces may use several
-                seen.setdefault(id(m), m)
-        self.materials = list(seen.values())
-        self.table = MaterialTable(self.materials)
         t0 = time.perf_counter()
-        self.accel = Accelerator(scene, self.materials)
+        #: The scene as arrays, camera-relative (:func:`raytrace.tables.scene_arrays`).
+        self.arrays = scene_arrays(scene)
+        self.accel = Accelerator(self.arrays)
         self.build_seconds = time.perf_counter() - t0
-        self.origin = self.accel.origin
+        self.materials, self.table = self.arrays.materials, self.arrays.table
+        self.origin = self.arrays.origin
         self.emitters: list[Emitter] = emitters(scene.lights, self.origin, options.seed)
         self.ambient = np.asarray(scene.ambient, np.float64)
         self.background = np.asarray(options.background, np.float64).reshape(1, 3).copy()
@@ -188,7 +184,7 @@ class WhittedIntegrator:
         self.lit = bool(self.emitters) and bool(self.table.lit.any())
         self.jittered = any(em.jittered for em in self.emitters)
         #: What every shading kernel needs of the scene (:class:`raytrace.records.Scene`).
-        self.tables = scene_record(self.origin, self.table, self.accel.triangles)
+        self.tables = self.arrays.record
         self._lock = threading.Lock()
         self._renders = 0  # renders started: each counts its rays afresh
         self._stats_per_thread: list[Stats] = []
@@ -511,9 +507,9 @@ class WhittedIntegrator:
         """Write the AOVs of the hits (rays that all hit) into the rows ``rays.sample`` of the
         outputs (:func:`raytrace.shading_kernels.aov_hits`; an output without rows is
         skipped)."""
-        a = self.accel
-        sk.aov_hits(rays.record, hits.t, surf, self.tables, (a.shape_object, a.geom_object),
-                   (depth, normal, albedo, ident))
+        a = self.arrays
+        sk.aov_hits(rays.record, hits.t, surf, self.tables, (a.shapes.object, a.geom_object),
+                    (depth, normal, albedo, ident))
 
     # -- shading -----------------------------------------------------------------------------
 
@@ -669,8 +665,8 @@ class WhittedIntegrator:
             "pruned": {"depth": st.pruned_depth, "weight": st.pruned_weight},
             "total_internal_reflections": st.total_internal_reflections,
             "nonfinite_pixels": nonfinite, "nonfinite_first_pixel": first,  # [x, y] or None
-            "degenerate_triangles": self.accel.degenerate,
-            "triangles": self.accel.n_triangles,
+            "degenerate_triangles": self.arrays.degenerate,
+            "triangles": self.arrays.n_triangles,
             "seconds": {"build": self.build_seconds, "trace": st.trace_seconds * share,
                         "shade": st.shade_seconds * share, "total": seconds},
             "width": opt.width, "height": opt.height, "spp": opt.spp, "max_depth": opt.max_depth,

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import tempfile
 from pathlib import Path
 
@@ -28,6 +29,11 @@ import numba
 
 #: Decorator for every kernel.
 kernel = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
+#: Decorator for a small dispatcher that must vanish into its callers (numba inlines it in
+#: its own IR, before LLVM: ``accel_kernels.shape_t`` called as a kernel cost 50 % more per
+#: analytic query, 33.8 against 22.7 ns a ray on the Whitted scene).
+inline = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy",
+                    inline="always")
 
 
 PACKAGE = Path(__file__).resolve().parent
@@ -35,11 +41,15 @@ PACKAGE = Path(__file__).resolve().parent
 STAMP = "raytrace-kernels.sha256"
 
 
+#: An import of a decorator of this module, the mark of a module that compiles kernels.
+_DECORATORS = re.compile(r"^from \.jit import .*\b(kernel|inline)\b", re.MULTILINE)
+
+
 def kernel_modules() -> list[Path]:
-    """The package's modules that compile kernels: every ``.py`` file that imports
-    :data:`kernel` (this one excluded), in a fixed order."""
-    return sorted(p for p in PACKAGE.rglob("*.py")
-                  if p != Path(__file__).resolve() and "import kernel" in p.read_text("utf-8"))
+    """The package's modules that compile kernels: every ``.py`` file that imports from this
+    one (:data:`kernel`, :data:`inline`; this one excluded), in a fixed order."""
+    return sorted(p for p in PACKAGE.rglob("*.py") if p != Path(__file__).resolve()
+                  and _DECORATORS.search(p.read_text("utf-8")))
 
 
 def source_hash(modules: list[Path]) -> str:

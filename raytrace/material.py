@@ -203,6 +203,35 @@ class Material:
         return dataclasses.replace(self, **changes)
 
 
+def _code(registry: str, value: str) -> int:
+    """The kernels' code of a named choice: ``raytrace.shading``'s ``registry`` (imported
+    here, when a table is built, so that a scene does not import the kernels)."""
+    from . import shading
+
+    return getattr(shading, registry)[value]
+
+
+#: The material table's per-material columns (:class:`raytrace.records.Materials` has one
+#: field each, :class:`raytrace.tables.MaterialTable` fills them): name → (dtype, its value
+#: for a Material, what it holds). A scalar input is its Material field (with its check and
+#: its MATERIAL_KEYS entry for scene files), one line here and its use in the shading
+#: kernels (docs/architecture.md); a colour input is a COLOR_KEYS entry instead of a line.
+COLUMNS: dict[str, tuple[type, Callable[[Material], Any], str]] = {
+    "shininess": (np.float64, lambda m: m.shininess, "highlight exponent n"),
+    "highlight": (np.int64, lambda m: _code("HIGHLIGHT_CODES", m.highlight), "PHONG or BLINN"),
+    "ior": (np.float64, lambda m: m.ior, "relative index of refraction"),
+    "opacity": (np.float64, lambda m: m.opacity, "t of the seeds' blend"),
+    "lit": (np.bool_, lambda m: m.lit, "takes direct light (kd or ks not zero)"),
+    "reflects": (np.bool_, lambda m: m.reflects, "kr not zero"),
+    "transmits": (np.bool_, lambda m: m.transmits, "kt not zero"),
+    "emits": (np.bool_, lambda m: m.emits, "ke not zero"),
+    "fresnel": (np.int64, lambda m: _code("FRESNEL_CODES", m.fresnel),
+                "core.NO_FRESNEL, SCHLICK or DIELECTRIC"),
+    "alpha_cutoff": (np.float64, lambda m: m.alpha_cutoff,
+                     "alpha ≥ cutoff: opaque, else clear; −1: blend"),
+}
+
+
 def material_from_table(table: Mapping, key: str,
                         resolve: Callable[[str, str], Material] | None = None,
                         name: str = "", extra_keys: tuple[str, ...] = ()) -> Material:

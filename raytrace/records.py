@@ -12,8 +12,9 @@ record              what it holds (n rays or hits, M materials, T triangles)
 :class:`Rays`       a batch's columns (``raytrace.rays.RayBatch.record``)
 :class:`Hits`       closest hits (``raytrace.accel.Hits`` is this)
 :class:`Surface`    what shading needs at the hits (``raytrace.accel.Surface`` is this)
+:class:`Shapes`     the analytic shapes' tables (``raytrace.tables.SceneArrays.shapes``)
 :class:`Materials`  the material table (``raytrace.tables.MaterialTable.record``)
-:class:`Triangles`  the float64 triangle tables (``raytrace.accel.Accelerator.triangles``)
+:class:`Triangles`  the float64 triangle tables (``raytrace.tables.SceneArrays.triangles``)
 :class:`Scene`      what every shading kernel needs of the scene: camera position,
                     materials, triangles
 :class:`Emitter`    one point-like light sample, 19 floats (``raytrace.lights.Emitter.record``)
@@ -29,6 +30,8 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+
+from .material import COLUMNS
 
 
 class Rays(NamedTuple):
@@ -68,27 +71,37 @@ class Surface(NamedTuple):
     uv: np.ndarray         #: (n, 2) barycentrics
 
 
-class Materials(NamedTuple):
-    """The material table, indexed by ``Surface.material``."""
+class Shapes(NamedTuple):
+    """The analytic shapes, N of them, numbered kind by kind (``accel_kernels.SHAPE_KINDS``'
+    order) and in the scene's order within a kind (``raytrace.tables.shape_tables``)."""
 
-    colors: np.ndarray     #: (M, 18) constant colours ka kd ks kr kt ke, three columns each
-    pattern: np.ndarray    #: (M, 6) int64 row of ``checkers`` per colour, or −1 (constant)
-    checkers: np.ndarray   #: (P, 7) colour 0, colour 1, scale
-    shininess: np.ndarray  #: (M,) highlight exponent n
-    highlight: np.ndarray  #: (M,) int64 PHONG or BLINN
-    ior: np.ndarray        #: (M,) relative index of refraction
-    opacity: np.ndarray    #: (M,) t of the seeds' blend
-    lit: np.ndarray        #: (M,) bool: takes direct light (kd or ks not zero)
-    reflects: np.ndarray   #: (M,) bool: kr not zero
-    transmits: np.ndarray  #: (M,) bool: kt not zero
-    emits: np.ndarray      #: (M,) bool: ke not zero
-    fresnel: np.ndarray    #: (M,) int64 core.NO_FRESNEL, SCHLICK or DIELECTRIC
-    texture: np.ndarray    #: (M, 6) int64 image texture per colour (row of tex_info), or −1
-    textured: np.ndarray   #: (M,) bool: some colour is an image texture
-    texels: np.ndarray     #: (N,) float32 every texture's RGBA rows, one after another
-    tex_info: np.ndarray   #: (K, 5) int64 offset into texels, width, height, wrap s, wrap t
-    alpha: np.ndarray      #: (M,) int64 texture whose alpha multiplies the opacity, or −1
-    alpha_cutoff: np.ndarray  #: (M,) alpha ≥ cutoff: opaque, else clear; −1: blend
+    kind: np.ndarray      #: (N,) int64 accel_kernels.SPHERE, PLANE, …
+    rows: np.ndarray      #: (N, accel_kernels.ROW) float64 camera-relative parameters, the
+                          #: scene record's ``row`` zero-padded (``Sphere.row``, …)
+    material: np.ndarray  #: (N,) int64 row of the material table
+    object: np.ndarray    #: (N,) int64 index in ``Scene.objects``
+
+
+#: The material table's arrays besides its per-material columns (``material.COLUMNS``).
+MATERIAL_TABLES = {
+    "colors": "(M, 3·C) constant colours of material.COLOR_KEYS (ka kd ks kr kt ke), three "
+              "columns each",
+    "pattern": "(M, C) int64 row of checkers per colour, or −1 (constant)",
+    "checkers": "(P, 7) colour 0, colour 1, scale",
+    "texture": "(M, C) int64 image texture per colour (row of tex_info), or −1",
+    "textured": "(M,) bool: some colour is an image texture, or the alpha is",
+    "texels": "(N,) float32 every texture's RGBA rows, one after another",
+    "tex_info": "(K, 5) int64 offset into texels, width, height, wrap s, wrap t",
+    "alpha": "(M,) int64 texture whose alpha multiplies the opacity, or −1",
+}
+#: The material table, indexed by ``Surface.material``: the fields of
+#: :data:`MATERIAL_TABLES`, then one (M,) array per entry of ``material.COLUMNS``, in its
+#: order (a material input is declared once, there).
+Materials = NamedTuple("Materials", [(name, np.ndarray) for name in (*MATERIAL_TABLES,
+                                                                    *COLUMNS)])
+Materials.__doc__ = "The material table, indexed by ``Surface.material``.\n\n" + "\n".join(
+    f"* ``{name}``: {what}" for name, what in (
+        *MATERIAL_TABLES.items(), *((k, f"(M,) {v[2]}") for k, v in COLUMNS.items())))
 
 
 class Triangles(NamedTuple):

@@ -264,6 +264,13 @@ class Sphere:
         self.center = values.vector(self.center, "center")
         self.radius = values.number(self.radius, "radius", lo=0, lo_open=True)
 
+    def row(self, origin: np.ndarray) -> tuple[float, ...]:
+        """Its parameters as ``accel_kernels.sphere_t`` reads them, camera-relative: the
+        centre, the radius and the centre's largest absolute coordinate (its rounding
+        scale)."""
+        c = self.center - origin
+        return (*c, self.radius, np.abs(c).max())
+
 
 @dataclass
 class Plane:
@@ -277,6 +284,18 @@ class Plane:
     def __post_init__(self) -> None:
         self.point = values.vector(self.point, "point")
         self.normal = values.unit(self.normal, "normal")
+
+    def row(self, origin: np.ndarray) -> tuple[float, ...]:
+        """Its parameters as ``accel_kernels.plane_t`` reads them, camera-relative: the
+        point, the unit normal and the point's largest absolute coordinate."""
+        p = self.point - origin
+        return (*p, *self.normal, np.abs(p).max())
+
+
+#: The analytic shapes by their scene-file ``type``: a shape is one record (its fields are
+#: its scene-file keys, ``row`` its parameters for the kernels) plus one line here, and its
+#: intersection and surface in ``accel_kernels`` (docs/architecture.md).
+SHAPE_TYPES = {"sphere": Sphere, "plane": Plane}
 
 
 SHADINGS = ("flat", "smooth", "gouraud")
@@ -403,6 +422,10 @@ class Mesh:
         return self.file_materials or [self.material]
 
 
+#: Every object type by its scene-file ``type``.
+OBJECT_TYPES = {**SHAPE_TYPES, "mesh": Mesh}
+
+
 def _check_arrays(verts: Any, faces: Any) -> tuple[np.ndarray, np.ndarray]:
     try:
         v = np.asarray(verts, dtype=np.float64)
@@ -521,9 +544,10 @@ class Scene:
             raise SceneError(f"must be a file name, got {values.type_name(self.path)}", "path")
         self.ambient = values.color(self.ambient, "ambient.color")
         for i, o in enumerate(self.objects):
-            if not isinstance(o, (Sphere, Plane, Mesh)):
-                raise SceneError(f"must be a Sphere, Plane or Mesh, got {type(o).__name__}",
-                                 f"objects[{i}]", self.path)
+            if not isinstance(o, tuple(OBJECT_TYPES.values())):
+                names = [c.__name__ for c in OBJECT_TYPES.values()]
+                raise SceneError(f"must be a {', '.join(names[:-1])} or {names[-1]}, got "
+                                 f"{type(o).__name__}", f"objects[{i}]", self.path)
         for i, light in enumerate(self.lights):
             if not isinstance(light, tuple(LIGHT_TYPES.values())):
                 raise SceneError(f"must be a light, got {type(light).__name__}",

@@ -18,19 +18,17 @@ from .errors import SceneError
 from .material import Material, library, material_from_table
 from .scene import (
     LIGHT_TYPES,
+    OBJECT_TYPES,
     Camera,
     Mesh,
-    Plane,
     RenderSettings,
     Scene,
-    Sphere,
 )
 
 TOP_KEYS = ("render", "camera", "ambient", "materials", "lights", "objects")
 RENDER_KEYS = ("width", "height", "spp", "max_depth", "min_weight", "background", "seed",
                "filter", "aa", "aa_threshold", "aa_depth")
 CAMERA_KEYS = ("position", "look_at", "up", "fov")
-OBJECT_TYPES = {"sphere": Sphere, "plane": Plane, "mesh": Mesh}
 
 
 def _keys(cls: type) -> tuple[str, ...]:

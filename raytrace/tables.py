@@ -1,20 +1,155 @@
 """Scene → arrays: the tables the kernels read, built once per render.
 
-:class:`MaterialTable` turns the scene's materials into :class:`raytrace.records.Materials`
-(one row per material, colours per channel, checker patterns by reference); the emitters
-(:func:`raytrace.lights.emitters`) and the camera-relative triangle tables
-(:class:`raytrace.accel.Accelerator`) are the other two; :func:`scene_record` puts what the
-shading kernels need into one :class:`raytrace.records.Scene`.
+:func:`scene_arrays` is the stage between :mod:`raytrace.scene` and both
+:mod:`raytrace.accel` and :mod:`raytrace.integrator`: it recentres the geometry on the camera
+in float64 and turns the scene into :class:`SceneArrays`:
+
+* the material table, :class:`MaterialTable` (one row per material, colours per channel,
+  checker patterns and image textures by reference; :class:`raytrace.records.Materials`);
+* the analytic shapes, :func:`shape_tables` (:class:`raytrace.records.Shapes`: each shape
+  record's ``row`` with its kind, material and object);
+* the triangles, :func:`triangle_tables` (:class:`raytrace.records.Triangles`, float64,
+  camera-relative) and each mesh's camera-relative vertices and faces, which the
+  accelerator hands to Embree;
+* :func:`scene_record`: what the shading kernels need, one :class:`raytrace.records.Scene`.
+
+The emitters (:func:`raytrace.lights.emitters`) are the integrator's, per light pass.
 """
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 
-from .material import COLOR_KEYS, Checker, Material
-from .records import Materials, Scene, Triangles
-from .shading import FRESNEL_CODES, HIGHLIGHT_CODES
+from . import accel_kernels as ak  # the build kernels of the triangle tables
+from .core import FLAT, GOURAUD, SMOOTH
+from .material import COLOR_KEYS, COLUMNS, Checker, Material
+from .records import Materials, Scene, Shapes, Triangles
+from .scene import SHAPE_TYPES, Mesh
+from .scene import Scene as SceneDescription
 from .texture import WRAPS, Texture
+
+#: A triangle's error band in float32 ulps (2⁻²³ relative) of its largest coordinate: how far
+#: along its normal a ray must start for Embree never to report it again (EMBREEX_NOTES.md).
+BAND_ULPS = 3.0
+#: ``Triangles.shading`` of each ``Mesh.shading``.
+SHADING_CODES = {"flat": FLAT, "smooth": SMOOTH, "gouraud": GOURAUD}
+
+
+class SceneArrays:
+    """A scene as arrays, camera-relative: what :func:`scene_arrays` gives the accelerator
+    and the integrator (neither reads the other's). Read-only once built.
+
+    The triangle tables (and the camera-relative meshes) are built on first use, which is
+    the accelerator's build of its BVH: a profile of ``Accelerator._build_meshes`` (as
+    benchmarks/bench.py takes) counts them in the build. That first use comes before any
+    render thread starts.
+    """
+
+    def __init__(self, origin: np.ndarray, materials: list, shapes: Shapes, meshes: list,
+                 geom_object: np.ndarray):
+        #: (3,) float64 the camera position: world = camera-relative + origin
+        self.origin = origin
+        #: The Materials that ``material`` columns index, and their table.
+        self.materials, self.table = materials, MaterialTable(materials)
+        self.shapes = shapes  #: the analytic shapes
+        self.geom_object = geom_object  #: (G,) int64 index in the scene's objects of each mesh
+        self.degenerate = sum(m.degenerate for m in meshes)  #: zero-area faces dropped
+        self._meshes = meshes
+
+    @cached_property
+    def _tables(self) -> tuple[Triangles, list]:
+        index = {id(m): i for i, m in enumerate(self.materials)}
+        return triangle_tables(self._meshes, self.origin, index, self.table)
+
+    @property
+    def triangles(self) -> Triangles:
+        """The float64 triangle tables, in Embree's geomID order."""
+        return self._tables[0]
+
+    @property
+    def meshes(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Each mesh's camera-relative float64 vertices (V, 3) and int64 faces (F, 3), in
+        geomID order."""
+        return self._tables[1]
+
+    @cached_property
+    def record(self) -> Scene:
+        """What every shading kernel needs (:func:`scene_record`)."""
+        return scene_record(self.origin, self.table, self.triangles)
+
+    @property
+    def n_triangles(self) -> int:
+        return sum(len(m.faces) for m in self._meshes)
+
+
+def scene_arrays(scene: SceneDescription) -> SceneArrays:
+    """The stage: the scene's materials (each once, in the order objects first use them),
+    their table, the analytic shapes and the triangles, recentred on the camera in float64
+    before anything is rounded to float32 for Embree."""
+    seen: dict[int, Material] = {}
+    for o in scene.objects:
+        for m in getattr(o, "materials", [o.material]):  # a mesh's faces may use several
+            seen.setdefault(id(m), m)
+    materials = list(seen.values())
+    origin = np.asarray(scene.camera.position, dtype=np.float64)
+    index = {id(m): i for i, m in enumerate(materials)}
+    meshes = [(i, o) for i, o in enumerate(scene.objects) if isinstance(o, Mesh)]
+    return SceneArrays(origin, materials, shape_tables(scene.objects, origin, index),
+                       [o for _, o in meshes], np.array([i for i, _ in meshes], np.int64))
+
+
+def shape_tables(objects: list, origin: np.ndarray, index: dict[int, int]) -> Shapes:
+    """The analytic shapes of ``objects`` (those of :data:`raytrace.scene.SHAPE_TYPES`),
+    kind by kind in ``accel_kernels.SHAPE_KINDS``' order, in scene order within a kind: each
+    one's kind code, its ``row(origin)`` zero-padded to ``accel_kernels.ROW`` floats, its
+    material's row (``index``: ``id(material)`` → row) and its index in ``objects``."""
+    kinds = tuple(SHAPE_TYPES.values())
+    order = sorted((ak.SHAPE_KINDS[o.type], i) for i, o in enumerate(objects)
+                   if isinstance(o, kinds))
+    rows = np.zeros((len(order), ak.ROW))
+    for j, (_, i) in enumerate(order):
+        row = objects[i].row(origin)
+        rows[j, :len(row)] = row
+    return Shapes(np.array([k for k, _ in order], np.int64), rows,
+                  np.array([index[id(objects[i].material)] for _, i in order], np.int64),
+                  np.array([i for _, i in order], np.int64))
+
+
+def triangle_tables(meshes: list[Mesh], origin: np.ndarray, index: dict[int, int],
+                    table: MaterialTable) -> tuple[Triangles, list]:
+    """The float64 triangle tables of ``meshes`` (T, …) in their order (Embree's geomIDs),
+    camera-relative, and each mesh's camera-relative vertices and faces for Embree. The
+    per-triangle work is the build kernels' (``accel_kernels.vertex_normals``,
+    ``accel_kernels.triangle_tables``); texture coordinates only where a material has a
+    texture."""
+    sizes = [len(m.faces) for m in meshes]
+    t = sum(sizes)
+    geom_first = np.cumsum([0, *sizes[:-1]], dtype=np.int64) if meshes else np.zeros(0, np.int64)
+    corners, vnormals = np.empty((t, 3, 3)), np.empty((t, 3, 3))
+    normal, band = np.empty((t, 3)), np.empty(t)
+    material = np.concatenate([
+        np.array([index[id(x)] for x in m.file_materials], np.int64)[m.face_material]
+        if m.file_materials else np.full(len(m.faces), index[id(m.material)], np.int64)
+        for m in meshes]) if meshes else np.zeros(0, np.int64)
+    shading = np.repeat(np.array([SHADING_CODES[m.shading] for m in meshes], np.int8), sizes)
+    relative = []
+    for m, first in zip(meshes, geom_first, strict=True):
+        v = np.ascontiguousarray(m.vertices - origin, dtype=np.float64)
+        faces = np.ascontiguousarray(m.faces, dtype=np.int64)
+        vn = np.empty_like(v)
+        ak.vertex_normals(v, faces, vn)
+        s = slice(first, first + len(faces))
+        ak.triangle_tables(v, faces, vn, BAND_ULPS * 2.0**-23, corners[s], normal[s],
+                           vnormals[s], band[s])
+        relative.append((v, faces))
+    textured = bool(table.textured.any()) if len(table.materials) else False
+    texcoords = np.ascontiguousarray(np.concatenate(
+        [m.texcoords if m.texcoords is not None else np.zeros((len(m.faces), 3, 2))
+         for m in meshes]) if textured and meshes else np.zeros((0, 3, 2)))
+    return Triangles(geom_first, corners, normal, vnormals, shading, material, band,
+                     texcoords), relative
 
 
 class MaterialTable:
@@ -23,8 +158,10 @@ class MaterialTable:
     ``colors`` (M, 18) holds the constant colours ka kd ks kr kt ke, three columns each
     (``shading_kernels.KA`` …); where colour k of material m is a :class:`Checker`,
     ``pattern[m, k]`` indexes its row of ``checkers`` (colour 0, colour 1, scale), evaluated
-    at the world points of the hits; −1 means constant. :attr:`record` is the whole table as
-    the kernels take it (:class:`raytrace.records.Materials`).
+    at the world points of the hits; −1 means constant; ``texture[m, k]`` likewise names
+    an image texture. Each entry of :data:`raytrace.material.COLUMNS` is an (M,) attribute
+    of its name. :attr:`record` is the whole table as the kernels take it
+    (:class:`raytrace.records.Materials`).
     """
 
     def __init__(self, materials: list[Material]):
@@ -51,7 +188,6 @@ class MaterialTable:
                 if m.alpha not in textures:
                     textures.append(m.alpha)
                 self.alpha[i] = textures.index(m.alpha)
-        self.alpha_cutoff = np.array([m.alpha_cutoff for m in materials], np.float64)
         self.textured = (self.texture >= 0).any(axis=1) | (self.alpha >= 0)
         # only scenes with textures pay for them: one float a texture channel, else none
         sizes = [t.texels.size for t in textures]
@@ -62,21 +198,10 @@ class MaterialTable:
         self.texels = (np.concatenate([t.texels.reshape(-1) for t in textures])
                        if textures else np.zeros(0, np.float32))
         self.checkers = np.array(checkers, dtype=np.float64).reshape(-1, 7)
-        self.shininess = np.array([m.shininess for m in materials], dtype=np.float64)
-        self.highlight = np.array([HIGHLIGHT_CODES[m.highlight] for m in materials], np.int64)
-        self.ior = np.array([m.ior for m in materials], dtype=np.float64)
-        self.opacity = np.array([m.opacity for m in materials], dtype=np.float64)
-        self.lit = np.array([m.lit for m in materials], dtype=bool)
-        self.reflects = np.array([m.reflects for m in materials], dtype=bool)
-        self.transmits = np.array([m.transmits for m in materials], dtype=bool)
+        for name, (dtype, value, _) in COLUMNS.items():  # one declaration, material.COLUMNS
+            setattr(self, name, np.array([value(m) for m in materials], dtype))
         self.transparent = np.array([m.transparent for m in materials], dtype=bool)
-        self.emits = np.array([m.emits for m in materials], dtype=bool)
-        self.fresnel = np.array([FRESNEL_CODES[m.fresnel] for m in materials], np.int64)
-        self.record = Materials(self.colors, self.pattern, self.checkers, self.shininess,
-                                self.highlight, self.ior, self.opacity, self.lit,
-                                self.reflects, self.transmits, self.emits, self.fresnel,
-                                self.texture, self.textured, self.texels, self.tex_info,
-                                self.alpha, self.alpha_cutoff)
+        self.record = Materials(**{name: getattr(self, name) for name in Materials._fields})
 
 
 def scene_record(origin: np.ndarray, table: MaterialTable, triangles: Triangles) -> Scene:

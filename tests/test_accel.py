@@ -14,11 +14,11 @@ from helpers import make_scene, moller_trumbore, unit
 import raytrace
 from raytrace.accel import SHADOW_SHORTEN, Accelerator, spawn_origins
 from raytrace.rays import NO_SHAPE
+from raytrace.tables import scene_arrays
 
 
 def accelerator(scene: raytrace.Scene) -> Accelerator:
-    materials = list({id(o.material): o.material for o in scene.objects}.values())
-    return Accelerator(scene, materials)
+    return Accelerator(scene_arrays(scene))
 
 
 def random_units(rng: np.random.Generator, n: int) -> np.ndarray:

@@ -66,6 +66,16 @@ def test_an_edited_helper_in_another_module_takes_effect(tmp_path):
     assert run(3.0) == "3.0"  # and the new machine code is cached in turn
 
 
+def test_the_guard_hashes_every_module_that_compiles_kernels():
+    # A module importing `inline, kernel` (the analytic shapes' dispatch) compiles kernels as
+    # much as one importing `kernel` alone; one importing only a plain function does not.
+    from raytrace import jit
+
+    names = {p.name for p in jit.kernel_modules()}
+    assert {"accel_kernels.py", "shading_kernels.py", "core.py", "camera.py"} <= names
+    assert "cli.py" not in names  # `from .jit import cache_is_warm`
+
+
 def test_the_guard_leaves_a_current_cache_alone(tmp_path):
     from raytrace import jit
 
