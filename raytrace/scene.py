@@ -446,12 +446,18 @@ def _from_trimesh(mesh: Any, key: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Vertices, faces and, for a single textured mesh, texture coordinates (F, 3, 2)."""
+    """Vertices, faces and, for a single textured mesh, texture coordinates (F, 3, 2): from
+    :func:`raytrace.meshio.read_mesh` where it reads the file, else from trimesh."""
     if path.is_dir():
         raise SceneError(f"is a folder, not a mesh file: {path}", "file")
     if not path.is_file():
         what = "not a regular file" if path.exists() else "mesh file not found"
         raise SceneError(f"{what}: {path}", "file")
+    from .meshio import read_mesh
+
+    fast = read_mesh(path)  # binary PLY and OBJ triangles: as trimesh reads and merges them
+    if fast is not None:
+        return fast
     import trimesh
 
     # trimesh warns on stderr about NaN while merging: the error below says it in one line.
