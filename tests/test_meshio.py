@@ -180,3 +180,23 @@ def test_merge_matches_trimesh_on_random_near_duplicates():
     got_v, got_f = meshio.merge_vertices(v, f)
     np.testing.assert_array_equal(got_v, mesh.vertices)
     np.testing.assert_array_equal(got_f, mesh.faces)
+
+
+@pytest.mark.parametrize("scale", [1e-200, 1e-160, 1e-5, 1.0, 1e17])
+def test_nonzero_area_keeps_the_faces_cross_and_norm_keep(scale):
+    """raytrace.scene._nonzero_area drops exactly the faces np.cross + np.linalg.norm drop
+    (raytrace.Mesh's test before), underflow to zero area included."""
+    from raytrace.scene import _nonzero_area
+
+    rng = np.random.default_rng(7)
+    v = rng.normal(size=(2000, 3)) * scale
+    v[:100, 2] = 0.0  # flat and collinear corners
+    v[100:150] = v[150:200] * 2.0
+    f = rng.integers(0, 2000, size=(6000, 3))
+    f[:40, 1] = f[:40, 0]  # repeated corners
+    f[40:80] = rng.integers(0, 100, size=(40, 3))
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    with np.errstate(over="ignore", under="ignore"):
+        expected = np.linalg.norm(np.cross(b - a, c - a), axis=1) > 0
+    np.testing.assert_array_equal(_nonzero_area(v, f), expected)
+    assert 0 < expected.sum() < len(f) or scale < 1e-150  # both outcomes occur
