@@ -25,6 +25,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 import bench  # noqa: E402
 import gil  # noqa: E402
 import meshes  # noqa: E402
+import mitsuba_peer  # noqa: E402
 import povray  # noqa: E402
 
 needs_povray = pytest.mark.skipif(not povray.available(), reason="povray is not installed")
@@ -124,6 +125,30 @@ def test_povray_renders_the_same_view(tmp_path):
     assert sky_ours[0].all() and sky_theirs[0].all()  # the top row is sky in both
     assert np.mean(sky_ours != sky_theirs) < 0.02    # only horizon pixels may differ
     assert np.abs(ours - theirs).mean() < 0.5 * np.abs(ours - theirs[:, ::-1]).mean()
+
+
+@pytest.mark.skipif(mitsuba_peer.available() is not None,
+                    reason=str(mitsuba_peer.available()))
+def test_mitsuba_renders_the_same_view(mesh_scene_file):
+    """Mitsuba's mesh scene lines up with raytrace's: the same pixels hit something (its depth
+    AOV against ours), and its image is closer to ours than to ours mirrored (the lit side and
+    the shadow fall the same way)."""
+    import mitsuba as mi
+
+    w = h = 48
+    spec = mitsuba_peer.scene_dict(mesh_scene_file.parent / "sphere.ply", w, h)
+    image = np.array(mi.render(mi.load_dict(spec), spp=16), dtype=np.float64)
+    spec["integrator"] = {"type": "aov", "aovs": "d:depth"}
+    depth = np.array(mi.render(mi.load_dict(spec), spp=16), dtype=np.float64)[..., 0]
+    scene = raytrace.load_scene(mesh_scene_file)
+    ours = raytrace.render(scene, width=w, height=h, spp=16, aovs=("depth",))
+    hit_ours = np.isfinite(ours.aovs["depth"]) & (ours.aovs["depth"] > 0)
+    assert 0.3 < hit_ours.mean() < 0.9
+    assert np.mean(hit_ours != (depth > 0)) < 0.03      # only silhouette pixels may differ
+    lum_ours = ours.rgb.astype(np.float64).sum(axis=2) * hit_ours
+    lum = image.sum(axis=2) * hit_ours
+    lum_ours, lum = lum_ours / lum_ours.max(), lum / lum.max()
+    assert np.abs(lum - lum_ours).mean() < 0.7 * np.abs(lum - lum_ours[:, ::-1]).mean()
 
 
 def test_parse_times_and_counts():
