@@ -89,6 +89,8 @@ def read_ply(path: Path) -> Mesh3 | None:
     for line in header:
         words = line.split()
         if words[:1] == ["element"] and len(words) == 3:
+            if not words[2].isdigit():
+                return None  # a malformed header: trimesh says what is wrong
             elements.append([words[1], int(words[2]), []])
         elif words[:1] == ["property"] and elements:
             if words[1] == "list" and len(words) == 5:
@@ -104,6 +106,8 @@ def read_ply(path: Path) -> Mesh3 | None:
             return None  # a list of unknown length: no fixed stride to read it by
         size = dtype.itemsize * count
         if offset + size > len(data):
+            if name == "face":  # faces of other sizes than 3 make it shorter: trimesh decides
+                return None
             raise SceneError(f"cannot read mesh {path}: the file ends inside its {name} "
                              f"element ({count} expected)", "file")
         arrays[name] = np.frombuffer(data, dtype, count, offset)

@@ -113,6 +113,8 @@ def test_obj_soup_with_crlf_and_extra_blanks_matches_trimesh(tmp_path):
 
 
 @pytest.mark.parametrize("name,text,readable", [
+    ("header.ply", "ply\nformat binary_little_endian 1.0\nelement vertex three\nend_header\n",
+     False),
     ("ascii.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                   "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
                   "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", True),
@@ -153,11 +155,16 @@ def test_a_truncated_or_out_of_range_ply_is_one_line(tmp_path):
     m = knot()
     good = trimesh.exchange.ply.export_ply(m, encoding="binary")
     path = tmp_path / "cut.ply"
-    path.write_bytes(good[:-7])
+    start = good.index(b"end_header\n") + len(b"end_header\n")
+    path.write_bytes(good[:start + 100])  # inside the vertices
     with pytest.raises(raytrace.SceneError) as e:
         raytrace.Mesh(file=path)
-    assert str(e.value) == (f"file: cannot read mesh {path}: the file ends inside its face "
-                            f"element ({len(m.faces)} expected)")
+    assert str(e.value) == (f"file: cannot read mesh {path}: the file ends inside its vertex "
+                            f"element ({len(m.vertices)} expected)")
+    path.write_bytes(good[:-7])  # inside the faces: maybe faces of other sizes, so trimesh's
+    with pytest.raises(raytrace.SceneError) as e:  # reading says what it finds
+        raytrace.Mesh(file=path)
+    assert "\n" not in str(e.value) and str(e.value).startswith(f"file: cannot read mesh {path}")
     bad = trimesh.Trimesh(m.vertices, np.where(m.faces == 5, len(m.vertices) + 2, m.faces),
                           process=False)
     path = tmp_path / "range.ply"
