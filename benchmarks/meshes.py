@@ -2,6 +2,7 @@
 
     python3 benchmarks/meshes.py                 # 82k, 328k, 1.3M, 5.2M triangles (~2 min)
     python3 benchmarks/meshes.py --quick         # 1.3k and 5k triangles: checks the harness
+    python3 benchmarks/meshes.py --layouts       # embreex's copy-in per array layout, 1.3 M
     python3 benchmarks/bench.py --parts meshes   # the same, inside the benchmark's JSON
 
 Each size is the benchmark's mesh scene (:data:`bench.MESH_SCENE`: a smooth brass sphere on a
@@ -92,6 +93,38 @@ def build_parts(scene_path: Path) -> dict:
             "copy_in_us_per_triangle": 1e6 * copy / len(mesh.faces)}
 
 
+def copy_in_layouts(scene_path: Path, runs: int = 5) -> dict:
+    """Thread CPU seconds of embreex's copy-in of the scene's sphere for each array layout
+    it accepts, alternating, ``runs`` times: float32/int32, float64/int64 (what raytrace
+    passes), float64/int32, and indices as a 1-D object array of row lists (with the
+    seconds of making those lists apart)."""
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh
+
+    import raytrace
+
+    scene = raytrace.load_scene(scene_path)
+    mesh = next(o for o in scene.objects if isinstance(o, raytrace.Mesh) and len(o.faces) > 2)
+    v = np.ascontiguousarray(mesh.vertices - np.asarray(scene.camera.position))
+    f = mesh.faces
+    t0 = time.thread_time()
+    rows = np.empty(len(f), object)
+    rows[:] = f.tolist()
+    making_rows = time.thread_time() - t0
+    layouts = {"float32/int32": (v.astype(np.float32), f.astype(np.int32)),
+               "float64/int64": (v, f), "float64/int32": (v, f.astype(np.int32)),
+               "float64/object rows": (v, rows)}
+    out: dict = {k: [] for k in layouts}
+    for _ in range(runs):
+        for name, (vv, ff) in layouts.items():
+            es = rtcore_scene.EmbreeScene()
+            t0 = time.thread_time()
+            TriangleMesh(es, vv, ff)
+            out[name].append(time.thread_time() - t0)
+    return {"triangles": len(f), "copy_in_thread_cpu": out,
+            "making_object_rows_thread_cpu": making_rows}
+
+
 def run(workdir: Path, threads: int, quick: bool = False) -> list[dict]:
     """One row per (size, format): the fresh process's numbers and the in-process parts."""
     from bench import render_cli
@@ -140,7 +173,18 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--quick", action="store_true", help="1.3k and 5k triangles at 160x160")
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--json", help="also write the rows to this JSON file")
+    p.add_argument("--layouts", type=int, nargs="?", const=8, metavar="SUBDIVISIONS",
+                   help="only time embreex's copy-in per array layout (icosphere 8: 1.3 M "
+                        "triangles)")
     a = p.parse_args(argv)
+    if a.layouts is not None:
+        with tempfile.TemporaryDirectory(prefix="raytrace-meshes-") as tmp:
+            r = copy_in_layouts(write_sphere(Path(tmp), a.layouts, ".ply"))
+        for name, secs in r["copy_in_thread_cpu"].items():
+            print(f"{name:20s} {', '.join(f'{x:.3f}' for x in secs)} s")
+        print(f"making the object rows (tolist): {r['making_object_rows_thread_cpu']:.3f} s; "
+              f"{r['triangles']} triangles, thread CPU seconds")
+        return 0
     with tempfile.TemporaryDirectory(prefix="raytrace-meshes-") as tmp:
         rows = run(Path(tmp), a.threads, a.quick)
     print(report(rows))

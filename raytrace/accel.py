@@ -127,8 +127,8 @@ class Accelerator:
             v = f64(m.vertices - self.origin)
             faces = i64(m.faces)
             # embreex copies element by element through Python indexing (EMBREEX_NOTES.md):
-            # float64 (numpy's float64 scalars are Python floats) copies ~5 % faster than
-            # float32, and its C cast rounds to the same float32 values as astype.
+            # float64 (numpy's float64 scalars are Python floats) copies a few per cent faster
+            # than float32, and its C cast rounds to the same float32 values as astype.
             TriangleMesh(self.embree, v, faces)
             s = slice(first, first + len(faces))
             ak.triangle_tables(v, faces, vertex_normals(v, faces), BAND_ULPS * 2.0**-23,
