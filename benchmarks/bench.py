@@ -46,7 +46,21 @@ Parts (``--parts``, comma-separated; default all):
     Both scenes at full size at ``--threads 1, 2, 4`` (1, 2 with ``--quick``): render seconds
     and speed-up over one thread, cold (a fresh ``raytrace render`` process, which pays numba's
     one-off set-up) and warm (a second render in this process), and whether each image is
-    bit-identical to the one-thread image.
+    bit-identical to the one-thread image; from the warm 1- and 2-thread times, the serial
+    fraction they imply and the speed-up it predicts on 16 cores (Amdahl, ``gil.amdahl``).
+``meshes``
+    Large meshes (``benchmarks/meshes.py``): the mesh scene with icospheres of 82 k to 5.2 M
+    triangles as binary PLY and OBJ, each rendered by a fresh ``raytrace render``: wall time,
+    peak memory, load, build and render seconds; reading with raytrace.meshio against
+    trimesh, Embree's copy-in against its BVH build.
+``mitsuba``
+    Mitsuba 3 (``llvm_ad_rgb``, ``direct`` integrator) as a second peer
+    (``benchmarks/mitsuba_peer.py``): the mesh scene's warm frame against raytrace's, in this
+    process; skipped with a note where Mitsuba or libLLVM is missing.
+``gil``
+    The share of a render's wall time spent holding the GIL at ``--threads`` and at one
+    thread, each scene, sampled by py-spy (``benchmarks/gil.py``); skipped with a note where
+    py-spy is missing.
 
 Prints one table per part and writes everything as JSON (``--json``, default
 ``benchmarks/results.json``). Other processes on the machine make timings noisy: the load
@@ -73,13 +87,17 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
 
+import gil  # noqa: E402
+import meshes  # noqa: E402
+import mitsuba_peer  # noqa: E402
 import povray  # noqa: E402
 
 import raytrace  # noqa: E402
 from raytrace import accel  # noqa: E402
 from raytrace.scene import Mesh, Plane, Sphere  # noqa: E402
 
-PARTS = ("throughput", "povray", "profile", "kernels", "scaling", "startup", "threads")
+PARTS = ("throughput", "povray", "profile", "kernels", "scaling", "startup", "threads",
+         "meshes", "mitsuba", "gil")
 WHITTED = ROOT / "scenes" / "whitted.toml"
 #: (width, height) of each benchmark scene, full and --quick.
 SIZES = {"mesh": (1000, 1000), "whitted": (1280, 960)}
@@ -315,8 +333,9 @@ def throughput(name: str, path: Path, size: tuple[int, int], threads: int, workd
     del rec
     # Warm: the same render again in this process (numba's kernels already loaded), BVH
     # build included, against raw Embree's BVH build + replay: the same work on both sides.
-    warm = min(raytrace.render(scene, width=w, height=h, threads=threads).stats["seconds"]
-               ["total"] for _ in range(max(3, repeat)))
+    warm_sec = min((raytrace.render(scene, width=w, height=h, threads=threads).stats["seconds"]
+                    for _ in range(max(3, repeat))), key=lambda sec: sec["total"])
+    warm = warm_sec["total"]
     raw_warm = raw["seconds"]["build"] + raw["seconds"]["trace"]
     sec = cli["seconds"]
     total = cli["rays"]["total"]
@@ -332,6 +351,9 @@ def throughput(name: str, path: Path, size: tuple[int, int], threads: int, workd
            "warm_seconds": warm, "warm_rays_per_second": total / warm,
            "raw_build_and_trace_seconds": raw_warm,
            "warm_ratio": raw_warm / warm,
+           # the BVH kept from render to render, as if: both builds left out
+           "warm_build_seconds": warm_sec["build"],
+           "warm_ratio_without_build": raw["seconds"]["trace"] / (warm - warm_sec["build"]),
            "rays_match": raw["rays"] == total and stats["rays"]["total"] == total,
            "command": cli["command"]}
     return row
@@ -605,7 +627,19 @@ def threads_part(files: dict[str, Path], workdir: Path, quick: bool, repeat: int
                         "warm_seconds": warm, "warm_speedup": warm_base / warm,
                         "identical": all(np.array_equal(x.view(np.uint32), ref.view(np.uint32))
                                          for x in (rgb, images[0].rgb))})
+            if t == 2:
+                out[-1].update(gil.amdahl(warm_base, warm))
     return out
+
+
+def gil_part(files: dict[str, Path], threads: int, quick: bool) -> list:
+    """Each scene's GIL share at ``threads`` threads and at one (``benchmarks/gil.py``)."""
+    missing = gil.available()
+    if missing:
+        return [{"missing": missing}]
+    sizes = QUICK_SIZES if quick else SIZES
+    return [gil.measure(path, *sizes[name], t, seconds=2.0 if quick else 6.0)
+            for name, path in files.items() for t in dict.fromkeys((threads, 1))]
 
 
 # -- reporting --------------------------------------------------------------------------------
@@ -701,6 +735,17 @@ def report(results: dict) -> str:
         out.append("threads (cold: a fresh process; warm: a second render in one process)\n"
                    + table(["scene", "pixels", "threads", "cold s", "speed-up", "warm s",
                             "speed-up", "identical"], rows))
+        for r in results["threads"]:
+            if "serial_fraction" in r:
+                out.append(f"Amdahl, {r['scene']} warm 1 -> 2 threads: {r['speedup_2']:.2f}x, "
+                           f"serial fraction {r['serial_fraction']:.1%}, predicts "
+                           f"{r['predicted_speedup_16']:.1f}x on 16 cores")
+    if results.get("meshes"):
+        out.append(meshes.report(results["meshes"]))
+    if results.get("mitsuba"):
+        out.append(mitsuba_peer.report(results["mitsuba"]))
+    if results.get("gil"):
+        out.append(gil.report(results["gil"]))
     return "\n\n".join(out)
 
 
@@ -770,6 +815,13 @@ def main(argv: list[str] | None = None) -> int:
             results["startup"] = startup(workdir, a.threads, runs=2 if a.quick else 3)
         if "threads" in parts:
             results["threads"] = threads_part(files, workdir, a.quick, a.repeat)
+        if "meshes" in parts:
+            results["meshes"] = meshes.run(workdir / "meshes", a.threads, a.quick)
+        if "mitsuba" in parts:
+            results["mitsuba"] = mitsuba_peer.compare(workdir / "mitsuba", a.threads, a.quick,
+                                                      max(3, a.repeat))
+        if "gil" in parts:
+            results["gil"] = gil_part(files, a.threads, a.quick)
     results["machine"]["load_average_end"] = os.getloadavg()
     Path(a.json).write_text(json.dumps(results, indent=2, default=float) + "\n")
     print(report(results))

@@ -1,0 +1,197 @@
+"""Large meshes: how load, build and render grow from 80 k to 5 M triangles (issue 14).
+
+    python3 benchmarks/meshes.py                 # 82k, 328k, 1.3M, 5.2M triangles (~2 min)
+    python3 benchmarks/meshes.py --quick         # 1.3k and 5k triangles: checks the harness
+    python3 benchmarks/meshes.py --layouts       # embreex's copy-in per array layout, 1.3 M
+    python3 benchmarks/bench.py --parts meshes   # the same, inside the benchmark's JSON
+
+Each size is the benchmark's mesh scene (:data:`bench.MESH_SCENE`: a smooth brass sphere on a
+2-triangle ground, one point light, 1000×1000, spp 1) with the sphere an icosphere of
+subdivision 6, 7, 8 or 9 (20·4ˢ triangles), written by trimesh into a temporary folder as
+binary PLY and, up to 1.3 M triangles, as OBJ. For each file:
+
+* a fresh ``raytrace render --stats`` process (``--threads``): its wall time, peak resident
+  memory and the ``--stats`` seconds (load, build, trace, shade, write);
+* in this process, on one thread, the parts of load and build: reading the file with
+  :func:`raytrace.meshio.read_mesh` against trimesh's ``load`` + ``merge_vertices`` (what
+  raytrace did before; process CPU seconds), and Embree's copy-in
+  (``embreex.mesh_construction.TriangleMesh``, this thread's CPU seconds: it holds the GIL)
+  against the BVH build (the first ``run``, wall seconds; Embree's own threads).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+#: Icosphere subdivisions: 81 920, 327 680, 1 310 720 and 5 242 880 triangles.
+SUBDIVISIONS = (6, 7, 8, 9)
+QUICK_SUBDIVISIONS = (3, 4)
+#: Largest subdivision also written as OBJ (a 5.2 M-triangle OBJ is 220 MB of text).
+MAX_OBJ_SUBDIVISION = 8
+
+
+def write_sphere(folder: Path, subdivisions: int, suffix: str) -> Path:
+    """The mesh scene with an icosphere of ``subdivisions`` as ``sphere<suffix>``."""
+    import trimesh
+    from bench import MESH_SCENE
+
+    folder.mkdir(parents=True, exist_ok=True)
+    mesh = folder / f"sphere{suffix}"
+    if not mesh.exists():
+        trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0).export(mesh)
+    scene = folder / f"mesh{suffix.replace('.', '_')}.toml"
+    scene.write_text(MESH_SCENE.replace('"sphere.ply"', f'"{mesh.name}"'))
+    return scene
+
+
+def load_parts(mesh: Path) -> dict:
+    """CPU seconds of reading ``mesh`` with raytrace.meshio and with trimesh (load +
+    merge_vertices, raytrace's reading before meshio)."""
+    import trimesh
+
+    from raytrace import meshio
+
+    t0 = time.process_time()
+    fast = meshio.read_mesh(mesh)
+    t1 = time.process_time()
+    loaded = trimesh.load(str(mesh), process=False)
+    loaded.merge_vertices(merge_tex=True, merge_norm=True)
+    t2 = time.process_time()
+    same = fast is not None and np.array_equal(fast[0], loaded.vertices) and np.array_equal(
+        fast[1], loaded.faces)
+    return {"meshio_cpu": t1 - t0, "trimesh_cpu": t2 - t1, "same_as_trimesh": bool(same)}
+
+
+def build_parts(scene_path: Path) -> dict:
+    """Embree's copy-in (this thread's CPU seconds) and BVH build (the first ``run``, wall
+    seconds) of the scene's sphere, as raytrace.accel hands it over."""
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh
+
+    import raytrace
+
+    scene = raytrace.load_scene(scene_path)
+    mesh = next(o for o in scene.objects if isinstance(o, raytrace.Mesh) and len(o.faces) > 2)
+    v = np.ascontiguousarray(mesh.vertices - np.asarray(scene.camera.position))
+    es = rtcore_scene.EmbreeScene()
+    t0 = time.thread_time()
+    TriangleMesh(es, v, mesh.faces)
+    copy = time.thread_time() - t0
+    t0 = time.perf_counter()
+    es.run(np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32), output=0)
+    bvh = time.perf_counter() - t0
+    return {"copy_in_thread_cpu": copy, "bvh_wall": bvh,
+            "copy_in_us_per_triangle": 1e6 * copy / len(mesh.faces)}
+
+
+def copy_in_layouts(scene_path: Path, runs: int = 5) -> dict:
+    """Thread CPU seconds of embreex's copy-in of the scene's sphere for each array layout
+    it accepts, alternating, ``runs`` times: float32/int32, float64/int64 (what raytrace
+    passes), float64/int32, and indices as a 1-D object array of row lists (with the
+    seconds of making those lists apart)."""
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh
+
+    import raytrace
+
+    scene = raytrace.load_scene(scene_path)
+    mesh = next(o for o in scene.objects if isinstance(o, raytrace.Mesh) and len(o.faces) > 2)
+    v = np.ascontiguousarray(mesh.vertices - np.asarray(scene.camera.position))
+    f = mesh.faces
+    t0 = time.thread_time()
+    rows = np.empty(len(f), object)
+    rows[:] = f.tolist()
+    making_rows = time.thread_time() - t0
+    layouts = {"float32/int32": (v.astype(np.float32), f.astype(np.int32)),
+               "float64/int64": (v, f), "float64/int32": (v, f.astype(np.int32)),
+               "float64/object rows": (v, rows)}
+    out: dict = {k: [] for k in layouts}
+    for _ in range(runs):
+        for name, (vv, ff) in layouts.items():
+            es = rtcore_scene.EmbreeScene()
+            t0 = time.thread_time()
+            TriangleMesh(es, vv, ff)
+            out[name].append(time.thread_time() - t0)
+    return {"triangles": len(f), "copy_in_thread_cpu": out,
+            "making_object_rows_thread_cpu": making_rows}
+
+
+def run(workdir: Path, threads: int, quick: bool = False) -> list[dict]:
+    """One row per (size, format): the fresh process's numbers and the in-process parts."""
+    from bench import render_cli
+
+    rows = []
+    for s in QUICK_SUBDIVISIONS if quick else SUBDIVISIONS:
+        for suffix in (".ply", ".obj"):
+            if suffix == ".obj" and s > MAX_OBJ_SUBDIVISION:
+                continue
+            folder = workdir / f"ico{s}"
+            scene = write_sphere(folder, s, suffix)
+            w = h = 160 if quick else 1000
+            cli = render_cli(scene, folder / "out.exr", w, h, threads)
+            row = {"subdivisions": s, "format": suffix[1:], "triangles": cli["triangles"],
+                   "width": w, "height": h, "threads": threads, "seconds": cli["seconds"],
+                   "peak_rss_mib": cli["peak_rss_mib"], "command": cli["command"],
+                   "file_mib": (folder / f"sphere{suffix}").stat().st_size / 2**20}
+            row.update(load_parts(folder / f"sphere{suffix}"))
+            row.update(build_parts(scene))
+            rows.append(row)
+            (folder / "out.exr").unlink(missing_ok=True)
+    return rows
+
+
+def report(rows: list[dict]) -> str:
+    from bench import _f, table
+
+    body = [[f"{r['triangles'] / 1e6:.2f}M", r["format"], _f(r["file_mib"], "{:.0f}"),
+             _f(r["seconds"]["process_wall"]), _f(r["seconds"]["load"]),
+             _f(r["seconds"]["build"]), _f(r["seconds"]["trace"] + r["seconds"]["shade"]),
+             _f(r["seconds"]["write"]), _f(r["peak_rss_mib"], "{:.0f}"),
+             _f(r["meshio_cpu"]), _f(r["trimesh_cpu"]), _f(r["copy_in_thread_cpu"]),
+             _f(r["bvh_wall"])] for r in rows]
+    size = f"{rows[0]['width']}x{rows[0]['height']}" if rows else ""
+    return (f"large meshes (a fresh `raytrace render` at {size}: wall and --stats seconds; "
+            "in-process: reading with meshio / trimesh (CPU s), Embree copy-in (CPU s, holds "
+            "the GIL) and BVH build (wall s))\n" + table(
+                ["triangles", "file", "MiB", "wall", "load", "build", "trace+shade", "write",
+                 "peak MiB", "meshio", "trimesh", "copy-in", "BVH"], body))
+
+
+def main(argv: list[str] | None = None) -> int:
+    import tempfile
+
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--quick", action="store_true", help="1.3k and 5k triangles at 160x160")
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--json", help="also write the rows to this JSON file")
+    p.add_argument("--layouts", type=int, nargs="?", const=8, metavar="SUBDIVISIONS",
+                   help="only time embreex's copy-in per array layout (icosphere 8: 1.3 M "
+                        "triangles)")
+    a = p.parse_args(argv)
+    if a.layouts is not None:
+        with tempfile.TemporaryDirectory(prefix="raytrace-meshes-") as tmp:
+            r = copy_in_layouts(write_sphere(Path(tmp), a.layouts, ".ply"))
+        for name, secs in r["copy_in_thread_cpu"].items():
+            print(f"{name:20s} {', '.join(f'{x:.3f}' for x in secs)} s")
+        print(f"making the object rows (tolist): {r['making_object_rows_thread_cpu']:.3f} s; "
+              f"{r['triangles']} triangles, thread CPU seconds")
+        return 0
+    with tempfile.TemporaryDirectory(prefix="raytrace-meshes-") as tmp:
+        rows = run(Path(tmp), a.threads, a.quick)
+    print(report(rows))
+    if a.json:
+        Path(a.json).write_text(json.dumps(rows, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,227 @@
+"""The fast mesh readers (raytrace/meshio.py) against trimesh on the same files: the same
+vertices in the same order, the same faces, the same per-corner texture coordinates and so
+the same vertex normals, as ``trimesh.load(process=False)`` + ``merge_vertices(merge_tex=True,
+merge_norm=True)`` give (what raytrace.Mesh read before); files it does not read go to
+trimesh; a malformed file is one error line naming the file and the line."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+import raytrace
+from raytrace import meshio
+from raytrace.accel import vertex_normals
+
+
+def trimesh_reference(path):
+    """What raytrace.Mesh took from trimesh before meshio: vertices, faces, texcoords."""
+    loaded = trimesh.load(str(path), process=False)
+    texcoords = None
+    uv = getattr(loaded.visual, "uv", None)
+    if uv is not None and len(uv) == len(loaded.vertices):
+        texcoords = np.asarray(uv, np.float64)[np.asarray(loaded.faces)] * [1, -1] + [0, 1]
+    loaded.merge_vertices(merge_tex=True, merge_norm=True)
+    return np.asarray(loaded.vertices, np.float64), np.asarray(loaded.faces), texcoords
+
+
+def assert_same_as_trimesh(path):
+    fast = meshio.read_mesh(path)
+    assert fast is not None, "meshio fell back to trimesh"
+    v, f, t = fast
+    rv, rf, rt = trimesh_reference(path)
+    assert v.dtype == np.float64 and f.dtype == np.int64
+    np.testing.assert_array_equal(v, rv)
+    np.testing.assert_array_equal(f, rf)
+    np.testing.assert_array_equal(vertex_normals(v, f), vertex_normals(rv, rf))
+    if rt is None:
+        assert t is None
+    else:
+        np.testing.assert_array_equal(t, rt)
+
+
+def knot() -> trimesh.Trimesh:
+    """A torus knot (trimesh's own generator) with a few hundred vertices and faces."""
+    return trimesh.creation.torus(major_radius=1.0, minor_radius=0.3, major_sections=24,
+                                  minor_sections=12)
+
+
+def soup(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh as unshared triangles (every vertex repeated per face, as STL writes), plus
+    two unreferenced vertices and a copy of vertex 0 off by 2e-9 (merged at 10⁻⁸)."""
+    v = mesh.vertices[mesh.faces].reshape(-1, 3)
+    v = np.vstack([v, [[7.0, 7.0, 7.0], [8.0, 8.0, 8.0]], v[:1] + 2e-9])
+    f = np.arange(len(mesh.faces) * 3).reshape(-1, 3)
+    f[5, 1] = len(v) - 1  # a corner on the near-duplicate
+    return v, f
+
+
+@pytest.mark.parametrize("encoding", ["binary_little_endian", "binary_big_endian"])
+def test_binary_ply_matches_trimesh(tmp_path, encoding):
+    m = knot()
+    path = tmp_path / "knot.ply"
+    path.write_bytes(trimesh.exchange.ply.export_ply(m, encoding="binary"))
+    if encoding == "binary_big_endian":  # rewrite the same numbers big-endian by hand
+        header = (f"ply\nformat binary_big_endian 1.0\nelement vertex {len(m.vertices)}\n"
+                  "property double x\nproperty double y\nproperty double z\n"
+                  f"element face {len(m.faces)}\nproperty list uchar int vertex_indices\n"
+                  "end_header\n").encode()
+        rec = np.zeros(len(m.faces), [("n", "u1"), ("i", ">i4", (3,))])
+        rec["n"], rec["i"] = 3, m.faces
+        path.write_bytes(header + m.vertices.astype(">f8").tobytes() + rec.tobytes())
+    assert_same_as_trimesh(path)
+
+
+def test_ply_soup_merges_as_trimesh_does(tmp_path):
+    v, f = soup(knot())
+    path = tmp_path / "soup.ply"
+    trimesh.Trimesh(v, f, process=False).export(path)
+    assert_same_as_trimesh(path)
+    got, faces, _ = meshio.read_mesh(path)
+    assert len(got) == len(knot().vertices)  # unreferenced dropped, duplicates merged
+
+
+@pytest.mark.parametrize("form", ["v", "v/vt", "v//vn", "v/vt/vn", "negative"])
+def test_obj_matches_trimesh(tmp_path, form):
+    m = knot()
+    uv = np.c_[np.linspace(0, 1, len(m.vertices)), np.linspace(1, 0, len(m.vertices)) ** 2]
+    normals = m.vertex_normals
+    lines = ["# a knot", "o knot", "g part", "s 1"]
+    lines += [f"v {x!r} {y!r} {z!r}" for x, y, z in m.vertices.tolist()]
+    if "vt" in form:
+        lines += [f"vt {s!r} {t!r}" for s, t in uv.tolist()]
+    if "vn" in form:
+        lines += [f"vn {x!r} {y!r} {z!r}" for x, y, z in normals.tolist()]
+    n = len(m.vertices)
+    for face in (m.faces + 1).tolist():
+        corner = {"v": "{i}", "v/vt": "{i}/{i}", "v//vn": "{i}//{i}",
+                  "v/vt/vn": "{i}/{i}/{i}", "negative": "{j}"}[form]
+        lines.append("f " + " ".join(corner.format(i=i, j=i - n - 1) for i in face))
+    path = tmp_path / "knot.obj"
+    path.write_text("\n".join(lines))  # no newline after the last line
+    assert_same_as_trimesh(path)
+
+
+def test_obj_soup_with_crlf_and_extra_blanks_matches_trimesh(tmp_path):
+    v, f = soup(knot())
+    text = "".join(f"v {x!r}  {y!r} {z!r}\r\n" for x, y, z in v.tolist())
+    text += "".join(f"f {a + 1} {b + 1}  {c + 1}  \r\n\r\n" for a, b, c in f.tolist())
+    path = tmp_path / "soup.obj"
+    path.write_text(text, newline="")
+    assert_same_as_trimesh(path)
+
+
+@pytest.mark.parametrize("name,text,readable", [
+    ("header.ply", "ply\nformat binary_little_endian 1.0\nelement vertex three\nend_header\n",
+     False),
+    ("ascii.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                  "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                  "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", True),
+    ("quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n", True),
+    ("material.obj", "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n", True),
+    ("colours.obj", "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nf 1 2 3\n", True),
+    # trimesh's own errors on these two stay as they were
+    ("comment.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0 # trailing\nf 1 2 3\n", False),
+    ("mixed.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/1 3\n", False),
+])
+def test_files_it_does_not_read_go_to_trimesh(tmp_path, name, text, readable):
+    path = tmp_path / name
+    path.write_text(text)
+    assert meshio.read_mesh(path) is None
+    if readable:  # and raytrace still reads them, through trimesh
+        assert len(raytrace.Mesh(file=path).faces) >= 1
+
+
+@pytest.mark.parametrize("text,message", [
+    ("v 0 0 0\nv 1 0 0\nv 0 1 x\nf 1 2 3\n", "line 3: v needs numbers, got 'v 0 1 x'"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1\nf 1 2 3\n", "line 3: v needs 3 numbers, got 2"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 3\nf 1 2 4\n", "line 6: vertex index 4 out of range 1..3"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n", "line 4: vertex index 0 out of range 1..3"),
+    ("v 0 0 0\nv 1 0 0\nv 0 nan 0\nf 1 2 3\n", "line 3: vertex is not finite"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\n", "holds no faces"),
+])
+def test_a_malformed_obj_is_one_line_naming_file_and_line(tmp_path, text, message):
+    path = tmp_path / "bad.obj"
+    path.write_text(text)
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.Mesh(file=path)
+    line = str(e.value)
+    assert "\n" not in line and str(path) in line and message in line
+    assert line.startswith("file: ")
+
+
+def test_a_truncated_or_out_of_range_ply_is_one_line(tmp_path):
+    m = knot()
+    good = trimesh.exchange.ply.export_ply(m, encoding="binary")
+    path = tmp_path / "cut.ply"
+    start = good.index(b"end_header\n") + len(b"end_header\n")
+    path.write_bytes(good[:start + 100])  # inside the vertices
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.Mesh(file=path)
+    assert str(e.value) == (f"file: cannot read mesh {path}: the file ends inside its vertex "
+                            f"element ({len(m.vertices)} expected)")
+    path.write_bytes(good[:-7])  # inside the faces: maybe faces of other sizes, so trimesh's
+    with pytest.raises(raytrace.SceneError) as e:  # reading says what it finds
+        raytrace.Mesh(file=path)
+    assert "\n" not in str(e.value) and str(e.value).startswith(f"file: cannot read mesh {path}")
+    bad = trimesh.Trimesh(m.vertices, np.where(m.faces == 5, len(m.vertices) + 2, m.faces),
+                          process=False)
+    path = tmp_path / "range.ply"
+    path.write_bytes(trimesh.exchange.ply.export_ply(bad, encoding="binary"))
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.Mesh(file=path)
+    first = int(np.argmax((m.faces == 5).any(axis=1)))
+    assert str(e.value) == (f"file: {path}: face {first + 1}: vertex index "
+                            f"{len(m.vertices) + 2} out of range 0..{len(m.vertices) - 1}")
+
+
+def test_merge_matches_trimesh_on_random_near_duplicates():
+    rng = np.random.default_rng(5)
+    base = rng.normal(size=(300, 3))
+    # exact repeats, repeats within the rounding, values on a rounding boundary
+    v = np.vstack([base, base[::3], base[::5] + 3e-9, np.round(base[:40], 8) + 0.5e-8])
+    f = rng.integers(0, len(v), size=(900, 3))
+    mesh = trimesh.Trimesh(v.copy(), f.copy(), process=False)
+    mesh.merge_vertices(merge_tex=True, merge_norm=True)
+    got_v, got_f = meshio.merge_vertices(v, f)
+    np.testing.assert_array_equal(got_v, mesh.vertices)
+    np.testing.assert_array_equal(got_f, mesh.faces)
+
+
+@pytest.mark.parametrize("scale", [1e-200, 1e-160, 1e-5, 1.0, 1e17])
+def test_nonzero_area_keeps_the_faces_cross_and_norm_keep(scale):
+    """raytrace.scene._nonzero_area drops exactly the faces np.cross + np.linalg.norm drop
+    (raytrace.Mesh's test before), underflow to zero area included."""
+    from raytrace.scene import _nonzero_area
+
+    rng = np.random.default_rng(7)
+    v = rng.normal(size=(2000, 3)) * scale
+    v[:100, 2] = 0.0  # flat and collinear corners
+    v[100:150] = v[150:200] * 2.0
+    f = rng.integers(0, 2000, size=(6000, 3))
+    f[:40, 1] = f[:40, 0]  # repeated corners
+    f[40:80] = rng.integers(0, 100, size=(40, 3))
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    with np.errstate(over="ignore", under="ignore"):
+        expected = np.linalg.norm(np.cross(b - a, c - a), axis=1) > 0
+    np.testing.assert_array_equal(_nonzero_area(v, f), expected)
+    assert 0 < expected.sum() < len(f) or scale < 1e-150  # both outcomes occur
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".obj"])
+def test_a_ply_or_obj_mesh_scene_never_imports_trimesh(tmp_path, suffix):
+    """Reading the file is meshio's: a scene of binary PLY or OBJ meshes loads without
+    trimesh's import (about 0.3 s of a fresh process)."""
+    import subprocess
+    import sys
+
+    mesh = tmp_path / f"knot{suffix}"
+    knot().export(mesh)
+    scene = tmp_path / "scene.toml"
+    scene.write_text(f'[[objects]]\ntype = "mesh"\nfile = "{mesh.name}"\nshading = "smooth"\n')
+    code = ("import sys, raytrace; s = raytrace.load_scene(sys.argv[1]); "
+            "print(len(s.objects[0].faces), 'trimesh' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code, str(scene)], capture_output=True,
+                         text=True, check=True).stdout.split()
+    assert out == [str(len(knot().faces)), "False"]
