@@ -27,7 +27,7 @@ import numpy as np
 
 from . import accel_kernels as ak  # the compiled passes of this stage
 from .analytic import NO_TMAX, AnalyticShapes, f64, i64
-from .core import FLAT, GOURAUD, SHADOW_SHORTEN, SMOOTH
+from .core import FAST_PHONG, FLAT, GOURAUD, SHADOW_SHORTEN, SMOOTH
 from .material import COLOR_KEYS
 from .rays import NO_SHAPE
 from .records import Hits, Surface, Triangles
@@ -40,7 +40,7 @@ BAND_ULPS = 3.0
 #: Most second passes of a query over the rays whose hits were float32 artefacts.
 MAX_RETRACES = 4
 
-SHADING_CODES = {"flat": FLAT, "smooth": SMOOTH, "gouraud": GOURAUD}
+SHADING_CODES = {"flat": FLAT, "smooth": SMOOTH, "gouraud": GOURAUD, "fast_phong": FAST_PHONG}
 __all__ = ["SHADOW_SHORTEN", "Accelerator", "Hits", "Surface", "spawn_origins",
            "vertex_normals"]
 #: Rows and advances of a first pass: every ray, from its origin.

@@ -13,10 +13,11 @@ guard does):
   reflection), :func:`fresnel1` and :func:`fresnel_weights1` (angle-dependent kr, kt);
 * surfaces: :func:`facing1` (the side a ray arrives on), :func:`leave1` (where a spawned ray
   starts), :func:`checker1` (the world-space checker of SCENE_FORMAT.md), :func:`texture1`
-  (a bilinear image texture, with :func:`wrap1`).
+  (a bilinear image texture, with :func:`wrap1`), :func:`taylor1` (a fast-Phong polynomial
+  at barycentrics, :mod:`raytrace.fast_phong`).
 
 Array versions for numpy callers and tests: :func:`checker_rows`, :func:`leave_rows`,
-:func:`texture_rows`.
+:func:`texture_rows`, :func:`taylor_rows`.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ M1, M2, M3 = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xBF58476D1CE4E5B9),
 _TWO = np.uint64(2)
 _S11, _S27, _S30, _S31 = np.uint64(11), np.uint64(27), np.uint64(30), np.uint64(31)
 #: Mesh shading codes (``raytrace.accel.SHADING_CODES``; ``Triangles.shading``).
-FLAT, SMOOTH, GOURAUD = 0, 1, 2
+FLAT, SMOOTH, GOURAUD, FAST_PHONG = 0, 1, 2, 3
 #: Shadow rays stop this relative fraction short of the light.
 SHADOW_SHORTEN = 1e-7
 #: Fresnel weighting codes (``raytrace.shading.FRESNEL_CODES``; ``Materials.fresnel``).
@@ -223,7 +224,26 @@ def texture1(texels, info, q, s, t):
             bilinear1(texels, info, q, s, t, 2))
 
 
+@kernel
+def taylor1(table, row, first, u, v):
+    """The second-order polynomial in columns ``first … first + 5`` of row ``row`` of
+    ``table`` at barycentrics (u, v): ``T₀ + du·(T₁ + T₃·du + T₄·dv) + dv·(T₂ + T₅·dv)`` with
+    ``du = u − ⅓``, ``dv = v − ⅓`` (Bishop & Weimer 1986's Taylor expansion about the
+    centroid, :mod:`raytrace.fast_phong`): five multiply-adds."""
+    du, dv = u - 1.0 / 3.0, v - 1.0 / 3.0
+    return table[row, first] + du * (table[row, first + 1] + table[row, first + 3] * du
+                                      + table[row, first + 4] * dv) + dv * (
+        table[row, first + 2] + table[row, first + 5] * dv)
+
+
 # -- array versions -------------------------------------------------------------------------
+@kernel
+def taylor_rows(table, rows, first, uv, out):
+    """:func:`taylor1` of row ``rows[i]`` at barycentrics ``uv[i]`` into ``out`` (n,)."""
+    for i in range(rows.shape[0]):
+        out[i] = taylor1(table, rows[i], first, uv[i, 0], uv[i, 1])
+
+
 @kernel
 def texture_rows(texels, info, st, out):
     """:func:`texture1` of texture 0 at each (s, t) row of ``st`` into ``out`` (n, 3)."""

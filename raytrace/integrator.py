@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import adaptive, filters, sampling
+from . import adaptive, fast_phong, filters, sampling
 from . import aov as aov_images
 from . import shading_kernels as sk  # the compiled passes of this stage
 from .accel import Accelerator, Hits, Surface
@@ -189,6 +189,8 @@ class WhittedIntegrator:
         self.jittered = any(em.jittered for em in self.emitters)
         #: What every shading kernel needs of the scene (:class:`raytrace.records.Scene`).
         self.tables = scene_record(self.origin, self.table, self.accel.triangles)
+        #: Each emitter's fast-Phong table (:mod:`raytrace.fast_phong`), or none (exact).
+        self.fast = fast_phong.tables(self.accel.triangles, self.table.highlight, self.emitters)
         self._lock = threading.Lock()
         self._renders = 0  # renders started: each counts its rays afresh
         self._stats_per_thread: list[Stats] = []
@@ -601,8 +603,9 @@ class WhittedIntegrator:
             w.keys[rays.sample] if w.keys is not None else global_samples(
                 rays.sample + w.first_sample, self.opt.width, self.opt.spp, self.trace_crop))
         for e, em in enumerate(self.emitters):
-            k = sk.light_pass(rays.record, surf, self.tables, em.record, key, rays.depth, term,
-                             shadow)
+            tables = self.tables if not len(self.fast[e]) else self.tables._replace(
+                fast=self.fast[e])
+            k = sk.light_pass(rays.record, surf, tables, em.record, key, rays.depth, term, shadow)
             if self.observer is not None:
                 self.observer.light(e, term, rows[:k])
             if k:

@@ -279,7 +279,7 @@ class Plane:
         self.normal = values.unit(self.normal, "normal")
 
 
-SHADINGS = ("flat", "smooth", "gouraud")
+SHADINGS = ("flat", "smooth", "gouraud", "fast_phong")
 #: ``material = "from_file"``: a mesh file's own materials (OBJ + MTL, glTF), per face.
 FROM_FILE = "from_file"
 
