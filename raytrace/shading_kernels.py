@@ -8,8 +8,8 @@ Two layers, in pipeline order:
   distance and ``f_radial·f_angular``, seed 000), ``cosine_power1`` / ``phong1`` /
   ``blinn1`` / ``direct1`` (the seeds' local model, Phong 1975, Blinn 1977), ``color1`` (a
   material's colour at a point), ``bulge1``, ``gouraud1`` and ``fast_phong1`` (Bishop &
-  Weimer 1986); the primitives they share with the other kernel modules (reflection, refraction, the spawn rule, the checker, the hashes)
-  are :mod:`raytrace.core`'s;
+  Weimer 1986); the primitives they share with the other kernel modules (reflection,
+  refraction, the spawn rule, the checker, the hashes) are :mod:`raytrace.core`'s;
 * **one batch at a time**, the passes the integrator makes over its hits, each composed of the
   functions above: ``light_pass`` (one emitter's unshadowed term at every hit, Gouraud's
   included, and the shadow rays of the hits it lights), ``add_unblocked`` (opaque shadows),
