@@ -5,9 +5,10 @@ Scalar functions compiled with :data:`raytrace.jit.kernel`, inlined into the ker
 (numba's cache would not notice an edit here from those modules; :mod:`raytrace.jit`'s cache
 guard does):
 
-* hashing: :func:`mix64` (SplitMix64's finalizer, Steele, Lea & Flood 2014) and the two draws
-  built on it, :func:`camera_uniform` (pixel-sample jitter) and :func:`light_uniform` (points
-  on jittered area-light cells);
+* hashing: :func:`finalize64` (SplitMix64's finalizer, Steele, Lea & Flood 2014),
+  :func:`mix64` and the two draws built on it, :func:`camera_uniform` (pixel-sample jitter)
+  and :func:`light_uniform` (points on jittered area-light cells), and :func:`path_key1` (a
+  secondary ray's own key for those points);
 * the camera: :func:`pixel_offset` (where a sample lies in its pixel);
 * optics: :func:`reflect3` (law of reflection), :func:`refract3` (Snell, with total internal
   reflection), :func:`fresnel1` and :func:`fresnel_weights1` (angle-dependent kr, kt);
@@ -17,7 +18,7 @@ guard does):
   at barycentrics, :mod:`raytrace.fast_phong`).
 
 Array versions for numpy callers and tests: :func:`checker_rows`, :func:`leave_rows`,
-:func:`texture_rows`, :func:`taylor_rows`.
+:func:`texture_rows`, :func:`taylor_rows`, :func:`path_keys`.
 """
 
 from __future__ import annotations
@@ -45,13 +46,34 @@ CHECKER_BIAS = 1e-4
 
 # -- hashing --------------------------------------------------------------------------------
 @kernel
-def mix64(z):
-    """SplitMix64's finalizer of a uint64 ``z``, as a uniform float in [0, 1): its top 53
-    bits (Steele, Lea & Flood, "Fast splittable pseudorandom number generators", 2014)."""
+def finalize64(z):
+    """SplitMix64's finalizer of a uint64 ``z`` (Steele, Lea & Flood, "Fast splittable
+    pseudorandom number generators", 2014): a bijection that mixes every input bit into
+    every output bit."""
     z = (z ^ (z >> _S30)) * M2
     z = (z ^ (z >> _S27)) * M3
-    z = z ^ (z >> _S31)
-    return float(z >> _S11) * 2.0**-53
+    return z ^ (z >> _S31)
+
+
+@kernel
+def mix64(z):
+    """:func:`finalize64` of a uint64 ``z`` as a uniform float in [0, 1): its top 53 bits."""
+    return float(finalize64(z) >> _S11) * 2.0**-53
+
+
+@kernel
+def path_key1(key, origin_bits, direction_bits):
+    """The jitter key of a secondary ray's hits: its camera sample's ``key`` (≥ 0) hashed
+    with the bit patterns (3-tuples of uint64) of the ray's origin and direction, which
+    tell apart the paths of one camera sample (a hit's reflected and refracted children
+    leave along different directions, its see-through child from another point), so each
+    path draws its own light points. A chain of :func:`finalize64` over the seven words;
+    the top 63 bits, so the key is ≥ 0 (an int64)."""
+    z = finalize64(np.uint64(key) * M1 + M3)
+    for w in (origin_bits[0], origin_bits[1], origin_bits[2], direction_bits[0],
+              direction_bits[1], direction_bits[2]):
+        z = finalize64((z ^ w) + M1)
+    return np.int64(z >> np.uint64(1))
 
 
 @kernel
@@ -63,7 +85,8 @@ def camera_uniform(seed, index, stream):
 
 @kernel
 def light_uniform(key, stream, index):
-    """A uniform float in [0, 1) for a shading point's ``key`` (its global camera sample), an
+    """A uniform float in [0, 1) for a shading point's ``key`` (its global camera sample, or
+    :func:`path_key1` of it for a secondary ray's), an
     area-light cell's ``stream`` and ``index`` (2·depth, 2·depth + 1): :func:`mix64` of
     ``key·M1 + stream·M3 + index·M2``."""
     return mix64(np.uint64(key) * M1 + np.uint64(stream) * M3 + np.uint64(index) * M2)
@@ -237,6 +260,16 @@ def taylor1(table, row, first, u, v):
 
 
 # -- array versions -------------------------------------------------------------------------
+@kernel
+def path_keys(key, origin_bits, direction_bits, out):
+    """:func:`path_key1` of each row: camera-sample keys ``key`` (n,), the rays' origins and
+    directions as uint64 bit patterns (n, 3) (float64 arrays viewed as uint64), into ``out``
+    (n,) int64."""
+    for i in range(key.shape[0]):
+        out[i] = path_key1(key[i], (origin_bits[i, 0], origin_bits[i, 1], origin_bits[i, 2]),
+                           (direction_bits[i, 0], direction_bits[i, 1], direction_bits[i, 2]))
+
+
 @kernel
 def taylor_rows(table, rows, first, uv, out):
     """:func:`taylor1` of row ``rows[i]`` at barycentrics ``uv[i]`` into ``out`` (n,)."""

@@ -44,7 +44,7 @@ from . import shading_kernels as sk  # the compiled passes of this stage
 from .accel import Accelerator, Hits, Surface
 from .camera import camera_columns, camera_rays, directions_at, global_samples, grid
 from .film import Image
-from .lights import NO_KEY, Emitter, emitters
+from .lights import NO_KEY, Emitter, emitters, path_keys
 from .material import Material
 from .rays import (
     KIND_NAMES,
@@ -597,11 +597,14 @@ class WhittedIntegrator:
         origin, direction = new("shadow_origin", n, 3), new("shadow_direction", n, 3)
         tmax, shape = new("shadow_tmax", n), new("shadow_shape", n, dtype=np.int64)
         shadow = Shadows(rows, origin, direction, tmax, shape)
-        # Jittered area lights draw a point per hit from its global camera sample and depth.
+        # Jittered area lights draw a point per hit from its global camera sample, depth and,
+        # below the camera rays, its path (core.path_key1).
         w = self._worker
         key = NO_KEY if not self.jittered else (
             w.keys[rays.sample] if w.keys is not None else global_samples(
                 rays.sample + w.first_sample, self.opt.width, self.opt.spp, self.trace_crop))
+        if len(key) and rays.depth > 0:  # each path of a sample its own points
+            key = path_keys(key, rays.origin, rays.direction)
         for e, em in enumerate(self.emitters):
             tables = self.tables if not len(self.fast[e]) else self.tables._replace(
                 fast=self.fast[e])

@@ -71,7 +71,8 @@ def incidence1(p, em, key, depth):
     area-light cell (stream ≥ 0) is sampled at ``position + (ξ₁ − ½)·u + (ξ₂ − ½)·v``,
     ξ = :func:`raytrace.core.light_uniform` of (``key``, stream, 2·depth and 2·depth + 1): a
     point of its own
-    for each shading point (``key`` ≥ 0, the hit's camera sample) and depth; with ``key`` <
+    for each shading point (``key`` ≥ 0: the hit's camera sample, for a secondary ray hashed
+    with its path, :func:`raytrace.core.path_key1`) and depth; with ``key`` <
     0, at the cell centre. Seed 000:
     ``f_radial = 1/(a0 + a1·d + a2·d²)`` (0 where that is not finite, and at the light itself,
     where L is undefined; L stays a unit vector however near or far the light); a spot
