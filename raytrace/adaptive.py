@@ -63,50 +63,60 @@ def positions(i: np.ndarray, j: np.ndarray, width: int, depth: int,
 
 
 class Lattice:
-    """The lattice points of one pass traced so far: ids sorted, with their radiance."""
+    """The lattice points of one pass traced so far, with their radiance: a dense table of
+    slots over the pass's window (``(rows·2^D + 1)·(cols·2^D + 1)`` int64, −1 where not yet
+    traced), so that looking up or adding points is an index, not a search."""
 
-    def __init__(self, width: int, depth: int, seed: int, trace: Tracer):
+    def __init__(self, window: tuple[int, int, int, int], width: int, depth: int, seed: int,
+                 trace: Tracer):
+        x0, y0, x1, y1 = window
         self.width, self.depth, self.seed, self.trace = width, depth, seed, trace
-        self.ids = np.zeros(0, np.int64)
+        top = 1 << depth
+        self.i0, self.j0, self.stride = x0 * top, y0 * top, (x1 - x0) * top + 1
+        self.slot = np.full(((y1 - y0) * top + 1) * self.stride, -1, np.int64)
         self.values = np.zeros((0, 3))
         self.traced = 0
 
-    def add(self, i: np.ndarray, j: np.ndarray) -> None:
-        """Trace, as one batch, the points (i, j) not traced yet (duplicates once)."""
-        ids = lattice_ids(i, j, self.width, self.depth)
-        ids, first = np.unique(ids, return_index=True)
-        new = ~self.has(ids)
-        i, j = np.asarray(i)[first[new]], np.asarray(j)[first[new]]
-        if not len(i):
-            return
-        x, y, ids = positions(i, j, self.width, self.depth, self.seed)
-        values = self.trace(x, y, ids)
-        self.traced += len(ids)
-        all_ids = np.concatenate([self.ids, ids])
-        order = np.argsort(all_ids, kind="stable")
-        self.ids, self.values = all_ids[order], np.concatenate([self.values, values])[order]
+    def _local(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        return (np.asarray(j, np.int64) - self.j0) * self.stride + (np.asarray(i, np.int64)
+                                                                    - self.i0)
 
-    def has(self, ids: np.ndarray) -> np.ndarray:
-        """Whether each id is traced."""
-        at = np.minimum(np.searchsorted(self.ids, ids), max(len(self.ids) - 1, 0))
-        return (self.ids[at] == ids) if len(self.ids) else np.zeros(len(ids), bool)
+    def add(self, i: np.ndarray, j: np.ndarray) -> None:
+        """Trace, as one batch, the points (i, j) not traced yet (duplicates once: the
+        first of each, in the order given)."""
+        i, j = np.asarray(i, np.int64), np.asarray(j, np.int64)
+        local = self._local(i, j)
+        new = np.flatnonzero(self.slot[local] < 0)
+        order = np.arange(len(new))
+        self.slot[local[new[::-1]]] = order[::-1]  # the first occurrence's number wins
+        first = new[self.slot[local[new]] == order]
+        if not len(first):
+            return
+        x, y, ids = positions(i[first], j[first], self.width, self.depth, self.seed)
+        values = self.trace(x, y, ids)
+        self.slot[local[first]] = len(self.values) + np.arange(len(first))
+        self.values = np.concatenate([self.values, values])
+        self.traced += len(first)
 
     def __call__(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
         """Radiance (n, 3) of traced points (i, j)."""
-        return self.values[np.searchsorted(self.ids, lattice_ids(i, j, self.width, self.depth))]
+        return self.values[self.slot[self._local(i, j)]]
 
 
 def refine(window: tuple[int, int, int, int], width: int, depth: int, threshold: float,
-           seed: int, trace: Tracer) -> tuple[np.ndarray, np.ndarray, int]:
+           seed: int, trace: Tracer, first: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
     """The pixels of ``window`` = (x0, y0, x1, y1) of a ``width``-wide frame by adaptive
     refinement (module docstring): ``(pixels (n, 3) float64 in row order, level (n,) int8 the
     deepest level each pixel was cut to, samples traced)``. ``trace`` shades a batch of
     points (:data:`Tracer`); it is called once per level with every point that level needs.
+    The first ``first`` levels (at most ``depth``) cut every cell, whatever its corners: with
+    1, every pixel starts as 2×2 cells (POV-Ray's ``+AM2`` judges its sub-samples the same
+    way), so detail between a pixel's corners is seen.
     """
     x0, y0, x1, y1 = window
     cols, rows = x1 - x0, y1 - y0
     top = 1 << depth
-    lattice = Lattice(width, depth, seed, trace)
+    lattice = Lattice(window, width, depth, seed, trace)
     ci, cj = np.meshgrid(np.arange(x0, x1 + 1) * top, np.arange(y0, y1 + 1) * top)
     lattice.add(ci.ravel(), cj.ravel())  # level 0: every pixel corner, once
     pixel = np.arange(cols * rows)
@@ -119,7 +129,8 @@ def refine(window: tuple[int, int, int, int], width: int, depth: int, threshold:
         c = [lattice(ci + a, cj + b) for a, b in ((0, 0), (s, 0), (0, s), (s, s))]
         spread = (np.maximum(np.maximum(c[0], c[1]), np.maximum(c[2], c[3]))
                   - np.minimum(np.minimum(c[0], c[1]), np.minimum(c[2], c[3]))).max(axis=1)
-        cut = (spread >= threshold) if level < depth else np.zeros(len(ci), bool)
+        cut = ((spread >= threshold) | (level < first)) if level < depth else np.zeros(
+            len(ci), bool)
         keep = ~cut
         mean = (c[0][keep] + c[1][keep] + c[2][keep] + c[3][keep]) * 0.25
         np.add.at(out, pixel[keep], mean * 0.25**level)  # in cell order: one fixed sum

@@ -270,7 +270,7 @@ class WhittedIntegrator:
             self._stats_per_thread = []
         cols, rows = self.size
         if opt.aa == "adaptive":  # passes of whole rows, counted in rows
-            total, per_pass = rows, max(1, self.pass_size // (cols + 1))
+            total, per_pass = rows, self._adaptive_rows(cols, rows)
         else:
             total, per_pass = cols * rows * opt.spp, self.pass_size
         passes = [(a, min(a + per_pass, total)) for a in range(0, total, per_pass)]
@@ -304,6 +304,17 @@ class WhittedIntegrator:
         seconds = time.perf_counter() - t_start + self.build_seconds
         return Image(rgb, self._stats(nonfinite, first, seconds, t_passes),
                      self._metadata(nonfinite), aovs, opt.crop, (opt.width, opt.height))
+
+    def _adaptive_rows(self, cols: int, rows: int) -> int:
+        """Rows per pass of adaptive anti-aliasing: the fewest passes of at most
+        ``pass_samples`` corners (a level's batches are cut to that size anyway), rounded up
+        to a multiple of the threads and cut evenly. Each level of a pass is a few batches
+        through the integrator whatever its size, so few large passes cost the least Python
+        per sample; any cut gives the same image (a pass traces its own corner rows)."""
+        threads = max(1, min(self.opt.threads, rows))
+        count = max(-(-rows * (cols + 1) // self.opt.pass_samples), threads)
+        count = -(-count // threads) * threads
+        return -(-rows // count)
 
     @property
     def window_size(self) -> tuple[int, int]:
@@ -395,7 +406,7 @@ class WhittedIntegrator:
         x0, y0, x1, _ = self.window
         values, _, _ = adaptive.refine((x0, y0 + start, x1, y0 + stop), opt.width,
                                        opt.aa_depth, opt.aa_threshold, opt.seed,
-                                       self.trace_points)
+                                       self.trace_points, opt.aa_min_depth)
         with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
             pixels[start * (x1 - x0):stop * (x1 - x0)] = values
 
@@ -437,7 +448,8 @@ class WhittedIntegrator:
     def _trace_batch(self, rays: RayBatch, n: int, samples: np.ndarray) -> None:
         """Trace camera ``rays`` of ``n`` samples and their descendants, depth by depth, into
         ``samples`` (n, 3), in chunks of at most a pass (:meth:`trace_samples`)."""
-        per_pass = self.pass_size
+        # an adaptive level's points are single samples: batches of the whole pass size
+        per_pass = self.opt.pass_samples if self.opt.aa == "adaptive" else self.pass_size
         pending = [rays]
         while pending:
             rays = pending.pop()
@@ -685,6 +697,7 @@ class WhittedIntegrator:
             **({"aovs": list(opt.aovs)} if opt.aovs else {}),
             **({"filter": opt.filter} if opt.filter != "box" else {}),
             **({"aa": {"mode": "adaptive", "threshold": opt.aa_threshold, "depth": opt.aa_depth,
+                       "min_depth": opt.aa_min_depth,
                        "samples_per_pixel": rays["camera"] / (opt.width * opt.height
                                                               if not opt.crop else
                                                               self.size[0] * self.size[1])}}
@@ -699,7 +712,8 @@ class WhittedIntegrator:
                 "renderer": "raytrace (Whitted, Embree)",
                 **({"crop": " ".join(map(str, opt.crop))} if opt.crop else {}),
                 **({"filter": opt.filter} if opt.filter != "box" else {}),
-                **({"aa": f"adaptive threshold {opt.aa_threshold} depth {opt.aa_depth}"}
+                **({"aa": f"adaptive threshold {opt.aa_threshold} depth {opt.aa_depth}"
+                          + (f" min_depth {opt.aa_min_depth}" if opt.aa_min_depth else "")}
                    if opt.aa == "adaptive" else {})}
 
 
