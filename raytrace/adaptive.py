@@ -22,11 +22,13 @@ level, parents' order), so an image does not depend on threads, passes or crops.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
 
 from .camera import hash_uniform
+from .jit import kernel
 
 #: ``trace(x, y, ids)``: radiance (n, 3) float64 of the samples at image positions ``x, y``
 #: (pixels, (n,) float64 each) with lattice ``ids`` (n,) int64.
@@ -103,6 +105,50 @@ class Lattice:
         return self.values[self.slot[self._local(i, j)]]
 
 
+@kernel
+def judge_cells(slot, values, origin, cells, rule, out, cut):
+    """One level of :func:`refine` over its cells, in cell order: each cell's four corners
+    (top-left lattice point (ci, cj), side ``s``) looked up through the pass's ``slot``
+    table (``origin`` = (stride, i0, j0)) in ``values`` (n, 3); ``cut[k]`` where the cell is
+    cut: not at the last level, and every cell of a level before the first judged one, or
+    its corners' spread ``max_c (max − min)`` ≥ ``threshold`` (never where a corner is NaN:
+    the spread is NaN); an uncut cell adds ``¼(c₀ + c₁ + c₂ + c₃)·weight`` to its pixel's
+    row of ``out``, one cell after another (the fixed order of the pixel's sum). ``cells`` =
+    (ci, cj, pixel), ``rule`` = (s, threshold, everywhere, last, weight). Returns the number
+    cut."""
+    stride, i0, j0 = origin
+    ci, cj, pixel = cells
+    s, threshold, everywhere, last, weight = rule
+    n = 0
+    for k in range(ci.shape[0]):
+        i, j = ci[k] - i0, cj[k] - j0
+        r0, r1 = slot[j * stride + i], slot[j * stride + i + s]
+        r2, r3 = slot[(j + s) * stride + i], slot[(j + s) * stride + i + s]
+        split = False
+        if not last:
+            if everywhere:
+                split = True
+            else:
+                finite, spread = True, -math.inf
+                for c in range(3):
+                    a, b, e, f = values[r0, c], values[r1, c], values[r2, c], values[r3, c]
+                    d = max(max(a, b), max(e, f)) - min(min(a, b), min(e, f))
+                    if a != a or b != b or e != e or f != f or d != d:
+                        finite = False
+                    elif d > spread:
+                        spread = d
+                split = finite and spread >= threshold
+        cut[k] = split
+        if split:
+            n += 1
+            continue
+        p = pixel[k]
+        for c in range(3):
+            mean = (values[r0, c] + values[r1, c] + values[r2, c] + values[r3, c]) * 0.25
+            out[p, c] += mean * weight
+    return n
+
+
 def refine(window: tuple[int, int, int, int], width: int, depth: int, threshold: float,
            seed: int, trace: Tracer, first: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
     """The pixels of ``window`` = (x0, y0, x1, y1) of a ``width``-wide frame by adaptive
@@ -126,15 +172,10 @@ def refine(window: tuple[int, int, int, int], width: int, depth: int, threshold:
     deepest = np.zeros(cols * rows, np.int8)
     for level in range(depth + 1):
         s = top >> level
-        c = [lattice(ci + a, cj + b) for a, b in ((0, 0), (s, 0), (0, s), (s, s))]
-        spread = (np.maximum(np.maximum(c[0], c[1]), np.maximum(c[2], c[3]))
-                  - np.minimum(np.minimum(c[0], c[1]), np.minimum(c[2], c[3]))).max(axis=1)
-        cut = ((spread >= threshold) | (level < first)) if level < depth else np.zeros(
-            len(ci), bool)
-        keep = ~cut
-        mean = (c[0][keep] + c[1][keep] + c[2][keep] + c[3][keep]) * 0.25
-        np.add.at(out, pixel[keep], mean * 0.25**level)  # in cell order: one fixed sum
-        if not cut.any():
+        cut = np.empty(len(ci), bool)
+        if not judge_cells(lattice.slot, lattice.values, (lattice.stride, lattice.i0, lattice.j0),
+                           (ci, cj, pixel), (s, float(threshold), level < first,
+                                             level == depth, 0.25**level), out, cut):
             break
         ci, cj, pixel, h = ci[cut], cj[cut], pixel[cut], s >> 1
         deepest[pixel] = level + 1
