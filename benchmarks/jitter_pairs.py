@@ -1,0 +1,52 @@
+"""Grid against jittered area-light samples at equal spp, CPU seconds in alternation.
+
+    python3 benchmarks/jitter_pairs.py --rounds 5
+
+scenes/area_light.toml with 16 light samples on the grid and jittered, 120×90, 16 spp, one
+thread: the best of ``--rounds`` rounds of ``time.process_time`` per render, the two renders
+alternating in each round (docs/knobs.md#what-jitter-is-for-jitter--spp).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import time
+from pathlib import Path
+
+import raytrace
+from raytrace.scene import AreaLight
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--rounds", type=int, default=5)
+    p.add_argument("--spp", type=int, default=16)
+    a = p.parse_args()
+    scene = raytrace.load_scene(ROOT / "scenes" / "area_light.toml")
+
+    def variant(jitter: bool) -> raytrace.Scene:
+        return dataclasses.replace(scene, lights=[
+            dataclasses.replace(light, samples=16, jitter=jitter)
+            if isinstance(light, AreaLight) else light for light in scene.lights])
+
+    scenes = {"grid": variant(False), "jitter": variant(True)}
+    for s in scenes.values():
+        raytrace.render(s, width=16, height=12, threads=1)  # warm-up
+    best = dict.fromkeys(scenes, float("inf"))
+    load = os.getloadavg()[0]
+    for _ in range(a.rounds):
+        for name, s in scenes.items():
+            t0 = time.process_time()
+            raytrace.render(s, width=120, height=90, spp=a.spp, threads=1)
+            best[name] = min(best[name], time.process_time() - t0)
+    ratio = best["jitter"] / best["grid"]
+    print(f"load average {load:.1f}; CPU s: "
+          + ", ".join(f"{k} {v:.3f}" for k, v in best.items()) + f"; jitter/grid {ratio:.2f}")
+
+
+if __name__ == "__main__":
+    main()
