@@ -49,6 +49,7 @@ import os
 import platform
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -61,7 +62,8 @@ ROOT = HERE.parent
 import raytrace  # noqa: E402
 from raytrace.scene import AreaLight, Scene  # noqa: E402
 
-SCENES = {name: ROOT / "scenes" / f"{name}.toml" for name in ("area_light", "whitted", "tir")}
+SCENES = {name: ROOT / "scenes" / f"{name}.toml"
+          for name in ("area_light", "whitted", "tir", "mesh_model")}
 RAY_KINDS = ("camera", "shadow", "reflection", "refraction", "see_through", "total")
 
 #: The full sweep. Sizes keep the whole run to a few minutes on two cores.
@@ -400,6 +402,140 @@ def sweep_jitter_spp(scene: Scene, samples: int, values: Sequence[int], size: tu
     return out
 
 
+#: ``--aa``: adaptive against uniform stratified anti-aliasing (issue 16's study).
+AA = {"scenes": ("whitted", "mesh_model"), "size": (640, 480), "reference": (1024, 12345),
+      "uniform": [1, 4, 16, 64],
+      "adaptive": [(0.1, 2, 0), (0.05, 2, 0), (0.02, 3, 0), (0.1, 2, 1), (0.05, 2, 1),
+                   (0.1, 3, 1), (0.05, 3, 1), (0.02, 3, 1), (0.01, 3, 1)],
+      "repeats": 2}
+AA_QUICK = {"scenes": ("whitted",), "size": (32, 24), "reference": (16, 12345),
+            "uniform": [1, 4], "adaptive": [(0.05, 2, 0), (0.05, 2, 1)], "repeats": 1}
+
+
+def aa_reference(scene: Scene, size: tuple[int, int], spp: int, seed: int, threads: int,
+                 cache: Path) -> tuple[np.ndarray, float | None]:
+    """The reference of the AA study: ``spp`` uniform samples with another ``seed``, read from
+    ``cache`` (an EXR named after the scene, size, spp and seed) or rendered and written
+    there; returns the image and the seconds it took (None when read)."""
+    path = cache / f"{Path(scene.path).stem}_{size[0]}x{size[1]}_{spp}spp_seed{seed}.exr"
+    if path.exists():
+        return raytrace.read_exr(path)[0], None
+    t0 = time.perf_counter()
+    image = raytrace.render(scene, width=size[0], height=size[1], spp=spp, seed=seed,
+                            threads=threads)
+    seconds = time.perf_counter() - t0
+    cache.mkdir(parents=True, exist_ok=True)
+    image.save(path)
+    return image.rgb, seconds
+
+
+def sweep_aa(scene: Scene, config: dict, threads: int, cache: Path) -> dict:
+    """Uniform stratified spp against adaptive (threshold, depth, min depth) on ``scene``:
+    per setting the best wall and CPU seconds (``time.process_time``: every thread's, far less
+    sensitive than wall time to other processes on a shared machine) of ``repeats`` rounds,
+    each round rendering every setting once in turn, the camera samples traced per pixel,
+    RMSE and mean HDR-FLIP (:mod:`raytrace.metrics`) against :func:`aa_reference`."""
+    from raytrace.metrics import METRICS
+
+    w, h = config["size"]
+    ref, ref_seconds = aa_reference(scene, (w, h), *config["reference"], threads, cache)
+    flip = METRICS["flip"].function
+    runs = [(f"uniform {s} spp", "uniform", dict(spp=s)) for s in config["uniform"]]
+    runs += [(f"adaptive t {t} d {d}" + (f" min {m}" if m else ""), "adaptive",
+              dict(aa="adaptive", aa_threshold=t, aa_depth=d, aa_min_depth=m))
+             for t, d, m in config["adaptive"]]
+    rows = [{"label": label, "mode": mode, "settings": settings, "seconds": float("inf"),
+             "cpu_seconds": float("inf")} for label, mode, settings in runs]
+    for _ in range(config["repeats"]):  # rounds: every setting once, in turn
+        for row in rows:
+            c0, t0 = time.process_time(), time.perf_counter()
+            image = raytrace.render(scene, width=w, height=h, threads=threads,
+                                    **row["settings"])
+            row["seconds"] = min(row["seconds"], time.perf_counter() - t0)
+            row["cpu_seconds"] = min(row["cpu_seconds"], time.process_time() - c0)
+            row.update(samples_per_pixel=image.stats["rays"]["camera"] / (w * h),
+                       rays=_rays(image), rmse=rmse(image.rgb, ref),
+                       flip=float(flip(image.rgb, ref)))
+    return {"scene": _name(scene), "size": [w, h],
+            "reference": {"spp": config["reference"][0], "seed": config["reference"][1],
+                          "seconds": ref_seconds}, "rows": rows}
+
+
+def run_aa(config: dict, threads: int, cache: Path, log: Callable[[str], None] = print) -> dict:
+    """The AA study on each of ``config["scenes"]``; returns the JSON document."""
+    scenes = {name: load(name) for name in config["scenes"]}
+    started = time.perf_counter()
+    result = {"machine": machine(threads), "load_average_start": list(os.getloadavg()),
+              "warm_up_seconds": warm_up(list(scenes.values()), threads), "aa": {}}
+    for name, scene in scenes.items():
+        log(f"aa {name} ...")
+        result["aa"][name] = sweep_aa(scene, config, threads, cache)
+    result["total_seconds"] = time.perf_counter() - started
+    result["load_average_end"] = list(os.getloadavg())
+    return result
+
+
+def report_aa(result: dict) -> str:
+    """The AA study's tables as Markdown, one per scene."""
+    out = []
+    for a in result["aa"].values():
+        out.append(f"### {Path(a['scene']).name} at {a['size'][0]}×{a['size'][1]}, reference "
+                   f"{a['reference']['spp']} spp (seed {a['reference']['seed']})")
+        out.append(table(["setting", "CPU seconds", "wall seconds", "samples/px", "rays",
+                          "RMSE", "FLIP"],
+                         [[r["label"], f"{r['cpu_seconds']:.2f}", f"{r['seconds']:.2f}",
+                           f"{r['samples_per_pixel']:.2f}",
+                           f"{r['rays']['total']:,}", _g(r["rmse"]), f"{r['flip']:.4f}"]
+                          for r in a["rows"]]))
+    return "\n\n".join(out)
+
+
+def plot_aa(result: dict, folder: Path) -> list[Path]:
+    """One PNG per scene, ``aa_<scene>.png``: RMSE and FLIP against seconds, log-log, uniform
+    and adaptive (by min depth) as series, each point labelled. matplotlib imported here."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name, a in result["aa"].items():
+        fig, axes = plt.subplots(1, 2, figsize=(11, 5))
+        groups = [("uniform stratified", [r for r in a["rows"] if r["mode"] == "uniform"]),
+                  ("adaptive, min depth 0", [r for r in a["rows"] if r["mode"] == "adaptive"
+                                             and not r["settings"]["aa_min_depth"]]),
+                  ("adaptive, min depth 1", [r for r in a["rows"] if r["mode"] == "adaptive"
+                                             and r["settings"]["aa_min_depth"]])]
+        for ax, key, ylabel in zip(axes, ("rmse", "flip"), ("RMSE (linear RGB)", "mean FLIP"),
+                                   strict=True):
+            for (label, rows), fmt in zip(groups, ("o-", "s", "^"), strict=True):
+                if not rows:
+                    continue
+                ax.plot([r["cpu_seconds"] for r in rows], [r[key] for r in rows], fmt,
+                        label=label)
+                for r in rows:
+                    text = (f"{r['settings']['spp']}" if r["mode"] == "uniform" else
+                            f"{r['settings']['aa_threshold']:g}/{r['settings']['aa_depth']}")
+                    ax.annotate(text, (r["cpu_seconds"], r[key]), textcoords="offset points",
+                                xytext=(4, 4), fontsize=7)
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            ax.set_xlabel(f"render CPU seconds ({result['machine']['threads']} threads, all "
+                          "threads' time)")
+            ax.set_ylabel(ylabel)
+            ax.grid(True, which="both", alpha=0.3)
+            ax.legend(fontsize=8)
+        fig.suptitle(f"{name} {a['size'][0]}×{a['size'][1]} against {a['reference']['spp']} "
+                     "spp (labels: spp, or threshold/depth)", fontsize=10)
+        fig.tight_layout()
+        path = folder / f"aa_{name}.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths.append(path)
+    return paths
+
+
 # -- the whole run -------------------------------------------------------------------------------
 def run(config: dict, threads: int, log: Callable[[str], None] = print) -> dict:
     """Every sweep of ``config`` (:data:`FULL` or :data:`QUICK`); returns the JSON document."""
@@ -717,7 +853,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                    help="folder for one PNG per knob (needs matplotlib)")
     p.add_argument("--from-json", type=Path, default=None, metavar="JSON",
                    help="measure nothing: print the tables and draw the plots of an earlier run")
+    p.add_argument("--aa", action="store_true",
+                   help="only the adaptive-vs-uniform study (JSON default benchmarks/aa.json)")
+    p.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "raytrace-knobs",
+                   help="where the AA study keeps its reference EXRs")
     args = p.parse_args(argv)
+    if args.aa:
+        return main_aa(args)
     config = QUICK if args.quick else FULL
 
     def log(msg: str) -> None:
@@ -740,6 +882,28 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.plots is not None:
         for path in plot(result, args.plots):
             log(f"wrote {path}")
+    return 0
+
+
+def main_aa(args: argparse.Namespace) -> int:
+    """``--aa``: the adaptive-vs-uniform study alone, its own JSON and plots."""
+    path = args.json if args.json != HERE / "knobs.json" else HERE / "aa.json"
+    if args.from_json is not None:
+        result = json.loads(args.from_json.read_text())
+    else:
+        print(f"load average {os.getloadavg()}, {args.threads} threads", file=sys.stderr)
+        result = run_aa(AA_QUICK if args.quick else AA, args.threads, args.cache,
+                        lambda m: print(m, file=sys.stderr, flush=True))
+        result["command"] = "python3 benchmarks/knobs.py --aa" + (" --quick" if args.quick
+                                                                    else "")
+    print(report_aa(result))
+    print(f"\ntotal {result['total_seconds']:.1f} s; load average start "
+          f"{result['load_average_start']}, end {result['load_average_end']}")
+    if args.from_json is None:
+        path.write_text(json.dumps(result, indent=1) + "\n")
+    if args.plots is not None:
+        for p in plot_aa(result, args.plots):
+            print(f"wrote {p}", file=sys.stderr)
     return 0
 
 

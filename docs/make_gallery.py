@@ -4,11 +4,12 @@
 
 One script, so that the pictures always match the code: run it after any change that alters a
 picture. Each scene is rendered ``WIDTH`` pixels wide (the height keeps the scene's aspect
-ratio) with ``SPP`` stratified samples per pixel, and saved as an sRGB PNG preview (clip tone
-map, exposure 0) of the linear render. The page shows each picture with the scene's own header
-comment, the command that renders it at full size, and deterministic numbers from the render
-(size, ray counts); timings are left out because they change from run to run and machine to
-machine (docs/performance.md holds measured ones).
+ratio) with the recommended final-quality settings ``SETTINGS`` (docs/knobs.md#adaptive-or-
+uniform-anti-aliasing), and saved as an sRGB PNG preview (clip tone map, exposure 0) of the
+linear render. The page shows each picture with the scene's own header comment, the command
+that renders it at full size, deterministic numbers from the render (size, ray counts) and
+the render's wall seconds on this run (with the load average, since other processes change
+them).
 """
 
 from __future__ import annotations
@@ -29,7 +30,9 @@ SCENES = ROOT / "scenes"
 OUT = ROOT / "docs" / "gallery"
 PAGE = ROOT / "docs" / "gallery.md"
 WIDTH = 400
-SPP = 4  # a 2×2 stratified grid per pixel: enough to smooth the edges of a preview
+#: The recommended settings for final images (docs/knobs.md): uniform stratified samples.
+SETTINGS = {"spp": 16}
+SETTINGS_TEXT = "16 samples per pixel (a 4×4 stratified grid, box filter)"
 #: Scenes shown first, in this order; the rest follow alphabetically.
 FIRST = ("whitted", "cornell_box", "materials_showcase")
 
@@ -86,7 +89,9 @@ def render_one(path: Path, threads: int) -> tuple[raytrace.Scene, dict]:
     """Render one scene file to docs/gallery/<name>.png; the scene and the render stats."""
     scene = raytrace.load_scene(path)
     w, h = size_for(scene)
-    image = raytrace.render(scene, width=w, height=h, spp=SPP, threads=threads)
+    t0 = time.perf_counter()
+    image = raytrace.render(scene, width=w, height=h, threads=threads, **SETTINGS)
+    image.stats["wall"] = time.perf_counter() - t0
     if image.stats["nonfinite_pixels"]:
         raise RuntimeError(f"{path.name}: {image.stats['nonfinite_pixels']} non-finite pixels")
     OUT.mkdir(parents=True, exist_ok=True)
@@ -129,7 +134,8 @@ def section(path: Path, stats: dict, scene: raytrace.Scene) -> list[str]:
         + ")"
         + (f"; {stats['triangles']:,} triangles" if stats.get("triangles") else "")
         + (f"; {stats['total_internal_reflections']:,} total internal reflections"
-           if stats.get("total_internal_reflections") else "") + ".",
+           if stats.get("total_internal_reflections") else "")
+        + f"; rendered in {stats['wall']:.1f} s.",
         "",
     ]
     if path.stem == "materials_showcase":
@@ -152,11 +158,14 @@ def main() -> int:
         "* The text under each picture is the scene file's own header comment: the file is "
         "the worked example to copy (the format: [scene_format.md](scene_format.md); the "
         "shading model: [shading.md](shading.md)).",
-        f"* Each picture is {WIDTH} pixels wide with {SPP} samples per pixel (a 2×2 stratified "
-        "grid), an sRGB preview of the linear render (clipped at 1, no exposure change); "
-        "the full size is given beside each command.",
-        "* The ray counts under each picture are exact and deterministic; timings are in "
-        "[performance.md](performance.md).",
+        f"* Each picture is {WIDTH} pixels wide with {SETTINGS_TEXT}, the recommended "
+        "final-quality setting ([knobs.md](knobs.md#adaptive-or-uniform-anti-aliasing)), an "
+        "sRGB preview of the linear render (clipped at 1, no exposure change); the full size "
+        "is given beside each command.",
+        "* The ray counts under each picture are exact and deterministic. The whole gallery "
+        "rendered in {total} s of wall time on {threads} threads (load average {load} from "
+        "other processes at the start; each picture's seconds are under it; measured "
+        "performance: [performance.md](performance.md)).",
         "",
         "This page and its pictures are written by [`docs/make_gallery.py`](make_gallery.py); "
         "regenerate them after any change that alters a picture:",
@@ -166,6 +175,7 @@ def main() -> int:
         "```",
         "",
     ]
+    load = os.getloadavg()[0]
     total = time.perf_counter()
     for path in files:
         t0 = time.perf_counter()
@@ -173,7 +183,11 @@ def main() -> int:
         print(f"{path.stem:24s} {stats['width']}x{stats['height']}  "
               f"{time.perf_counter() - t0:6.1f} s  {stats['rays']['total']:>10,} rays")
         page += section(path, stats, scene)
-    PAGE.write_text("\n".join(page).rstrip() + "\n", encoding="utf-8")
+    seconds = time.perf_counter() - total
+    text = "\n".join(page).rstrip() + "\n"
+    text = text.replace("{total}", f"{seconds:.0f}").replace("{threads}", str(threads)).replace(
+        "{load}", f"{load:.1f}")
+    PAGE.write_text(text, encoding="utf-8")
     print(f"wrote {len(files)} pictures to {OUT.relative_to(ROOT)}/ and "
           f"{PAGE.relative_to(ROOT)} in {time.perf_counter() - total:.1f} s")
     return 0

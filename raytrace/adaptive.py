@@ -22,11 +22,13 @@ level, parents' order), so an image does not depend on threads, passes or crops.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
 
 from .camera import hash_uniform
+from .jit import kernel
 
 #: ``trace(x, y, ids)``: radiance (n, 3) float64 of the samples at image positions ``x, y``
 #: (pixels, (n,) float64 each) with lattice ``ids`` (n,) int64.
@@ -63,50 +65,104 @@ def positions(i: np.ndarray, j: np.ndarray, width: int, depth: int,
 
 
 class Lattice:
-    """The lattice points of one pass traced so far: ids sorted, with their radiance."""
+    """The lattice points of one pass traced so far, with their radiance: a dense table of
+    slots over the pass's window (``(rows·2^D + 1)·(cols·2^D + 1)`` int64, −1 where not yet
+    traced), so that looking up or adding points is an index, not a search."""
 
-    def __init__(self, width: int, depth: int, seed: int, trace: Tracer):
+    def __init__(self, window: tuple[int, int, int, int], width: int, depth: int, seed: int,
+                 trace: Tracer):
+        x0, y0, x1, y1 = window
         self.width, self.depth, self.seed, self.trace = width, depth, seed, trace
-        self.ids = np.zeros(0, np.int64)
+        top = 1 << depth
+        self.i0, self.j0, self.stride = x0 * top, y0 * top, (x1 - x0) * top + 1
+        self.slot = np.full(((y1 - y0) * top + 1) * self.stride, -1, np.int64)
         self.values = np.zeros((0, 3))
         self.traced = 0
 
-    def add(self, i: np.ndarray, j: np.ndarray) -> None:
-        """Trace, as one batch, the points (i, j) not traced yet (duplicates once)."""
-        ids = lattice_ids(i, j, self.width, self.depth)
-        ids, first = np.unique(ids, return_index=True)
-        new = ~self.has(ids)
-        i, j = np.asarray(i)[first[new]], np.asarray(j)[first[new]]
-        if not len(i):
-            return
-        x, y, ids = positions(i, j, self.width, self.depth, self.seed)
-        values = self.trace(x, y, ids)
-        self.traced += len(ids)
-        all_ids = np.concatenate([self.ids, ids])
-        order = np.argsort(all_ids, kind="stable")
-        self.ids, self.values = all_ids[order], np.concatenate([self.values, values])[order]
+    def _local(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        return (np.asarray(j, np.int64) - self.j0) * self.stride + (np.asarray(i, np.int64)
+                                                                    - self.i0)
 
-    def has(self, ids: np.ndarray) -> np.ndarray:
-        """Whether each id is traced."""
-        at = np.minimum(np.searchsorted(self.ids, ids), max(len(self.ids) - 1, 0))
-        return (self.ids[at] == ids) if len(self.ids) else np.zeros(len(ids), bool)
+    def add(self, i: np.ndarray, j: np.ndarray) -> None:
+        """Trace, as one batch, the points (i, j) not traced yet (duplicates once: the
+        first of each, in the order given)."""
+        i, j = np.asarray(i, np.int64), np.asarray(j, np.int64)
+        local = self._local(i, j)
+        new = np.flatnonzero(self.slot[local] < 0)
+        order = np.arange(len(new))
+        self.slot[local[new[::-1]]] = order[::-1]  # the first occurrence's number wins
+        first = new[self.slot[local[new]] == order]
+        if not len(first):
+            return
+        x, y, ids = positions(i[first], j[first], self.width, self.depth, self.seed)
+        values = self.trace(x, y, ids)
+        self.slot[local[first]] = len(self.values) + np.arange(len(first))
+        self.values = np.concatenate([self.values, values])
+        self.traced += len(first)
 
     def __call__(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
         """Radiance (n, 3) of traced points (i, j)."""
-        return self.values[np.searchsorted(self.ids, lattice_ids(i, j, self.width, self.depth))]
+        return self.values[self.slot[self._local(i, j)]]
+
+
+@kernel
+def judge_cells(slot, values, origin, cells, rule, out, cut):
+    """One level of :func:`refine` over its cells, in cell order: each cell's four corners
+    (top-left lattice point (ci, cj), side ``s``) looked up through the pass's ``slot``
+    table (``origin`` = (stride, i0, j0)) in ``values`` (n, 3); ``cut[k]`` where the cell is
+    cut: not at the last level, and every cell of a level before the first judged one, or
+    its corners' spread ``max_c (max − min)`` ≥ ``threshold`` (never where a corner is NaN:
+    the spread is NaN); an uncut cell adds ``¼(c₀ + c₁ + c₂ + c₃)·weight`` to its pixel's
+    row of ``out``, one cell after another (the fixed order of the pixel's sum). ``cells`` =
+    (ci, cj, pixel), ``rule`` = (s, threshold, everywhere, last, weight). Returns the number
+    cut."""
+    stride, i0, j0 = origin
+    ci, cj, pixel = cells
+    s, threshold, everywhere, last, weight = rule
+    n = 0
+    for k in range(ci.shape[0]):
+        i, j = ci[k] - i0, cj[k] - j0
+        r0, r1 = slot[j * stride + i], slot[j * stride + i + s]
+        r2, r3 = slot[(j + s) * stride + i], slot[(j + s) * stride + i + s]
+        split = False
+        if not last:
+            if everywhere:
+                split = True
+            else:
+                finite, spread = True, -math.inf
+                for c in range(3):
+                    a, b, e, f = values[r0, c], values[r1, c], values[r2, c], values[r3, c]
+                    d = max(max(a, b), max(e, f)) - min(min(a, b), min(e, f))
+                    if a != a or b != b or e != e or f != f or d != d:
+                        finite = False
+                    elif d > spread:
+                        spread = d
+                split = finite and spread >= threshold
+        cut[k] = split
+        if split:
+            n += 1
+            continue
+        p = pixel[k]
+        for c in range(3):
+            mean = (values[r0, c] + values[r1, c] + values[r2, c] + values[r3, c]) * 0.25
+            out[p, c] += mean * weight
+    return n
 
 
 def refine(window: tuple[int, int, int, int], width: int, depth: int, threshold: float,
-           seed: int, trace: Tracer) -> tuple[np.ndarray, np.ndarray, int]:
+           seed: int, trace: Tracer, first: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
     """The pixels of ``window`` = (x0, y0, x1, y1) of a ``width``-wide frame by adaptive
     refinement (module docstring): ``(pixels (n, 3) float64 in row order, level (n,) int8 the
     deepest level each pixel was cut to, samples traced)``. ``trace`` shades a batch of
     points (:data:`Tracer`); it is called once per level with every point that level needs.
+    The first ``first`` levels (at most ``depth``) cut every cell, whatever its corners: with
+    1, every pixel starts as 2×2 cells (POV-Ray's ``+AM2`` judges its sub-samples the same
+    way), so detail between a pixel's corners is seen.
     """
     x0, y0, x1, y1 = window
     cols, rows = x1 - x0, y1 - y0
     top = 1 << depth
-    lattice = Lattice(width, depth, seed, trace)
+    lattice = Lattice(window, width, depth, seed, trace)
     ci, cj = np.meshgrid(np.arange(x0, x1 + 1) * top, np.arange(y0, y1 + 1) * top)
     lattice.add(ci.ravel(), cj.ravel())  # level 0: every pixel corner, once
     pixel = np.arange(cols * rows)
@@ -116,14 +172,10 @@ def refine(window: tuple[int, int, int, int], width: int, depth: int, threshold:
     deepest = np.zeros(cols * rows, np.int8)
     for level in range(depth + 1):
         s = top >> level
-        c = [lattice(ci + a, cj + b) for a, b in ((0, 0), (s, 0), (0, s), (s, s))]
-        spread = (np.maximum(np.maximum(c[0], c[1]), np.maximum(c[2], c[3]))
-                  - np.minimum(np.minimum(c[0], c[1]), np.minimum(c[2], c[3]))).max(axis=1)
-        cut = (spread >= threshold) if level < depth else np.zeros(len(ci), bool)
-        keep = ~cut
-        mean = (c[0][keep] + c[1][keep] + c[2][keep] + c[3][keep]) * 0.25
-        np.add.at(out, pixel[keep], mean * 0.25**level)  # in cell order: one fixed sum
-        if not cut.any():
+        cut = np.empty(len(ci), bool)
+        if not judge_cells(lattice.slot, lattice.values, (lattice.stride, lattice.i0, lattice.j0),
+                           (ci, cj, pixel), (s, float(threshold), level < first,
+                                             level == depth, 0.25**level), out, cut):
             break
         ci, cj, pixel, h = ci[cut], cj[cut], pixel[cut], s >> 1
         deepest[pixel] = level + 1

@@ -7,6 +7,7 @@
                           [--quiet] [--aov depth,normal,albedo,id] [--crop X0 Y0 X1 Y1]
                           [--filter box|tent|gaussian|mitchell]
                           [--aa uniform|adaptive] [--aa-threshold T] [--aa-depth D]
+                          [--aa-min-depth M]
                           [--frames LIST [--overwrite]] [--workers N | --scheduler ADDRESS
                           [--tls-ca-file CA --tls-cert CERT --tls-key KEY]] [--tile PIXELS]
     raytrace explain SCENE --pixel X Y [--sample S] [--json] [--width W] [--height H]
@@ -105,6 +106,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--aa-threshold", type=float,
                    help="adaptive: refine where corners differ by more than this")
     r.add_argument("--aa-depth", type=int, help="adaptive: most halvings of a pixel")
+    r.add_argument("--aa-min-depth", type=int,
+                   help="adaptive: halvings of every pixel whatever its corners (default 0)")
     f = r.add_argument_group("sequences (docs/distributed.md)")
     f.add_argument("--frames", metavar="LIST",
                    help="render frames 1-24, 1..24 or 1,5,9-12: SCENE is a pattern of scene "
@@ -166,7 +169,8 @@ def _overrides(p: argparse.ArgumentParser) -> None:
 FLAGS = {"width": "--width", "height": "--height", "spp": "--spp", "max_depth": "--max-depth",
          "min_weight": "--min-weight", "seed": "--seed", "threads": "--threads",
          "crop": "--crop", "aovs": "--aov", "filter": "--filter", "aa": "--aa",
-         "aa_threshold": "--aa-threshold", "aa_depth": "--aa-depth", "tile": "--tile"}
+         "aa_threshold": "--aa-threshold", "aa_depth": "--aa-depth",
+         "aa_min_depth": "--aa-min-depth", "tile": "--tile"}
 
 
 def _flag_error(e: SceneError) -> SceneError:
@@ -297,7 +301,8 @@ def _render(args: argparse.Namespace) -> int:
     overrides = dict(width=args.width, height=args.height, spp=args.spp,
                      max_depth=args.max_depth, min_weight=args.min_weight, seed=args.seed,
                      threads=args.threads, crop=args.crop, aovs=aovs, filter=args.filter,
-                     aa=args.aa, aa_threshold=args.aa_threshold, aa_depth=args.aa_depth)
+                     aa=args.aa, aa_threshold=args.aa_threshold, aa_depth=args.aa_depth,
+                     aa_min_depth=args.aa_min_depth)
     try:
         o = render_options(scene, **overrides)
         x0, y0, x1, y1 = o.crop or (0, 0, o.width, o.height)
@@ -378,7 +383,8 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
     overrides = {"width": args.width, "height": args.height, "spp": args.spp,
                  "max_depth": args.max_depth, "min_weight": args.min_weight, "seed": args.seed,
                  "threads": args.threads, "aovs": aovs, "filter": args.filter, "aa": args.aa,
-                 "aa_threshold": args.aa_threshold, "aa_depth": args.aa_depth}
+                 "aa_threshold": args.aa_threshold, "aa_depth": args.aa_depth,
+                 "aa_min_depth": args.aa_min_depth}
     try:  # the flags' values, found now (the crop is checked against each frame's size)
         render_options(Scene(), **overrides)
     except SceneError as e:

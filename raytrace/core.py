@@ -5,18 +5,20 @@ Scalar functions compiled with :data:`raytrace.jit.kernel`, inlined into the ker
 (numba's cache would not notice an edit here from those modules; :mod:`raytrace.jit`'s cache
 guard does):
 
-* hashing: :func:`mix64` (SplitMix64's finalizer, Steele, Lea & Flood 2014) and the two draws
-  built on it, :func:`camera_uniform` (pixel-sample jitter) and :func:`light_uniform` (points
-  on jittered area-light cells);
+* hashing: :func:`finalize64` (SplitMix64's finalizer, Steele, Lea & Flood 2014),
+  :func:`mix64` and the two draws built on it, :func:`camera_uniform` (pixel-sample jitter)
+  and :func:`light_uniform` (points on jittered area-light cells), and :func:`path_key1` (a
+  secondary ray's own key for those points);
 * the camera: :func:`pixel_offset` (where a sample lies in its pixel);
 * optics: :func:`reflect3` (law of reflection), :func:`refract3` (Snell, with total internal
   reflection), :func:`fresnel1` and :func:`fresnel_weights1` (angle-dependent kr, kt);
 * surfaces: :func:`facing1` (the side a ray arrives on), :func:`leave1` (where a spawned ray
   starts), :func:`checker1` (the world-space checker of SCENE_FORMAT.md), :func:`texture1`
-  (a bilinear image texture, with :func:`wrap1`).
+  (a bilinear image texture, with :func:`wrap1`), :func:`taylor1` (a fast-Phong polynomial
+  at barycentrics, :mod:`raytrace.fast_phong`).
 
 Array versions for numpy callers and tests: :func:`checker_rows`, :func:`leave_rows`,
-:func:`texture_rows`.
+:func:`texture_rows`, :func:`taylor_rows`, :func:`path_keys`.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ M1, M2, M3 = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xBF58476D1CE4E5B9),
 _TWO = np.uint64(2)
 _S11, _S27, _S30, _S31 = np.uint64(11), np.uint64(27), np.uint64(30), np.uint64(31)
 #: Mesh shading codes (``raytrace.tables.SHADING_CODES``; ``Triangles.shading``).
-FLAT, SMOOTH, GOURAUD = 0, 1, 2
+FLAT, SMOOTH, GOURAUD, FAST_PHONG = 0, 1, 2, 3
 #: Shadow rays stop this relative fraction short of the light.
 SHADOW_SHORTEN = 1e-7
 #: Fresnel weighting codes (``raytrace.shading.FRESNEL_CODES``; ``Materials.fresnel``).
@@ -44,13 +46,34 @@ CHECKER_BIAS = 1e-4
 
 # -- hashing --------------------------------------------------------------------------------
 @kernel
-def mix64(z):
-    """SplitMix64's finalizer of a uint64 ``z``, as a uniform float in [0, 1): its top 53
-    bits (Steele, Lea & Flood, "Fast splittable pseudorandom number generators", 2014)."""
+def finalize64(z):
+    """SplitMix64's finalizer of a uint64 ``z`` (Steele, Lea & Flood, "Fast splittable
+    pseudorandom number generators", 2014): a bijection that mixes every input bit into
+    every output bit."""
     z = (z ^ (z >> _S30)) * M2
     z = (z ^ (z >> _S27)) * M3
-    z = z ^ (z >> _S31)
-    return float(z >> _S11) * 2.0**-53
+    return z ^ (z >> _S31)
+
+
+@kernel
+def mix64(z):
+    """:func:`finalize64` of a uint64 ``z`` as a uniform float in [0, 1): its top 53 bits."""
+    return float(finalize64(z) >> _S11) * 2.0**-53
+
+
+@kernel
+def path_key1(key, origin_bits, direction_bits):
+    """The jitter key of a secondary ray's hits: its camera sample's ``key`` (≥ 0) hashed
+    with the bit patterns (3-tuples of uint64) of the ray's origin and direction, which
+    tell apart the paths of one camera sample (a hit's reflected and refracted children
+    leave along different directions, its see-through child from another point), so each
+    path draws its own light points. A chain of :func:`finalize64` over the seven words;
+    the top 63 bits, so the key is ≥ 0 (an int64)."""
+    z = finalize64(np.uint64(key) * M1 + M3)
+    for w in (origin_bits[0], origin_bits[1], origin_bits[2], direction_bits[0],
+              direction_bits[1], direction_bits[2]):
+        z = finalize64((z ^ w) + M1)
+    return np.int64(z >> np.uint64(1))
 
 
 @kernel
@@ -62,7 +85,8 @@ def camera_uniform(seed, index, stream):
 
 @kernel
 def light_uniform(key, stream, index):
-    """A uniform float in [0, 1) for a shading point's ``key`` (its global camera sample), an
+    """A uniform float in [0, 1) for a shading point's ``key`` (its global camera sample, or
+    :func:`path_key1` of it for a secondary ray's), an
     area-light cell's ``stream`` and ``index`` (2·depth, 2·depth + 1): :func:`mix64` of
     ``key·M1 + stream·M3 + index·M2``."""
     return mix64(np.uint64(key) * M1 + np.uint64(stream) * M3 + np.uint64(index) * M2)
@@ -223,7 +247,36 @@ def texture1(texels, info, q, s, t):
             bilinear1(texels, info, q, s, t, 2))
 
 
+@kernel
+def taylor1(table, row, first, u, v):
+    """The second-order polynomial in columns ``first … first + 5`` of row ``row`` of
+    ``table`` at barycentrics (u, v): ``T₀ + du·(T₁ + T₃·du + T₄·dv) + dv·(T₂ + T₅·dv)`` with
+    ``du = u − ⅓``, ``dv = v − ⅓`` (Bishop & Weimer 1986's Taylor expansion about the
+    centroid, :mod:`raytrace.fast_phong`): five multiply-adds."""
+    du, dv = u - 1.0 / 3.0, v - 1.0 / 3.0
+    return table[row, first] + du * (table[row, first + 1] + table[row, first + 3] * du
+                                      + table[row, first + 4] * dv) + dv * (
+        table[row, first + 2] + table[row, first + 5] * dv)
+
+
 # -- array versions -------------------------------------------------------------------------
+@kernel
+def path_keys(key, origin_bits, direction_bits, out):
+    """:func:`path_key1` of each row: camera-sample keys ``key`` (n,), the rays' origins and
+    directions as uint64 bit patterns (n, 3) (float64 arrays viewed as uint64), into ``out``
+    (n,) int64."""
+    for i in range(key.shape[0]):
+        out[i] = path_key1(key[i], (origin_bits[i, 0], origin_bits[i, 1], origin_bits[i, 2]),
+                           (direction_bits[i, 0], direction_bits[i, 1], direction_bits[i, 2]))
+
+
+@kernel
+def taylor_rows(table, rows, first, uv, out):
+    """:func:`taylor1` of row ``rows[i]`` at barycentrics ``uv[i]`` into ``out`` (n,)."""
+    for i in range(rows.shape[0]):
+        out[i] = taylor1(table, rows[i], first, uv[i, 0], uv[i, 1])
+
+
 @kernel
 def texture_rows(texels, info, st, out):
     """:func:`texture1` of texture 0 at each (s, t) row of ``st`` into ``out`` (n, 3)."""

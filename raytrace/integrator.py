@@ -38,13 +38,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import adaptive, filters, sampling
+from . import adaptive, fast_phong, filters, sampling
 from . import aov as aov_images
 from . import shading_kernels as sk  # the compiled passes of this stage
 from .accel import Accelerator, Hits, Surface
 from .camera import camera_columns, camera_rays, directions_at, global_samples, grid
 from .film import Image
-from .lights import NO_KEY, Emitter, emitters
+from .lights import NO_KEY, Emitter, emitters, path_keys
 from .rays import (
     KIND_NAMES,
     REFLECTION,
@@ -185,6 +185,8 @@ class WhittedIntegrator:
         self.jittered = any(em.jittered for em in self.emitters)
         #: What every shading kernel needs of the scene (:class:`raytrace.records.Scene`).
         self.tables = self.arrays.record
+        #: Each emitter's fast-Phong table (:mod:`raytrace.fast_phong`), or none (exact).
+        self.fast = fast_phong.tables(self.arrays.triangles, self.table.highlight, self.emitters)
         self._lock = threading.Lock()
         self._renders = 0  # renders started: each counts its rays afresh
         self._stats_per_thread: list[Stats] = []
@@ -264,7 +266,7 @@ class WhittedIntegrator:
             self._stats_per_thread = []
         cols, rows = self.size
         if opt.aa == "adaptive":  # passes of whole rows, counted in rows
-            total, per_pass = rows, max(1, self.pass_size // (cols + 1))
+            total, per_pass = rows, self._adaptive_rows(cols, rows)
         else:
             total, per_pass = cols * rows * opt.spp, self.pass_size
         passes = [(a, min(a + per_pass, total)) for a in range(0, total, per_pass)]
@@ -298,6 +300,17 @@ class WhittedIntegrator:
         seconds = time.perf_counter() - t_start + self.build_seconds
         return Image(rgb, self._stats(nonfinite, first, seconds, t_passes),
                      self._metadata(nonfinite), aovs, opt.crop, (opt.width, opt.height))
+
+    def _adaptive_rows(self, cols: int, rows: int) -> int:
+        """Rows per pass of adaptive anti-aliasing: the fewest passes of at most
+        ``pass_samples`` corners (a level's batches are cut to that size anyway), rounded up
+        to a multiple of the threads and cut evenly. Each level of a pass is a few batches
+        through the integrator whatever its size, so few large passes cost the least Python
+        per sample; any cut gives the same image (a pass traces its own corner rows)."""
+        threads = max(1, min(self.opt.threads, rows))
+        count = max(-(-rows * (cols + 1) // self.opt.pass_samples), threads)
+        count = -(-count // threads) * threads
+        return -(-rows // count)
 
     @property
     def window_size(self) -> tuple[int, int]:
@@ -389,7 +402,7 @@ class WhittedIntegrator:
         x0, y0, x1, _ = self.window
         values, _, _ = adaptive.refine((x0, y0 + start, x1, y0 + stop), opt.width,
                                        opt.aa_depth, opt.aa_threshold, opt.seed,
-                                       self.trace_points)
+                                       self.trace_points, opt.aa_min_depth)
         with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
             pixels[start * (x1 - x0):stop * (x1 - x0)] = values
 
@@ -431,7 +444,8 @@ class WhittedIntegrator:
     def _trace_batch(self, rays: RayBatch, n: int, samples: np.ndarray) -> None:
         """Trace camera ``rays`` of ``n`` samples and their descendants, depth by depth, into
         ``samples`` (n, 3), in chunks of at most a pass (:meth:`trace_samples`)."""
-        per_pass = self.pass_size
+        # an adaptive level's points are single samples: batches of the whole pass size
+        per_pass = self.opt.pass_samples if self.opt.aa == "adaptive" else self.pass_size
         pending = [rays]
         while pending:
             rays = pending.pop()
@@ -591,14 +605,18 @@ class WhittedIntegrator:
         origin, direction = new("shadow_origin", n, 3), new("shadow_direction", n, 3)
         tmax, shape = new("shadow_tmax", n), new("shadow_shape", n, dtype=np.int64)
         shadow = Shadows(rows, origin, direction, tmax, shape)
-        # Jittered area lights draw a point per hit from its global camera sample and depth.
+        # Jittered area lights draw a point per hit from its global camera sample, depth and,
+        # below the camera rays, its path (core.path_key1).
         w = self._worker
         key = NO_KEY if not self.jittered else (
             w.keys[rays.sample] if w.keys is not None else global_samples(
                 rays.sample + w.first_sample, self.opt.width, self.opt.spp, self.trace_crop))
+        if len(key) and rays.depth > 0:  # each path of a sample its own points
+            key = path_keys(key, rays.origin, rays.direction)
         for e, em in enumerate(self.emitters):
-            k = sk.light_pass(rays.record, surf, self.tables, em.record, key, rays.depth, term,
-                             shadow)
+            tables = self.tables if not len(self.fast[e]) else self.tables._replace(
+                fast=self.fast[e])
+            k = sk.light_pass(rays.record, surf, tables, em.record, key, rays.depth, term, shadow)
             if self.observer is not None:
                 self.observer.light(e, term, rows[:k])
             if k:
@@ -675,6 +693,7 @@ class WhittedIntegrator:
             **({"aovs": list(opt.aovs)} if opt.aovs else {}),
             **({"filter": opt.filter} if opt.filter != "box" else {}),
             **({"aa": {"mode": "adaptive", "threshold": opt.aa_threshold, "depth": opt.aa_depth,
+                       "min_depth": opt.aa_min_depth,
                        "samples_per_pixel": rays["camera"] / (opt.width * opt.height
                                                               if not opt.crop else
                                                               self.size[0] * self.size[1])}}
@@ -689,7 +708,8 @@ class WhittedIntegrator:
                 "renderer": "raytrace (Whitted, Embree)",
                 **({"crop": " ".join(map(str, opt.crop))} if opt.crop else {}),
                 **({"filter": opt.filter} if opt.filter != "box" else {}),
-                **({"aa": f"adaptive threshold {opt.aa_threshold} depth {opt.aa_depth}"}
+                **({"aa": f"adaptive threshold {opt.aa_threshold} depth {opt.aa_depth}"
+                          + (f" min_depth {opt.aa_min_depth}" if opt.aa_min_depth else "")}
                    if opt.aa == "adaptive" else {})}
 
 

@@ -54,7 +54,8 @@ class Emitter:
 
         A point exactly at the light's position gets factor 0 (no direction is defined). A
         jittered area-light cell is taken at the point drawn for each ``key`` (n,) (the
-        global camera sample of the hit the point belongs to) and ``depth``, the point the
+        global camera sample of the hit the point belongs to, :func:`path_keys` of it below the
+        camera rays) and ``depth``, the point the
         integrator's shadow rays of that hit aim at; without ``key``, at the cell centre.
         (:func:`raytrace.shading_kernels.incidence_rows`.)
         """
@@ -88,6 +89,20 @@ class Emitter:
             zero if self.cell_u is None else self.cell_u,
             zero if self.cell_v is None else self.cell_v, [self.stream]]
         ).astype(np.float64).tolist())
+
+
+def path_keys(key: np.ndarray, origin: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """The jitter keys (n,) int64 of the hits of secondary rays: each ray's camera-sample
+    ``key`` (n,) hashed with its ``origin`` and ``direction`` (n, 3) float64
+    (:func:`raytrace.core.path_key1`), so that the children of one hit, and every path
+    of a camera sample, draw their own points on a jittered area light."""
+    from .core import path_keys as kernel
+
+    out = np.empty(len(key), np.int64)
+    kernel(np.ascontiguousarray(key, np.int64),
+           np.ascontiguousarray(origin, np.float64).view(np.uint64),
+           np.ascontiguousarray(direction, np.float64).view(np.uint64), out)
+    return out
 
 
 def cos_cutoff(degrees: float) -> float:

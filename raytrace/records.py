@@ -16,7 +16,7 @@ record              what it holds (n rays or hits, M materials, T triangles)
 :class:`Materials`  the material table (``raytrace.tables.MaterialTable.record``)
 :class:`Triangles`  the float64 triangle tables (``raytrace.tables.SceneArrays.triangles``)
 :class:`Scene`      what every shading kernel needs of the scene: camera position,
-                    materials, triangles
+                    materials, triangles (and a light pass's fast-Phong table)
 :class:`Emitter`    one point-like light sample, 19 floats (``raytrace.lights.Emitter.record``)
 :class:`Shadows`    the shadow rays a light pass spawns
 :class:`Children`   each hit's reflected, refracted and see-through children
@@ -111,7 +111,7 @@ class Triangles(NamedTuple):
     corners: np.ndarray     #: (T, 3, 3) camera-relative corners
     normal: np.ndarray      #: (T, 3) unit face normal (counter-clockwise winding)
     vnormals: np.ndarray    #: (T, 3, 3) unit vertex normals at the corners
-    shading: np.ndarray     #: (T,) int8 core.FLAT, SMOOTH or GOURAUD
+    shading: np.ndarray     #: (T,) int8 core.FLAT, SMOOTH, GOURAUD or FAST_PHONG
     material: np.ndarray    #: (T,) int64 row of the material table
     band: np.ndarray        #: (T,) float64 error band: the float32 rounding scale of the
                             #: corners (accel_kernels.triangle_tables)
@@ -125,6 +125,9 @@ class Scene(NamedTuple):
     origin: np.ndarray       #: (3,) the camera position: world = camera-relative + origin
     materials: Materials
     triangles: Triangles
+    #: (T, 12) the fast-Phong polynomials of the light of a light pass (directional, some
+    #: ``fast_phong`` mesh: ``raytrace.fast_phong.tables``); no rows: exact shading
+    fast: np.ndarray = np.zeros((0, 12))
 
 
 class Emitter(NamedTuple):

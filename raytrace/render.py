@@ -70,8 +70,8 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
            crop: Sequence[int] | None = None,
            aovs: str | Iterable[str] | None = None, filter: str | None = None,
            aa: str | None = None, aa_threshold: float | None = None,
-           aa_depth: int | None = None, client: Client | None = None,
-           tile: int | None = None) -> Image:
+           aa_depth: int | None = None, aa_min_depth: int | None = None,
+           client: Client | None = None, tile: int | None = None) -> Image:
     """Render ``scene``; keyword arguments override its ``[render]`` settings.
 
     Returns an :class:`Image` whose ``rgb`` is (height, width, 3) float32 linear RGB and whose
@@ -83,8 +83,9 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     ``--pixelbounds``): ``rgb`` is then (y1 − y0, x1 − x0, 3), bit-identical to that window
     of the full render. ``aovs``: names from :data:`raytrace.aov.AOVS` (depth, normal,
     albedo, id) to render besides the colour, read with ``Image.aov(name)``. ``filter``
-    (:data:`raytrace.sampling.FILTERS`), ``aa`` ("uniform" or "adaptive"), ``aa_threshold``
-    and ``aa_depth`` override the scene's ``[render]`` keys of the same names.
+    (:data:`raytrace.sampling.FILTERS`), ``aa`` ("uniform" or "adaptive"), ``aa_threshold``,
+    ``aa_depth`` and ``aa_min_depth`` override the scene's ``[render]`` keys of the same
+    names.
 
     Every argument is checked before any work (a SceneError, or a TypeError for a
     ``progress`` that is not callable), including the memory the image needs
@@ -108,7 +109,8 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     options = render_options(scene, width=width, height=height, spp=spp, max_depth=max_depth,
                              min_weight=min_weight, seed=seed, threads=threads,
                              pass_samples=pass_samples, crop=crop, aovs=aovs, filter=filter,
-                             aa=aa, aa_threshold=aa_threshold, aa_depth=aa_depth)
+                             aa=aa, aa_threshold=aa_threshold, aa_depth=aa_depth,
+                             aa_min_depth=aa_min_depth)
     x0, y0, x1, y1 = options.crop or (0, 0, options.width, options.height)
     try:
         check_memory(x1 - x0, y1 - y0)
@@ -146,7 +148,8 @@ def render_options(scene: Scene, *, width: int | None = None, height: int | None
                    crop: Sequence[int] | None = None,
                    aovs: str | Iterable[str] | None = None, filter: str | None = None,
                    aa: str | None = None, aa_threshold: float | None = None,
-                   aa_depth: int | None = None) -> RenderOptions:
+                   aa_depth: int | None = None,
+                   aa_min_depth: int | None = None) -> RenderOptions:
     """The integrator's options: the scene's ``[render]`` settings with the overrides that
     are not None, checked (a :class:`SceneError` locating a bad one in the scene's file)."""
     from .integrator import PASS_SAMPLES, RenderOptions
@@ -164,7 +167,8 @@ def render_options(scene: Scene, *, width: int | None = None, height: int | None
             background=r.background, seed=r.seed if seed is None else seed,
             filter=r.filter if filter is None else filter, aa=r.aa if aa is None else aa,
             aa_threshold=r.aa_threshold if aa_threshold is None else aa_threshold,
-            aa_depth=r.aa_depth if aa_depth is None else aa_depth)
+            aa_depth=r.aa_depth if aa_depth is None else aa_depth,
+            aa_min_depth=r.aa_min_depth if aa_min_depth is None else aa_min_depth)
         if threads is None:
             threads = os.cpu_count() or 1
         threads = values.number(threads, "threads", lo=1, hi=256, integer=True)

@@ -49,6 +49,9 @@ class RenderSettings:
     aa_threshold: float = 0.05
     #: Adaptive: the most times a pixel is halved (a 2^d × 2^d grid of cells at most).
     aa_depth: int = 2
+    #: Adaptive: the times every pixel is halved whatever its corners (1: each pixel starts
+    #: as 2×2 cells, so detail between its corners is seen); at most ``aa_depth``.
+    aa_min_depth: int = 0
 
     def __post_init__(self) -> None:
         self.width = values.number(self.width, "render.width", lo=1, hi=MAX_SIDE, integer=True)
@@ -68,6 +71,8 @@ class RenderSettings:
         self.aa_threshold = values.number(self.aa_threshold, "render.aa_threshold", lo=0)
         self.aa_depth = values.number(self.aa_depth, "render.aa_depth", lo=0, hi=8,
                                       integer=True)
+        self.aa_min_depth = values.number(self.aa_min_depth, "render.aa_min_depth", lo=0,
+                                          hi=self.aa_depth, integer=True)
         if self.aa == "adaptive" and self.filter != "box":
             raise SceneError(f"must be box with aa = \"adaptive\" (its pixels are the area "
                              f"average of their cells), got {self.filter!r}", "render.filter")
@@ -298,7 +303,7 @@ class Plane:
 SHAPE_TYPES = {"sphere": Sphere, "plane": Plane}
 
 
-SHADINGS = ("flat", "smooth", "gouraud")
+SHADINGS = ("flat", "smooth", "gouraud", "fast_phong")
 #: ``material = "from_file"``: a mesh file's own materials (OBJ + MTL, glTF), per face.
 FROM_FILE = "from_file"
 

@@ -27,7 +27,7 @@ from .scene import (
 
 TOP_KEYS = ("render", "camera", "ambient", "materials", "lights", "objects")
 RENDER_KEYS = ("width", "height", "spp", "max_depth", "min_weight", "background", "seed",
-               "filter", "aa", "aa_threshold", "aa_depth")
+               "filter", "aa", "aa_threshold", "aa_depth", "aa_min_depth")
 CAMERA_KEYS = ("position", "look_at", "up", "fov")
 
 

@@ -7,9 +7,9 @@ Two layers, in pipeline order:
 * **one ray at a time**, a function per formula, on scalars: ``incidence1`` (a light's L,
   distance and ``f_radial·f_angular``, seed 000), ``cosine_power1`` / ``phong1`` /
   ``blinn1`` / ``direct1`` (the seeds' local model, Phong 1975, Blinn 1977), ``color1`` (a
-  material's colour at a point), ``bulge1`` and ``gouraud1``; the primitives they share with
-  the other kernel modules (reflection, refraction, the spawn rule, the checker, the hashes)
-  are :mod:`raytrace.core`'s;
+  material's colour at a point), ``bulge1``, ``gouraud1`` and ``fast_phong1`` (Bishop &
+  Weimer 1986); the primitives they share with the other kernel modules (reflection,
+  refraction, the spawn rule, the checker, the hashes) are :mod:`raytrace.core`'s;
 * **one batch at a time**, the passes the integrator makes over its hits, each composed of the
   functions above: ``light_pass`` (one emitter's unshadowed term at every hit, Gouraud's
   included, and the shadow rays of the hits it lights), ``add_unblocked`` (opaque shadows),
@@ -34,6 +34,7 @@ import math
 import numpy as np
 
 from .core import (
+    FAST_PHONG,
     FLAT,
     GOURAUD,
     NO_FRESNEL,
@@ -46,6 +47,7 @@ from .core import (
     light_uniform,
     reflect3,
     refract3,
+    taylor1,
     texture1,
 )
 from .jit import kernel
@@ -69,7 +71,8 @@ def incidence1(p, em, key, depth):
     area-light cell (stream ≥ 0) is sampled at ``position + (ξ₁ − ½)·u + (ξ₂ − ½)·v``,
     ξ = :func:`raytrace.core.light_uniform` of (``key``, stream, 2·depth and 2·depth + 1): a
     point of its own
-    for each shading point (``key`` ≥ 0, the hit's camera sample) and depth; with ``key`` <
+    for each shading point (``key`` ≥ 0: the hit's camera sample, for a secondary ray hashed
+    with its path, :func:`raytrace.core.path_key1`) and depth; with ``key`` <
     0, at the cell centre. Seed 000:
     ``f_radial = 1/(a0 + a1·d + a2·d²)`` (0 where that is not finite, and at the light itself,
     where L is undefined; L stays a unit vector however near or far the light); a spot
@@ -283,6 +286,27 @@ def gouraud1(hit, eye, smooth, light, kd, ks, n, model):
 
 
 @kernel
+def fast_phong1(table, tri, hit, kd, ks, n, model):
+    """Bishop & Weimer's fast Phong shading (1986) at barycentrics (u, v) of triangle ``tri``
+    seen from side ``s`` (``hit`` = (u, v, s)): ``kd·D + ks·max(S, 0)ⁿ`` with D and S the
+    diffuse and specular Taylor polynomials of row ``tri`` of ``table``
+    (:mod:`raytrace.fast_phong`, :func:`raytrace.core.taylor1`) in place of ``N̂·L`` and
+    ``N̂·H`` (``model`` BLINN) or ``V·R`` (PHONG); all zero where ``D <= 0``, as
+    :func:`direct1`. The side turns N: it negates D and ``N̂·H``, and ``V·R`` is even in N."""
+    u, v, s = hit
+    ndl = s * taylor1(table, tri, 0, u, v)
+    if not ndl > 0.0:
+        return 0.0, 0.0, 0.0
+    if ks[0] == 0.0 and ks[1] == 0.0 and ks[2] == 0.0:
+        return kd[0] * ndl, kd[1] * ndl, kd[2] * ndl
+    cos = taylor1(table, tri, 6, u, v) * (s if model == BLINN else 1.0)
+    spec = 0.0
+    if cos > 0.0:  # as cosine_power1: 0 where the cosine is not positive, 1 for n = 0
+        spec = 1.0 if n == 0.0 else math.exp(n * math.log(min(cos, 1.0)))
+    return kd[0] * ndl + ks[0] * spec, kd[1] * ndl + ks[1] * spec, kd[2] * ndl + ks[2] * spec
+
+
+@kernel
 def light_pass(rays, surf, scene, em, key, depth, term, shadow):
     """One emitter ``em`` (a :class:`raytrace.records.Emitter`) at every hit of ``rays`` on
     ``surf`` (:class:`raytrace.records.Rays`, :class:`raytrace.records.Surface`), in one pass:
@@ -291,7 +315,9 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
 
     ``term = f·[kd·max(N·L, 0) + ks·spec]`` (n, 3) with N the shading normal turned to the
     viewer and V = −d (a Gouraud triangle's, :func:`gouraud1`, is interpolated from its
-    corners, V towards the ray's origin); 0 for unlit materials. Only hits where some channel
+    corners, V towards the ray's origin; a fast-Phong triangle's, :func:`fast_phong1`, is
+    its Taylor polynomials where ``scene.fast`` has this light's table and the rays are camera
+    rays, ``depth`` 0, else exact); 0 for unlit materials. Only hits where some channel
     of term is > 0 need a shadow ray: the first k rows of ``shadow`` (a
     :class:`raytrace.records.Shadows`) hold them, in hit order. A shadow ray leaves the hit
     towards the light (:func:`leave1`) and stops :data:`raytrace.core.SHADOW_SHORTEN`
@@ -311,6 +337,7 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
     jittered = em.stream >= 0.0
     shininess, highlight, lit = materials.shininess, materials.highlight, materials.lit
     keep = 1.0 - SHADOW_SHORTEN
+    fast = scene.fast.shape[0] > 0 and depth == 0  # a directional light, seen from the camera
     k = 0
     for i in range(point.shape[0]):
         m = material[i]
@@ -336,6 +363,9 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
         if smooth and code[tri] == GOURAUD:
             r, g, b = gouraud1((tri, u, v, s), (eye[i, 0], eye[i, 1], eye[i, 2]), smooth_tables,
                                (em, hit_key, depth), kd, ks, shininess[m], highlight[m])
+        elif fast and smooth and code[tri] == FAST_PHONG:  # f = 1: directional
+            r, g, b = fast_phong1(scene.fast, tri, (u, v, s), kd, ks, shininess[m],
+                                  highlight[m])
         else:
             normal = (shading[i, 0] * s, shading[i, 1] * s, shading[i, 2] * s)
             r, g, b = direct1(normal, (lx, ly, lz), (-dx, -dy, -dz), kd, ks, shininess[m],

@@ -23,7 +23,7 @@ from functools import cached_property
 import numpy as np
 
 from . import accel_kernels as ak  # the build kernels of the triangle tables
-from .core import FLAT, GOURAUD, SMOOTH
+from .core import FAST_PHONG, FLAT, GOURAUD, SMOOTH
 from .material import COLOR_KEYS, COLUMNS, Checker, Material
 from .records import Materials, Scene, Shapes, Triangles
 from .scene import SHAPE_TYPES, Mesh
@@ -34,7 +34,7 @@ from .texture import WRAPS, Texture
 #: along its normal a ray must start for Embree never to report it again (EMBREEX_NOTES.md).
 BAND_ULPS = 3.0
 #: ``Triangles.shading`` of each ``Mesh.shading``.
-SHADING_CODES = {"flat": FLAT, "smooth": SMOOTH, "gouraud": GOURAUD}
+SHADING_CODES = {"flat": FLAT, "smooth": SMOOTH, "gouraud": GOURAUD, "fast_phong": FAST_PHONG}
 
 
 class SceneArrays:

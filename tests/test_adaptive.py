@@ -39,6 +39,30 @@ def test_a_flat_frame_traces_each_corner_once_and_no_more():
     assert not deepest.any()
 
 
+def test_min_depth_cuts_every_pixel_whatever_its_corners():
+    """``first`` = 1 on a flat frame: every pixel is 2×2 cells, the (2W + 1)·(2H + 1) points
+    of the level-1 lattice, and nothing deeper; the pixels are still the flat colour."""
+    pixels, deepest, traced = refine((0, 0, W, H), W, 3, 0.01, 0, flat, 1)
+    assert traced == (2 * W + 1) * (2 * H + 1) and np.all(deepest == 1)
+    assert np.array_equal(pixels, np.tile([0.25, 0.5, 2.0], (W * H, 1)))
+
+
+def test_min_depth_sees_detail_between_the_corners():
+    """A dot at a pixel's centre, away from its corners: the corners alone agree and leave
+    the pixel dark; with one level everywhere the centre point sees it and the pixel is cut
+    down to the deepest level."""
+    def dot(x, y, ids):
+        lit = (np.abs(x - 3.5) < 0.2) & (np.abs(y - 2.5) < 0.2)
+        return np.repeat(lit.astype(float)[:, None], 3, 1)
+
+    corners, deepest0, _ = refine((0, 0, W, H), W, 3, 0.5, 0, dot)
+    assert not corners.any() and not deepest0.any()
+    seen, deepest1, _ = refine((0, 0, W, H), W, 3, 0.5, 0, dot, 1)
+    pixel = 2 * W + 3
+    assert seen[pixel, 0] > 0.0 and deepest1[pixel] == 3
+    assert np.count_nonzero(seen[:, 0]) == 1
+
+
 def _side(x, y):
     """1 left of the line x = 3.3 + 0.4·y, else 0 (crosses columns 3 to 5 on 6 rows)."""
     return (x < 3.3 + 0.4 * y).astype(float)
@@ -152,6 +176,7 @@ def test_adaptive_images_do_not_depend_on_threads_passes_or_crops(adaptive_full,
 @pytest.mark.parametrize(("text", "key"), [
     ('aa = "fancy"', "render.aa"), ("aa_depth = 9", "render.aa_depth"),
     ("aa_threshold = -1", "render.aa_threshold"),
+    ("aa_depth = 1\naa_min_depth = 2", "render.aa_min_depth"),
     ('aa = "adaptive"\nfilter = "tent"', "render.filter")])
 def test_bad_adaptive_settings_name_their_key(tmp_path, text, key):
     path = write_text(tmp_path / "s.toml", f"[render]\n{text}\n")
@@ -180,4 +205,13 @@ def test_the_cli_flags(tmp_path, capsys):
                      "--aa-depth", "12"]) == 2
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and "--aa-depth" in err[0]
+    assert cli.main(["render", str(scene), "-o", str(tmp_path / "b.exr"),
+                     "--aa-min-depth", "3"]) == 2  # more than the scene's aa_depth 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and "--aa-min-depth" in err[0]
     assert sorted(os.listdir(tmp_path)) == ["a.exr", "s.toml"]
+    assert cli.main(["render", str(scene), "-o", str(tmp_path / "c.exr"), "--aa", "adaptive",
+                     "--aa-min-depth", "1", "-q"]) == 0
+    rgb, _ = raytrace.read_exr(tmp_path / "c.exr")
+    expected = raytrace.render(raytrace.load_scene(scene), aa="adaptive", aa_min_depth=1)
+    np.testing.assert_array_equal(rgb, expected.rgb)

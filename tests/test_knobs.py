@@ -29,6 +29,8 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import knobs  # noqa: E402
 
+import raytrace  # noqa: E402
+
 
 # -- error measures ------------------------------------------------------------------------------
 def test_rmse_max_and_relative_on_a_2x2_image():
@@ -121,3 +123,24 @@ def test_importing_knobs_does_not_import_matplotlib():
     code = ("import sys; sys.path.insert(0, 'benchmarks'); import knobs; "
             "assert 'matplotlib' not in sys.modules")
     subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True, timeout=60)
+
+
+def test_aa_study_counts_samples_and_caches_its_reference(tmp_path):
+    """The AA study at a tiny size: uniform rows trace exactly spp camera samples a pixel,
+    adaptive ones at least every pixel corner ((W + 1)·(H + 1)), with min depth 1 at least
+    the level-1 lattice; the reference is written once and read back as it was rendered."""
+    scene = knobs.load("whitted")
+    config = dict(knobs.AA_QUICK, size=(16, 12), reference=(4, 7))
+    result = knobs.sweep_aa(scene, config, 1, tmp_path)
+    (cached,) = tmp_path.iterdir()
+    again, seconds = knobs.aa_reference(scene, (16, 12), 4, 7, 1, tmp_path)
+    assert seconds is None  # read, not rendered
+    np.testing.assert_array_equal(again, raytrace.render(scene, width=16, height=12, spp=4,
+                                                         seed=7, threads=1).rgb)
+    rows = {r["label"]: r for r in result["rows"]}
+    assert rows["uniform 1 spp"]["samples_per_pixel"] == 1.0
+    assert rows["uniform 4 spp"]["samples_per_pixel"] == 4.0
+    assert rows["adaptive t 0.05 d 2"]["samples_per_pixel"] >= 17 * 13 / (16 * 12)
+    assert rows["adaptive t 0.05 d 2 min 1"]["samples_per_pixel"] >= 33 * 25 / (16 * 12)
+    assert all(r["rmse"] > 0 and 0 < r["flip"] < 1 for r in result["rows"])
+    assert "### whitted.toml at 16×12" in knobs.report_aa({"aa": {"whitted": result}})

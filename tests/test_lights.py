@@ -252,3 +252,68 @@ def test_jittered_area_light_is_noise_not_the_same_for_every_pixel():
 def test_area_light_samples_must_be_a_square():
     with pytest.raises(raytrace.SceneError, match="perfect square"):
         raytrace.AreaLight([0, 1, 0], [1, 0, 0], [0, 0, 1], samples=8)
+
+
+# -- per-path keys: the children of one hit draw their own points (core.path_key1) -----------
+def _splitter_scene(samples=4):
+    """A camera ray straight down through a beam splitter at y = 1 (kr = kt = 0.5, ior 1: the
+    reflected child goes straight up, the refracted one straight down) onto a matte ceiling at
+    y = 2 and a matte floor at y = 0; a jittered area light in the plane y = 1, off to the
+    side, so the two hits are mirror images about y = 1 and the same point of the light gives
+    them bit-identical terms."""
+    matte = raytrace.Material(kd=0.5, ka=0.0, ks=0.0)
+    splitter = raytrace.Mesh(vertices=[[-0.5, 1, -0.5], [0.5, 1, -0.5], [0.5, 1, 0.5],
+                                       [-0.5, 1, 0.5]], faces=[[0, 2, 1], [0, 3, 2]],
+                             material=raytrace.Material(kd=0.0, ks=0.0, ka=0.0, kr=0.5, kt=0.5,
+                                                        ior=1.0))
+    area = raytrace.AreaLight([3.0, 1.0, 0.0], [1, 0, 0], [0, 0, 1], samples=samples,
+                              jitter=True)
+    return make_scene([raytrace.Plane(**FLOOR, material=matte),
+                       raytrace.Plane(point=[0, 2, 0], normal=[0, -1, 0], material=matte),
+                       splitter], [area],
+                      camera=aimed_camera([0.0, 1.5, 0.0], [0.0, 0.0, 0.0], fov=10.0))
+
+
+def test_children_of_one_hit_draw_their_own_light_points():
+    """Before per-path keys both children of the splitter's hit took the points of their
+    camera sample and depth: mirror-image hits, identical terms. Now each path has its own."""
+    tree = raytrace.explain(_splitter_scene(), (0, 0), width=1, height=1, max_depth=1)
+    hits = [r for r in tree["rays"] if r["depth"] == 1 and r["hit"] is not None]
+    assert sorted(r["kind"] for r in hits) == ["reflection", "refraction"]
+    (up,), (down,) = ([r for r in hits if r["kind"] == k] for k in ("reflection", "refraction"))
+    assert up["hit"]["point"][1] == pytest.approx(2.0) and down["hit"]["point"][1] == 0.0
+    terms = [np.array([lt["term"] for lt in r["lights"]]) for r in (up, down)]
+    assert np.all(terms[0][:, 0] > 0.0) and np.all(terms[1][:, 0] > 0.0)
+    assert not np.any(terms[0] == terms[1])  # no cell's point is shared
+    # with cell centres (no jitter) the two are mirror images: the same terms
+    unjittered = _splitter_scene()
+    unjittered.lights[0].jitter = False
+    tree = raytrace.explain(unjittered, (0, 0), width=1, height=1, max_depth=1)
+    hits = [r for r in tree["rays"] if r["depth"] == 1 and r["hit"] is not None]
+    same = [np.array([lt["term"] for lt in r["lights"]]) for r in hits]
+    np.testing.assert_allclose(same[0], same[1], rtol=1e-12)
+
+
+def test_path_keys_differ_by_path_and_keep_camera_keys():
+    from raytrace.lights import path_keys
+
+    origin = np.zeros((3, 3))
+    direction = np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 1.0, 0.0]])
+    keys = path_keys(np.array([7, 7, 8]), origin, direction)
+    assert len(set(keys.tolist())) == 3 and np.all(keys >= 0)
+    np.testing.assert_array_equal(keys, path_keys(np.array([7, 7, 8]), origin, direction))
+    assert path_keys(np.array([7]), origin[:1] + [0, 0, 1e-16], direction[:1])[0] != keys[0]
+
+
+def test_per_path_jitter_is_the_same_for_any_threads_and_pass_size():
+    """Secondary rays' light points follow their path, not the batch they are traced in."""
+    scene = _splitter_scene(samples=9)
+    scene.camera = raytrace.Camera(position=[0.0, 1.5, 0.0], look_at=[0.0, 0.0, 0.0],
+                                   up=[1.0, 0.0, 0.0], fov=60.0)
+    one = raytrace.render(scene, width=24, height=16, spp=4, max_depth=2, threads=1).rgb
+    assert one.max() > 0.0
+    np.testing.assert_array_equal(
+        one, raytrace.render(scene, width=24, height=16, spp=4, max_depth=2, threads=2).rgb)
+    np.testing.assert_array_equal(
+        one, raytrace.render(scene, width=24, height=16, spp=4, max_depth=2, threads=2,
+                             pass_samples=64).rgb)
