@@ -37,7 +37,6 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
 from .errors import ClusterError, RenderWarning, SceneError
 from .outputs import Outputs
 
@@ -50,6 +49,16 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message: str):
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+class _Version(argparse.Action):
+    """``--version``: the distribution's version, read only when asked for."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from . import __version__
+
+        print(f"raytrace {__version__}")  # stdout, as argparse's own version action
+        parser.exit()
 
 
 def _exposure(text: str) -> float | str:
@@ -67,7 +76,7 @@ def _parser() -> argparse.ArgumentParser:
     from .tonemap import EXPOSURE_RANGE, TONEMAPS
 
     p = _Parser(prog="raytrace", description="A Whitted ray tracer on Embree.")
-    p.add_argument("--version", action="version", version=f"raytrace {__version__}")
+    p.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("render", help="render a scene file to a float EXR")
@@ -259,7 +268,7 @@ def _render(args: argparse.Namespace) -> int:
     from . import integrator  # noqa: F401  (the renderer and numba: imported, not timed)
     from .aov import check_aovs
     from .film import exr_compression, write_exr, write_png
-    from .jit import cache_is_warm
+    from .jit import cache_is_warm, load_registries
     from .render import check_memory, render, render_options
     from .scene_file import load_scene
     from .tonemap import check_tonemap
@@ -304,6 +313,7 @@ def _render(args: argparse.Namespace) -> int:
         check_memory(x1 - x0, y1 - y0, ("exr", "png") if png else ("exr",))
         if progress.enabled and not cache_is_warm():
             sys.stderr.write("raytrace: compiling kernels, first run only (about 15 s)\n")
+        load_registries(lean=True)  # this process runs no numba code but ours (jit.py)
         with _warnings_as_lines(), cluster as client:
             image = render(scene, progress=progress, client=client, tile=args.tile,
                            **overrides)
