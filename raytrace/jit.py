@@ -136,7 +136,8 @@ def cache_is_warm() -> bool:
 #: Optional packages that numba imports while it loads its typing and lowering registries,
 #: for features no kernel of this package uses: ``scipy.linalg``'s BLAS (``np.dot`` and
 #: ``np.linalg`` in nopython code; ``numba.np.linalg.ensure_blas``) and cffi (calling C
-#: functions through cffi; ``numba.core.typing.cffi_utils``, whose ``cffi.FFI()`` builds pycparser's tables).
+#: functions through cffi; ``numba.core.typing.cffi_utils``, whose ``cffi.FFI()`` builds
+#: pycparser's tables).
 #: Measured: 0.18 s and 0.10 s of CPU of a 0.9 s command-line render (docs/performance.md).
 UNUSED_BY_KERNELS = ("scipy.linalg", "cffi")
 
