@@ -41,7 +41,8 @@ import numpy as np
 from . import adaptive, filters, sampling
 from . import aov as aov_images
 from . import shading_kernels as sk  # the compiled passes of this stage
-from .accel import Accelerator, Hits, Surface
+from .accel import Hits, Surface
+from .accel_cache import accelerator
 from .camera import camera_columns, camera_rays, directions_at, global_samples, grid
 from .film import Image
 from .lights import NO_KEY, Emitter, emitters
@@ -178,7 +179,7 @@ class WhittedIntegrator:
         self.materials = list(seen.values())
         self.table = MaterialTable(self.materials)
         t0 = time.perf_counter()
-        self.accel = Accelerator(scene, self.materials)
+        self.accel = accelerator(scene, self.materials)  # built once per geometry
         self.build_seconds = time.perf_counter() - t0
         self.origin = self.accel.origin
         self.emitters: list[Emitter] = emitters(scene.lights, self.origin, options.seed)
