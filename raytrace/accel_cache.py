@@ -98,3 +98,10 @@ def accelerator(scene: Scene, materials: list) -> Accelerator:
             weakref.finalize(scene, _cache.pop, id(scene), None)
         _cache[id(scene)] = (key, accel)
     return accel
+
+
+def clear() -> None:
+    """Forget every kept accelerator (the next render of each scene builds again): for a
+    benchmark that times the build inside each render."""
+    with _lock:
+        _cache.clear()

@@ -81,6 +81,13 @@ def test_the_fingerprint_sees_each_input_of_the_build():
     assert accel_cache.fingerprint(scene, materials) != key
 
 
+def test_clear_makes_the_next_render_build():
+    scene = _scene()
+    raytrace.render(scene)
+    accel_cache.clear()
+    assert _builds_during(lambda: raytrace.render(scene)) == 1
+
+
 def test_a_collected_scene_leaves_the_cache():
     import gc
 
