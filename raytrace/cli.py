@@ -9,6 +9,8 @@
                           [--aa uniform|adaptive] [--aa-threshold T] [--aa-depth D]
                           [--frames LIST [--overwrite]] [--workers N | --scheduler ADDRESS
                           [--tls-ca-file CA --tls-cert CERT --tls-key KEY]] [--tile PIXELS]
+    raytrace render SCENE1 SCENE2 ... --out-dir DIR [--png] [--stats] [the flags above
+                          but -o and --frames]
     raytrace explain SCENE --pixel X Y [--sample S] [--json] [--width W] [--height H]
                           [--spp N] [--max-depth D] [--min-weight W] [--seed S]
     raytrace compare TEST.exr REFERENCE.exr [--metric rmse|mae|max|relmse|psnr|flip]
@@ -20,7 +22,9 @@ Bad input prints one line ``raytrace: error: FILE: KEY: problem`` and exits with
 ``compare`` exits 1 when the difference is worse than the threshold (over it; under it for
 PSNR). The metrics are :data:`raytrace.metrics.METRICS`. ``render`` writes all of its outputs
 or none (:mod:`raytrace.outputs`); a render that completes but is probably not what was meant
-adds a line ``raytrace: warning: FILE: problem``.
+adds a line ``raytrace: warning: FILE: problem``. With ``--out-dir`` each scene's outputs are
+all or nothing on their own; a scene that fails is one error line naming its file, the next
+scene is rendered, and the exit status is 2.
 """
 
 from __future__ import annotations
