@@ -11,11 +11,14 @@ baseline, current, ... and each row reports the best of ``--repeat`` of both: wh
 wall seconds and CPU seconds (user + system of the child, from ``wait4``; steadier than wall
 on a shared machine), and current / baseline.
 
-Parts (``--parts``, comma-separated; default ``small,batch,writes,bvh``; ``--cold`` adds
-``cold``):
+Parts (``--parts``, comma-separated; default ``small,floor,batch,writes,compression,bvh``;
+``--cold`` adds ``cold``):
 
 ``small``
     ``raytrace render scenes/whitted.toml -o OUT.exr --width 64 --height 48 -q``.
+``floor``
+    What such a process cannot avoid (current code): ``python -c pass``, then importing numpy,
+    numba, and loading numba's registries (lean, as the command line does, and all of them).
 ``batch``
     The same scene copied under 20 names, rendered by one ``raytrace render A.toml B.toml …
     --out-dir DIR`` process: the seconds per scene after the first are (wall of 20 − wall of
@@ -25,6 +28,9 @@ Parts (``--parts``, comma-separated; default ``small,batch,writes,bvh``; ``--col
     command-line render), then writes a 4000×3000 image (the Whitted scene at 1000×750,
     tiled 4×4) as EXR (ZIP, 2 threads) and an 8-bit PNG preview: the seconds of the two
     writes, the part of ``--stats`` called ``write``.
+``compression``
+    The same 4000×3000 image written as EXR with each compression (2 threads, current code):
+    seconds, size, and whether it reads back bit-identical.
 ``bvh``
     The 81 920-triangle mesh scene of ``benchmarks/bench.py`` at 1000×1000, rendered again
     in one process (current code only): the frame with its BVH kept, and with the build
@@ -111,6 +117,19 @@ def part_small(trees, repeat, work) -> dict:
                                                   "--width", 64, "--height", 48), work)
 
 
+#: What a command-line render cannot avoid, step by step (each a fresh process).
+FLOOR = {"python": "pass", "+ numpy": "import numpy",
+         "+ numba": "import numpy, numba",
+         "+ registries, lean (CLI)": "import raytrace.jit as j; j.load_registries(lean=True)",
+         "+ registries, all (API)": "import raytrace.jit as j; j.load_registries()"}
+
+
+def part_floor(trees, repeat, work) -> dict:
+    current = next(t for t in trees if t.name == "current")
+    return {label: best([current], repeat, lambda t, c=code: t.python("-c", c), work)["current"]
+            for label, code in FLOOR.items()}
+
+
 def part_batch(trees, repeat, work) -> dict:
     scenes = work / "batch"
     scenes.mkdir(exist_ok=True)
@@ -143,13 +162,19 @@ print(t1 - t0, c1 - c0, t2 - t1, c2 - c1)
 """
 
 
-def part_writes(trees, repeat, work) -> dict:
+def big_image(tree: Tree, work: Path) -> Path:
+    """The 4000×3000 test image: the Whitted scene at 1000×750, tiled 4×4 (.npy)."""
     image = work / "big.npy"
     if not image.exists():
         code = ("import sys, numpy as np, raytrace; im = raytrace.render(raytrace.load_scene("
                 "sys.argv[1]), width=1000, height=750); np.save(sys.argv[2], "
                 "np.tile(im.rgb, (4, 4, 1)))")
-        run([sys.executable, "-c", code, str(WHITTED), str(image)], trees[-1].env, work)
+        run([sys.executable, "-c", code, str(WHITTED), str(image)], tree.env, work)
+    return image
+
+
+def part_writes(trees, repeat, work) -> dict:
+    image = big_image(trees[-1], work)
     rows = {t.name: [] for t in trees}
     for _ in range(repeat):
         for t in trees:
@@ -164,6 +189,36 @@ def part_writes(trees, repeat, work) -> dict:
                         "png_cpu": min(r[3] for r in runs), "wall": min(r[0] + r[2] for r in runs),
                         "cpu": min(r[1] + r[3] for r in runs)}
     return result
+
+
+COMPRESSION_PROBE = """
+import os, sys, time, json, numpy as np, raytrace
+from raytrace.film import EXR_COMPRESSIONS, exr_compression, write_exr
+rgb = np.load(sys.argv[1])
+out = {}
+for name in EXR_COMPRESSIONS:
+    try:
+        exr_compression(name)
+    except ValueError:
+        continue
+    runs = []
+    for _ in range(int(sys.argv[3])):
+        t, c = time.perf_counter(), time.process_time()
+        write_exr(sys.argv[2], rgb, {}, 2, name)
+        runs.append((time.perf_counter() - t, time.process_time() - c))
+    back = raytrace.read_exr(sys.argv[2])[0]
+    out[name] = {"wall": min(runs)[0], "cpu": min(r[1] for r in runs),
+                 "mb": os.path.getsize(sys.argv[2]) / 1e6,
+                 "lossless": bool(np.array_equal(back, rgb))}
+print(json.dumps(out))
+"""
+
+
+def part_compression(trees, repeat, work) -> dict:
+    current = next(t for t in trees if t.name == "current")
+    _, _, out = run([sys.executable, "-c", COMPRESSION_PROBE, str(big_image(current, work)),
+                     str(work / "c.exr"), str(repeat)], current.env, work)
+    return json.loads(out)
 
 
 BVH_PROBE = """
@@ -244,6 +299,9 @@ def table(results: dict, baseline: str | None) -> str:
             r = results["small"]
             row(f"small 64x48 to EXR, process {key} s", r["current"][key],
                 r[baseline][key] if baseline else None)
+    if "floor" in results:
+        for label, r in results["floor"].items():
+            row(f"  floor: {label}, CPU s", r["cpu"])
     if "batch" in results:
         r = results["batch"]
         small = results.get("small", {}).get(baseline, {}) if baseline else {}
@@ -259,6 +317,10 @@ def table(results: dict, baseline: str | None) -> str:
                            ("exr_wall", "  EXR alone (ZIP, 2 threads), wall s"),
                            ("png_wall", "  PNG preview alone, wall s")):
             row(label, r["current"][key], r[baseline][key] if baseline else None)
+    if "compression" in results:
+        for name, r in results["compression"].items():
+            lines.append(f"EXR {name:5s} 4000x3000: {r['wall']:.3f} s wall, {r['cpu']:.3f} s CPU, "
+                         f"{r['mb']:.1f} MB, reads back identical: {r['lossless']}")
     if "bvh" in results:
         r = results["bvh"]
         row("mesh 1000^2 again, BVH kept / built, wall s", r["kept"], r["built"])
@@ -276,7 +338,7 @@ def table(results: dict, baseline: str | None) -> str:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--baseline", help="git ref to compare with (e.g. main)")
-    p.add_argument("--parts", default="small,batch,writes,bvh")
+    p.add_argument("--parts", default="small,floor,batch,writes,compression,bvh")
     p.add_argument("--cold", action="store_true", help="also time an empty numba cache")
     p.add_argument("--repeat", type=int, default=5)
     p.add_argument("--json", help="write the results here as JSON")
@@ -295,8 +357,9 @@ def main(argv: list[str] | None = None) -> int:
         load = os.getloadavg()
         results: dict = {"load_average": load, "baseline": args.baseline,
                          "repeat": args.repeat}
-        funcs = {"small": part_small, "batch": part_batch, "writes": part_writes,
-                 "bvh": part_bvh, "cold": part_cold}
+        funcs = {"floor": part_floor, "small": part_small, "batch": part_batch,
+                 "writes": part_writes,
+                 "compression": part_compression, "bvh": part_bvh, "cold": part_cold}
         for part in parts:
             results[part] = funcs[part](trees, args.repeat, work)
         results["load_average_after"] = os.getloadavg()
