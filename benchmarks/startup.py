@@ -34,12 +34,14 @@ Parts (``--parts``, comma-separated; default ``small,floor,batch,writes,compress
 ``bvh``
     The 81 920-triangle mesh scene of ``benchmarks/bench.py`` at 1000×1000, rendered again
     in one process (current code only): the frame with its BVH kept, and with the build
-    inside the frame (``raytrace.accel_cache.clear()`` before it).
+    inside the frame (``raytrace.accel_cache.clear()`` before it), and the time to hash the
+    geometry (:func:`raytrace.accel_cache.fingerprint`).
 ``cold``
     A fresh process with an empty ``NUMBA_CACHE_DIR`` renders the diffuse scene
     (scenes/spotlights.toml) and the Whitted scene at 64×48: the wall seconds, and the
     compile seconds of each kernel (numba's ``numba:compile`` events; nested helpers inside
-    their kernel), the five slowest listed.
+    their kernel), the five slowest listed, the kernels compiled, and the most signatures any
+    kernel has.
 """
 
 from __future__ import annotations
@@ -222,8 +224,9 @@ def part_compression(trees, repeat, work) -> dict:
 
 
 BVH_PROBE = """
-import sys, time, json, raytrace
+import sys, time, json, raytrace, raytrace.integrator
 from raytrace import accel_cache
+from raytrace.render import render_options
 scene = raytrace.load_scene(sys.argv[1])
 raytrace.render(scene, width=1000, height=1000, threads=2)  # kernels loaded, BVH built
 kept, built = [], []
@@ -235,8 +238,15 @@ for _ in range(int(sys.argv[2])):
     t, c = time.perf_counter(), time.process_time()
     raytrace.render(scene, width=1000, height=1000, threads=2)
     built.append((time.perf_counter() - t, time.process_time() - c))
+materials = raytrace.integrator.WhittedIntegrator(
+    scene, render_options(scene)).materials
+hashes = []
+for _ in range(20):
+    t = time.perf_counter(); accel_cache.fingerprint(scene, materials)
+    hashes.append(time.perf_counter() - t)
 print(json.dumps({"kept": min(kept)[0], "built": min(built)[0], "kept_cpu": min(kept)[1],
-                  "built_cpu": min(built)[1], "builds": accel_cache.builds}))
+                  "built_cpu": min(built)[1], "builds": accel_cache.builds,
+                  "fingerprint_seconds": sorted(hashes)[len(hashes) // 2]}))
 """
 
 
@@ -268,8 +278,15 @@ event.register("numba:compile", Timer())
 import raytrace
 raytrace.render(raytrace.load_scene(sys.argv[1]), width=64, height=48, threads=1)
 top = sorted((d for d in done if d[2] == 0), key=lambda d: -d[1])
+from numba.core.dispatcher import Dispatcher
+signatures = {f"{m.__name__}.{k}": len(v.signatures) for m in list(sys.modules.values())
+              if getattr(m, "__name__", "").startswith("raytrace.")
+              for k, v in vars(m).items() if isinstance(v, Dispatcher) and v.signatures
+              and v.py_func.__module__ == m.__name__}
 print(json.dumps({"wall": time.perf_counter() - t0, "kernels": len(top),
-                  "compile": sum(d[1] for d in top), "slowest": top[:5]}))
+                  "compile": sum(d[1] for d in top), "slowest": top[:5],
+                  "compiled": sorted(d[0] for d in top),
+                  "most_signatures": max(signatures.values())}))
 """
 
 
@@ -325,13 +342,15 @@ def table(results: dict, baseline: str | None) -> str:
         r = results["bvh"]
         row("mesh 1000^2 again, BVH kept / built, wall s", r["kept"], r["built"])
         row("mesh 1000^2 again, BVH kept / built, CPU s", r["kept_cpu"], r["built_cpu"])
+        row("  its fingerprint (median of 20), s", r["fingerprint_seconds"])
     if "cold" in results:
         for name, r in results["cold"].items():
             base_key = name.replace("current", baseline) if baseline else None
             base = results["cold"].get(base_key, {}).get("process_wall") \
                 if base_key and name.startswith("current") else None
             row(f"cold cache {name}, process wall s", r["process_wall"], base)
-            row(f"  compile s ({r['kernels']} kernels)", r["compile"])
+            row(f"  compile s ({r['kernels']} kernels, <= {r['most_signatures']} signature)",
+                r["compile"])
     return "\n".join(lines)
 
 

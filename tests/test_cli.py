@@ -559,7 +559,8 @@ def test_the_command_line_loads_neither_scipy_linalg_nor_cffi_for_its_kernels(tm
              "'/w.exr', '--width', '4', '--height', '3', '-q']) == 0\n"
              "from numba.np import arraymath\n"
              "print(sorted(m for m in ('scipy.linalg', 'cffi', 'pycparser', 'trimesh', "
-             "'colour', 'OpenImageIO') if m in sys.modules), arraymath._HAVE_BLAS)\n"
+             "'colour', 'OpenImageIO', 'pygltflib', 'dask', 'distributed', 'PIL') "
+             "if m in sys.modules), arraymath._HAVE_BLAS)\n"
              "import scipy.linalg; print('later imports work')")
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
                          check=True, cwd=ROOT).stdout.split("\n")
