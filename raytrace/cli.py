@@ -304,7 +304,7 @@ def _render(args: argparse.Namespace) -> int:
                      threads=args.threads, crop=args.crop, aovs=aovs, filter=args.filter,
                      aa=args.aa, aa_threshold=args.aa_threshold, aa_depth=args.aa_depth)
     if batch is None:
-        with cluster as client:
+        with _Started(cluster) as client:
             return _render_one(args, args.outputs, (args.scene, args.output or
                                Path(args.scene).stem + ".exr", args.png, args.stats),
                                overrides, client)
@@ -313,7 +313,7 @@ def _render(args: argparse.Namespace) -> int:
     except SceneError as e:
         raise _flag_error(e) from None
     failed = 0
-    with cluster as client:
+    with _Started(cluster) as client:  # one cluster for the batch
         for paths in batch:
             with Outputs() as outputs:  # all or nothing, scene by scene
                 try:
@@ -326,6 +326,25 @@ def _render(args: argparse.Namespace) -> int:
                 finally:
                     args.written.extend(outputs.written)
     return EXIT_BAD_INPUT if failed else 0
+
+
+class _Started(contextlib.ExitStack):
+    """The cluster of ``--workers`` / ``--scheduler`` (a context manager giving a client or
+    None), started on the first render that needs it, not before the scene is loaded and its
+    outputs checked, and kept for every scene of a batch; closed with this block."""
+
+    def __init__(self, cluster):
+        super().__init__()
+        self._cluster, self._client, self._started = cluster, None, False
+
+    def __enter__(self) -> _Started:
+        super().__enter__()
+        return self
+
+    def __call__(self):
+        if not self._started:
+            self._client, self._started = self.enter_context(self._cluster), True
+        return self._client
 
 
 def _batch_outputs(args: argparse.Namespace) -> list[tuple[str, str, str | None, str | None]]:
@@ -385,8 +404,9 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
                 client, others: list[tuple[str, str]] = ()) -> int:
     """Render one scene file to its EXR (and PNG, stats), all or nothing through ``outputs``.
 
-    ``paths``: the scene, EXR, PNG and stats files (None: not written); ``others``: more
-    files no output may overwrite (the batch's other scene files)."""
+    ``paths``: the scene, EXR, PNG and stats files (None: not written); ``client()``: the
+    Dask client or None (:class:`_Started`); ``others``: more files no output may overwrite
+    (the batch's other scene files)."""
     from .film import write_exr, write_png
     from .jit import cache_is_warm, load_registries
     from .render import check_memory, render, render_options
@@ -415,7 +435,7 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
             sys.stderr.write("raytrace: compiling kernels, first run only (about 15 s)\n")
         load_registries(lean=True)  # this process runs no numba code but ours (jit.py)
         with _warnings_as_lines():
-            image = render(scene, progress=progress, client=client, tile=args.tile,
+            image = render(scene, progress=progress, client=client(), tile=args.tile,
                            **overrides)
     except SceneError as e:  # a flag's value: name the flag, not the scene key
         raise _flag_error(e) from None

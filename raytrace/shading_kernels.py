@@ -55,7 +55,10 @@ PHONG, BLINN = 0, 1
 #: Emitter kinds (``raytrace.records.Emitter.kind``).
 POINT, SPOT, DIRECTIONAL = 0, 1, 2
 #: First column of each colour in a material's row of colours (``raytrace.material.COLOR_KEYS``).
-KA, KD, KS, KR, KT, KE = 0, 3, 6, 9, 12, 15
+#: numpy integers, not Python ones: numba types a Python int constant passed to another kernel
+#: as its literal value and compiles that kernel once per value (``color1`` and ``texel1`` six
+#: times each: 2.3–2.8 s of CPU of a first render after installing, docs/performance.md).
+KA, KD, KS, KR, KT, KE = (np.int64(c) for c in (0, 3, 6, 9, 12, 15))
 #: :func:`hit_terms`' status of a child ray: none, pruned by its weight, traced.
 NONE, PRUNED, KEEP = 0, 1, 2
 
