@@ -34,6 +34,7 @@ import math
 import numpy as np
 
 from .core import (
+    ALPHA,
     FLAT,
     GOURAUD,
     NO_FRESNEL,
@@ -209,7 +210,7 @@ def opacity1(materials, m, st):
     texture coordinates ``st``: its constant times the texture's alpha (glTF BLEND), or 1 / 0
     by the alpha cutoff (MASK). Others take ``materials.opacity[m]`` without this call."""
     a = materials.opacity[m] * bilinear1(materials.texels, materials.tex_info,
-                                         materials.alpha[m], st[0], st[1], 3)
+                                         materials.alpha[m], st[0], st[1], ALPHA)
     cutoff = materials.alpha_cutoff[m]
     if cutoff >= 0.0:
         return 1.0 if a >= cutoff else 0.0
