@@ -138,7 +138,8 @@ def cache_is_warm() -> bool:
 #: ``np.linalg`` in nopython code; ``numba.np.linalg.ensure_blas``) and cffi (calling C
 #: functions through cffi; ``numba.core.typing.cffi_utils``, whose ``cffi.FFI()`` builds
 #: pycparser's tables).
-#: Measured: 0.18 s and 0.10 s of CPU of a 0.9 s command-line render (docs/performance.md).
+#: Together 0.2–0.3 s of CPU of every command-line render (docs/performance.md, "The
+#: start-up floor").
 UNUSED_BY_KERNELS = ("scipy.linalg", "cffi")
 
 
