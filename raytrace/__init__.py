@@ -15,8 +15,6 @@ The pipeline, one module per stage::
 (24, 32, 3)
 """
 
-from importlib import metadata as _metadata
-
 from .errors import RenderWarning, SceneError
 from .explain import explain
 from .film import Image, read_exr
@@ -38,10 +36,21 @@ from .scene import (
 )
 from .scene_file import load_scene, scene_from_dict
 
-try:  # the installed distribution's version (pyproject.toml), not a second copy of it
-    __version__ = _metadata.version("raytrace")
-except _metadata.PackageNotFoundError:  # run from a source tree that was never installed
-    __version__ = "0+unknown"
+
+def __getattr__(name: str) -> str:
+    """``raytrace.__version__``: the installed distribution's version (pyproject.toml), not a
+    second copy of it, read when first asked for (``importlib.metadata`` costs 20–40 ms of
+    every start-up otherwise; PEP 562 module ``__getattr__``)."""
+    if name != "__version__":
+        raise AttributeError(f"module 'raytrace' has no attribute {name!r}")
+    from importlib import metadata
+
+    try:
+        version = metadata.version("raytrace")
+    except metadata.PackageNotFoundError:  # run from a source tree that was never installed
+        version = "0+unknown"
+    globals()["__version__"] = version
+    return version
 
 __all__ = [
     "AreaLight", "Camera", "Checker", "DirectionalLight", "Image", "Material", "explain",

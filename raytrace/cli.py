@@ -10,6 +10,8 @@
                           [--aa-min-depth M]
                           [--frames LIST [--overwrite]] [--workers N | --scheduler ADDRESS
                           [--tls-ca-file CA --tls-cert CERT --tls-key KEY]] [--tile PIXELS]
+    raytrace render SCENE1 SCENE2 ... --out-dir DIR [--png] [--stats] [the flags above
+                          but -o and --frames]
     raytrace explain SCENE --pixel X Y [--sample S] [--json] [--width W] [--height H]
                           [--spp N] [--max-depth D] [--min-weight W] [--seed S]
     raytrace compare TEST.exr REFERENCE.exr [--metric rmse|mae|max|relmse|psnr|flip]
@@ -21,7 +23,9 @@ Bad input prints one line ``raytrace: error: FILE: KEY: problem`` and exits with
 ``compare`` exits 1 when the difference is worse than the threshold (over it; under it for
 PSNR). The metrics are :data:`raytrace.metrics.METRICS`. ``render`` writes all of its outputs
 or none (:mod:`raytrace.outputs`); a render that completes but is probably not what was meant
-adds a line ``raytrace: warning: FILE: problem``.
+adds a line ``raytrace: warning: FILE: problem``. With ``--out-dir`` each scene's outputs are
+all or nothing on their own; a scene that fails is one error line naming its file, the next
+scene is rendered, and the exit status is 2.
 """
 
 from __future__ import annotations
@@ -38,7 +42,6 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
 from .errors import ClusterError, RenderWarning, SceneError
 from .outputs import Outputs
 
@@ -51,6 +54,16 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message: str):
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+class _Version(argparse.Action):
+    """``--version``: the distribution's version, read only when asked for."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from . import __version__
+
+        print(f"raytrace {__version__}")  # stdout, as argparse's own version action
+        parser.exit()
 
 
 def _exposure(text: str) -> float | str:
@@ -68,16 +81,23 @@ def _parser() -> argparse.ArgumentParser:
     from .tonemap import EXPOSURE_RANGE, TONEMAPS
 
     p = _Parser(prog="raytrace", description="A Whitted ray tracer on Embree.")
-    p.add_argument("--version", action="version", version=f"raytrace {__version__}")
+    p.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("render", help="render a scene file to a float EXR")
-    r.add_argument("scene", help="scene file (.toml or .json)")
+    r.add_argument("scenes", nargs="+", metavar="SCENE",
+                   help="scene file (.toml or .json, or a model file); several with --out-dir")
     r.add_argument("-o", "--output", help="output EXR (default: SCENE's name with .exr, here)")
+    r.add_argument("--out-dir", metavar="DIR",
+                   help="render every SCENE in one process, each to DIR/<scene name>.exr "
+                        "(and .png, .json with --png, --stats given no file name), all or "
+                        "nothing scene by scene; a bad scene is one error line, the others "
+                        "are rendered, and the exit status is 2")
     _overrides(r)
     r.add_argument("--threads", type=int, default=os.cpu_count() or 1,
                    help="worker threads (default: all cores)")
-    r.add_argument("--png", help="also write a tone-mapped sRGB PNG preview (.png)")
+    r.add_argument("--png", nargs="?", const=True,
+                   help="also write a tone-mapped sRGB PNG preview (.png)")
     r.add_argument("--exposure", type=_exposure, default=0.0,
                    help=f"preview exposure in stops, {EXPOSURE_RANGE[0]:g} to "
                         f"{EXPOSURE_RANGE[1]:g}, or 'auto' (key 0.18 over the log-average "
@@ -86,7 +106,7 @@ def _parser() -> argparse.ArgumentParser:
                    help=f"preview tone map (colour-hdri's operators): {', '.join(TONEMAPS)}")
     r.add_argument("--png-bits", type=int, choices=(8, 16), default=8,
                    help="bits per channel of the PNG preview (default 8)")
-    r.add_argument("--stats", help="write render statistics as JSON")
+    r.add_argument("--stats", nargs="?", const=True, help="write render statistics as JSON")
     r.add_argument("--compression", default="zip", type=str.lower,
                    choices=tuple(EXR_COMPRESSIONS),
                    help="EXR compression, all lossless (default: zip; zstd files need "
@@ -262,10 +282,9 @@ def _cluster(args: argparse.Namespace):
 def _render(args: argparse.Namespace) -> int:
     from . import integrator  # noqa: F401  (the renderer and numba: imported, not timed)
     from .aov import check_aovs
-    from .film import exr_compression, write_exr, write_png
-    from .jit import cache_is_warm
-    from .render import check_memory, render, render_options
-    from .scene_file import load_scene
+    from .film import exr_compression
+    from .render import render_options
+    from .scene import Scene
     from .tonemap import check_tonemap
 
     try:
@@ -276,41 +295,152 @@ def _render(args: argparse.Namespace) -> int:
         exr_compression(args.compression)
     except ValueError as e:
         raise SceneError(str(e), "--compression") from None
+    batch = _batch_outputs(args)  # the scenes and their outputs, or None for one scene
     cluster = _cluster(args)
     if args.frames is not None:
         return _render_frames(args, cluster)
     if args.overwrite:
         raise SceneError("is for --frames (a single render always writes its outputs)",
                          "--overwrite")
-    outputs = args.outputs
-    # Every output is checked before anything is rendered (outputs.py): its suffix and that it
-    # is no other output and not the scene file now; after loading, that it is no mesh or
-    # material file the scene reads and that its folder takes a new file.
-    exr = outputs.add(args.output or Path(args.scene).stem + ".exr", "-o", ".exr")
-    png = outputs.add(args.png, "--png", ".png") if args.png else None
-    stats_file = outputs.add(args.stats, "--stats") if args.stats else None
-    outputs.refuse_inputs([(args.scene, "the scene file")])
     aovs = check_aovs(args.aov, "--aov")  # found now, not after the render
-    t0 = time.perf_counter()
-    with _warnings_as_lines():  # a model file's notes
-        scene = load_scene(args.scene)
-    load_seconds = time.perf_counter() - t0
-    outputs.refuse_inputs(scene.input_files())
-    outputs.preflight()
-    progress = Progress(not args.quiet)
     overrides = dict(width=args.width, height=args.height, spp=args.spp,
                      max_depth=args.max_depth, min_weight=args.min_weight, seed=args.seed,
                      threads=args.threads, crop=args.crop, aovs=aovs, filter=args.filter,
                      aa=args.aa, aa_threshold=args.aa_threshold, aa_depth=args.aa_depth,
                      aa_min_depth=args.aa_min_depth)
+    if batch is None:
+        with _Started(cluster) as client:
+            return _render_one(args, args.outputs, (args.scene, args.output or
+                               Path(args.scene).stem + ".exr", args.png, args.stats),
+                               overrides, client)
+    try:  # the flags' values, found once for the batch (a crop: against each scene's frame)
+        render_options(Scene(), **{**overrides, "crop": None})
+    except SceneError as e:
+        raise _flag_error(e) from None
+    failed = 0
+    with _Started(cluster) as client:  # one cluster for the batch
+        for paths in batch:
+            with Outputs() as outputs:  # all or nothing, scene by scene
+                try:
+                    _render_one(args, outputs, paths, overrides, client,
+                                others=[(p, "a scene file of this batch") for p, *_ in batch])
+                except (SceneError, OSError) as e:
+                    failed += 1
+                    print(f"raytrace: error: {_one_line(e, paths[0], outputs)}",
+                          file=sys.stderr)
+                finally:
+                    args.written.extend(outputs.written)
+    return EXIT_BAD_INPUT if failed else 0
+
+
+class _Started(contextlib.ExitStack):
+    """The cluster of ``--workers`` / ``--scheduler`` (a context manager giving a client or
+    None), started on the first render that needs it, not before the scene is loaded and its
+    outputs checked, and kept for every scene of a batch; closed with this block."""
+
+    def __init__(self, cluster):
+        super().__init__()
+        self._cluster, self._client, self._started = cluster, None, False
+
+    def __enter__(self) -> _Started:
+        super().__enter__()
+        return self
+
+    def __call__(self):
+        if not self._started:
+            self._client, self._started = self.enter_context(self._cluster), True
+        return self._client
+
+
+def _batch_outputs(args: argparse.Namespace) -> list[tuple[str, str, str | None, str | None]]:
+    """``render A.toml B.toml … --out-dir DIR``: each scene's (scene, EXR, PNG, stats) paths
+    in DIR, named after the scene (DIR/A.exr, DIR/A.png, DIR/A.json), checked before any
+    render: DIR is a folder, no two scenes share a name. None for the one-scene form
+    (``SCENE [-o OUT.exr] [--png P.png] [--stats S.json]``), whose ``--png`` and ``--stats``
+    need a file name."""
+    scenes, out_dir = args.scenes, args.out_dir
+    if out_dir is None:
+        if len(scenes) > 1:
+            raise SceneError(f"{len(scenes)} scenes need --out-dir DIR (each is written to "
+                             "DIR/<scene name>.exr); -o names one scene's output", "SCENE")
+        for flag, value in (("--png", args.png), ("--stats", args.stats)):
+            if value is True:
+                raise SceneError("needs a file name (or --out-dir DIR, which names each "
+                                 "scene's file)", flag)
+        args.scene = scenes[0]
+        return None
+    for flag, value in (("-o", args.output), ("--frames", args.frames)):
+        if value is not None:
+            raise SceneError("is not used with --out-dir (each scene is written to "
+                             "DIR/<scene name>.exr)", flag)
+    for flag, value in (("--png", args.png), ("--stats", args.stats)):
+        if isinstance(value, str):
+            raise SceneError(f"takes no file name with --out-dir (each scene's goes to "
+                             f"DIR/<scene name>{'.png' if flag == '--png' else '.json'}), "
+                             f"got {value!r}", flag)
+    if not Path(out_dir).is_dir():
+        raise SceneError(f"is not an existing folder: {out_dir}", "--out-dir")
+    seen: dict[str, str] = {}
+    batch = []
+    for scene in scenes:
+        stem = Path(scene).stem
+        if stem in seen:
+            raise SceneError(f"{seen[stem]} and {scene} would both be written to "
+                             f"{Path(out_dir) / stem}.exr: give each scene a name of its own",
+                             "--out-dir")
+        seen[stem] = scene
+        batch.append((scene, str(Path(out_dir) / f"{stem}.exr"),
+                      str(Path(out_dir) / f"{stem}.png") if args.png else None,
+                      str(Path(out_dir) / f"{stem}.json") if args.stats else None))
+    return batch
+
+
+def _one_line(e: SceneError | OSError, scene: str, outputs: Outputs) -> str:
+    """A batch scene's failure as one line naming its file (and what it left unwritten)."""
+    if isinstance(e, SceneError):
+        return str(e) if e.file else f"{scene}: {e}"
+    where = ": ".join(str(p) for p in (e.filename, getattr(e, "key", None)) if p)
+    return (f"{scene}: {where + ': ' if where else ''}{e.strerror or e} "
+            f"({_what_was_written(outputs)})")
+
+
+def _render_one(args: argparse.Namespace, outputs: Outputs,
+                paths: tuple[str, str, str | None, str | None], overrides: dict,
+                client, others: list[tuple[str, str]] = ()) -> int:
+    """Render one scene file to its EXR (and PNG, stats), all or nothing through ``outputs``.
+
+    ``paths``: the scene, EXR, PNG and stats files (None: not written); ``client()``: the
+    Dask client or None (:class:`_Started`); ``others``: more files no output may overwrite
+    (the batch's other scene files)."""
+    from .film import write_exr, write_png
+    from .jit import cache_is_warm, load_registries
+    from .render import check_memory, render, render_options
+    from .scene_file import load_scene
+
+    scene_path, exr_path, png_path, stats_path = paths
+    # Every output is checked before anything is rendered (outputs.py): its suffix and that it
+    # is no other output and not the scene file now; after loading, that it is no mesh or
+    # material file the scene reads and that its folder takes a new file.
+    exr = outputs.add(exr_path, "-o", ".exr")
+    png = outputs.add(png_path, "--png", ".png") if png_path else None
+    stats_file = outputs.add(stats_path, "--stats") if stats_path else None
+    outputs.refuse_inputs([(scene_path, "the scene file"), *others])
+    t0 = time.perf_counter()
+    with _warnings_as_lines():  # a model file's notes
+        scene = load_scene(scene_path)
+    load_seconds = time.perf_counter() - t0
+    outputs.refuse_inputs(scene.input_files())
+    outputs.preflight()
+    progress = Progress(not args.quiet)
     try:
         o = render_options(scene, **overrides)
         x0, y0, x1, y1 = o.crop or (0, 0, o.width, o.height)
         check_memory(x1 - x0, y1 - y0, ("exr", "png") if png else ("exr",))
         if progress.enabled and not cache_is_warm():
             sys.stderr.write("raytrace: compiling kernels, first run only (about 15 s)\n")
-        with _warnings_as_lines(), cluster as client:
-            image = render(scene, progress=progress, client=client, tile=args.tile,
+        load_registries(lean=True)  # this process runs no numba code but ours (jit.py)
+        with _warnings_as_lines():
+            image = render(scene, progress=progress, client=client(), tile=args.tile,
                            **overrides)
     except SceneError as e:  # a flag's value: name the flag, not the scene key
         raise _flag_error(e) from None

@@ -221,6 +221,12 @@ def wrap1(i, n, mode):
     return i % n
 
 
+#: Texel channels for :func:`bilinear1`, numpy integers: a Python int constant would make numba
+#: compile :func:`bilinear1` once per channel value (it types constants passed to a kernel as
+#: literals).
+RED, GREEN, BLUE, ALPHA = (np.int64(c) for c in range(4))
+
+
 @kernel
 def bilinear1(texels, info, q, s, t, channel):
     """Channel ``channel`` (0 … 3: R, G, B, A) of texture ``q`` bilinearly filtered at (s, t):
@@ -243,8 +249,8 @@ def bilinear1(texels, info, q, s, t, channel):
 @kernel
 def texture1(texels, info, q, s, t):
     """The RGB of texture ``q`` at (s, t), each channel by :func:`bilinear1`."""
-    return (bilinear1(texels, info, q, s, t, 0), bilinear1(texels, info, q, s, t, 1),
-            bilinear1(texels, info, q, s, t, 2))
+    return (bilinear1(texels, info, q, s, t, RED), bilinear1(texels, info, q, s, t, GREEN),
+            bilinear1(texels, info, q, s, t, BLUE))
 
 
 @kernel

@@ -41,7 +41,8 @@ import numpy as np
 from . import adaptive, fast_phong, filters, sampling
 from . import aov as aov_images
 from . import shading_kernels as sk  # the compiled passes of this stage
-from .accel import Accelerator, Hits, Surface
+from .accel import Hits, Surface
+from .accel_cache import accelerator
 from .camera import camera_columns, camera_rays, directions_at, global_samples, grid
 from .film import Image
 from .lights import NO_KEY, Emitter, emitters, path_keys
@@ -173,7 +174,7 @@ class WhittedIntegrator:
         t0 = time.perf_counter()
         #: The scene as arrays, camera-relative (:func:`raytrace.tables.scene_arrays`).
         self.arrays = scene_arrays(scene)
-        self.accel = Accelerator(self.arrays)
+        self.accel = accelerator(scene, self.arrays)  # built once per geometry
         self.build_seconds = time.perf_counter() - t0
         self.materials, self.table = self.arrays.materials, self.arrays.table
         self.origin = self.arrays.origin

@@ -141,3 +141,40 @@ def cache_is_warm() -> bool:
     except Exception:
         return True
     return True
+
+
+#: Optional packages that numba imports while it loads its typing and lowering registries,
+#: for features no kernel of this package uses: ``scipy.linalg``'s BLAS (``np.dot`` and
+#: ``np.linalg`` in nopython code; ``numba.np.linalg.ensure_blas``) and cffi (calling C
+#: functions through cffi; ``numba.core.typing.cffi_utils``, whose ``cffi.FFI()`` builds
+#: pycparser's tables).
+#: Together 0.2–0.3 s of CPU of every command-line render (docs/performance.md, "The
+#: start-up floor").
+UNUSED_BY_KERNELS = ("scipy.linalg", "cffi")
+
+
+def load_registries(lean: bool = False) -> None:
+    """Load numba's typing and lowering registries now, on the calling thread (numba does so
+    on the first kernel call, loading a cached kernel included: ``Cache.load_overload``
+    refreshes the target context).
+
+    ``lean``: while they load, the packages of :data:`UNUSED_BY_KERNELS` that are not yet
+    imported look absent, so numba records "no BLAS, no cffi" instead of importing them; they
+    import normally afterwards, for anything else. Only for a process whose numba runs this
+    package's kernels alone (the ``raytrace`` command, :mod:`raytrace.cli`): in it, a numba
+    function of someone else's calling ``np.dot`` would fail to compile ("scipy 0.16+ is
+    required for linear algebra"). The Python API never does this.
+    """
+    import sys
+
+    from numba.core.registry import cpu_target
+
+    hidden = [m for m in UNUSED_BY_KERNELS if m not in sys.modules] if lean else []
+    for name in hidden:
+        sys.modules[name] = None  # import raises ImportError (importlib's documented rule)
+    try:
+        cpu_target.target_context.refresh()  # refreshes the typing context too
+    finally:
+        for name in hidden:
+            if sys.modules.get(name, 0) is None:
+                del sys.modules[name]

@@ -98,6 +98,9 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     workers, each on one thread, and put together: bit-identical to the render on one process
     (:func:`raytrace.distributed.render_tiles`; docs/distributed.md).
 
+    Rendering the same ``scene`` object again reuses its acceleration structure while its
+    geometry and camera position are unchanged (:mod:`raytrace.accel_cache`).
+
     The integrator, and with it numba, is imported on the first call, so ``import raytrace``
     (loading and checking scenes, reading EXRs) does not pay for the compiler.
     """

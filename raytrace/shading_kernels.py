@@ -34,6 +34,7 @@ import math
 import numpy as np
 
 from .core import (
+    ALPHA,
     FAST_PHONG,
     FLAT,
     GOURAUD,
@@ -57,7 +58,10 @@ PHONG, BLINN = 0, 1
 #: Emitter kinds (``raytrace.records.Emitter.kind``).
 POINT, SPOT, DIRECTIONAL = 0, 1, 2
 #: First column of each colour in a material's row of colours (``raytrace.material.COLOR_KEYS``).
-KA, KD, KS, KR, KT, KE = 0, 3, 6, 9, 12, 15
+#: numpy integers, not Python ones: numba types a Python int constant passed to another kernel
+#: as its literal value and compiles that kernel once per value (``color1`` and ``texel1`` six
+#: times each: 2.3–2.8 s of CPU of a first render after installing, docs/performance.md).
+KA, KD, KS, KR, KT, KE = (np.int64(c) for c in (0, 3, 6, 9, 12, 15))
 #: :func:`hit_terms`' status of a child ray: none, pruned by its weight, traced.
 NONE, PRUNED, KEEP = 0, 1, 2
 
@@ -209,7 +213,7 @@ def opacity1(materials, m, st):
     texture coordinates ``st``: its constant times the texture's alpha (glTF BLEND), or 1 / 0
     by the alpha cutoff (MASK). Others take ``materials.opacity[m]`` without this call."""
     a = materials.opacity[m] * bilinear1(materials.texels, materials.tex_info,
-                                         materials.alpha[m], st[0], st[1], 3)
+                                         materials.alpha[m], st[0], st[1], ALPHA)
     cutoff = materials.alpha_cutoff[m]
     if cutoff >= 0.0:
         return 1.0 if a >= cutoff else 0.0

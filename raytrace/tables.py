@@ -74,6 +74,12 @@ class SceneArrays:
         geomID order."""
         return self._tables[1]
 
+    def share_geometry(self, built: SceneArrays) -> None:
+        """Take the triangle tables of ``built``: the arrays of the same geometry, rendered
+        before (the same :func:`raytrace.accel_cache.fingerprint`), instead of building them
+        again. The materials' table stays this one's (colours may have changed)."""
+        self.__dict__["_tables"] = built._tables
+
     @cached_property
     def record(self) -> Scene:
         """What every shading kernel needs (:func:`scene_record`)."""

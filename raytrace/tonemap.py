@@ -16,7 +16,8 @@ A preview of linear RGB is, per pixel,
   colour-hdri's default parameters unless ``params`` names others. ``reinhard`` is the name
   raytrace has always had for ``x / (1 + x)`` per channel (Reinhard et al. 2002, eq. 3): it is
   colour-hdri's ``simple`` operator, with the same output as before.
-* ``cctf_encoding``: the sRGB encoding of IEC 61966-2-1 by colour-science, in float64.
+* ``cctf_encoding``: the sRGB encoding of IEC 61966-2-1 in float64 (:func:`srgb_encode`, the
+  same numbers as colour-science's ``cctf_encoding(..., function="sRGB")``).
   Non-finite and negative values show black.
 
 Cost: ``clip`` and the per-pixel operators (``reinhard``/``simple``, ``gamma``, ``filmic``) run
@@ -26,7 +27,8 @@ operators compute statistics of the whole image (maximum, log-average, mean) ins
 colour-hdri, so they run on the whole image in float64, as colour-hdri computes.
 Measurements: docs/performance.md, "Previews".
 
-colour-science and colour-hdri are imported on the first preview (not by ``import raytrace``);
+colour-science and colour-hdri are imported by a preview that uses them (an operator other than
+``clip``, or ``exposure="auto"``; not by ``import raytrace``);
 the numpy print options they set on import (``legacy="1.13"``) are put back.
 """
 
@@ -193,6 +195,24 @@ def operator(name: str, params: dict | None = None) -> Callable[[np.ndarray], np
     return functools.partial(fn, **params) if params else fn
 
 
+def srgb_encode(y: np.ndarray) -> np.ndarray:
+    """The sRGB encoding of linear ``y`` in [0, 1], float64 (IEC 61966-2-1):
+    ``12.92·y`` up to 0.0031308, ``1.055·y^(1/2.4) − 0.055`` above.
+
+    The operations of colour-science's ``eotf_inverse_sRGB`` (``cctf_encoding(...,
+    function="sRGB")``) in its order, so the same float64 results (tests/test_tonemap.py
+    checks every 8- and 16-bit code boundary against colour); written here because importing
+    colour costs 0.9 s of a fresh process's first preview, to compute 2 KB of thresholds.
+
+    >>> float(srgb_encode(np.float64(0.18)))  # doctest: +ELLIPSIS
+    0.4613561...
+    """
+    y = np.asarray(y, dtype=np.float64)
+    with np.errstate(invalid="ignore"):  # the branch not taken
+        return np.where(y <= 0.0031308, y * 12.92,
+                        1.055 * (np.sign(y) * np.abs(y) ** (1 / 2.4)) - 0.055)
+
+
 class SRGBTable(NamedTuple):
     """Where each sRGB code begins, for :func:`raytrace.tonemap_kernels.encode`."""
 
@@ -204,18 +224,18 @@ class SRGBTable(NamedTuple):
 def srgb_table(bits: int = 8) -> SRGBTable:
     """The linear values where each code of an 8- or 16-bit sRGB preview begins.
 
-    ``code(y) = round(top · colour.cctf_encoding(clip(y, 0, 1), function="sRGB"))`` in float64
-    (IEC 61966-2-1) is increasing in ``y``, so it is fixed by ``top`` thresholds: the smallest
-    float64 ``y`` with ``code(y) ≥ k``, found by bisection on the float64 bit patterns of
+    ``code(y) = round(top · srgb_encode(clip(y, 0, 1)))`` in float64 (IEC 61966-2-1; the
+    same numbers as ``colour.cctf_encoding(..., function="sRGB")``) is increasing in ``y``,
+    so it is fixed by ``top`` thresholds: the smallest float64 ``y`` with ``code(y) ≥ k``,
+    found by bisection on the float64 bit patterns of
     [0, 1] (non-negative floats sort as their bits), 63 halvings of all ``top`` intervals at
     once. ``lut`` gives the code at 2^16 (8-bit) or 2^20 (16-bit) evenly spaced ``y``, where
     the kernel starts counting.
     """
     top = BIT_DEPTHS[check_bits(bits)][1]
-    cctf = colour().cctf_encoding
 
     def code(y: np.ndarray) -> np.ndarray:
-        return np.clip(np.round(cctf(np.clip(y, 0.0, 1.0), function="sRGB") * top), 0, top)
+        return np.clip(np.round(srgb_encode(np.clip(y, 0.0, 1.0)) * top), 0, top)
 
     k = np.arange(1, top + 1, dtype=np.float64)
     lo = np.zeros(top, np.int64)                                # bits of 0.0: code 0

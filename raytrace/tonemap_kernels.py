@@ -3,8 +3,9 @@
 ``encode`` turns linear values into sRGB code values (8- or 16-bit) in one pass over a band of
 pixels, reading float32 (or float64) in place: no float copy of the image is made. It does not
 evaluate the sRGB transfer function itself; it looks each value up among the thresholds that
-:func:`raytrace.tonemap.srgb_table` finds by bisection on colour-science's
-``cctf_encoding(..., function="sRGB")`` (IEC 61966-2-1), so the codes are exactly those of
+:func:`raytrace.tonemap.srgb_table` finds by bisection on the float64 sRGB encoding
+(:func:`raytrace.tonemap.srgb_encode`: IEC 61966-2-1, the same numbers as colour-science's
+``cctf_encoding(..., function="sRGB")``), so the codes are exactly those of
 ``round(255 · cctf_encoding(clip(x · 2^EV, 0, 1)))`` evaluated in float64.
 
 A serial ``nogil`` kernel (``raytrace.jit.kernel``), like every other kernel of the package.

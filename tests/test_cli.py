@@ -472,3 +472,96 @@ def test_a_terminal_gets_the_bar_and_one_summary_line_and_a_pipe_gets_nothing(
             assert lines[-1].endswith(" s")
         else:
             assert text == ""
+
+
+# -- many scenes, one start-up (--out-dir) -------------------------------------------------------
+def _scenes(tmp_path, names=("a", "b")):
+    """Two floor scenes of different sizes, so each output can be told by its shape."""
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    return [write_text(folder / f"{n}.toml", FLOOR_SCENE.format(w=4 + 2 * i, h=2 + 2 * i, spp=1,
+                                                                depth=2))
+            for i, n in enumerate(names)]
+
+
+def test_out_dir_writes_each_scene_as_its_own_render_would(tmp_path, capsys):
+    a, b = _scenes(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    rc, cap = _render([a, b, "--out-dir", out, "--png", "--stats"], capsys)
+    assert rc == 0 and cap.err == ""
+    assert sorted(os.listdir(out)) == ["a.exr", "a.json", "a.png", "b.exr", "b.json", "b.png"]
+    for scene in (a, b):
+        one = tmp_path / f"one_{scene.stem}.exr"
+        assert _render([scene, "-o", one], capsys)[0] == 0
+        batch_rgb, alone_rgb = raytrace.read_exr(out / f"{scene.stem}.exr")[0], \
+            raytrace.read_exr(one)[0]
+        assert batch_rgb.shape == alone_rgb.shape and np.array_equal(batch_rgb, alone_rgb)
+        stats = json.loads((out / f"{scene.stem}.json").read_text())
+        assert stats["output"] == str(out / f"{scene.stem}.exr")
+        assert (stats["width"], stats["height"]) == alone_rgb.shape[1::-1]
+
+
+def test_out_dir_refuses_two_scenes_of_one_name_before_rendering(tmp_path, capsys):
+    (a,) = _scenes(tmp_path, ("a",))
+    other = tmp_path / "other"
+    other.mkdir()
+    same_name = write_text(other / "a.json", json.dumps({"camera": {"position": [0, 1, 0]}}))
+    out = tmp_path / "out"
+    out.mkdir()
+    rc, cap = _render([a, same_name, "--out-dir", out], capsys)
+    lines = cap.err.splitlines()
+    assert rc == 2 and len(lines) == 1, cap.err
+    assert "--out-dir" in lines[0] and str(a) in lines[0] and str(same_name) in lines[0]
+    assert os.listdir(out) == []
+
+
+def test_out_dir_a_bad_scene_is_one_line_and_the_others_are_rendered(tmp_path, capsys):
+    a, b = _scenes(tmp_path)
+    bad = write_text(tmp_path / "scenes" / "bad.toml", "[render]\nwidth = -3\n")
+    out = tmp_path / "out"
+    out.mkdir()
+    rc, cap = _render([a, bad, b, "--out-dir", out, "--png"], capsys)
+    lines = cap.err.splitlines()
+    assert rc == 2 and len(lines) == 1, cap.err
+    assert lines[0].startswith(f"raytrace: error: {bad}: render.width: ")
+    assert sorted(os.listdir(out)) == ["a.exr", "a.png", "b.exr", "b.png"]
+
+
+@pytest.mark.parametrize(("extra", "flag"), [
+    (["-o", "x.exr"], "-o"), (["--png", "x.png"], "--png"), (["--stats", "s.json"], "--stats"),
+    (["--frames", "1-2"], "--frames")])
+def test_out_dir_flags_that_name_one_file_are_refused(tmp_path, capsys, extra, flag):
+    a, b = _scenes(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    rc, cap = _render([a, b, "--out-dir", out, *extra], capsys)
+    assert rc == 2 and len(cap.err.splitlines()) == 1 and f"error: {flag}: " in cap.err, cap.err
+    assert os.listdir(out) == []
+
+
+def test_several_scenes_need_out_dir_and_a_preview_needs_a_name(tmp_path, capsys):
+    a, b = _scenes(tmp_path)
+    rc, cap = _render([a, b], capsys)
+    assert rc == 2 and "--out-dir" in cap.err and len(cap.err.splitlines()) == 1
+    rc, cap = _render([a, "--png"], capsys)
+    assert rc == 2 and "error: --png: needs a file name" in cap.err
+    rc, cap = _render([a, b, "--out-dir", tmp_path / "missing"], capsys)
+    assert rc == 2 and "error: --out-dir: is not an existing folder" in cap.err
+    assert sorted(os.listdir(tmp_path)) == ["scenes"]
+
+
+def test_the_command_line_loads_neither_scipy_linalg_nor_cffi_for_its_kernels(tmp_path):
+    # numba imports them while it loads its registries, for BLAS (np.dot) and cffi calls that
+    # no kernel makes; the command runs no other numba code, so it hides them (jit.py).
+    probe = ("import sys; from raytrace import cli\n"
+             f"assert cli.main(['render', 'scenes/whitted.toml', '-o', {str(tmp_path)!r} + "
+             "'/w.exr', '--width', '4', '--height', '3', '-q']) == 0\n"
+             "from numba.np import arraymath\n"
+             "print(sorted(m for m in ('scipy.linalg', 'cffi', 'pycparser', 'trimesh', "
+             "'colour', 'OpenImageIO', 'pygltflib', 'dask', 'distributed', 'PIL') "
+             "if m in sys.modules), arraymath._HAVE_BLAS)\n"
+             "import scipy.linalg; print('later imports work')")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True, cwd=ROOT).stdout.split("\n")
+    assert out[:2] == ["[] False", "later imports work"]

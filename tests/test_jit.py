@@ -129,3 +129,47 @@ def test_the_command_line_says_it_is_compiling_on_a_terminal(tmp_path, monkeypat
     assert ("raytrace: compiling kernels, first run only (about 15 s)" in lines) == said
     if said:
         assert lines[0] == "raytrace: compiling kernels, first run only (about 15 s)"
+
+
+def test_a_colour_slot_does_not_compile_a_kernel_per_value(tmp_path):
+    # numba compiles a kernel called from another kernel once per *literal* argument value:
+    # with the colour slots as Python ints, color1 compiled six times (KA ... KE) in a first
+    # render. With numpy integers it compiles once for all six.
+    probe = (
+        "import numpy as np\n"
+        "from raytrace import shading_kernels as sk\n"
+        "import numba\n"
+        "from raytrace.shading_kernels import KA, KD, KS, KE  # globals, as the kernels see them\n"
+        "@numba.njit\n"
+        "def every_slot(palette):\n"
+        "    t = 0.0\n"
+        "    for c in (sk.color1(palette, 0, KA, 0.0, 0.0, 0.0),\n"
+        "              sk.color1(palette, 0, KD, 0.0, 0.0, 0.0),\n"
+        "              sk.color1(palette, 0, KS, 0.0, 0.0, 0.0),\n"
+        "              sk.color1(palette, 0, KE, 0.0, 0.0, 0.0)):\n"
+        "        t += c[0] + c[1] + c[2]\n"
+        "    return t\n"
+        "colors = np.arange(18, dtype=np.float64).reshape(1, 18)\n"
+        "palette = (colors, np.full((1, 6), -1, np.int64), np.zeros((1, 7)))\n"
+        "print(every_slot(palette), len(sk.color1.signatures))\n")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}  # compiled here, not loaded
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True, env=env, cwd=tmp_path).stdout.split()
+    assert out == [str(float(sum(range(9)) + sum(range(15, 18)))), "1"]
+
+
+def test_a_texel_channel_does_not_compile_a_kernel_per_value(tmp_path):
+    # The same for bilinear1's channel: texture1 reads R, G and B with one compilation.
+    probe = (
+        "import numpy as np, numba\n"
+        "from raytrace import core\n"
+        "@numba.njit\n"
+        "def rgb(texels, info):\n"
+        "    return core.texture1(texels, info, 0, 0.5, 0.5)\n"
+        "texels = np.array([1, 2, 3, 4], np.float32)  # one RGBA texel\n"
+        "info = np.array([[0, 1, 1, 0, 0]], np.int64)\n"
+        "print(*rgb(texels, info), len(core.bilinear1.signatures))\n")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True, env=env, cwd=tmp_path).stdout.split()
+    assert out == ["1.0", "2.0", "3.0", "1"]

@@ -223,3 +223,26 @@ def test_a_preview_leaves_numpys_print_options_as_they_were():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["True", "False", "np.float64(0.1)"]
+
+
+def test_every_16_bit_code_boundary_is_colour_sciences():
+    # The thresholds are found with raytrace's own float64 sRGB encoding (no colour import on
+    # the preview's path): at each one colour's encoding gives the next code, just below it
+    # the one before, so every code is the one colour-science's formula gives.
+    t = tonemap.srgb_table(16).thresholds[:-1]
+
+    def code(y):
+        return np.round(colour.cctf_encoding(y, function="sRGB") * 65535)
+
+    np.testing.assert_array_equal(code(t), np.arange(1, 65536))
+    np.testing.assert_array_equal(code(np.nextafter(t, -np.inf)), np.arange(0, 65535))
+
+
+def test_a_clip_preview_does_not_import_colour():
+    import subprocess
+    import sys
+
+    probe = ("import sys, numpy as np, raytrace; raytrace.Image(np.ones((4, 4, 3), np.float32))"
+             ".preview(); print('colour' in sys.modules)")
+    assert subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                          check=True).stdout.strip() == "False"
