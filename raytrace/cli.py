@@ -39,11 +39,15 @@ import time
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import ClusterError, RenderWarning, SceneError
 from .outputs import Outputs
+
+if TYPE_CHECKING:
+    from .scene import Scene
 
 EXIT_BAD_INPUT = 2
 EXIT_OVER_THRESHOLD = 1
@@ -314,16 +318,27 @@ def _render(args: argparse.Namespace) -> int:
                                Path(args.scene).stem + ".exr", args.png, args.stats),
                                overrides, client)
     try:  # the flags' values, found once for the batch (a crop: against each scene's frame)
-        render_options(Scene(), **{**overrides, "crop": None})
+        render_options(Scene(), **_scene_independent(overrides))
     except SceneError as e:
         raise _flag_error(e) from None
     failed = 0
+    # Every scene is loaded before any is rendered, so that no scene's output overwrites a
+    # file another scene of the batch reads (its scene file, meshes, textures, libraries).
+    loaded, inputs = [], [(p, "a scene file of this batch") for p, *_ in batch]
+    for paths in batch:
+        try:
+            loaded.append((paths, _load(paths[0])))
+        except (SceneError, OSError) as e:
+            failed += 1
+            print(f"raytrace: error: {_one_line(e, paths[0], Outputs())}", file=sys.stderr)
+            continue
+        inputs += [(f, f"{what} of {paths[0]}") for f, what in loaded[-1][1][0].input_files()]
     with _Started(cluster) as client:  # one cluster for the batch
-        for paths in batch:
+        for paths, scene in loaded:
             with Outputs() as outputs:  # all or nothing, scene by scene
                 try:
-                    _render_one(args, outputs, paths, overrides, client,
-                                others=[(p, "a scene file of this batch") for p, *_ in batch])
+                    _render_one(args, outputs, paths, overrides, client, others=inputs,
+                                scene=scene)
                 except (SceneError, OSError) as e:
                     failed += 1
                     print(f"raytrace: error: {_one_line(e, paths[0], outputs)}",
@@ -331,6 +346,26 @@ def _render(args: argparse.Namespace) -> int:
                 finally:
                     args.written.extend(outputs.written)
     return EXIT_BAD_INPUT if failed else 0
+
+
+def _scene_independent(overrides: dict) -> dict:
+    """The flags' values that can be checked before a scene is known: all but ``--crop``
+    (checked against each scene's frame) and ``--aa-min-depth`` without ``--aa-depth``
+    (bounded by each scene's ``aa_depth``)."""
+    checked = {**overrides, "crop": None}
+    if checked.get("aa_min_depth") is not None and checked.get("aa_depth") is None:
+        checked["aa_min_depth"] = None
+    return checked
+
+
+def _load(scene_path: str) -> tuple[Scene, float]:
+    """A scene file loaded (its model files' notes printed as warning lines), and seconds."""
+    from .scene_file import load_scene
+
+    t0 = time.perf_counter()
+    with _warnings_as_lines():  # a model file's notes
+        scene = load_scene(scene_path)
+    return scene, time.perf_counter() - t0
 
 
 class _Started(contextlib.ExitStack):
@@ -406,16 +441,17 @@ def _one_line(e: SceneError | OSError, scene: str, outputs: Outputs) -> str:
 
 def _render_one(args: argparse.Namespace, outputs: Outputs,
                 paths: tuple[str, str, str | None, str | None], overrides: dict,
-                client, others: list[tuple[str, str]] = ()) -> int:
+                client, others: list[tuple[str, str]] = (),
+                scene: tuple[Scene, float] | None = None) -> int:
     """Render one scene file to its EXR (and PNG, stats), all or nothing through ``outputs``.
 
     ``paths``: the scene, EXR, PNG and stats files (None: not written); ``client()``: the
     Dask client or None (:class:`_Started`); ``others``: more files no output may overwrite
-    (the batch's other scene files)."""
+    (the batch's scene files and every file its scenes read); ``scene``: the scene already
+    loaded, and its load seconds (:func:`_load`), or None to load it here."""
     from .film import write_exr, write_png
     from .jit import cache_is_warm, load_registries
     from .render import check_memory, render, render_options
-    from .scene_file import load_scene
 
     scene_path, exr_path, png_path, stats_path = paths
     # Every output is checked before anything is rendered (outputs.py): its suffix and that it
@@ -426,9 +462,7 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
     stats_file = outputs.add(stats_path, "--stats") if stats_path else None
     outputs.refuse_inputs([(scene_path, "the scene file"), *others])
     t0 = time.perf_counter()
-    with _warnings_as_lines():  # a model file's notes
-        scene = load_scene(scene_path)
-    load_seconds = time.perf_counter() - t0
+    scene, load_seconds = scene or _load(scene_path)
     outputs.refuse_inputs(scene.input_files())
     outputs.preflight()
     progress = Progress(not args.quiet)
@@ -516,7 +550,7 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
                  "aa_threshold": args.aa_threshold, "aa_depth": args.aa_depth,
                  "aa_min_depth": args.aa_min_depth}
     try:  # the flags' values, found now (the crop is checked against each frame's size)
-        render_options(Scene(), **overrides)
+        render_options(Scene(), **_scene_independent(overrides))
     except SceneError as e:
         raise _flag_error(e) from None
     progress = Progress(not args.quiet)

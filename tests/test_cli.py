@@ -528,6 +528,45 @@ def test_out_dir_a_bad_scene_is_one_line_and_the_others_are_rendered(tmp_path, c
     assert sorted(os.listdir(out)) == ["a.exr", "a.png", "b.exr", "b.png"]
 
 
+def test_out_dir_never_overwrites_a_file_another_scene_of_the_batch_reads(tmp_path, capsys):
+    # c.toml's floor is textured with out/a.png, which a.toml's preview would be: a's outputs
+    # are refused (one line), c and b are rendered, the texture is untouched.
+    from PIL import Image as PILImage
+
+    a, b = _scenes(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    PILImage.new("RGB", (2, 2), (200, 30, 30)).save(out / "a.png")
+    texture = (out / "a.png").read_bytes()
+    c = write_text(tmp_path / "scenes" / "c.toml", FLOOR_SCENE.format(w=4, h=2, spp=1, depth=2)
+                   .replace('material = "floor"',
+                            'material = { kd = { texture = "../out/a.png" } }'))
+    rc, cap = _render([c, a, b, "--out-dir", out, "--png"], capsys)
+    lines = cap.err.splitlines()
+    assert rc == 2 and len(lines) == 1, cap.err
+    assert f"{out / 'a.png'} is the file of material" in lines[0] and str(c) in lines[0]
+    assert (out / "a.png").read_bytes() == texture
+    assert sorted(os.listdir(out)) == ["a.png", "b.exr", "b.png", "c.exr", "c.png"]
+
+
+def test_out_dir_checks_aa_min_depth_against_each_scene_s_own_aa_depth(tmp_path, capsys):
+    a, b = _scenes(tmp_path)
+    for scene in (a, b):
+        scene.write_text(scene.read_text().replace("[render]", "[render]\naa = \"adaptive\"\n"
+                                                   "aa_depth = 4"))
+    out = tmp_path / "out"
+    out.mkdir()
+    rc, cap = _render([a, b, "--out-dir", out, "--aa-min-depth", "3"], capsys)
+    assert rc == 0 and cap.err == ""
+    assert sorted(os.listdir(out)) == ["a.exr", "b.exr"]
+    deeper = tmp_path / "deeper"
+    deeper.mkdir()
+    rc, cap = _render([a, b, "--out-dir", deeper, "--aa-min-depth", "5"], capsys)
+    lines = cap.err.splitlines()
+    assert rc == 2 and len(lines) == 2 and all("--aa-min-depth" in line for line in lines), cap.err
+    assert os.listdir(deeper) == []
+
+
 @pytest.mark.parametrize(("extra", "flag"), [
     (["-o", "x.exr"], "-o"), (["--png", "x.png"], "--png"), (["--stats", "s.json"], "--stats"),
     (["--frames", "1-2"], "--frames")])
