@@ -13,7 +13,10 @@ coordinates; tests/test_meshio.py checks it on the same files):
 * :func:`read_obj`: OBJ triangles (Wavefront, "Object Files (.obj)", Appendix B1 of the
   Advanced Visualizer manual) with ``v``, ``vt``, ``vn``, ``f`` (``v``, ``v/vt``, ``v//vn``,
   ``v/vt/vn``, negative indices), ``o``, ``g``, ``s`` and comments, each kind of statement
-  parsed by one :func:`numpy.fromstring` call over the bytes of its lines;
+  parsed by one :func:`numpy.fromstring` call over the bytes of its lines. A negative index
+  counts back from the file's last vertex, as trimesh counts it (the OBJ appendix counts
+  back from the last vertex defined before the face: the two differ where ``v`` lines follow
+  an ``f`` line with negative indices, and raytrace keeps trimesh's reading);
 * :func:`merge_vertices`: trimesh's merge (positions rounded to 10⁻⁸, the first occurrence
   of each kept, in order of first occurrence among the referenced vertices) through a 64-bit
   hash of the rounded positions, checked against the positions themselves.
@@ -93,7 +96,7 @@ def read_ply(path: Path) -> Mesh3 | None:
                 return None  # a malformed header: trimesh says what is wrong
             elements.append([words[1], int(words[2]), []])
         elif words[:1] == ["property"] and elements:
-            if words[1] == "list" and len(words) == 5:
+            if words[1:2] == ["list"] and len(words) == 5:
                 elements[-1][2].append((words[4], (words[2], words[3])))
             elif len(words) == 3:
                 elements[-1][2].append((words[2], words[1]))
@@ -237,7 +240,7 @@ def _numbers(lines: Lines, mask: np.ndarray, stmt: bytes, width: int, path: Path
                                  f"{stmt.decode()} needs numbers, got "
                                  f"{bytes(buf[a:b]).strip().decode(errors='replace')!r}",
                                  "file") from None
-            if len(words) < width:
+            if len(words) < width and stmt != b"vt":  # trimesh reads a 1-number vt
                 raise SceneError(f"cannot read mesh {path}: line {_line_of(mask, k)}: "
                                  f"{stmt.decode()} needs {width} numbers, got {len(words)}",
                                  "file")
@@ -303,6 +306,8 @@ def _face_corners(lines: Lines, mask: np.ndarray, path: Path, n_v: int, n_vt: in
         return out
 
     faces = absolute(numbers[:, :, 0], n_v, "vertex")
+    if slashes and not double and n_vt == 0:
+        return None  # f v/vt with no vt lines: trimesh reads it without texture coordinates
     face_vt = absolute(numbers[:, :, 1], n_vt, "texture vertex") if slashes and not double \
         else None
     return faces, face_vt

@@ -124,6 +124,13 @@ def test_obj_soup_with_crlf_and_extra_blanks_matches_trimesh(tmp_path):
     # trimesh's own errors on these two stay as they were
     ("comment.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0 # trailing\nf 1 2 3\n", False),
     ("mixed.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/1 3\n", False),
+    # trimesh reads these two (without texture coordinates): so does raytrace
+    ("no_vt.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/2 3/3\n", True),
+    ("short_vt.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.5\nvt 0.2\nvt 0.1\nf 1/1 2/2 3/3\n",
+     True),
+    # a bare "property" line in a PLY header: trimesh's error, not an IndexError of ours
+    ("property.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty\n"
+                     "end_header\n", False),
 ])
 def test_files_it_does_not_read_go_to_trimesh(tmp_path, name, text, readable):
     path = tmp_path / name
