@@ -18,9 +18,10 @@ every render (BLAKE2b over the arrays' bytes, about 1 ms a MB: 3 ms for 82 k tri
 a 0.2 s build): the camera position (the accelerator is camera-relative, docs/architecture.md,
 "Precision": another eye gives other float32 vertices, so a camera path that moves the eye
 rebuilds, and every image stays bit-identical to a render in a fresh process), and each
-object in order: its kind, its geometry (a sphere's centre and radius, a plane's point and
-normal, a mesh's world-space vertices and faces, shading, texture coordinates, per-face
-materials) and its materials' places in the render's material table. A material's colours,
+object in order: its kind, its geometry (an analytic shape's table row, ``row(origin)``, so a
+new shape type is hashed by what it registers; a mesh's world-space vertices and faces,
+shading, texture coordinates, per-face materials) and its materials' places in the render's
+material table. A material's colours,
 the lights, the camera's direction and field of view and every render setting are not part of
 it. A mesh's ``translate``, ``rotate`` and ``scale`` are applied when the ``Mesh`` is made; its
 ``vertices`` are what is rendered and what is hashed. Hashing the bytes rather than counting
@@ -40,7 +41,7 @@ import numpy as np
 
 from .accel import Accelerator
 from .material import COLOR_KEYS
-from .scene import Mesh, Plane, Scene, Sphere
+from .scene import Mesh, Scene
 from .tables import SceneArrays
 from .texture import Texture
 
@@ -71,17 +72,15 @@ def fingerprint(scene: Scene, materials: list) -> bytes:
     h.update(b"textured" if any(isinstance(getattr(m, k), Texture) for m in materials
                                 for k in COLOR_KEYS) or any(m.alpha is not None
                                                             for m in materials) else b"plain")
+    origin = np.asarray(scene.camera.position, np.float64)
     for o in scene.objects:
         h.update(type(o).__name__.encode())
-        if isinstance(o, Sphere):
-            add(o.center, o.radius)
-        elif isinstance(o, Plane):
-            add(o.point, o.normal)
-        elif isinstance(o, Mesh):
+        if isinstance(o, Mesh):
             h.update(o.shading.encode())
             add(o.vertices, o.faces, o.texcoords, o.face_material, o.degenerate,
-                [index[id(m)] for m in o.file_materials])
-        add(index[id(o.material)])
+                [index[id(m)] for m in o.materials])
+        else:  # an analytic shape: its table row, as the stage makes it (tables.shape_tables)
+            add(o.row(origin), index[id(o.material)])
     return h.digest()
 
 

@@ -115,3 +115,17 @@ def test_a_material_changed_between_renders_is_seen_without_a_build():
     expected = raytrace.render(fresh).rgb
     assert np.array_equal(again[0], expected)
     assert again[0][9, 12, 0] > 2 * again[0][9, 12, 1]  # the tetrahedron turned red
+
+
+def test_a_model_file_mesh_given_a_material_of_its_own_renders_as_a_fresh_scene():
+    # A mesh read with its MTL uses its file's materials; one assigned afterwards is not among
+    # them: the fingerprint hashes the materials the mesh's faces use, as the stage tables them.
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "scenes" / "obj_mtl.toml"
+    scene = raytrace.load_scene(path)
+    first = raytrace.render(scene, width=16, height=12).rgb
+    mesh = next(o for o in scene.objects if isinstance(o, raytrace.Mesh) and o.file_materials)
+    mesh.material = raytrace.Material(kd=0.9)
+    again = raytrace.render(scene, width=16, height=12).rgb
+    assert np.array_equal(again, first)  # the file's materials still colour the faces
