@@ -53,6 +53,7 @@ from .rays import (
     SEE_THROUGH,
     RayBatch,
     count_kinds,
+    gather_chunks,
     sample_chunks,
     split_hits,
     take_hits,
@@ -198,6 +199,8 @@ class WhittedIntegrator:
         frame) and the window traced: the same, or, for a filter wider than a pixel, grown by
         its reach (clipped to the frame)."""
         self.opt = options
+        #: Whether missed rays add anything (the background is not black).
+        self.any_background = bool(np.any(options.background))
         self.window = options.crop or (0, 0, options.width, options.height)
         self.reach = sampling.margin(options.filter)
         x0, y0, x1, y1 = self.window
@@ -492,7 +495,7 @@ class WhittedIntegrator:
         found, missed = found[:k], missed[:n - k]
         if self.observer is not None:
             self.observer.traced(rays, found, missed, self.background)
-        if len(missed) and np.any(opt.background):
+        if len(missed) and self.any_background:
             add(samples, rays.sample, rays.weight, self.background, missed)
         if not len(found):
             return RayBatch.empty(rays.depth + 1)
@@ -717,11 +720,14 @@ class WhittedIntegrator:
 def chunks(rays: RayBatch, samples: int, most: int) -> list[RayBatch]:
     """``rays`` (of ``samples`` pixel samples) cut into batches of at most ``most`` rays that
     keep each sample's rays together, in batch order (:func:`raytrace.rays.sample_chunks`)."""
-    chunk = np.empty(len(rays), np.int64)
+    n = len(rays)
+    chunk = np.empty(n, np.int64)
     count = sample_chunks(rays.sample, samples, most, chunk)
-    order = np.argsort(chunk, kind="stable")
-    bounds = np.searchsorted(chunk[order], np.arange(count + 1))
-    return [rays.take(order[a:b]) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    out = RayBatch(np.empty((n, 3)), np.empty((n, 3)), np.empty(n, rays.sample.dtype),
+                   np.empty((n, 3)), rays.depth, np.empty(n, rays.origin_shape.dtype),
+                   np.empty(n, rays.kind.dtype))
+    bounds = gather_chunks(chunk, count, rays.record, out.record).tolist()
+    return [out.take(slice(a, b)) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
 
 
 def check_spawned(rays: RayBatch) -> None:

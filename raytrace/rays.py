@@ -149,6 +149,31 @@ def take_hits(rows, rays, hits, out):
 
 
 @kernel
+def gather_chunks(chunk, count, rays, out):
+    """The rays of a batch (a :class:`raytrace.records.Rays`) regrouped by ``chunk`` (their
+    chunk, ``0 … count − 1``, from :func:`sample_chunks`) into ``out`` (a ``Rays`` of as
+    many rows): chunk 0's rays first, each chunk's in batch order (a stable counting sort,
+    the order of ``np.argsort(chunk, kind="stable")``); returns the ``count + 1`` bounds of
+    the chunks' rows, so each chunk is a slice of ``out`` (one pass for what was a sort, a
+    search and a gather of every column per chunk)."""
+    origin, direction, sample, weight, origin_shape, kind = rays
+    o, d, s, w, os_, kd = out
+    bounds = np.zeros(count + 1, np.int64)
+    for r in range(chunk.shape[0]):
+        bounds[chunk[r] + 1] += 1
+    for c in range(count):
+        bounds[c + 1] += bounds[c]
+    at = bounds[:-1].copy()  # the next free row of each chunk
+    for r in range(chunk.shape[0]):
+        j = at[chunk[r]]
+        at[chunk[r]] = j + 1
+        for c in range(3):
+            o[j, c], d[j, c], w[j, c] = origin[r, c], direction[r, c], weight[r, c]
+        s[j], os_[j], kd[j] = sample[r], origin_shape[r], kind[r]
+    return bounds
+
+
+@kernel
 def sample_chunks(sample, samples, most, chunk):
     """Cut a batch into chunks of at most ``most`` rays that keep each pixel sample's rays
     together: ``chunk[r]`` = the chunk of ray r (samples ``0 … samples − 1`` in order, a new

@@ -39,8 +39,8 @@ from raytrace import (
 )
 from raytrace.cli import main
 from raytrace.film import read_exr
-from raytrace.integrator import RenderOptions, WhittedIntegrator
-from raytrace.rays import CAMERA, NO_SHAPE, REFRACTION, RayBatch
+from raytrace.integrator import RenderOptions, WhittedIntegrator, chunks
+from raytrace.rays import CAMERA, NO_SHAPE, REFRACTION, RayBatch, gather_chunks, sample_chunks
 
 RTOL = 1e-6  # float32 output: ~6e-8 relative rounding, so 1e-6 is tight but safe
 IOR = 1.5
@@ -428,6 +428,32 @@ def test_no_batch_outgrows_the_pass():
     whole = raytrace.render(scene, width=24, height=18, max_depth=6)
     np.testing.assert_allclose(small.rgb, whole.rgb, rtol=1e-6, atol=1e-9)
     assert small.stats["rays"] == whole.stats["rays"]
+
+
+def test_chunks_are_each_chunks_rays_in_batch_order():
+    # The compiled regrouping (a stable counting sort) gives every chunk exactly the rays
+    # numpy's stable argsort of the chunk ids gives, column by column, bounds included.
+    rng = np.random.default_rng(14)
+    n, samples, most = 700, 90, 37
+    rays = RayBatch(rng.normal(size=(n, 3)), rng.normal(size=(n, 3)),
+                    rng.integers(0, samples, n), rng.random((n, 3)), 3,
+                    rng.integers(-1, 6, n), rng.integers(0, 4, n).astype(np.int8))
+    chunk = np.empty(n, np.int64)
+    count = sample_chunks(rays.sample, samples, most, chunk)
+    order = np.argsort(chunk, kind="stable")
+    out = RayBatch(np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int64),
+                   np.empty((n, 3)), 3, np.empty(n, np.int64), np.empty(n, np.int8))
+    bounds = gather_chunks(chunk, count, rays.record, out.record)
+    np.testing.assert_array_equal(bounds, np.searchsorted(chunk[order], np.arange(count + 1)))
+    for name in ("origin", "direction", "sample", "weight", "origin_shape", "kind"):
+        np.testing.assert_array_equal(getattr(out, name), getattr(rays, name)[order])
+    parts = chunks(rays, samples, most)
+    assert len(parts) == count > 10
+    for c, part in enumerate(parts):
+        rows = np.flatnonzero(chunk == c)
+        assert part.depth == 3 and 0 < len(part) <= most
+        for name in ("origin", "direction", "sample", "weight", "origin_shape", "kind"):
+            np.testing.assert_array_equal(getattr(part, name), getattr(rays, name)[rows])
 
 
 # -- statistics ------------------------------------------------------------------------------
