@@ -6,8 +6,9 @@ Scalar functions compiled with :data:`raytrace.jit.kernel`, inlined into the ker
 guard does):
 
 * hashing: :func:`finalize64` (SplitMix64's finalizer, Steele, Lea & Flood 2014),
-  :func:`mix64` and the two draws built on it, :func:`camera_uniform` (pixel-sample jitter)
-  and :func:`light_uniform` (points on jittered area-light cells), and :func:`path_key1` (a
+  :func:`mix64` and the draws built on it, :func:`camera_uniform` (pixel-sample jitter)
+  and :func:`light_word` / :func:`light_uniform` (points on jittered area-light cells), and
+  :func:`path_key1` (a
   secondary ray's own key for those points);
 * the camera: :func:`pixel_offset` (where a sample lies in its pixel);
 * optics: :func:`reflect3` (law of reflection), :func:`refract3` (Snell, with total internal
@@ -34,6 +35,7 @@ M1, M2, M3 = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xBF58476D1CE4E5B9),
               np.uint64(0x94D049BB133111EB))
 _TWO = np.uint64(2)
 _S11, _S27, _S30, _S31 = np.uint64(11), np.uint64(27), np.uint64(30), np.uint64(31)
+_S32, _LOW32 = np.uint64(32), np.uint64(0xFFFFFFFF)
 #: Mesh shading codes (``raytrace.tables.SHADING_CODES``; ``Triangles.shading``).
 FLAT, SMOOTH, GOURAUD, FAST_PHONG = 0, 1, 2, 3
 #: Shadow rays stop this relative fraction short of the light.
@@ -84,12 +86,28 @@ def camera_uniform(seed, index, stream):
 
 
 @kernel
-def light_uniform(key, stream, index):
-    """A uniform float in [0, 1) for a shading point's ``key`` (its global camera sample, or
-    :func:`path_key1` of it for a secondary ray's), an
-    area-light cell's ``stream`` and ``index`` (2·depth, 2·depth + 1): :func:`mix64` of
-    ``key·M1 + stream·M3 + index·M2``."""
-    return mix64(np.uint64(key) * M1 + np.uint64(stream) * M3 + np.uint64(index) * M2)
+def light_word(key, stream, depth):
+    """The draw of a jittered area light at one hit, a 63-bit int64 ≥ 0: :func:`finalize64`
+    of ``key·M1 + stream·M3 + depth·M2`` (``key`` the hit's global camera sample, or
+    :func:`path_key1` of it for a secondary ray's; ``stream`` the light's) shifted right by
+    one. One hash per (hit, light), shared by the light's cells (made once per hit for all
+    of them by :func:`light_words`); :func:`light_uniform` reads it."""
+    return np.int64(finalize64(np.uint64(key) * M1 + np.uint64(stream) * M3
+                               + np.uint64(depth) * M2) >> np.uint64(1))
+
+
+@kernel
+def light_uniform(word):
+    """Two uniform floats (w₁, w₂) in [0, 1) from a :func:`light_word`: its top 31 bits times
+    2⁻³¹ and its bottom 32 bits times 2⁻³²."""
+    return float(word >> 32) * 2.0**-31, float(word & 0xFFFFFFFF) * 2.0**-32
+
+
+@kernel
+def light_words(key, stream, depth, out):
+    """:func:`light_word` of each row of ``key`` (n,) int64 into ``out`` (n,) int64."""
+    for i in range(key.shape[0]):
+        out[i] = light_word(key[i], stream, depth)
 
 
 # -- the camera -----------------------------------------------------------------------------

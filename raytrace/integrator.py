@@ -45,7 +45,7 @@ from .accel import Hits, Surface
 from .accel_cache import accelerator
 from .camera import camera_columns, camera_rays, directions_at, global_samples, grid
 from .film import Image
-from .lights import NO_KEY, Emitter, emitters, path_keys
+from .lights import NO_KEY, Emitter, emitters, light_words, path_keys
 from .rays import (
     KIND_NAMES,
     REFLECTION,
@@ -617,10 +617,14 @@ class WhittedIntegrator:
                 rays.sample + w.first_sample, self.opt.width, self.opt.spp, self.trace_crop))
         if len(key) and rays.depth > 0:  # each path of a sample its own points
             key = path_keys(key, rays.origin, rays.direction)
+        words = {}  # a jittered light's draws, one per hit for all its cells
         for e, em in enumerate(self.emitters):
+            if em.stream not in words:
+                words[em.stream] = light_words(key, em.stream, rays.depth)
             tables = self.tables if not len(self.fast[e]) else self.tables._replace(
                 fast=self.fast[e])
-            k = sk.light_pass(rays.record, surf, tables, em.record, key, rays.depth, term, shadow)
+            k = sk.light_pass(rays.record, surf, tables, em.record, words[em.stream], rays.depth,
+                              term, shadow)
             if self.observer is not None:
                 self.observer.light(e, term, rows[:k])
             if k:

@@ -29,8 +29,10 @@ class Emitter:
 
     ``position`` is None for a directional light, whose ``direction`` is the way the light
     travels. ``cos_cutoff`` is None unless it is a spot light. A jittered cell of an area light
-    has its centre as ``position``, its edges ``cell_u``, ``cell_v`` and a ``stream`` ≥ 0 that
-    seeds the point drawn in the cell for each hit; ``stream`` is −1 for every other emitter.
+    has its centre as ``position``, its edges ``cell_u``, ``cell_v``, its light's ``stream`` ≥ 0
+    that seeds the points drawn for each hit and its canonical ``offset`` (j/k, i/k) for cell
+    (i, j) of k × k (:func:`raytrace.shading_kernels.incidence1`); ``stream`` is −1 for every
+    other emitter.
     """
 
     color: np.ndarray
@@ -42,6 +44,7 @@ class Emitter:
     cell_u: np.ndarray | None = None
     cell_v: np.ndarray | None = None
     stream: int = -1
+    offset: tuple[float, float] = (0.0, 0.0)
 
     @property
     def jittered(self) -> bool:
@@ -61,18 +64,18 @@ class Emitter:
         """
         points = np.ascontiguousarray(np.asarray(points, np.float64).reshape(-1, 3))
         n = len(points)
-        key = NO_KEY if key is None else np.ascontiguousarray(key, dtype=np.int64)
+        words = NO_KEY if key is None else light_words(key, self.stream, depth)
         to_light, dist, factor = np.empty((n, 3)), np.empty(n), np.empty(n)
         from .shading_kernels import incidence_rows
 
-        incidence_rows(points, self.record, key, depth, to_light, dist, factor)
+        incidence_rows(points, self.record, words, to_light, dist, factor)
         return to_light, dist, factor
 
     @cached_property
     def record(self) -> EmitterRecord:
-        """The emitter as the kernels take it, a :class:`raytrace.records.Emitter` of 19
+        """The emitter as the kernels take it, a :class:`raytrace.records.Emitter` of 21
         floats: kind (POINT, SPOT, DIRECTIONAL), position, direction, attenuation, cos θ,
-        exponent, cell edges u and v, stream (below 2⁵², so exact in a float64). A named
+        exponent, cell edges u and v, stream (below 2⁵², so exact in a float64), offset. A named
         tuple of floats, not an array: numba passes it by value, where an array argument costs
         a reference count per call of the per-hit function that takes it (13 ns a hit in the
         light pass)."""
@@ -87,8 +90,21 @@ class Emitter:
             [1.0, 0.0, 0.0] if self.attenuation is None else self.attenuation,
             [0.0 if self.cos_cutoff is None else self.cos_cutoff, self.exponent],
             zero if self.cell_u is None else self.cell_u,
-            zero if self.cell_v is None else self.cell_v, [self.stream]]
+            zero if self.cell_v is None else self.cell_v, [self.stream], self.offset]
         ).astype(np.float64).tolist())
+
+
+def light_words(key: np.ndarray, stream: int, depth: int) -> np.ndarray:
+    """The draws (n,) int64 of a jittered area light (its ``stream``) at hits of camera-sample
+    or path ``key`` (n,) and ``depth``: :func:`raytrace.core.light_word` of each, one per hit
+    for all the light's cells (no rows for an unjittered emitter, stream < 0)."""
+    if stream < 0:
+        return NO_KEY
+    from .core import light_words as kernel
+
+    out = np.empty(len(key), np.int64)
+    kernel(np.ascontiguousarray(key, np.int64), np.int64(stream), np.int64(depth), out)
+    return out
 
 
 def path_keys(key: np.ndarray, origin: np.ndarray, direction: np.ndarray) -> np.ndarray:

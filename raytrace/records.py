@@ -151,7 +151,9 @@ class Emitter(NamedTuple):
     vx: float
     vy: float
     vz: float
-    stream: float    #: ≥ 0: a jittered cell's hash stream (exact below 2⁵²); −1 otherwise
+    stream: float    #: ≥ 0: a jittered area light's hash stream (exact below 2⁵²); −1 otherwise
+    ou: float        #: a jittered cell (i, j) of k × k: its canonical offsets j/k and i/k
+    ov: float        #: (shading_kernels.incidence1)
 
 
 class Shadows(NamedTuple):

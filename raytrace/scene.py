@@ -234,8 +234,9 @@ class AreaLight:
 
     def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
         """k² point samples sharing the colour (seed 001's distributed source), at the cell
-        centres; jittered cells each get a hash stream from (``seed``, ``index``), drawn per
-        shading point (:func:`raytrace.shading_kernels.incidence1`)."""
+        centres; a jittered light gets a hash stream from (``seed``, ``index``) and each cell
+        its canonical offset, drawn per shading point
+        (:func:`raytrace.shading_kernels.incidence1`)."""
         from .lights import Emitter
 
         pts = self.sample_points() - origin
@@ -243,10 +244,11 @@ class AreaLight:
         if not self.jitter:
             return [Emitter(col, position=p, attenuation=self.attenuation) for p in pts]
         k = math.isqrt(self.samples)
-        streams = np.random.default_rng([seed, index]).integers(0, 2**52, len(pts))
+        stream = int(np.random.default_rng([seed, index]).integers(0, 2**52))
+        i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")  # sample_points' order
         return [Emitter(col, position=p, attenuation=self.attenuation, cell_u=self.edge_u / k,
-                        cell_v=self.edge_v / k, stream=int(st))
-                for p, st in zip(pts, streams, strict=True)]
+                        cell_v=self.edge_v / k, stream=stream, offset=(b / k, a / k))
+                for p, a, b in zip(pts, i.ravel(), j.ravel(), strict=True)]
 
 
 Light = PointLight | DirectionalLight | SpotLight | AreaLight

@@ -68,16 +68,21 @@ NONE, PRUNED, KEEP = 0, 1, 2
 
 # -- lights -----------------------------------------------------------------------------------
 @kernel
-def incidence1(p, em, key, depth):
+def incidence1(p, em, word):
     """Unit vector to the light, distance and attenuation ``f_radial·f_angular`` at a point.
 
     ``p`` is the point (a 3-tuple), ``em`` a :class:`raytrace.records.Emitter`. A jittered
-    area-light cell (stream ≥ 0) is sampled at ``position + (ξ₁ − ½)·u + (ξ₂ − ½)·v``,
-    ξ = :func:`raytrace.core.light_uniform` of (``key``, stream, 2·depth and 2·depth + 1): a
-    point of its own
-    for each shading point (``key`` ≥ 0: the hit's camera sample, for a secondary ray hashed
-    with its path, :func:`raytrace.core.path_key1`) and depth; with ``key`` <
-    0, at the cell centre. Seed 000:
+    area-light cell (stream ≥ 0), cell (i, j) of k × k, is sampled at
+    ``position + (ξ_u − ½)·u + (ξ_v − ½)·v`` with ``ξ_u = frac(w₁ + j/k)``,
+    ``ξ_v = frac(w₂ + i/k)`` and (w₁, w₂) = :func:`raytrace.core.light_uniform` of ``word``,
+    the hit's :func:`raytrace.core.light_word` for the light, shared by its cells: a
+    Cranley–Patterson rotation (1976) of the canonical multi-jittered pattern of Chiu,
+    Shirley & Wang ("Multi-jittered sampling", Graphics Gems IV, 1994). Each hit puts one
+    point in every cell (the k × k strata) and one in each of the k² columns and rows of the
+    whole rectangle (n-rooks), each point uniform in its cell; points of their own for each
+    shading point (the word hashes its camera sample, for a secondary ray hashed with its
+    path, :func:`raytrace.core.path_key1`, and depth); with ``word`` < 0, at the cell centre.
+    Seed 000:
     ``f_radial = 1/(a0 + a1·d + a2·d²)`` (0 where that is not finite, and at the light itself,
     where L is undefined; L stays a unit vector however near or far the light); a spot
     multiplies ``(cos α)^a`` inside its cone (``cos α >= cos θ``, edge included) and 0
@@ -87,9 +92,10 @@ def incidence1(p, em, key, depth):
     if em.kind == DIRECTIONAL:
         return -em.dx, -em.dy, -em.dz, math.inf, 1.0
     sx, sy, sz = em.px, em.py, em.pz
-    if em.stream >= 0.0 and key >= 0:
-        u = light_uniform(key, np.int64(em.stream), 2 * depth) - 0.5
-        v = light_uniform(key, np.int64(em.stream), 2 * depth + 1) - 0.5
+    if em.stream >= 0.0 and word >= 0:
+        w1, w2 = light_uniform(word)
+        u, v = w1 + em.ou, w2 + em.ov
+        u, v = (u - 1.5 if u >= 1.0 else u - 0.5), (v - 1.5 if v >= 1.0 else v - 0.5)
         sx, sy, sz = (sx + u * em.ux + v * em.vx, sy + u * em.uy + v * em.vy,
                       sz + u * em.uz + v * em.vz)
     lx, ly, lz = sx - px, sy - py, sz - pz
@@ -266,11 +272,11 @@ def gouraud1(hit, eye, smooth, light, kd, ks, n, model):
     ``u``, ``v``): the unshadowed ``f·[kd·max(N·L, 0) + ks·spec]`` of one emitter evaluated at
     the three corners, with their vertex normals turned by ``s`` (+1 outward, −1 inward) and V
     towards the ``eye`` (a 3-tuple), then interpolated; ``hit`` = (tri, u, v, s), ``light`` =
-    (emitter, key, depth). Every corner sees a jittered area light at the one point drawn for
-    this hit (``key``, ``depth``): the point its shadow ray aims at. ``kd``, ``ks`` are the
-    colours at the hit; ``smooth`` = the triangles' (corners, vertex normals)."""
+    (emitter, word). Every corner sees a jittered area light at the one point drawn for
+    this hit (its ``word``, :func:`incidence1`): the point its shadow ray aims at. ``kd``,
+    ``ks`` are the colours at the hit; ``smooth`` = the triangles' (corners, vertex normals)."""
     tri, u, v, s = hit
-    em, key, depth = light
+    em, word = light
     ex, ey, ez = eye
     corners, vnormals = smooth
     r = g = b = 0.0
@@ -281,7 +287,7 @@ def gouraud1(hit, eye, smooth, light, kd, ks, n, model):
         vx, vy, vz = ex - px, ey - py, ez - pz
         length = max(math.sqrt(vx * vx + vy * vy + vz * vz), 1e-300)
         vx, vy, vz = vx / length, vy / length, vz / length
-        lx, ly, lz, _, f = incidence1((px, py, pz), em, key, depth)
+        lx, ly, lz, _, f = incidence1((px, py, pz), em, word)
         dr, dg, db = direct1((nx, ny, nz), (lx, ly, lz), (vx, vy, vz), kd, ks, n, model)
         r += w * dr * f
         g += w * dg * f
@@ -311,7 +317,7 @@ def fast_phong1(table, tri, hit, kd, ks, n, model):
 
 
 @kernel
-def light_pass(rays, surf, scene, em, key, depth, term, shadow):
+def light_pass(rays, surf, scene, em, words, depth, term, shadow):
     """One emitter ``em`` (a :class:`raytrace.records.Emitter`) at every hit of ``rays`` on
     ``surf`` (:class:`raytrace.records.Rays`, :class:`raytrace.records.Surface`), in one pass:
     its unshadowed term and the shadow rays that must decide it. Returns k, the number of
@@ -328,8 +334,8 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
     (relative) short of it; from a smooth or Gouraud triangle it goes from :func:`bulge1`'s
     lifted point P′ (on the side the viewer sees) to the same point of the light the shading
     used (SCENE_FORMAT.md's smooth-mesh rule 2; Blender Cycles aims from P′ as well).
-    ``key`` (n,): each hit's global camera
-    sample, read only for a jittered emitter (:func:`incidence1`)."""
+    ``words`` (n,): each hit's :func:`raytrace.core.light_word` for this emitter's light,
+    read only for a jittered emitter (:func:`incidence1`)."""
     direction, eye = rays.direction, rays.origin
     point, geometric, shading, material = surf.point, surf.geometric, surf.shading, surf.material
     materials, triangles, origin = scene.materials, scene.triangles, scene.origin
@@ -338,7 +344,7 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
     code = triangles.shading
     smooth_tables = (triangles.corners, triangles.vnormals)
     rows, s_origin, s_direction, s_tmax, s_shape = shadow
-    jittered = em.stream >= 0.0
+    jittered = em.stream >= 0.0 and words.shape[0] > 0
     shininess, highlight, lit = materials.shininess, materials.highlight, materials.lit
     keep = 1.0 - SHADOW_SHORTEN
     fast = scene.fast.shape[0] > 0 and depth == 0  # a directional light, seen from the camera
@@ -352,8 +358,8 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
         gx, gy, gz = geometric[i, 0], geometric[i, 1], geometric[i, 2]
         s = facing1(gx, gy, gz, dx, dy, dz)
         px, py, pz = point[i, 0], point[i, 1], point[i, 2]
-        hit_key = key[i] if jittered else -1
-        lx, ly, lz, d, f = incidence1((px, py, pz), em, hit_key, depth)
+        word = words[i] if jittered else -1
+        lx, ly, lz, d, f = incidence1((px, py, pz), em, word)
         wx, wy, wz = px + origin[0], py + origin[1], pz + origin[2]
         tri = surf.triangle[i]
         u, v = surf.uv[i, 0], surf.uv[i, 1]
@@ -366,7 +372,7 @@ def light_pass(rays, surf, scene, em, key, depth, term, shadow):
         smooth = tri >= 0 and code[tri] != FLAT
         if smooth and code[tri] == GOURAUD:
             r, g, b = gouraud1((tri, u, v, s), (eye[i, 0], eye[i, 1], eye[i, 2]), smooth_tables,
-                               (em, hit_key, depth), kd, ks, shininess[m], highlight[m])
+                               (em, word), kd, ks, shininess[m], highlight[m])
         elif fast and smooth and code[tri] == FAST_PHONG:  # f = 1: directional
             r, g, b = fast_phong1(scene.fast, tri, (u, v, s), kd, ks, shininess[m],
                                   highlight[m])
@@ -780,13 +786,13 @@ def refract_rows(d, n, eta, out, tir):
 
 
 @kernel
-def incidence_rows(points, em, key, depth, to_light, dist, factor):
-    """:func:`incidence1` at each point; ``key`` (n,) the jitter key of each (or no rows: the
-    cell centre)."""
-    keyed = key.shape[0] > 0
+def incidence_rows(points, em, words, to_light, dist, factor):
+    """:func:`incidence1` at each point; ``words`` (n,) the :func:`raytrace.core.light_word`
+    of each (or no rows: the cell centre)."""
+    keyed = words.shape[0] > 0
     for i in range(points.shape[0]):
         lx, ly, lz, dist[i], factor[i] = incidence1((points[i, 0], points[i, 1], points[i, 2]),
-                                                    em, key[i] if keyed else -1, depth)
+                                                    em, words[i] if keyed else -1)
         to_light[i, 0], to_light[i, 1], to_light[i, 2] = lx, ly, lz
 
 

@@ -12,7 +12,7 @@ from helpers import RTOL, aimed_camera, make_scene, pixel
 
 import raytrace
 from raytrace import shading_kernels as K
-from raytrace.lights import cos_cutoff, emitters
+from raytrace.lights import cos_cutoff, emitters, light_words
 
 FLOOR = dict(point=[0.0, 0.0, 0.0], normal=[0.0, 1.0, 0.0])
 KD, KA, IA = np.array([0.9, 0.6, 0.3]), np.array([0.4, 0.2, 0.1]), 0.25
@@ -128,7 +128,8 @@ def _jittered_cells(samples=9, seed=3):
 
 def _sample_point(em, key: int, depth: int = 0) -> np.ndarray:
     """Where a shading point at the origin samples the emitter: P + L·d."""
-    lx, ly, lz, d, _ = K.incidence1((0.0, 0.0, 0.0), em.record, key, depth)
+    word = light_words(np.array([key]), em.stream, depth)[0] if key >= 0 else -1
+    lx, ly, lz, d, _ = K.incidence1((0.0, 0.0, 0.0), em.record, word)
     return np.array([lx, ly, lz]) * d
 
 
@@ -155,6 +156,22 @@ def test_jittered_area_light_draws_a_point_per_hit_inside_its_cell():
     other = _jittered_cells(seed=4)[4]
     np.testing.assert_array_equal(other.position, em.position)
     assert not np.array_equal(_sample_point(other, 17), _sample_point(em, 17))
+
+
+def test_jittered_cells_of_one_hit_are_n_rooks_over_the_light():
+    # The rotated multi-jittered pattern (shading_kernels.incidence1): at every hit the k²
+    # points put one in each cell and one in each of the k² columns and k² rows of the whole
+    # 2 × 2 rectangle (centred on x = z = 0); independent jitter per cell would fill some
+    # column twice (for k = 3, nearly always).
+    ems = _jittered_cells(samples=9)
+    for key in range(50):
+        for depth in (0, 2):
+            pts = np.array([_sample_point(em, key, depth) for em in ems])
+            cols = np.floor((pts[:, 0] + 1.0) / 2.0 * 9).astype(int)
+            rows = np.floor((pts[:, 2] + 1.0) / 2.0 * 9).astype(int)
+            assert sorted(cols) == list(range(9)) and sorted(rows) == list(range(9))
+            cells = {(c // 3, r // 3) for c, r in zip(cols, rows, strict=True)}
+            assert len(cells) == 9
 
 
 def test_unjittered_area_light_samples_the_cell_centres():
