@@ -17,7 +17,7 @@ record              what it holds (n rays or hits, M materials, T triangles)
 :class:`Triangles`  the float64 triangle tables (``raytrace.tables.SceneArrays.triangles``)
 :class:`Scene`      what every shading kernel needs of the scene: camera position,
                     materials, triangles (and a light pass's fast-Phong table)
-:class:`Emitter`    one point-like light sample, 19 floats (``raytrace.lights.Emitter.record``)
+:class:`Emitter`    one point-like light sample, 21 floats (``raytrace.lights.Emitter.record``)
 :class:`Shadows`    the shadow rays a light pass spawns
 :class:`Children`   each hit's reflected, refracted and see-through children
 :class:`Spawned`    the next depth's batch as :func:`raytrace.shading_kernels.spawn_children`
