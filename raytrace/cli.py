@@ -128,7 +128,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--aa", help="anti-aliasing: uniform (spp stratified samples, default) or "
                                 "adaptive (pixel corners, refined where they differ)")
     r.add_argument("--aa-threshold", type=float,
-                   help="adaptive: refine where corners differ by more than this")
+                   help="adaptive: refine where corners differ by this or more")
     r.add_argument("--aa-depth", type=int, help="adaptive: most halvings of a pixel")
     r.add_argument("--aa-min-depth", type=int,
                    help="adaptive: halvings of every pixel whatever its corners (default 0)")

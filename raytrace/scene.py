@@ -45,7 +45,7 @@ class RenderSettings:
     #: Anti-aliasing: "uniform" (``spp`` stratified samples a pixel) or "adaptive" (pixel
     #: corners, refined where they differ: :mod:`raytrace.adaptive`).
     aa: str = "uniform"
-    #: Adaptive: refine a cell whose corners differ by more than this (any RGB channel).
+    #: Adaptive: refine a cell whose corners differ by this or more (any RGB channel).
     aa_threshold: float = 0.05
     #: Adaptive: the most times a pixel is halved (a 2^d × 2^d grid of cells at most).
     aa_depth: int = 2
