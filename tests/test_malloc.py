@@ -1,0 +1,52 @@
+"""raytrace.malloc: passes reuse freed blocks instead of asking the kernel for fresh pages."""
+
+from __future__ import annotations
+
+import platform
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from raytrace import malloc
+
+ROOT = Path(__file__).resolve().parents[1]
+GLIBC = sys.platform.startswith("linux") and platform.libc_ver()[0] == "glibc"
+
+#: A second 640×480 render of the Whitted scene on one thread: 20 passes of 19 200 samples,
+#: whose arrays (460 KB for three float64 a row) lie above glibc's default mmap threshold.
+SECOND_RENDER_FAULTS = textwrap.dedent("""
+    import resource, sys
+    import raytrace
+    from raytrace import malloc
+    if sys.argv[1] == "untuned":
+        malloc.tune = lambda: False
+    scene = raytrace.load_scene(sys.argv[2])
+    raytrace.render(scene, width=640, height=480, threads=1)
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+    raytrace.render(scene, width=640, height=480, threads=1)
+    print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
+""")
+
+
+def second_render_faults(mode: str) -> int:
+    out = subprocess.run([sys.executable, "-c", SECOND_RENDER_FAULTS, mode,
+                          str(ROOT / "scenes" / "whitted.toml")],
+                         capture_output=True, text=True, check=True)
+    return int(out.stdout.split()[-1])
+
+
+@pytest.mark.skipif(not GLIBC, reason="mallopt's thresholds are glibc's")
+def test_tune_sets_both_thresholds_on_glibc():
+    assert malloc.tune() is True
+    assert malloc.tune() is True  # once per process, and again harmless
+
+
+@pytest.mark.skipif(not GLIBC, reason="mallopt's thresholds are glibc's")
+def test_a_second_render_reuses_the_blocks_of_the_first():
+    # Measured: about 200-300 minor page faults tuned (first touches of numpy's and numba's
+    # small pools), 3 000-3 300 untuned (every pass's arrays mmap-ed and unmapped afresh).
+    tuned, untuned = second_render_faults("tuned"), second_render_faults("untuned")
+    assert tuned < 1000 < 2000 < untuned, (tuned, untuned)
