@@ -43,11 +43,13 @@ Parts (``--parts``, comma-separated; default all):
     ``raytrace render`` of a small analytic scene (the Whitted scene at 64×48) to EXR, three
     times: the wall time of each, and of ``python -c "import raytrace"``.
 ``threads``
-    Both scenes at full size at ``--threads 1, 2, 4`` (1, 2 with ``--quick``): render seconds
-    and speed-up over one thread, cold (a fresh ``raytrace render`` process, which pays numba's
-    one-off set-up) and warm (a second render in this process), and whether each image is
-    bit-identical to the one-thread image; from the warm 1- and 2-thread times, the serial
-    fraction they imply and the speed-up it predicts on 16 cores (Amdahl, ``gil.amdahl``).
+    Both scenes at full size at each of ``--thread-counts`` (default 1, 2, 4; 1, 2 with
+    ``--quick``): render seconds and speed-up over one thread, cold (a fresh ``raytrace
+    render`` process, which pays numba's one-off set-up), warm (a second render in this
+    process, its BVH built inside the timing) and kept (its BVH kept from the render before,
+    :mod:`raytrace.accel_cache`), and whether each image is bit-identical to the one-thread
+    image; from the warm 1- and 2-thread times, the serial fraction they imply and the
+    speed-up it predicts on 16 cores (Amdahl, ``gil.amdahl``).
 ``meshes``
     Large meshes (``benchmarks/meshes.py``): the mesh scene with icospheres of 82 k to 5.2 M
     triangles as binary PLY and OBJ, each rendered by a fresh ``raytrace render``: wall time,
@@ -608,34 +610,41 @@ def startup(workdir: Path, threads: int, runs: int = 3) -> dict:
             "import_walls": imports, "import_best": min(imports)}
 
 
-def threads_part(files: dict[str, Path], workdir: Path, quick: bool, repeat: int) -> list:
-    """Each scene at 1, 2 and 4 threads: render seconds and speed-up over one thread, cold
-    (``raytrace render`` in a fresh process, which pays numba's one-off set-up) and warm (a
-    render in this process after one that loaded the kernels, best of ``repeat``, at least
-    3), and whether each EXR is bit-identical to the one-thread image."""
+def threads_part(files: dict[str, Path], workdir: Path, quick: bool, repeat: int,
+                 counts: tuple[int, ...] | None = None) -> list:
+    """Each scene at each of ``counts`` threads (default 1, 2, 4): render seconds and
+    speed-up over the first count, cold (``raytrace render`` in a fresh process, which pays
+    numba's one-off set-up), warm (a render in this process after one that loaded the
+    kernels, its BVH built inside the timing, best of ``repeat``, at least 3) and kept (the
+    BVH kept from the render before), and whether each EXR is bit-identical to the first
+    count's image."""
     sizes = QUICK_SIZES if quick else SIZES  # 16 and 19 passes of 65 536 samples at full size
+    counts = counts or ((1, 2) if quick else (1, 2, 4))
     out = []
     for name, path in files.items():
         w, h = sizes[name]
         scene = raytrace.load_scene(path)
         raytrace.render(scene, width=16, height=16)  # loads every kernel the scene needs
-        ref = base = warm_base = None
-        for t in (1, 2) if quick else (1, 2, 4):
+        ref = base = warm_base = kept_base = None
+        for t in counts:
             exr = workdir / f"threads{t}.exr"
             r = best_of(repeat, lambda t=t, exr=exr, p=path, w=w, h=h: render_cli(p, exr, w, h, t))
             rgb = raytrace.read_exr(exr)[0]
             images = [render_built(scene, width=w, height=h, threads=t)
                       for _ in range(max(3, repeat))]
             warm = min(im.stats["seconds"]["total"] for im in images)
+            kept = min(raytrace.render(scene, width=w, height=h, threads=t)
+                       .stats["seconds"]["total"] for _ in range(max(3, repeat)))
             if ref is None:
-                ref, base, warm_base = rgb, r["seconds"]["render"], warm
+                ref, base, warm_base, kept_base = rgb, r["seconds"]["render"], warm, kept
             out.append({"scene": name, "width": w, "height": h, "threads": t,
                         "seconds": r["seconds"]["render"],
                         "speedup": base / r["seconds"]["render"],
                         "warm_seconds": warm, "warm_speedup": warm_base / warm,
+                        "kept_seconds": kept, "kept_speedup": kept_base / kept,
                         "identical": all(np.array_equal(x.view(np.uint32), ref.view(np.uint32))
                                          for x in (rgb, images[0].rgb))})
-            if t == 2:
+            if t == 2 and counts[0] == 1:
                 out[-1].update(gil.amdahl(warm_base, warm))
     return out
 
@@ -738,11 +747,13 @@ def report(results: dict) -> str:
     if results.get("threads"):
         rows = [[r["scene"], f"{r['width']}x{r['height']}", str(r["threads"]),
                  _f(r["seconds"]), _f(r["speedup"], "{:.2f}"), _f(r.get("warm_seconds")),
-                 _f(r.get("warm_speedup"), "{:.2f}"), str(r["identical"])]
+                 _f(r.get("warm_speedup"), "{:.2f}"), _f(r.get("kept_seconds")),
+                 _f(r.get("kept_speedup"), "{:.2f}"), str(r["identical"])]
                 for r in results["threads"]]
-        out.append("threads (cold: a fresh process; warm: a second render in one process)\n"
+        out.append("threads (cold: a fresh process; warm: a second render in one process, BVH "
+                   "built inside; kept: its BVH kept)\n"
                    + table(["scene", "pixels", "threads", "cold s", "speed-up", "warm s",
-                            "speed-up", "identical"], rows))
+                            "speed-up", "kept s", "speed-up", "identical"], rows))
         for r in results["threads"]:
             if "serial_fraction" in r:
                 out.append(f"Amdahl, {r['scene']} warm 1 -> 2 threads: {r['speedup_2']:.2f}x, "
@@ -775,6 +786,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--scenes", default="mesh,whitted", help="comma-separated: mesh, whitted")
     p.add_argument("--threads", type=int, default=os.cpu_count() or 1)
     p.add_argument("--repeat", type=int, default=1, help="renders per timing (best kept)")
+    p.add_argument("--thread-counts", default=None,
+                   help="the threads part's thread counts, comma-separated (default 1,2,4)")
     p.add_argument("--no-big", action="store_true", help="skip the 3840x2160 4 spp render")
     p.add_argument("--json", default=str(HERE / "results.json"), help="results file")
     p.add_argument("--workdir", help="folder for scenes and images (default: a temp folder)")
@@ -822,7 +835,9 @@ def main(argv: list[str] | None = None) -> int:
         if "startup" in parts:
             results["startup"] = startup(workdir, a.threads, runs=2 if a.quick else 3)
         if "threads" in parts:
-            results["threads"] = threads_part(files, workdir, a.quick, a.repeat)
+            counts = tuple(int(x) for x in a.thread_counts.split(",")) if a.thread_counts \
+                else None
+            results["threads"] = threads_part(files, workdir, a.quick, a.repeat, counts)
         if "meshes" in parts:
             results["meshes"] = meshes.run(workdir / "meshes", a.threads, a.quick)
         if "mitsuba" in parts:
