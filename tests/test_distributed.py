@@ -430,6 +430,17 @@ def test_the_tls_flags_open_a_real_tls_connection_and_nothing_else_does(clusters
     assert len(err.splitlines()) == 1 and not (tmp_path / "stranger.exr").exists()
 
 
+def _connections(process) -> list:
+    """A process's inet sockets; none for a process that ended since it was listed (a
+    nanny's helper child can exit between ``children()`` and this call)."""
+    import psutil
+
+    try:
+        return getattr(process, "net_connections", process.connections)(kind="inet")
+    except psutil.NoSuchProcess:
+        return []
+
+
 def test_the_local_cluster_listens_on_loopback_only(clusters):
     import psutil
 
@@ -440,8 +451,7 @@ def test_the_local_cluster_listens_on_loopback_only(clusters):
     # (its children): the Dask ports and the HTTP ones (health, metrics) alike.
     processes = [psutil.Process(), *psutil.Process().children(recursive=True)]
     assert len(processes) >= 1 + 3  # the scheduler's process and at least three workers
-    listening = [c.laddr for p in processes
-                 for c in getattr(p, "net_connections", p.connections)(kind="inet")
+    listening = [c.laddr for p in processes for c in _connections(p)
                  if c.status == psutil.CONN_LISTEN]
     assert len(listening) >= 2 + 3
     assert {a.ip for a in listening} == {"127.0.0.1"}, listening
