@@ -320,9 +320,7 @@ def fast_phong1(table, tri, hit, kd, ks, n, model):
     cos = taylor1(table, tri, 6, u, v) * (s if model == BLINN else 1.0)
     spec = 0.0
     if cos > 0.0:  # as cosine_power1: 0 where the cosine is not positive, 1 for n = 0
-        c = min(cos, 1.0)
-        spec = 1.0 if n == 0.0 else (whole_power1(c, n) if is_whole1(n)
-                                     else math.exp(n * math.log(c)))
+        spec = 1.0 if n == 0.0 else math.exp(n * math.log(min(cos, 1.0)))
     return kd[0] * ndl + ks[0] * spec, kd[1] * ndl + ks[1] * spec, kd[2] * ndl + ks[2] * spec
 
 
