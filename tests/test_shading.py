@@ -9,12 +9,14 @@ hits exactly the aimed-at point) and compares it with the formula evaluated here
 from __future__ import annotations
 
 import math
+from decimal import Decimal, localcontext
 
 import numpy as np
 import pytest
 from helpers import RTOL, aimed_camera, make_scene, pixel, unit
 
 import raytrace
+from raytrace.core import whole_power1
 from raytrace.shading import blinn, cosine_power, direct, phong
 
 FLOOR = dict(point=[0.0, 0.0, 0.0], normal=[0.0, 1.0, 0.0])
@@ -177,6 +179,99 @@ def test_cosine_power_matches_the_plain_formula_and_is_stable():
     expected = math.exp(1e8 * math.log(math.cos(1e-4)))
     assert cosine_power(x, y, np.array([1e8]))[0] == pytest.approx(expected, rel=1e-6)
 
+
+
+# -- the precision budget: whole highlight exponents by squaring (docs/robustness.md) -----------
+U = 2.0**-53  # float64's unit roundoff
+WHOLE_N = [1, 2, 3, 7, 20, 80, 200, 1000, 4097, 65536]
+
+
+def _exact_power(c: float, n: int) -> float:
+    with localcontext() as ctx:
+        ctx.prec = 60
+        return float(Decimal(c) ** n)
+
+
+def test_whole_power_is_within_its_bound():
+    # whole_power1 squares and multiplies: c^(2^j) after j squarings carries at most
+    # (2^j − 1)·u, each bit's factor one more rounding, so cⁿ is within (n − 1)·u of the exact
+    # power of the float64 c (first order; the slack below covers the second). Checked against
+    # 60-digit Decimal over bases spread over (0, 1], the highlight's range.
+    rng = np.random.default_rng(7)
+    bases = np.concatenate([1.0 - rng.uniform(0, 1e-3, 40), rng.uniform(0.0, 1.0, 40),
+                            [1.0, 0.5, 1.0 - 2.0**-40]])
+    for n in WHOLE_N:
+        for c in bases:
+            want = _exact_power(float(c), n)
+            if want < 1e-290:  # underflowing powers: no relative precision to check
+                continue
+            got = whole_power1(float(c), float(n))
+            err = abs(got - want) / want
+            assert err <= (n - 1) * U * 1.001 + 1e-300, (c, n, err)
+    assert whole_power1(0.5, 10.0) == 2.0**-10  # exact where every product is
+
+
+def test_whole_exponent_highlight_stays_within_the_budget():
+    # cosine_power at whole n takes (1 − h)ⁿ by squaring in place of exp(n·log1p(−h)).
+    # Error analysis (u = 2⁻⁵³): h = |a − b|²/2 is within 3u·h of the exact h of the float64
+    # vectors, 1 − h rounds by at most u relative (exact for h >= 1/2, Sterbenz), and the
+    # squaring adds (n − 1)·u (test above): cⁿ is within n·(2 + 3h/c)·u + u of the exact
+    # (a·b)ⁿ, ≤ 1.5e-11 for the n ≤ 65 536 that take this path at the angles where the
+    # highlight is above 1e-12. Every term of a pixel is a non-negative sum, so a term within
+    # ε relative keeps the pixel within ε: far below the 1e-5 budget. A float32 c (error
+    # 6e-8·n) breaks the bound at every n here.
+    worst = 0.0
+    for n in WHOLE_N:
+        width = math.sqrt(2.0 / n)
+        for k in (0.0, 0.05, 0.3, 1.0, 2.0, 3.0, 5.0):
+            th = min(k * width, 1.5)
+            a = np.array([[1.0, 0.0, 0.0]])
+            b = np.array([[math.cos(th), math.sin(th), 0.0]])
+            with localcontext() as ctx:
+                ctx.prec = 60
+                bx, by = Decimal(b[0, 0]), Decimal(b[0, 1])
+                h = ((Decimal(1) - bx) ** 2 + by * by) / 2
+                c = Decimal(1) - h
+                want = float(c**n)
+            if want < 1e-12:
+                continue
+            got = float(cosine_power(a, b, np.array([float(n)]))[0])
+            err = abs(got - want) / want
+            bound = (n * (2.0 + 3.0 * float(h) / float(c)) + 2.0) * U
+            assert err <= bound, (n, th, err, bound)
+            worst = max(worst, err)
+    assert worst < 1.5e-11
+
+
+@pytest.mark.parametrize("model", ["phong", "blinn"])
+@pytest.mark.parametrize("n", [20, 80, 200])
+def test_whole_exponent_highlight_renders_its_closed_form(model, n):
+    # A camera looking straight down at a plane (kd = 0, ks = 1) lit straight down: each
+    # pixel is the highlight alone. Pixel (x, y) at unit depth has V·R = 1/s, s = √(1 + ρ²),
+    # so Phong's (V·R)ⁿ = exp(−(n/2)·log1p(ρ²)); Blinn's N·H = √((1 + 1/s)/2), so (N·H)ⁿ =
+    # exp((n/2)·log1p(−ρ²/(2s(1 + s)))). The image is float32 (rounding 6e-8): the squaring's
+    # 1.5e-11 must not show, so the pixels stay within 1e-6 relative of the float64 formula.
+    w, h = 15, 11
+    aspect = w / h
+    spread = 10.0 if model == "phong" else 40.0
+    tan_half = math.sqrt(spread / (n * (1 + aspect**2)))
+    fov = math.degrees(2 * math.atan(tan_half))
+    mat = raytrace.Material(kd=0.0, ks=1.0, shininess=n, highlight=model)
+    scene = make_scene([raytrace.Plane(**FLOOR, material=mat)],
+                       [raytrace.DirectionalLight([0, -1, 0], 1.0)],
+                       camera=raytrace.Camera([0, 1, 0], [0, 0, 0], [0, 0, -1], fov))
+    img = raytrace.render(scene, width=w, height=h).rgb.astype(np.float64)
+    col, row = np.meshgrid(np.arange(w), np.arange(h))
+    x = (2 * (col + 0.5) / w - 1) * tan_half * aspect
+    y = (1 - 2 * (row + 0.5) / h) * tan_half
+    rho2 = x * x + y * y
+    s = np.sqrt(1.0 + rho2)
+    if model == "phong":
+        want = np.exp(-0.5 * n * np.log1p(rho2))
+    else:
+        want = np.exp(0.5 * n * np.log1p(-0.5 * rho2 / (s * (1.0 + s))))
+    assert want.min() < 0.2, "the falloff is inside the frame"
+    np.testing.assert_allclose(img, np.repeat(want[..., None], 3, axis=2), rtol=1e-6, atol=0)
 
 def test_phong_and_blinn_functions_at_known_angles():
     n_ = np.array([[0.0, 1.0, 0.0]])
