@@ -188,6 +188,10 @@ class WhittedIntegrator:
         #: Which variant of the shading kernels the scene compiles and loads (a scene leaves
         #: out the compiled code of what it lacks: :func:`kernel_features`).
         self.features = kernel_features(self.table, self.arrays.triangles)
+        #: The triangles' texture coordinates for the kernels' texture lookups, or None in a
+        #: scene without image textures (kernels compiled without them).
+        self.texcoords = (self.arrays.triangles.texcoords if "textures" in self.features
+                          else None)
         #: What every shading kernel needs of the scene (:class:`raytrace.records.Scene`).
         self.tables = self.arrays.record
         #: Each emitter's fast-Phong table (:mod:`raytrace.fast_phong`), or none (exact).
@@ -549,7 +553,7 @@ class WhittedIntegrator:
         # weight and status.
         obs = self.observer
         if "children" not in self.features and obs is None:  # no hit has a child
-            sk.hit_terms(rays.record, surf, self.tables, self.ambient, lights,
+            sk.hit_terms(rays.record, surf, self.tables, (self.ambient, lights), self.texcoords,
                          self.opt.min_weight, (samples, rays.sample), None)
             return RayBatch.empty(rays.depth + 1)
         children = Children(*(new(name, n, 3) for name in ("r_dir", "t_dir", "w_r", "w_t", "w_s")),
@@ -558,8 +562,8 @@ class WhittedIntegrator:
         # Observed, each hit's term goes to a row of its own, then to its sample: the same
         # additions in the same order (0 + x and x·1 are exact).
         into, rows = (samples, rays.sample) if obs is None else (np.zeros((n, 3)), np.arange(n))
-        sk.hit_terms(rays.record, surf, self.tables, self.ambient, lights, self.opt.min_weight,
-                    (into, rows), children)
+        sk.hit_terms(rays.record, surf, self.tables, (self.ambient, lights), self.texcoords,
+                     self.opt.min_weight, (into, rows), children)
         depth = rays.depth + 1
         if obs is not None:
             add(samples, rays.sample, into, ONE, rows)
@@ -671,7 +675,7 @@ class WhittedIntegrator:
                 break
             s2 = self.accel.surface(Hits(t, hit_shape, triangle, uv), origin, direction)
             origin, direction, shape, tmax, live = sk.cross_surfaces(
-                factor, live, s2, (direction, t, tmax), self.tables)
+                factor, live, s2, (direction, t, tmax), self.tables, self.texcoords)
             if not len(live):
                 break
             self.stats.rays["shadow"] += len(live)
@@ -740,6 +744,8 @@ KERNEL_FEATURES: dict[str, Callable] = {
     # light_pass' Gouraud, fast-Phong, Hanika-lift and texture code (its ``depth``)
     "meshes": lambda table, triangles: len(triangles.material) > 0
     or bool(table.textured.any()),
+    # hit_terms' and cross_surfaces' texture lookups (their ``texcoords``)
+    "textures": lambda table, triangles: bool(table.textured.any()),
     # hit_terms' reflected, refracted and see-through children, and the spawn kernels
     "children": lambda table, triangles: bool(table.reflects.any())
     or bool(table.transparent.any()),

@@ -469,19 +469,19 @@ def crossing_rays(hits, origin, direction, tmax, live):
 
 
 @kernel
-def cross_surfaces(factor, live, surf, walk, scene):
+def cross_surfaces(factor, live, surf, walk, scene, texcoords):
     """Transparent shadow rays ``walk`` = (direction, t, tmax) crossing the surfaces they hit
     (``surf``, a :class:`raytrace.records.Surface`):
     ``S *= t·kt + (1 − t)`` (seed 003, t the opacity) on row ``live[j]`` of ``factor``. Those
     that still let some channel through go on from the far side (:func:`leave1` along their
     ``direction``) for the rest of their ``tmax`` (minus the hit's ``t``): returns their
-    (origin, direction, start shape, tmax, live) as new arrays."""
+    (origin, direction, start shape, tmax, live) as new arrays. ``texcoords``: as
+    :func:`hit_terms`' (None: compiled without the texture lookups)."""
     direction, t, tmax = walk
     material, point, geometric = surf.material, surf.point, surf.geometric
     origin, materials = scene.origin, scene.materials
     palette = (materials.colors, materials.pattern, materials.checkers)
-    textured, texcoords = materials.textured, scene.triangles.texcoords
-    alpha = materials.alpha
+    textured, alpha = materials.textured, materials.alpha
     n, on = live.shape[0], 0
     through = np.empty(n, np.bool_)
     for j in range(n):
@@ -489,7 +489,7 @@ def cross_surfaces(factor, live, surf, walk, scene):
         op = materials.opacity[mj]
         kt = color1(palette, mj, KT, point[j, 0] + origin[0], point[j, 1] + origin[1],
                     point[j, 2] + origin[2])
-        if textured[mj]:
+        if texcoords is not None and textured[mj]:  # compiled only for textured scenes
             st = texcoord1(texcoords, surf.triangle[j], surf.uv[j, 0], surf.uv[j, 1])
             kt = texel1(materials, mj, KT, st, kt)
             if alpha[mj] >= 0:
@@ -516,14 +516,15 @@ def cross_surfaces(factor, live, surf, walk, scene):
 
 
 @kernel
-def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
+def hit_terms(rays, surf, scene, light, texcoords, min_weight, into, children):
     """What every hit of ``rays`` on ``surf`` adds to its sample and the children it spawns
     (Whitted 1980; seed 003's opacity blend), with t the opacity and N_s, N_g the shading and
     geometric normals turned to the viewer:
 
     * ``w·t·(ka·Ia + lights)`` added to row ``rows[i]`` of ``into`` = (samples, rows), one
-      hit after another in batch order (as :func:`accumulate` adds); ``lights`` (n, 3) is
-      Σ_l S_l·f_l·I_l·[…], or has no rows in a scene without lights;
+      hit after another in batch order (as :func:`accumulate` adds); ``light`` = (Ia (3,),
+      lights), ``lights`` (n, 3) is Σ_l S_l·f_l·I_l·[…], or has no rows in a scene without
+      lights;
     * reflected: ``reflect(d, N_s)`` with weight ``w·t·kr``; where the interpolated normal
       sends it into the surface (``r·N_g <= 0``) it is mirrored about N_g instead;
     * refracted: ``refract(d, N_s, η)`` with η = 1/ior entering (``d·N_g < 0`` for the outward
@@ -545,7 +546,9 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     ``children`` None: a scene none of whose materials reflects, transmits or is see-through
     (no hit has a child); numba prunes the children's code (``if children is None``) before
     typing, so such a scene compiles and loads a kernel without reflection, refraction or
-    Fresnel (the same additions into the samples).
+    Fresnel (the same additions into the samples). ``texcoords``: the triangles' texture
+    coordinates (``scene.triangles.texcoords``), or None in a scene without image textures,
+    whose kernel is compiled without the texture lookups.
 
     The children's directions, weights, status and TIR flags are written into ``children``
     (a :class:`raytrace.records.Children`): ``status`` (n, 3), columns reflected, refracted,
@@ -557,8 +560,8 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     geometric, shading, material, point = surf.geometric, surf.shading, surf.material, surf.point
     origin, materials = scene.origin, scene.materials
     palette = (materials.colors, materials.pattern, materials.checkers)
-    textured, texcoords = materials.textured, scene.triangles.texcoords
-    alpha = materials.alpha
+    textured, alpha = materials.textured, materials.alpha
+    ambient, lights = light
     samples, sample = into
     if children is not None:
         r_dir, t_dir, w_r, w_t, w_s, status, tir = children
@@ -569,12 +572,11 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     for i in range(direction.shape[0]):
         m = material[i]
         wx, wy, wz = point[i, 0] + origin[0], point[i, 1] + origin[1], point[i, 2] + origin[2]
-        tex = textured[m]
         op = materials.opacity[m]
         ka = color1(palette, m, KA, wx, wy, wz)
         ke = color1(palette, m, KE, wx, wy, wz) if emits[m] else (0.0, 0.0, 0.0)
         st = (0.0, 0.0)
-        if tex:
+        if texcoords is not None and textured[m]:  # compiled only for scenes with textures
             st = texcoord1(texcoords, surf.triangle[i], surf.uv[i, 0], surf.uv[i, 1])
             ka = texel1(materials, m, KA, st, ka)
             if emits[m]:
@@ -600,11 +602,11 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
         kr, kt = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         if reflects[m]:
             kr = color1(palette, m, KR, wx, wy, wz)
-            if tex:
+            if texcoords is not None and textured[m]:
                 kr = texel1(materials, m, KR, st, kr)
         if transmits[m]:
             kt = color1(palette, m, KT, wx, wy, wz)
-            if tex:
+            if texcoords is not None and textured[m]:
                 kt = texel1(materials, m, KT, st, kt)
         if fresnel[m] != NO_FRESNEL:  # kr, kt for this angle (V = −d, N facing the viewer)
             entering = dx * gx + dy * gy + dz * gz < 0.0

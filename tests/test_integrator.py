@@ -788,6 +788,7 @@ SCENES = Path(__file__).resolve().parents[1] / "scenes"
     ("whitted.toml", {"children"}),                    # a mirror, glass, a reflective floor
     ("flat_vs_smooth.toml", {"meshes"}),               # meshes, nothing reflective
     ("mesh_model.toml", {"meshes", "children"}),
+    ("obj_mtl.toml", {"meshes", "children", "textures"}),  # an image-textured OBJ
 ])
 def test_a_scene_has_the_kernel_features_of_what_it_holds(name, features):
     scene = raytrace.load_scene(SCENES / name)
@@ -796,7 +797,7 @@ def test_a_scene_has_the_kernel_features_of_what_it_holds(name, features):
 
 
 @pytest.mark.parametrize("name", ["spotlights.toml", "whitted.toml", "flat_vs_smooth.toml",
-                                  "area_light.toml", "tir.toml"])
+                                  "area_light.toml", "tir.toml", "materials_showcase.toml"])
 def test_each_kernel_variant_renders_the_general_kernels_image_bit_for_bit(name, monkeypatch):
     # The variant a scene picks against the general kernels (every feature on), on the scene
     # that exercises it: bit-identical (the variants prune code no hit of the scene runs).
@@ -826,7 +827,8 @@ def test_a_diffuse_scene_loads_no_reflection_refraction_or_mesh_kernels():
     # scenes/spotlights.toml: spheres and planes of matte and plastic materials, spot lights,
     # max_depth 2. Its render (loading from numba's cache or compiling) must leave the spawn
     # and transparent-shadow kernels untouched, and take the variants of light_pass without
-    # the triangle/texture code (depth None) and of hit_terms without children (None).
+    # the triangle/texture code (depth None) and of hit_terms without children or texture
+    # lookups (None).
     out = subprocess.run([sys.executable, "-c", LOADED, str(SCENES / "spotlights.toml")],
                          capture_output=True, text=True, check=True).stdout
     loaded = json.loads(out)
@@ -834,4 +836,5 @@ def test_a_diffuse_scene_loads_no_reflection_refraction_or_mesh_kernels():
     assert loaded["cross_surfaces"] == loaded["add_light"] == []
     assert loaded["light_pass"][5] == "none"  # depth
     assert loaded["hit_terms"][7] == "none"  # children
+    assert loaded["hit_terms"][4] == "none"  # texcoords
     assert len(loaded["light_pass"]) == 8 and len(loaded["hit_terms"]) == 8
