@@ -553,7 +553,7 @@ class WhittedIntegrator:
         # weight and status.
         obs = self.observer
         if "children" not in self.features and obs is None:  # no hit has a child
-            sk.hit_terms(rays.record, surf, self.tables, (self.ambient, lights), self.texcoords,
+            sk.hit_terms(rays.record, surf, self.tables, self.ambient, lights,
                          self.opt.min_weight, (samples, rays.sample), None)
             return RayBatch.empty(rays.depth + 1)
         children = Children(*(new(name, n, 3) for name in ("r_dir", "t_dir", "w_r", "w_t", "w_s")),
@@ -562,8 +562,8 @@ class WhittedIntegrator:
         # Observed, each hit's term goes to a row of its own, then to its sample: the same
         # additions in the same order (0 + x and x·1 are exact).
         into, rows = (samples, rays.sample) if obs is None else (np.zeros((n, 3)), np.arange(n))
-        sk.hit_terms(rays.record, surf, self.tables, (self.ambient, lights), self.texcoords,
-                     self.opt.min_weight, (into, rows), children)
+        sk.hit_terms(rays.record, surf, self.tables, self.ambient, lights, self.opt.min_weight,
+                    (into, rows), children)
         depth = rays.depth + 1
         if obs is not None:
             add(samples, rays.sample, into, ONE, rows)
@@ -744,7 +744,7 @@ KERNEL_FEATURES: dict[str, Callable] = {
     # light_pass' Gouraud, fast-Phong, Hanika-lift and texture code (its ``depth``)
     "meshes": lambda table, triangles: len(triangles.material) > 0
     or bool(table.textured.any()),
-    # hit_terms' and cross_surfaces' texture lookups (their ``texcoords``)
+    # cross_surfaces' texture lookups (its ``texcoords``)
     "textures": lambda table, triangles: bool(table.textured.any()),
     # hit_terms' reflected, refracted and see-through children, and the spawn kernels
     "children": lambda table, triangles: bool(table.reflects.any())

@@ -359,6 +359,9 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
     jittered = em.stream >= 0.0 and words.shape[0] > 0
     shininess, highlight, lit = materials.shininess, materials.highlight, materials.lit
     keep = 1.0 - SHADOW_SHORTEN
+    # a directional light, seen from the camera (depth None: no triangles, no textures, and
+    # none of the code under `depth is not None` is compiled)
+    fast = depth is not None and scene.fast.shape[0] > 0 and depth == 0
     k = 0
     for i in range(point.shape[0]):
         m = material[i]
@@ -376,24 +379,18 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
         u, v = surf.uv[i, 0], surf.uv[i, 1]
         kd = color1(palette, m, KD, wx, wy, wz)
         ks = color1(palette, m, KS, wx, wy, wz)
-        smooth, exact = False, True
-        r = g = b = 0.0
-        if depth is not None:  # compiled only for scenes with triangles or image textures
-            if textured[m]:
-                st = texcoord1(texcoords, tri, u, v)
-                kd = texel1(materials, m, KD, st, kd)
-                ks = texel1(materials, m, KS, st, ks)
-            smooth = tri >= 0 and code[tri] != FLAT
-            if smooth and code[tri] == GOURAUD:
-                r, g, b = gouraud1((tri, u, v, s), (eye[i, 0], eye[i, 1], eye[i, 2]),
-                                   smooth_tables, (em, word), kd, ks, shininess[m], highlight[m])
-                exact = False
-            elif (smooth and code[tri] == FAST_PHONG and depth == 0
-                  and scene.fast.shape[0] > 0):  # a directional light seen from the camera
-                r, g, b = fast_phong1(scene.fast, tri, (u, v, s), kd, ks, shininess[m],
-                                      highlight[m])  # f = 1: directional
-                exact = False
-        if exact:
+        if depth is not None and textured[m]:
+            st = texcoord1(texcoords, tri, u, v)
+            kd = texel1(materials, m, KD, st, kd)
+            ks = texel1(materials, m, KS, st, ks)
+        smooth = tri >= 0 and code[tri] != FLAT
+        if depth is not None and smooth and code[tri] == GOURAUD:
+            r, g, b = gouraud1((tri, u, v, s), (eye[i, 0], eye[i, 1], eye[i, 2]), smooth_tables,
+                               (em, word), kd, ks, shininess[m], highlight[m])
+        elif depth is not None and fast and smooth and code[tri] == FAST_PHONG:  # f = 1
+            r, g, b = fast_phong1(scene.fast, tri, (u, v, s), kd, ks, shininess[m],
+                                  highlight[m])
+        else:
             normal = (shading[i, 0] * s, shading[i, 1] * s, shading[i, 2] * s)
             r, g, b = direct1(normal, (lx, ly, lz), (-dx, -dy, -dz), kd, ks, shininess[m],
                               highlight[m])
@@ -475,8 +472,9 @@ def cross_surfaces(factor, live, surf, walk, scene, texcoords):
     ``S *= t·kt + (1 − t)`` (seed 003, t the opacity) on row ``live[j]`` of ``factor``. Those
     that still let some channel through go on from the far side (:func:`leave1` along their
     ``direction``) for the rest of their ``tmax`` (minus the hit's ``t``): returns their
-    (origin, direction, start shape, tmax, live) as new arrays. ``texcoords``: as
-    :func:`hit_terms`' (None: compiled without the texture lookups)."""
+    (origin, direction, start shape, tmax, live) as new arrays. ``texcoords``: the
+    triangles' texture coordinates, or None in a scene without image textures, whose kernel
+    is then compiled without the texture lookups."""
     direction, t, tmax = walk
     material, point, geometric = surf.material, surf.point, surf.geometric
     origin, materials = scene.origin, scene.materials
@@ -516,15 +514,14 @@ def cross_surfaces(factor, live, surf, walk, scene, texcoords):
 
 
 @kernel
-def hit_terms(rays, surf, scene, light, texcoords, min_weight, into, children):
+def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     """What every hit of ``rays`` on ``surf`` adds to its sample and the children it spawns
     (Whitted 1980; seed 003's opacity blend), with t the opacity and N_s, N_g the shading and
     geometric normals turned to the viewer:
 
     * ``w·t·(ka·Ia + lights)`` added to row ``rows[i]`` of ``into`` = (samples, rows), one
-      hit after another in batch order (as :func:`accumulate` adds); ``light`` = (Ia (3,),
-      lights), ``lights`` (n, 3) is Σ_l S_l·f_l·I_l·[…], or has no rows in a scene without
-      lights;
+      hit after another in batch order (as :func:`accumulate` adds); ``lights`` (n, 3) is
+      Σ_l S_l·f_l·I_l·[…], or has no rows in a scene without lights;
     * reflected: ``reflect(d, N_s)`` with weight ``w·t·kr``; where the interpolated normal
       sends it into the surface (``r·N_g <= 0``) it is mirrored about N_g instead;
     * refracted: ``refract(d, N_s, η)`` with η = 1/ior entering (``d·N_g < 0`` for the outward
@@ -546,9 +543,7 @@ def hit_terms(rays, surf, scene, light, texcoords, min_weight, into, children):
     ``children`` None: a scene none of whose materials reflects, transmits or is see-through
     (no hit has a child); numba prunes the children's code (``if children is None``) before
     typing, so such a scene compiles and loads a kernel without reflection, refraction or
-    Fresnel (the same additions into the samples). ``texcoords``: the triangles' texture
-    coordinates (``scene.triangles.texcoords``), or None in a scene without image textures,
-    whose kernel is compiled without the texture lookups.
+    Fresnel (the same additions into the samples).
 
     The children's directions, weights, status and TIR flags are written into ``children``
     (a :class:`raytrace.records.Children`): ``status`` (n, 3), columns reflected, refracted,
@@ -560,8 +555,8 @@ def hit_terms(rays, surf, scene, light, texcoords, min_weight, into, children):
     geometric, shading, material, point = surf.geometric, surf.shading, surf.material, surf.point
     origin, materials = scene.origin, scene.materials
     palette = (materials.colors, materials.pattern, materials.checkers)
-    textured, alpha = materials.textured, materials.alpha
-    ambient, lights = light
+    textured, texcoords = materials.textured, scene.triangles.texcoords
+    alpha = materials.alpha
     samples, sample = into
     if children is not None:
         r_dir, t_dir, w_r, w_t, w_s, status, tir = children
@@ -572,11 +567,12 @@ def hit_terms(rays, surf, scene, light, texcoords, min_weight, into, children):
     for i in range(direction.shape[0]):
         m = material[i]
         wx, wy, wz = point[i, 0] + origin[0], point[i, 1] + origin[1], point[i, 2] + origin[2]
+        tex = textured[m]
         op = materials.opacity[m]
         ka = color1(palette, m, KA, wx, wy, wz)
         ke = color1(palette, m, KE, wx, wy, wz) if emits[m] else (0.0, 0.0, 0.0)
         st = (0.0, 0.0)
-        if texcoords is not None and textured[m]:  # compiled only for scenes with textures
+        if tex:
             st = texcoord1(texcoords, surf.triangle[i], surf.uv[i, 0], surf.uv[i, 1])
             ka = texel1(materials, m, KA, st, ka)
             if emits[m]:
@@ -602,11 +598,11 @@ def hit_terms(rays, surf, scene, light, texcoords, min_weight, into, children):
         kr, kt = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         if reflects[m]:
             kr = color1(palette, m, KR, wx, wy, wz)
-            if texcoords is not None and textured[m]:
+            if tex:
                 kr = texel1(materials, m, KR, st, kr)
         if transmits[m]:
             kt = color1(palette, m, KT, wx, wy, wz)
-            if texcoords is not None and textured[m]:
+            if tex:
                 kt = texel1(materials, m, KT, st, kt)
         if fresnel[m] != NO_FRESNEL:  # kr, kt for this angle (V = −d, N facing the viewer)
             entering = dx * gx + dy * gy + dz * gz < 0.0

@@ -827,8 +827,7 @@ def test_a_diffuse_scene_loads_no_reflection_refraction_or_mesh_kernels():
     # scenes/spotlights.toml: spheres and planes of matte and plastic materials, spot lights,
     # max_depth 2. Its render (loading from numba's cache or compiling) must leave the spawn
     # and transparent-shadow kernels untouched, and take the variants of light_pass without
-    # the triangle/texture code (depth None) and of hit_terms without children or texture
-    # lookups (None).
+    # the triangle/texture code (depth None) and of hit_terms without children (None).
     out = subprocess.run([sys.executable, "-c", LOADED, str(SCENES / "spotlights.toml")],
                          capture_output=True, text=True, check=True).stdout
     loaded = json.loads(out)
@@ -836,5 +835,4 @@ def test_a_diffuse_scene_loads_no_reflection_refraction_or_mesh_kernels():
     assert loaded["cross_surfaces"] == loaded["add_light"] == []
     assert loaded["light_pass"][5] == "none"  # depth
     assert loaded["hit_terms"][7] == "none"  # children
-    assert loaded["hit_terms"][4] == "none"  # texcoords
     assert len(loaded["light_pass"]) == 8 and len(loaded["hit_terms"]) == 8
