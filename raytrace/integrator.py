@@ -185,6 +185,13 @@ class WhittedIntegrator:
         self.any_transparent = bool(self.table.transparent.any()) if self.materials else False
         self.lit = bool(self.emitters) and bool(self.table.lit.any())
         self.jittered = any(em.jittered for em in self.emitters)
+        #: Which variant of the shading kernels the scene compiles and loads (a scene leaves
+        #: out the compiled code of what it lacks: :func:`kernel_features`).
+        self.features = kernel_features(self.table, self.arrays.triangles)
+        #: The triangles' texture coordinates for the kernels' texture lookups, or None in a
+        #: scene without image textures (kernels compiled without them).
+        self.texcoords = (self.arrays.triangles.texcoords if "textures" in self.features
+                          else None)
         #: What every shading kernel needs of the scene (:class:`raytrace.records.Scene`).
         self.tables = self.arrays.record
         #: Each emitter's fast-Phong table (:mod:`raytrace.fast_phong`), or none (exact).
@@ -544,12 +551,16 @@ class WhittedIntegrator:
         lights = self.direct_lighting(rays, surf) if self.lit else NO_LIGHT  # Σ_l S_l·f_l·…
         # One pass over the hits: w·t·I_local into their samples, and each child's direction,
         # weight and status.
+        obs = self.observer
+        if "children" not in self.features and obs is None:  # no hit has a child
+            sk.hit_terms(rays.record, surf, self.tables, self.ambient, lights,
+                         self.opt.min_weight, (samples, rays.sample), None)
+            return RayBatch.empty(rays.depth + 1)
         children = Children(*(new(name, n, 3) for name in ("r_dir", "t_dir", "w_r", "w_t", "w_s")),
                             new("status", n, 3, np.int8), new("tir", n, dtype=bool))
         status, tir = children.status, children.tir
         # Observed, each hit's term goes to a row of its own, then to its sample: the same
         # additions in the same order (0 + x and x·1 are exact).
-        obs = self.observer
         into, rows = (samples, rays.sample) if obs is None else (np.zeros((n, 3)), np.arange(n))
         sk.hit_terms(rays.record, surf, self.tables, self.ambient, lights, self.opt.min_weight,
                     (into, rows), children)
@@ -624,7 +635,8 @@ class WhittedIntegrator:
                 words[em.stream] = light_words(key, em.stream, rays.depth)
             tables = self.tables if not len(self.fast[e]) else self.tables._replace(
                 fast=self.fast[e])
-            k = sk.light_pass(rays.record, surf, tables, em.record, words[em.stream], rays.depth,
+            depth = rays.depth if "meshes" in self.features else None
+            k = sk.light_pass(rays.record, surf, tables, em.record, words[em.stream], depth,
                               term, shadow)
             if self.observer is not None:
                 self.observer.light(e, term, rows[:k])
@@ -663,7 +675,7 @@ class WhittedIntegrator:
                 break
             s2 = self.accel.surface(Hits(t, hit_shape, triangle, uv), origin, direction)
             origin, direction, shape, tmax, live = sk.cross_surfaces(
-                factor, live, s2, (direction, t, tmax), self.tables)
+                factor, live, s2, (direction, t, tmax), self.tables, self.texcoords)
             if not len(live):
                 break
             self.stats.rays["shadow"] += len(live)
@@ -720,6 +732,33 @@ class WhittedIntegrator:
                 **({"aa": f"adaptive threshold {opt.aa_threshold} depth {opt.aa_depth}"
                           + (f" min_depth {opt.aa_min_depth}" if opt.aa_min_depth else "")}
                    if opt.aa == "adaptive" else {})}
+
+
+#: The scene features that select a variant of the shading kernels, name -> whether a
+#: scene's material table and triangles have it. A scene without a feature calls the
+#: kernels with None in its argument, and numba compiles (and loads from its cache) a
+#: specialisation without that code (dead-branch pruning on ``arg is None`` before typing):
+#: a first render compiles only the code its scene can run (docs/performance.md, "cold
+#: compile"); every variant adds the same numbers in the same order.
+KERNEL_FEATURES: dict[str, Callable] = {
+    # light_pass' Gouraud, fast-Phong, Hanika-lift and texture code (its ``depth``)
+    "meshes": lambda table, triangles: len(triangles.material) > 0
+    or bool(table.textured.any()),
+    # cross_surfaces' texture lookups (its ``texcoords``)
+    "textures": lambda table, triangles: bool(table.textured.any()),
+    # hit_terms' reflected, refracted and see-through children, and the spawn kernels
+    "children": lambda table, triangles: bool(table.reflects.any())
+    or bool(table.transparent.any()),
+}
+
+
+def kernel_features(table, triangles) -> frozenset[str]:
+    """The names of :data:`KERNEL_FEATURES` a scene has (``table``: its
+    :class:`raytrace.tables.MaterialTable`, ``triangles``: its
+    :class:`raytrace.records.Triangles`)."""
+    if not len(table.materials):
+        return frozenset()
+    return frozenset(name for name, has in KERNEL_FEATURES.items() if has(table, triangles))
 
 
 def chunks(rays: RayBatch, samples: int, most: int) -> list[RayBatch]:

@@ -117,7 +117,7 @@ refresh_cache()
 def cache_is_warm() -> bool:
     """Whether numba's on-disk cache holds machine code for the kernels of this numba and these
     sources, i.e. whether the next render starts without compiling (the first one after
-    installing or editing a kernel module compiles for 15–20 s on 2 cores).
+    installing or editing a kernel module compiles for 8–11 s on 2 cores).
 
     Cheap (a few small index files are read, nothing is compiled): for each kernel module, at
     least one kernel must have a current cache index, which is numba's own test at load time

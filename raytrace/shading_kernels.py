@@ -343,7 +343,11 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
     lifted point P′ (on the side the viewer sees) to the same point of the light the shading
     used (SCENE_FORMAT.md's smooth-mesh rule 2; Blender Cycles aims from P′ as well).
     ``words`` (n,): each hit's :func:`raytrace.core.light_word` for this emitter's light,
-    read only for a jittered emitter (:func:`incidence1`)."""
+    read only for a jittered emitter (:func:`incidence1`). ``depth``: the rays' depth, or
+    None in a scene without triangles and image textures: numba then prunes their branches
+    (``if depth is not None``) before typing, so such a scene compiles and loads a kernel
+    without Gouraud, fast Phong, Hanika's lift or texture lookups (the same arithmetic on
+    every hit it has)."""
     direction, eye = rays.direction, rays.origin
     point, geometric, shading, material = surf.point, surf.geometric, surf.shading, surf.material
     materials, triangles, origin = scene.materials, scene.triangles, scene.origin
@@ -355,7 +359,9 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
     jittered = em.stream >= 0.0 and words.shape[0] > 0
     shininess, highlight, lit = materials.shininess, materials.highlight, materials.lit
     keep = 1.0 - SHADOW_SHORTEN
-    fast = scene.fast.shape[0] > 0 and depth == 0  # a directional light, seen from the camera
+    # a directional light, seen from the camera (depth None: no triangles, no textures, and
+    # none of the code under `depth is not None` is compiled)
+    fast = depth is not None and scene.fast.shape[0] > 0 and depth == 0
     k = 0
     for i in range(point.shape[0]):
         m = material[i]
@@ -373,15 +379,15 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
         u, v = surf.uv[i, 0], surf.uv[i, 1]
         kd = color1(palette, m, KD, wx, wy, wz)
         ks = color1(palette, m, KS, wx, wy, wz)
-        if textured[m]:
+        if depth is not None and textured[m]:
             st = texcoord1(texcoords, tri, u, v)
             kd = texel1(materials, m, KD, st, kd)
             ks = texel1(materials, m, KS, st, ks)
         smooth = tri >= 0 and code[tri] != FLAT
-        if smooth and code[tri] == GOURAUD:
+        if depth is not None and smooth and code[tri] == GOURAUD:
             r, g, b = gouraud1((tri, u, v, s), (eye[i, 0], eye[i, 1], eye[i, 2]), smooth_tables,
                                (em, word), kd, ks, shininess[m], highlight[m])
-        elif fast and smooth and code[tri] == FAST_PHONG:  # f = 1: directional
+        elif depth is not None and fast and smooth and code[tri] == FAST_PHONG:  # f = 1
             r, g, b = fast_phong1(scene.fast, tri, (u, v, s), kd, ks, shininess[m],
                                   highlight[m])
         else:
@@ -392,7 +398,7 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
         term[i, 0], term[i, 1], term[i, 2] = r, g, b
         if not (r > 0.0 or g > 0.0 or b > 0.0):
             continue
-        if smooth:  # from Hanika's lifted point P′ to the same point of the light
+        if depth is not None and smooth:  # from Hanika's lifted P′ to the light's same point
             qx, qy, qz = bulge1((px, py, pz), tri, u, v, s, smooth_tables)
             if math.isfinite(d) and (qx != px or qy != py or qz != pz):
                 lx, ly, lz = px + d * lx - qx, py + d * ly - qy, pz + d * lz - qz
@@ -460,19 +466,20 @@ def crossing_rays(hits, origin, direction, tmax, live):
 
 
 @kernel
-def cross_surfaces(factor, live, surf, walk, scene):
+def cross_surfaces(factor, live, surf, walk, scene, texcoords):
     """Transparent shadow rays ``walk`` = (direction, t, tmax) crossing the surfaces they hit
     (``surf``, a :class:`raytrace.records.Surface`):
     ``S *= t·kt + (1 − t)`` (seed 003, t the opacity) on row ``live[j]`` of ``factor``. Those
     that still let some channel through go on from the far side (:func:`leave1` along their
     ``direction``) for the rest of their ``tmax`` (minus the hit's ``t``): returns their
-    (origin, direction, start shape, tmax, live) as new arrays."""
+    (origin, direction, start shape, tmax, live) as new arrays. ``texcoords``: the
+    triangles' texture coordinates, or None in a scene without image textures, whose kernel
+    is then compiled without the texture lookups."""
     direction, t, tmax = walk
     material, point, geometric = surf.material, surf.point, surf.geometric
     origin, materials = scene.origin, scene.materials
     palette = (materials.colors, materials.pattern, materials.checkers)
-    textured, texcoords = materials.textured, scene.triangles.texcoords
-    alpha = materials.alpha
+    textured, alpha = materials.textured, materials.alpha
     n, on = live.shape[0], 0
     through = np.empty(n, np.bool_)
     for j in range(n):
@@ -480,7 +487,7 @@ def cross_surfaces(factor, live, surf, walk, scene):
         op = materials.opacity[mj]
         kt = color1(palette, mj, KT, point[j, 0] + origin[0], point[j, 1] + origin[1],
                     point[j, 2] + origin[2])
-        if textured[mj]:
+        if texcoords is not None and textured[mj]:  # compiled only for textured scenes
             st = texcoord1(texcoords, surf.triangle[j], surf.uv[j, 0], surf.uv[j, 1])
             kt = texel1(materials, mj, KT, st, kt)
             if alpha[mj] >= 0:
@@ -533,6 +540,11 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     TIR one (``w·t·kt``, refracted column, along the mirror direction), each kept or pruned by
     its own path weight as the contract says: a merged ray would be pruned by the sum.
 
+    ``children`` None: a scene none of whose materials reflects, transmits or is see-through
+    (no hit has a child); numba prunes the children's code (``if children is None``) before
+    typing, so such a scene compiles and loads a kernel without reflection, refraction or
+    Fresnel (the same additions into the samples).
+
     The children's directions, weights, status and TIR flags are written into ``children``
     (a :class:`raytrace.records.Children`): ``status`` (n, 3), columns reflected, refracted,
     see-through: NONE where the material has no such child or its weight is 0, PRUNED where
@@ -546,7 +558,8 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     textured, texcoords = materials.textured, scene.triangles.texcoords
     alpha = materials.alpha
     samples, sample = into
-    r_dir, t_dir, w_r, w_t, w_s, status, tir = children
+    if children is not None:
+        r_dir, t_dir, w_r, w_t, w_s, status, tir = children
     ior = materials.ior
     reflects, transmits = materials.reflects, materials.transmits
     emits, fresnel = materials.emits, materials.fresnel
@@ -573,6 +586,8 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
             if emits[m]:
                 here += ke[c]
             samples[sample[i], c] += weight[i, c] * (op * here)
+        if children is None:  # compiled only for scenes with reflective or transparent ones
+            continue
         status[i, 0] = status[i, 1] = status[i, 2] = NONE
         tir[i] = False
         dx, dy, dz = direction[i, 0], direction[i, 1], direction[i, 2]

@@ -18,6 +18,9 @@ from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -39,8 +42,9 @@ from raytrace import (
 )
 from raytrace.cli import main
 from raytrace.film import read_exr
-from raytrace.integrator import RenderOptions, WhittedIntegrator, chunks
+from raytrace.integrator import KERNEL_FEATURES, RenderOptions, WhittedIntegrator, chunks
 from raytrace.rays import CAMERA, NO_SHAPE, REFRACTION, RayBatch, gather_chunks, sample_chunks
+from raytrace.render import render_options
 
 RTOL = 1e-6  # float32 output: ~6e-8 relative rounding, so 1e-6 is tight but safe
 IOR = 1.5
@@ -773,3 +777,62 @@ def test_smooth_mesh_terminator_is_not_self_shadowed():
     tri = flat.tables.triangles
     flat.tables = flat.tables._replace(triangles=tri._replace(shading=np.zeros_like(tri.shading)))
     assert (lit & (flat.render().rgb[..., 0] < 0.02)).sum() > 10
+
+
+# -- kernel variants: a scene compiles only the code it can run --------------------------------
+SCENES = Path(__file__).resolve().parents[1] / "scenes"
+
+
+@pytest.mark.parametrize("name,features", [
+    ("spotlights.toml", set()),                        # matte spheres and planes
+    ("whitted.toml", {"children"}),                    # a mirror, glass, a reflective floor
+    ("flat_vs_smooth.toml", {"meshes"}),               # meshes, nothing reflective
+    ("mesh_model.toml", {"meshes", "children"}),
+    ("obj_mtl.toml", {"meshes", "children", "textures"}),  # an image-textured OBJ
+])
+def test_a_scene_has_the_kernel_features_of_what_it_holds(name, features):
+    scene = raytrace.load_scene(SCENES / name)
+    integrator = WhittedIntegrator(scene, render_options(scene))
+    assert integrator.features == features
+
+
+@pytest.mark.parametrize("name", ["spotlights.toml", "whitted.toml", "flat_vs_smooth.toml",
+                                  "area_light.toml", "tir.toml", "materials_showcase.toml"])
+def test_each_kernel_variant_renders_the_general_kernels_image_bit_for_bit(name, monkeypatch):
+    # The variant a scene picks against the general kernels (every feature on), on the scene
+    # that exercises it: bit-identical (the variants prune code no hit of the scene runs).
+    scene = raytrace.load_scene(SCENES / name)
+    picked = raytrace.render(scene, width=32, height=24, spp=2, threads=1)
+    monkeypatch.setattr("raytrace.integrator.kernel_features",
+                        lambda table, triangles: frozenset(KERNEL_FEATURES))
+    general = raytrace.render(scene, width=32, height=24, spp=2, threads=1)
+    assert WhittedIntegrator(scene, render_options(scene)).features == set(KERNEL_FEATURES)
+    assert picked.rgb.tobytes() == general.rgb.tobytes()
+    assert picked.stats["rays"] == general.stats["rays"]
+    assert picked.stats["pruned"] == general.stats["pruned"]
+
+
+LOADED = """
+import json, sys
+import raytrace
+from raytrace import shading_kernels as sk
+raytrace.render(raytrace.load_scene(sys.argv[1]), width=8, height=6, threads=1)
+print(json.dumps({name: [str(t) for sig in getattr(sk, name).signatures for t in sig]
+                  for name in ("light_pass", "hit_terms", "count_keep", "spawn_children",
+                               "cross_surfaces", "add_light")}))
+"""
+
+
+def test_a_diffuse_scene_loads_no_reflection_refraction_or_mesh_kernels():
+    # scenes/spotlights.toml: spheres and planes of matte and plastic materials, spot lights,
+    # max_depth 2. Its render (loading from numba's cache or compiling) must leave the spawn
+    # and transparent-shadow kernels untouched, and take the variants of light_pass without
+    # the triangle/texture code (depth None) and of hit_terms without children (None).
+    out = subprocess.run([sys.executable, "-c", LOADED, str(SCENES / "spotlights.toml")],
+                         capture_output=True, text=True, check=True).stdout
+    loaded = json.loads(out)
+    assert loaded["count_keep"] == loaded["spawn_children"] == []
+    assert loaded["cross_surfaces"] == loaded["add_light"] == []
+    assert loaded["light_pass"][5] == "none"  # depth
+    assert loaded["hit_terms"][7] == "none"  # children
+    assert len(loaded["light_pass"]) == 8 and len(loaded["hit_terms"]) == 8
