@@ -471,7 +471,7 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
         x0, y0, x1, y1 = o.crop or (0, 0, o.width, o.height)
         check_memory(x1 - x0, y1 - y0, ("exr", "png") if png else ("exr",))
         if progress.enabled and not cache_is_warm():
-            sys.stderr.write("raytrace: compiling kernels, first run only (about 15 s)\n")
+            sys.stderr.write("raytrace: compiling kernels, first run only (about 10 s)\n")
         load_registries(lean=True)  # this process runs no numba code but ours (jit.py)
         with _warnings_as_lines():
             image = render(scene, progress=progress, client=client(), tile=args.tile,
