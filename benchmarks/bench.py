@@ -95,7 +95,7 @@ import mitsuba_peer  # noqa: E402
 import povray  # noqa: E402
 
 import raytrace  # noqa: E402
-from raytrace import accel, accel_cache  # noqa: E402
+from raytrace import accel, accel_cache, malloc  # noqa: E402
 from raytrace.scene import Mesh, Plane, Sphere  # noqa: E402
 
 
@@ -792,6 +792,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--json", default=str(HERE / "results.json"), help="results file")
     p.add_argument("--workdir", help="folder for scenes and images (default: a temp folder)")
     a = p.parse_args(argv)
+    malloc.tune()  # as the command line does for its process (docs/performance.md, "The allocator")
     parts = [x for x in a.parts.split(",") if x]
     unknown = sorted(set(parts) - set(PARTS))
     if unknown:

@@ -29,6 +29,7 @@ sys.path.insert(0, str(HERE))
 import bench  # noqa: E402
 
 import raytrace  # noqa: E402
+from raytrace import malloc  # noqa: E402
 
 #: How many passes the image is cut into.
 PASSES = (16, 32, 64, 128)
@@ -61,6 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--json", help="write the rows here")
     a = p.parse_args(argv)
     threads = [int(x) for x in a.threads.split(",")]
+    malloc.tune()  # as the command line does
     with tempfile.TemporaryDirectory(prefix="raytrace-passes-") as tmp:
         files = bench.scene_files(Path(tmp))
         rows = [r for name, path in files.items()

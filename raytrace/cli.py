@@ -284,13 +284,17 @@ def _cluster(args: argparse.Namespace):
 
 
 def _render(args: argparse.Namespace) -> int:
-    from . import integrator  # noqa: F401  (the renderer and numba: imported, not timed)
+    from . import (
+        integrator,  # noqa: F401  (the renderer and numba: imported, not timed)
+        malloc,
+    )
     from .aov import check_aovs
     from .film import exr_compression
     from .render import render_options
     from .scene import Scene
     from .tonemap import check_tonemap
 
+    malloc.tune()  # this process is ours: passes reuse the blocks the passes before freed
     try:
         args.tonemap = check_tonemap(args.tonemap)
     except ValueError as e:

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import adaptive, fast_phong, filters, malloc, sampling
+from . import adaptive, fast_phong, filters, sampling
 from . import aov as aov_images
 from . import shading_kernels as sk  # the compiled passes of this stage
 from .accel import Hits, Surface
@@ -272,7 +272,6 @@ class WhittedIntegrator:
         ``progress(done, total)`` is called, one thread at a time, after each pass."""
         opt = self.opt
         t_start = time.perf_counter()
-        malloc.tune()  # passes reuse the blocks the passes before them freed
         with self._lock:  # a second render of this integrator counts from zero
             self._renders += 1
             self._stats_per_thread = []

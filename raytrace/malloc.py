@@ -1,4 +1,4 @@
-"""The C allocator, set up once for rendering: freed pass-sized blocks are reused, not unmapped.
+"""The C allocator, set up for rendering: freed pass-sized blocks are reused, not unmapped.
 
 A pass allocates its arrays afresh in every kernel (rays, hits, surfaces, colours: about
 1.5 MB each for 65 536 rows of three float64). glibc's ``malloc`` serves blocks above its
@@ -8,13 +8,18 @@ so each pass pays the kernel again for every page it touches: about 10 000 page 
 render of the 82k-triangle mesh scene at 1000², 16 000 on 2 threads. :func:`tune` fixes the
 mmap threshold at its largest value (32 MiB on 64-bit) and the trim threshold at
 :data:`TRIM_BYTES` with ``mallopt(3)`` (``M_MMAP_THRESHOLD``, ``M_TRIM_THRESHOLD``), so
-blocks freed by one pass serve the next from the same heap: 3 page faults a render, 6 %
-less CPU on the mesh scene and 3 % on the Whitted scene on one thread, 12 % and 5 % less
-wall time on two (docs/performance.md, "The allocator"). A process keeps at most
-:data:`TRIM_BYTES` of freed memory per heap beyond what it uses.
+blocks freed by one pass serve the next from the same heap: 3 page faults a render, 3–8 %
+less CPU on the mesh scene on one thread (about 1 % on the Whitted scene), 12 % and 5 % less
+wall time on two (docs/performance.md, "The allocator").
+
+The price is memory kept after it is freed: each arena (one per rendering thread) keeps at
+least :data:`TRIM_BYTES` at its top, and blocks up to 32 MiB freed below a live one stay in
+the heap. That is a setting for the whole process, so only the ``raytrace`` command, whose
+process is its own, calls :func:`tune`; a script or notebook that renders many frames may
+call it too (``raytrace.malloc.tune()``), the library never does on its own.
 
 Only glibc has ``mallopt`` with these parameters; elsewhere (musl, macOS, Windows)
-:func:`tune` does nothing. It runs once per process, on the first render.
+:func:`tune` does nothing. It acts once per process.
 """
 
 from __future__ import annotations

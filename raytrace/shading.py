@@ -29,7 +29,9 @@ def cosine_power(a: np.ndarray, b: np.ndarray, n: np.ndarray) -> np.ndarray:
 
     ``1 − a·b`` is taken as ``|a − b|²/2``, which keeps its relative precision near
     ``a·b = 1`` (a dot product there cancels to nothing), and the power as
-    ``exp(n·log1p(−h))``. So an exponent of 1e8 still gives the right falloff. The value is 0
+    ``exp(n·log1p(−h))``, or for a whole n up to 65 536 as ``(1 − h)ⁿ`` by squaring
+    (:func:`raytrace.core.whole_power1`, within 1.5e-11). So an exponent of 1e8 still gives
+    the right falloff. The value is 0
     where ``a·b <= 0`` (so ``0^0`` counts as 0 here) and 1 where ``a = b``.
     (:func:`raytrace.shading_kernels.cosine_power1`, row by row.)
 
