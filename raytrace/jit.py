@@ -78,13 +78,34 @@ def cache_dirs(modules: list[Path]) -> set[Path]:
     return dirs
 
 
+def numba_cache_dir(module: Path) -> Path | None:
+    """The folder numba will cache ``module``'s kernels in: the first of its locators that
+    takes the file (``numba.core.caching.CacheImpl``: ``NUMBA_CACHE_DIR``'s mirror, else
+    a writable ``__pycache__`` beside it, else the user's cache folder), created as numba
+    creates it when it decorates the module's first kernel; None where none takes it."""
+    from numba.core import caching
+
+    try:
+        for cls in caching.CacheImpl._locator_classes:
+            locator = cls.from_function(numba_cache_dir, str(module))
+            if locator is not None:
+                return Path(locator.get_cache_path())
+    except Exception:  # numba internals changed: stamp what exists, as before
+        return None
+    return None
+
+
 def refresh_cache() -> bool:
     """Delete the cache files of the kernel modules wherever they were compiled from other
-    sources than today's; returns whether any folder was refreshed. Never raises for a
-    folder it cannot read or write (numba then compiles in memory as it would anyway)."""
+    sources than today's; returns whether any folder was refreshed. The folders numba is
+    about to write are stamped now, before any kernel compiles, or the next process would
+    find their first compile unstamped and delete it. Never raises for a folder it cannot
+    read or write (numba then compiles in memory as it would anyway)."""
     modules = kernel_modules()
     digest = source_hash(modules)
     names = {p.stem for p in modules}
+    for module in modules:
+        numba_cache_dir(module)
     refreshed = False
     for folder in cache_dirs(modules):
         stamp = folder / STAMP
@@ -94,10 +115,8 @@ def refresh_cache() -> bool:
         except OSError:
             pass
         try:
-            if not folder.is_dir():  # numba has not compiled here: stamp it for when it does
-                if folder.name != "__pycache__":
-                    continue
-                folder.mkdir(exist_ok=True)
+            if not folder.is_dir():  # not where numba caches (numba_cache_dir made that one)
+                continue
             for f in folder.iterdir():
                 if f.suffix in (".nbi", ".nbc") and f.name.split(".", 1)[0] in names:
                     f.unlink(missing_ok=True)

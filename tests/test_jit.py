@@ -94,7 +94,24 @@ def test_an_empty_cache_is_cold(tmp_path):
     out = subprocess.run([sys.executable, "-c", CHECK], env=env, capture_output=True,
                          text=True, check=True).stdout
     assert out == "False\n"
-    assert not [p for p in tmp_path.rglob("*") if p.is_file()]  # asking compiled nothing
+    from raytrace.jit import STAMP  # asking compiled nothing (the guard's stamps aside)
+
+    assert not [p for p in tmp_path.rglob("*") if p.is_file() and p.name != STAMP]
+
+
+def test_a_first_compile_into_a_cache_folder_is_kept_by_the_next_process(tmp_path):
+    # numba creates NUMBA_CACHE_DIR's folders when it decorates a module's kernels, after the
+    # guard ran: unstamped, the next process took the first compile for a stale one.
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    guard = "import raytrace.jit"
+    subprocess.run([sys.executable, "-c", guard], env=env, check=True)
+    folders = {p.parent for p in tmp_path.rglob("raytrace-kernels.sha256")}
+    assert folders  # the folders numba will write are stamped before it writes them
+    compiled = [folder / "accel_kernels.kernel-1.py311.nbi" for folder in folders]
+    for f in compiled:  # stands for what a first render's compile leaves there
+        f.write_bytes(b"index")
+    subprocess.run([sys.executable, "-c", guard], env=env, check=True)
+    assert all(f.exists() for f in compiled)
 
 
 def test_a_cache_a_render_has_filled_is_warm():
