@@ -454,7 +454,7 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
     (the batch's scene files and every file its scenes read); ``scene``: the scene already
     loaded, and its load seconds (:func:`_load`), or None to load it here."""
     from .film import write_exr, write_png
-    from .jit import cache_is_warm, load_registries
+    from .jit import CompileNotice, cache_is_warm, load_registries
     from .render import check_memory, render, render_options
 
     scene_path, exr_path, png_path, stats_path = paths
@@ -474,10 +474,13 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
         o = render_options(scene, **overrides)
         x0, y0, x1, y1 = o.crop or (0, 0, o.width, o.height)
         check_memory(x1 - x0, y1 - y0, ("exr", "png") if png else ("exr",))
+        notice = args.__dict__.setdefault("compile_notice", CompileNotice(
+            lambda line: sys.stderr.write(line)))  # once a process, batch or not
         if progress.enabled and not cache_is_warm():
-            sys.stderr.write("raytrace: compiling kernels, first run only (about 10 s)\n")
+            notice.say()
         load_registries(lean=True)  # this process runs no numba code but ours (jit.py)
-        with _warnings_as_lines():
+        with _warnings_as_lines(), (notice.listening() if progress.enabled
+                                    else contextlib.nullcontext()):
             image = render(scene, progress=progress, client=client(), tile=args.tile,
                            **overrides)
     except SceneError as e:  # a flag's value: name the flag, not the scene key

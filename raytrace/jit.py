@@ -23,9 +23,13 @@ import hashlib
 import os
 import re
 import tempfile
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numba
+from numba.core import event
 
 #: Decorator for every kernel.
 kernel = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
@@ -160,6 +164,43 @@ def cache_is_warm() -> bool:
     except Exception:
         return True
     return True
+
+
+#: What the command line says before kernels compile.
+COMPILE_NOTICE = "raytrace: compiling kernels, first run only (about 10 s)"
+
+
+class CompileNotice(event.Listener):
+    """:data:`COMPILE_NOTICE`, said at most once: up front where :func:`cache_is_warm` finds the
+    cache cold (:meth:`say`), else on the first compile numba starts while it listens
+    (:meth:`listening`: numba's ``numba:compile`` event, which fires only on a cache miss),
+    such as a scene that needs kernel variants an earlier scene did not compile."""
+
+    def __init__(self, write: Callable[[str], object]):
+        self._write = write
+        self._said = False
+        self._lock = threading.Lock()  # a render's threads may each start a compile
+
+    def say(self) -> None:
+        with self._lock:
+            if not self._said:
+                self._said = True
+                self._write(COMPILE_NOTICE + "\n")
+
+    def on_start(self, event: event.Event) -> None:
+        self.say()
+
+    def on_end(self, event: event.Event) -> None:
+        pass
+
+    @contextmanager
+    def listening(self) -> Iterator[None]:
+        """Say it on the first compile inside the block."""
+        event.register("numba:compile", self)
+        try:
+            yield
+        finally:
+            event.unregister("numba:compile", self)
 
 
 #: Optional packages that numba imports while it loads its typing and lowering registries,

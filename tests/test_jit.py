@@ -148,6 +148,42 @@ def test_the_command_line_says_it_is_compiling_on_a_terminal(tmp_path, monkeypat
         assert lines[0] == "raytrace: compiling kernels, first run only (about 10 s)"
 
 
+@pytest.mark.parametrize("quiet,said", [([], True), (["-q"], False)])
+def test_the_command_line_says_so_when_a_warm_cache_still_compiles(tmp_path, monkeypatch,
+                                                                   quiet, said):
+    # A cache warm for one scene may lack another's kernel variants: numba's compile event,
+    # not the guess, is what the notice answers to; it is said once for a whole batch.
+    import importlib
+
+    from numba.core import event
+
+    module = importlib.import_module("raytrace.render")  # the module, not the function
+    monkeypatch.setattr("raytrace.jit.cache_is_warm", lambda: True)
+    err = _Terminal()
+    monkeypatch.setattr(sys, "stderr", err)
+    real = module.render
+
+    def compiling(*args, **kwargs):  # what numba does on a cache miss, twice
+        for _ in range(2):
+            with event.trigger_event("numba:compile", data={}):
+                pass
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(module, "render", compiling)
+    scenes = []
+    for name in ("a", "b"):
+        scenes.append(tmp_path / f"{name}.toml")
+        scenes[-1].write_text('[render]\nwidth = 4\nheight = 2\n[[objects]]\ntype = "sphere"\n'
+                              'center = [0, 0, -3]\nradius = 1\n')
+    (tmp_path / "out").mkdir()
+    assert cli.main(["render", *map(str, scenes), "--out-dir", str(tmp_path / "out"),
+                     *quiet]) == 0
+    lines = err.getvalue().splitlines()
+    notice = "raytrace: compiling kernels, first run only (about 10 s)"
+    assert lines.count(notice) == (1 if said else 0), lines
+    assert not event._registered["numba:compile"]  # the listener left with the render
+
+
 def test_a_colour_slot_does_not_compile_a_kernel_per_value(tmp_path):
     # numba compiles a kernel called from another kernel once per *literal* argument value:
     # with the colour slots as Python ints, color1 compiled six times (KA ... KE) in a first
