@@ -796,12 +796,33 @@ def test_a_scene_has_the_kernel_features_of_what_it_holds(name, features):
     assert integrator.features == features
 
 
+def _see_through_only() -> raytrace.Scene:
+    """Matte spheres on a plane, one of them half see-through (opacity 0.5, no kr or kt):
+    its children come from the opacity alone."""
+    return raytrace.Scene(
+        camera=raytrace.Camera(position=[0, 1, 4], look_at=[0, 0.5, 0], fov=50),
+        lights=[raytrace.PointLight(position=[2, 4, 3], color=[1, 1, 1])],
+        objects=[raytrace.Plane(point=[0, 0, 0], normal=[0, 1, 0],
+                                material=raytrace.Material(kd=0.6)),
+                 raytrace.Sphere(center=[-0.6, 0.5, 0], radius=0.5,
+                                 material=raytrace.Material(kd=[0.8, 0.2, 0.2], opacity=0.5)),
+                 raytrace.Sphere(center=[0.7, 0.5, -1], radius=0.5,
+                                 material=raytrace.Material(kd=[0.2, 0.3, 0.8]))])
+
+
+def test_a_see_through_material_alone_has_children():
+    scene = _see_through_only()
+    assert WhittedIntegrator(scene, render_options(scene)).features == {"children"}
+
+
 @pytest.mark.parametrize("name", ["spotlights.toml", "whitted.toml", "flat_vs_smooth.toml",
-                                  "area_light.toml", "tir.toml", "materials_showcase.toml"])
+                                  "area_light.toml", "tir.toml", "materials_showcase.toml",
+                                  "see-through only"])
 def test_each_kernel_variant_renders_the_general_kernels_image_bit_for_bit(name, monkeypatch):
     # The variant a scene picks against the general kernels (every feature on), on the scene
     # that exercises it: bit-identical (the variants prune code no hit of the scene runs).
-    scene = raytrace.load_scene(SCENES / name)
+    scene = _see_through_only() if name == "see-through only" else raytrace.load_scene(
+        SCENES / name)
     picked = raytrace.render(scene, width=32, height=24, spp=2, threads=1)
     monkeypatch.setattr("raytrace.integrator.kernel_features",
                         lambda table, triangles: frozenset(KERNEL_FEATURES))
