@@ -94,14 +94,16 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("-o", "--output", help="output EXR (default: SCENE's name with .exr, here)")
     r.add_argument("--out-dir", metavar="DIR",
                    help="render every SCENE in one process, each to DIR/<scene name>.exr "
-                        "(and .png, .json with --png, --stats given no file name), all or "
+                        "(an existing folder; and .png, .json with --png, --stats given no "
+                        "file name), all or "
                         "nothing scene by scene; a bad scene is one error line, the others "
                         "are rendered, and the exit status is 2")
     _overrides(r)
     r.add_argument("--threads", type=int, default=os.cpu_count() or 1,
                    help="worker threads (default: all cores)")
-    r.add_argument("--png", nargs="?", const=True,
-                   help="also write a tone-mapped sRGB PNG preview (.png)")
+    r.add_argument("--png", nargs="?", const=True, metavar="FILE",
+                   help="also write a tone-mapped sRGB PNG preview to FILE (.png; no FILE "
+                        "only with --out-dir)")
     r.add_argument("--exposure", type=_exposure, default=0.0,
                    help=f"preview exposure in stops, {EXPOSURE_RANGE[0]:g} to "
                         f"{EXPOSURE_RANGE[1]:g}, or 'auto' (key 0.18 over the log-average "
@@ -110,7 +112,9 @@ def _parser() -> argparse.ArgumentParser:
                    help=f"preview tone map (colour-hdri's operators): {', '.join(TONEMAPS)}")
     r.add_argument("--png-bits", type=int, choices=(8, 16), default=8,
                    help="bits per channel of the PNG preview (default 8)")
-    r.add_argument("--stats", nargs="?", const=True, help="write render statistics as JSON")
+    r.add_argument("--stats", nargs="?", const=True, metavar="FILE",
+                   help="write render statistics as JSON to FILE (no FILE only with "
+                        "--out-dir)")
     r.add_argument("--compression", default="zip", type=str.lower,
                    choices=tuple(EXR_COMPRESSIONS),
                    help="EXR compression, all lossless (default: zip; zstd files need "
