@@ -60,7 +60,8 @@ def test_the_gltf_camera_reproduces_a_known_pixel_ray(tmp_path):
              {"mesh": 0}]
     path = write_gltf(tmp_path / "c.gltf", nodes, [SQUARE], MATTE, extra={"cameras": [
         {"type": "perspective", "perspective": {"yfov": 0.6, "znear": 0.1}}]})
-    scene = raytrace.load_scene(path)
+    with pytest.warns(RenderWarning, match="no lights in the file"):
+        scene = raytrace.load_scene(path)
     np.testing.assert_allclose(scene.camera.position, [1, 2, 5], atol=1e-12)
     frame = raytrace.RenderSettings(width=8, height=6)
     rays = camera_rays(scene.camera, frame, 0, 48).direction.reshape(6, 8, 3)
@@ -96,7 +97,8 @@ def test_each_khr_light_matches_the_equivalent_toml_light(tmp_path, kind):
                     f'exponent = {math.log(0.5) / math.log(math.cos(0.35))!r}',
             "directional": f"type = \"directional\"\ndirection = {axis}"}[kind]
     path = _lit_square(tmp_path, light, down, kind)
-    gl = raytrace.load_scene(path)
+    with pytest.warns(RenderWarning, match="no camera in the file"):  # the default framing
+        gl = raytrace.load_scene(path)
     (tmp_path / "s.toml").write_text(
         f'[render]\nbackground = {gl.render.background.tolist()}\n[ambient]\ncolor = '
         f'{gl.ambient.tolist()}\n'

@@ -141,8 +141,11 @@ def test_threads_default_to_every_core_and_an_explicit_count_is_kept():
     import os
 
     small = raytrace.Scene(camera=raytrace.Camera(), objects=[], lights=[])
-    assert raytrace.render(small, width=4, height=3).stats["threads"] == (os.cpu_count() or 1)
-    assert raytrace.render(small, width=4, height=3, threads=3).stats["threads"] == 3
+    with pytest.warns(raytrace.errors.RenderWarning, match="no objects"):
+        assert raytrace.render(small, width=4, height=3).stats["threads"] == (
+            os.cpu_count() or 1)
+    with pytest.warns(raytrace.errors.RenderWarning, match="no objects"):
+        assert raytrace.render(small, width=4, height=3, threads=3).stats["threads"] == 3
     with pytest.raises(raytrace.SceneError, match="threads"):
         raytrace.render(small, width=4, height=3, threads=0)
 

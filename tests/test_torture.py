@@ -754,7 +754,8 @@ def test_overflowing_pixels_are_counted_and_zeroed():
                   objects=[Plane([0, 0, 0], [0, 1, 0], Material(kd=1.0, ka=0.0))],
                   lights=[DirectionalLight([0, -1, 0], 1e39)],
                   render=RenderSettings(background=0.25))
-    image = raytrace.render(scene, width=w, height=h)
+    with pytest.warns(raytrace.errors.RenderWarning, match="overflowed to inf or NaN"):
+        image = raytrace.render(scene, width=w, height=h)
     _, hit = plane_hits(cam, pinhole(cam, look, up, fov, w, h))
     assert 0 < hit.sum() < w * h
     assert image.stats["nonfinite_pixels"] == hit.sum()
