@@ -214,10 +214,11 @@ def render_tiles(client: Client, scene: Scene, options: RenderOptions, tile: int
 
 
 def gather_each(client: Client, futures: list) -> Iterator:
-    """The results of ``futures`` as each finishes. The first failure cancels the others and
-    is raised: a :class:`SceneError` from a worker as a fresh one (the same line as a local
-    render's, without the remote traceback), a task that killed workers or was cancelled as a
-    :class:`ClusterError`."""
+    """The results of ``futures`` as each finishes. A failure cancels the others and is
+    raised: a :class:`SceneError` from a worker as a fresh one (the same line as a local
+    render's, without the remote traceback), and of several, the one of the earliest future
+    in ``futures``' order (:func:`earliest_scene_error`), as a local loop over them would
+    meet it; a task that killed workers or was cancelled as a :class:`ClusterError`."""
     from distributed import as_completed
     from distributed.scheduler import KilledWorker
 
@@ -226,7 +227,8 @@ def gather_each(client: Client, futures: list) -> Iterator:
             if future.cancelled():  # its data lost with no way to compute it again, say
                 raise ClusterError(f"task {future.key} was cancelled: {result}")
             yield result
-    except SceneError as e:
+    except SceneError as first:
+        e = earliest_scene_error(futures, first)
         raise SceneError(e.problem, e.key, e.file) from None
     except KilledWorker as e:
         raise ClusterError(f"task {e.task} died with each of the {e.allowed_failures + 1} "
@@ -234,6 +236,23 @@ def gather_each(client: Client, futures: list) -> Iterator:
                            "the workers' logs say why: out of memory?)") from None
     finally:
         client.cancel([f for f in futures if not f.done()])
+
+
+def earliest_scene_error(futures: list, first: SceneError) -> SceneError:
+    """The :class:`SceneError` of the earliest of ``futures`` (in their order) that fails
+    with one, waiting for those before ``first``'s to finish; ``first`` where none before it
+    does. Frames run side by side on a cluster, so the first error to arrive may be a later
+    frame's: a local render stops at the earliest."""
+    for future in futures:
+        if future.cancelled():
+            return first
+        try:
+            e = future.exception()  # waits for the future (None where it succeeded)
+        except Exception:  # cancelled meanwhile, or the cluster went away
+            return first
+        if e is not None:
+            return e if isinstance(e, SceneError) else first
+    return first
 
 
 def assemble(parts: list[TileResult], options: RenderOptions, window: tuple[int, int, int, int],

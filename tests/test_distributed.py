@@ -508,3 +508,28 @@ def test_the_cluster_benchmark_s_quick_run(tmp_path):
     cold = [r["cold"] for c in results["clusters"] for r in c["scenes"].values()]
     assert all(x["identical"] and 1 <= x["builds"] <= 2 for x in cold)
     assert "dask cpu ms/tile" in run.stdout
+
+
+class _Done:
+    """A finished future, as gather_each's error rule sees one."""
+
+    def __init__(self, error: Exception | None = None, cancelled: bool = False):
+        self.error, self._cancelled = error, cancelled
+
+    def cancelled(self) -> bool:
+        return self._cancelled
+
+    def exception(self):
+        return self.error
+
+
+def test_of_several_frame_errors_the_earliest_frame_s_is_raised():
+    # Frames 2 and 3 fail side by side; frame 3's error may arrive first, but a local render
+    # stops at frame 2, so that is the line.
+    two, three = raytrace.SceneError("two", "radius"), raytrace.SceneError("three", "radius")
+    futures = [_Done(), _Done(two), _Done(three)]
+    assert rd.earliest_scene_error(futures, three) is two
+    assert rd.earliest_scene_error([_Done(), _Done(three)], three) is three
+    # a frame before it that died otherwise (or was cancelled): the error that arrived
+    assert rd.earliest_scene_error([_Done(RuntimeError("x")), _Done(three)], three) is three
+    assert rd.earliest_scene_error([_Done(cancelled=True), _Done(two)], three) is three
