@@ -25,6 +25,7 @@ import OpenEXR
 
 import raytrace
 import raytrace.adaptive as adaptive
+from raytrace.adaptive import add_mean1, corners1
 from raytrace.jit import kernel
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -37,23 +38,20 @@ def judge_by_luminance(relative: bool):
 
     @kernel
     def judge(slot, values, origin, cells, rule, out, cut):
-        stride, i0, j0 = origin
         ci, cj, pixel = cells
         s, threshold, everywhere, last, weight = rule
         n = 0
         ys = np.empty(4)
         for k in range(ci.shape[0]):
-            i, j = ci[k] - i0, cj[k] - j0
-            r0, r1 = slot[j * stride + i], slot[j * stride + i + s]
-            r2, r3 = slot[(j + s) * stride + i], slot[(j + s) * stride + i + s]
+            r = corners1(slot, origin, ci[k], cj[k], s)
             split = False
             if not last:
                 if everywhere:
                     split = True
                 else:
-                    for q, r in enumerate((r0, r1, r2, r3)):
-                        ys[q] = (0.2126 * values[r, 0] + 0.7152 * values[r, 1]
-                                 + 0.0722 * values[r, 2])
+                    for q in range(4):
+                        ys[q] = (0.2126 * values[r[q], 0] + 0.7152 * values[r[q], 1]
+                                 + 0.0722 * values[r[q], 2])
                     d = ys.max() - ys.min()
                     if relative:
                         d = d / (ys.max() + ys.min() + 0.1)
@@ -62,10 +60,7 @@ def judge_by_luminance(relative: bool):
             if split:
                 n += 1
                 continue
-            p = pixel[k]
-            for c in range(3):
-                out[p, c] += (values[r0, c] + values[r1, c] + values[r2, c]
-                              + values[r3, c]) * 0.25 * weight
+            add_mean1(out, pixel[k], values, r, weight)
         return n
 
     return judge
