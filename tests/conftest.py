@@ -35,3 +35,10 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 def generate_ref(request: pytest.FixtureRequest) -> bool:
     """True when the run was asked to (re)generate reference images."""
     return bool(request.config.getoption("--generate-ref"))
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    # RAYTRACE_IMAGE_HASHES=FOLDER records every image's hash (tests/image_hashes.py).
+    from image_hashes import plugin_from_env
+
+    plugin_from_env(config)
