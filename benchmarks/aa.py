@@ -6,7 +6,7 @@
 Each scene is rendered with uniform spp 1, 4, 16, 64 and adaptive (threshold × depth), timed
 (best of ``--repeats``, one warm-up render first, ``--threads`` threads), and compared with a
 reference rendered at ``--reference-spp`` uniform samples with another seed: RMSE over linear
-RGB and HDR-FLIP (:mod:`raytrace.metrics`), seconds and camera samples traced. Prints one
+RGB and HDR-FLIP (:mod:`raytrace.film.metrics`), seconds and camera samples traced. Prints one
 table per scene.
 """
 
@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 import raytrace
-from raytrace.metrics import METRICS
+from raytrace.film.metrics import METRICS
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -25,8 +25,8 @@ import OpenEXR
 
 import raytrace
 import raytrace.adaptive as adaptive
-from raytrace.adaptive import add_mean1, corners1
-from raytrace.jit import kernel
+from raytrace.kernels.adaptive import add_mean1, corners1
+from raytrace.kernels.jit import kernel
 
 ROOT = Path(__file__).resolve().parent.parent
 CONTRASTS = ("channel", "luminance", "relative")

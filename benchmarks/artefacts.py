@@ -20,7 +20,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 import bench  # noqa: E402
 
 import raytrace  # noqa: E402
-import raytrace.accel_kernels as K  # noqa: E402
+import raytrace.kernels.accel as K
 
 counts = {"embree": 0, "artefacts": 0, "rechecks": 0}
 _refine, _occlusion = K.refine_hits, K.occlusion

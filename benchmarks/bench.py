@@ -53,7 +53,7 @@ Parts (``--parts``, comma-separated; default all):
 ``meshes``
     Large meshes (``benchmarks/meshes.py``): the mesh scene with icospheres of 82 k to 5.2 M
     triangles as binary PLY and OBJ, each rendered by a fresh ``raytrace render``: wall time,
-    peak memory, load, build and render seconds; reading with raytrace.meshio against
+    peak memory, load, build and render seconds; reading with raytrace.readers.meshio against
     trimesh, Embree's copy-in against its BVH build.
 ``mitsuba``
     Mitsuba 3 (``llvm_ad_rgb``, ``direct`` integrator) as a second peer
@@ -499,7 +499,9 @@ def kernel_breakdown(path: Path, width: int, height: int) -> dict:
     """Seconds and calls of every compiled kernel and of Embree's ``run`` in one
     single-threaded render, after a first render that loads every kernel from numba's cache.
     Kernels run during the BVH build are reported apart (``build_kernels``)."""
-    from raytrace import accel_kernels, analytic, camera, integrator, rays, shading_kernels
+    from raytrace import analytic, camera, integrator, rays
+    from raytrace.kernels import accel as accel_kernels
+    from raytrace.kernels import shading as shading_kernels
 
     scene = raytrace.load_scene(path)
     raytrace.render(scene, width=width, height=height, threads=1)

@@ -110,7 +110,7 @@ def local(scene: raytrace.Scene, kw: dict, repeat: int) -> dict:
 
 def transfer(client, scene: raytrace.Scene, kw: dict, repeat: int) -> dict:
     """Seconds for the pickled scene to reach every worker, less an empty payload's."""
-    from raytrace.render import render_options
+    from raytrace.rendering import render_options
 
     payload, _, _ = rd.scene_payload(scene, render_options(scene, **kw))
     workers = list(client.scheduler_info()["workers"])

@@ -20,16 +20,10 @@ import time
 
 def main(argv: list[str] | None = None) -> int:
     import raytrace
-    from raytrace import (
-        accel,
-        accel_kernels,
-        analytic,
-        camera,
-        filters,
-        integrator,
-        rays,
-        shading_kernels,
-    )
+    from raytrace import accel, analytic, camera, integrator, rays
+    from raytrace.film import filters
+    from raytrace.kernels import accel as accel_kernels
+    from raytrace.kernels import shading as shading_kernels
 
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("scene")

@@ -80,12 +80,12 @@ def kernel_times(subdivisions: list[int], size: tuple[int, int], repeat: int) ->
     with the polynomials (``fast_phong``), best of ``repeat`` alternated calls; and the
     table's build (:func:`raytrace.fast_phong.tables`) in nanoseconds per triangle."""
     from raytrace import fast_phong
-    from raytrace import shading_kernels as sk
     from raytrace.camera import camera_rays
     from raytrace.integrator import WhittedIntegrator
-    from raytrace.lights import NO_KEY
-    from raytrace.records import Hits, Shadows
-    from raytrace.render import render_options
+    from raytrace.kernels import shading as sk
+    from raytrace.kernels.records import Hits, Shadows
+    from raytrace.rendering import render_options
+    from raytrace.shading import NO_KEY
 
     width, height = size
     out = []

@@ -434,8 +434,8 @@ def sweep_aa(scene: Scene, config: dict, threads: int, cache: Path) -> dict:
     per setting the best wall and CPU seconds (``time.process_time``: every thread's, far less
     sensitive than wall time to other processes on a shared machine) of ``repeats`` rounds,
     each round rendering every setting once in turn, the camera samples traced per pixel,
-    RMSE and mean HDR-FLIP (:mod:`raytrace.metrics`) against :func:`aa_reference`."""
-    from raytrace.metrics import METRICS
+    RMSE and mean HDR-FLIP (:mod:`raytrace.film.metrics`) against :func:`aa_reference`."""
+    from raytrace.film.metrics import METRICS
 
     w, h = config["size"]
     ref, ref_seconds = aa_reference(scene, (w, h), *config["reference"], threads, cache)

@@ -13,7 +13,7 @@ binary PLY and, up to 1.3 M triangles, as OBJ. For each file:
 * a fresh ``raytrace render --stats`` process (``--threads``): its wall time, peak resident
   memory and the ``--stats`` seconds (load, build, trace, shade, write);
 * in this process, on one thread, the parts of load and build: reading the file with
-  :func:`raytrace.meshio.read_mesh` against trimesh's ``load`` + ``merge_vertices`` (what
+  :func:`raytrace.readers.meshio.read_mesh` against trimesh's ``load`` + ``merge_vertices`` (what
   raytrace did before; process CPU seconds), and Embree's copy-in
   (``embreex.mesh_construction.TriangleMesh``, this thread's CPU seconds: it holds the GIL)
   against the BVH build (the first ``run``, wall seconds; Embree's own threads).
@@ -54,11 +54,11 @@ def write_sphere(folder: Path, subdivisions: int, suffix: str) -> Path:
 
 
 def load_parts(mesh: Path) -> dict:
-    """CPU seconds of reading ``mesh`` with raytrace.meshio and with trimesh (load +
+    """CPU seconds of reading ``mesh`` with raytrace.readers.meshio and with trimesh (load +
     merge_vertices, raytrace's reading before meshio)."""
     import trimesh
 
-    from raytrace import meshio
+    from raytrace.readers import meshio
 
     t0 = time.process_time()
     fast = meshio.read_mesh(mesh)

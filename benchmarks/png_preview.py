@@ -26,7 +26,7 @@ Parts (``--parts``):
     16-bit RGB.
 ``preview``
     ``raytrace.film.write_png`` as shipped, from the float32 image: each tone map of
-    :data:`raytrace.tonemap.TONEMAPS` at exposure 0, ``clip`` and ``reinhard2004`` with
+    :data:`raytrace.film.tonemap.TONEMAPS` at exposure 0, ``clip`` and ``reinhard2004`` with
     ``auto``, and 16-bit ``clip``.
 ``cli``
     ``raytrace render scenes/whitted.toml`` at ``--size`` on 2 threads, without and with
@@ -268,7 +268,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"\nPNG writers, {label}: the same sRGB codes\n")
             print(table(["writer", "bits", *heads[:3]], rows))
         if "preview" in a.parts:
-            from raytrace.tonemap import TONEMAPS
+            from raytrace.film.tonemap import TONEMAPS
 
             cases = [(t, 0.0, 8) for t in TONEMAPS] + [("clip", "auto", 8),
                                                        ("reinhard2004", "auto", 8),

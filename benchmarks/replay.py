@@ -6,7 +6,7 @@ of a kernel's arithmetic (docs/robustness.md, "Precision budget").
 
 SCENE is ``mesh`` (bench.py's 82k-triangle sphere on a two-triangle ground, 1000²) or
 ``whitted`` (scenes/whitted.toml, 1280×960, depth 5); KERNEL a name in
-:mod:`raytrace.accel_kernels` or :mod:`raytrace.shading_kernels` (``light_pass``,
+:mod:`raytrace.kernels.accel` or :mod:`raytrace.kernels.shading` (``light_pass``,
 ``refine_hits``, ``hit_surfaces``, …). The frame is rendered once with every call's arguments
 copied as they were passed (the scene's read-only records are shared), then each
 kernel's calls are run again in order, best of seven, in ``time.process_time`` seconds. A
@@ -30,7 +30,10 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 import bench  # noqa: E402
 
 import raytrace  # noqa: E402
-from raytrace import accel, accel_kernels, integrator, records, shading_kernels  # noqa: E402
+from raytrace import accel, integrator
+from raytrace.kernels import accel as accel_kernels  # noqa: E402
+from raytrace.kernels import records
+from raytrace.kernels import shading as shading_kernels
 
 #: The scene's records, read-only once built: shared by the copies, not copied.
 SHARED = (records.Scene, records.Shapes, records.Triangles, records.Materials)

@@ -135,8 +135,9 @@ def part_small(trees, repeat, work) -> dict:
 #: What a command-line render cannot avoid, step by step (each a fresh process).
 FLOOR = {"python": "pass", "+ numpy": "import numpy",
          "+ numba": "import numpy, numba",
-         "+ registries, lean (CLI)": "import raytrace.jit as j; j.load_registries(lean=True)",
-         "+ registries, all (API)": "import raytrace.jit as j; j.load_registries()"}
+         "+ registries, lean (CLI)":
+             "from raytrace.kernels import compile as c; c.load_registries(True)",
+         "+ registries, all (API)": "import raytrace.kernels.compile as c; c.load_registries()"}
 
 
 def part_floor(trees, repeat, work) -> dict:
@@ -241,7 +242,7 @@ def part_compression(trees, repeat, work) -> dict:
 BVH_PROBE = """
 import sys, time, json, raytrace, raytrace.integrator
 from raytrace import accel_cache
-from raytrace.render import render_options
+from raytrace.rendering import render_options
 scene = raytrace.load_scene(sys.argv[1])
 raytrace.render(scene, width=1000, height=1000, threads=2)  # kernels loaded, BVH built
 kept, built = [], []

@@ -1,9 +1,11 @@
 """raytrace: a recursive Whitted ray tracer on Intel Embree.
 
-The pipeline, one module per stage::
+The pipeline, a folder or module per stage (docs/architecture.md)::
 
-    scene_file / scene  →  camera  →  accel (embreex + analytic)  →  integrator
-        →  lights + shading + optics  →  film (EXR, PNG)  →  cli
+    readers/ (scene and model files) → scene → tables → camera → accel (Embree + analytic)
+        → integrator → lights + shading → film/ (EXR, PNG previews) → cli
+
+with every compiled kernel in ``kernels/``.
 
 >>> import raytrace
 >>> scene = raytrace.Scene(
@@ -13,49 +15,47 @@ The pipeline, one module per stage::
 >>> image = raytrace.render(scene, width=32, height=24)
 >>> image.rgb.shape
 (24, 32, 3)
+
+The names of the API are loaded from their modules when first used (PEP 562 module
+``__getattr__``), so ``import raytrace`` is quick and loads neither numba nor Embree: a script
+that only loads and checks scenes never pays for the compiler.
 """
 
-from .errors import RenderWarning, SceneError
-from .explain import explain
-from .film import Image, read_exr
-from .frames import render_frames
-from .material import Checker, Material, MaterialLibrary
-from .material import library as materials
-from .render import render
-from .scene import (
-    AreaLight,
-    Camera,
-    DirectionalLight,
-    Mesh,
-    Plane,
-    PointLight,
-    RenderSettings,
-    Scene,
-    Sphere,
-    SpotLight,
-)
-from .scene_file import load_scene, scene_from_dict
+from importlib import import_module
+
+#: Public name → (module, its name there).
+EXPORTS = {
+    "RenderWarning": ("errors", "RenderWarning"), "SceneError": ("errors", "SceneError"),
+    "explain": ("raytree", "explain"), "Image": ("film.image", "Image"),
+    "read_exr": ("film.exr", "read_exr"), "render_frames": ("frames", "render_frames"),
+    "Checker": ("material", "Checker"), "Material": ("material", "Material"),
+    "MaterialLibrary": ("material", "MaterialLibrary"), "materials": ("material", "library"),
+    "render": ("rendering", "render"), "AreaLight": ("lights", "AreaLight"),
+    "DirectionalLight": ("lights", "DirectionalLight"), "PointLight": ("lights", "PointLight"),
+    "SpotLight": ("lights", "SpotLight"), "Camera": ("scene", "Camera"),
+    "Mesh": ("scene", "Mesh"), "Plane": ("scene", "Plane"),
+    "RenderSettings": ("scene", "RenderSettings"), "Scene": ("scene", "Scene"),
+    "Sphere": ("scene", "Sphere"), "load_scene": ("readers.scene_file", "load_scene"),
+    "scene_from_dict": ("readers.scene_file", "scene_from_dict"),
+}
+__all__ = sorted(EXPORTS)
 
 
-def __getattr__(name: str) -> str:
-    """``raytrace.__version__``: the installed distribution's version (pyproject.toml), not a
-    second copy of it, read when first asked for (``importlib.metadata`` costs 20–40 ms of
-    every start-up otherwise; PEP 562 module ``__getattr__``)."""
-    if name != "__version__":
+def __getattr__(name: str):
+    """A public name, loaded from its module on first use (PEP 562); and
+    ``raytrace.__version__``: the installed distribution's version (pyproject.toml), not a
+    second copy of it (``importlib.metadata`` costs 20–40 ms, so only when asked for)."""
+    if name == "__version__":
+        from importlib import metadata
+
+        try:
+            value = metadata.version("raytrace")
+        except metadata.PackageNotFoundError:  # a source tree that was never installed
+            value = "0+unknown"
+    elif name in EXPORTS:
+        module, attribute = EXPORTS[name]
+        value = getattr(import_module(f".{module}", __name__), attribute)
+    else:
         raise AttributeError(f"module 'raytrace' has no attribute {name!r}")
-    from importlib import metadata
-
-    try:
-        version = metadata.version("raytrace")
-    except metadata.PackageNotFoundError:  # run from a source tree that was never installed
-        version = "0+unknown"
-    globals()["__version__"] = version
-    return version
-
-__all__ = [
-    "AreaLight", "Camera", "Checker", "DirectionalLight", "Image", "Material", "explain",
-    "MaterialLibrary", "Mesh", "Plane", "PointLight", "RenderSettings", "RenderWarning", "Scene",
-    "SceneError", "Sphere", "SpotLight", "load_scene", "materials", "read_exr", "render",
-    "render_frames",
-    "scene_from_dict",
-]
+    globals()[name] = value
+    return value

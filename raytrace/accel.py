@@ -17,7 +17,7 @@ This is the only module that imports ``embreex``. Embree works in float32 with `
   the triangle's error band, in a second pass over those few rays (embreex has no filter
   callbacks). docs/robustness.md gives the scheme and its measured bound.
 
-A query runs on the calling thread. Embree and the kernels of :mod:`raytrace.accel_kernels`
+A query runs on the calling thread. Embree and the kernels of :mod:`raytrace.kernels.accel`
 release the GIL and the accelerator is read-only after construction, so the integrator's
 threads query it concurrently, each with batches of its own.
 """
@@ -26,11 +26,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import accel_kernels as ak  # the compiled passes of this stage
 from .analytic import NO_TMAX, AnalyticShapes, f64, i64
-from .core import SHADOW_SHORTEN
+from .kernels import accel as ak  # the compiled passes of this stage
+from .kernels.core import SHADOW_SHORTEN, leave_rows
+from .kernels.records import Hits, Surface
 from .rays import NO_SHAPE
-from .records import Hits, Surface
 from .tables import SceneArrays
 
 #: Most second passes of a query over the rays whose hits were float32 artefacts.
@@ -129,7 +129,7 @@ class Accelerator:
         triangle comes before the analytic hit (and ``tmax``).
 
         Hits that the float64 solve finds behind the origin are float32 artefacts
-        (:func:`raytrace.accel_kernels.refine_hits`): those rays are traced again from
+        (:func:`raytrace.kernels.accel.refine_hits`): those rays are traced again from
         beyond the artefact's error band, at most :data:`MAX_RETRACES` times."""
         n = len(o)
         o32, d32 = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
@@ -156,7 +156,7 @@ class Accelerator:
                  tmax: np.ndarray) -> np.ndarray:
         """True where something opaque or not lies in ``(0, tmax)`` (any-hit query).
 
-        The analytic shapes first (any hit, :func:`raytrace.accel_kernels.shadow_prepass`);
+        The analytic shapes first (any hit, :func:`raytrace.kernels.accel.shadow_prepass`);
         Embree only sees the rays they do not block. Embree's any-hit answer does not say
         what it hit, so the rays it finds blocked that start on a triangle (no analytic
         ``origin_shape``), where the blocker may be a float32 artefact of that triangle or of
@@ -202,7 +202,7 @@ class Accelerator:
     def surface(self, hits: Hits, origin: np.ndarray, direction: np.ndarray) -> Surface:
         """Points, normals and materials at the hits (every row of ``hits`` must be a hit).
 
-        One kernel over the hits: :func:`raytrace.accel_kernels.hit_surfaces`.
+        One kernel over the hits: :func:`raytrace.kernels.accel.hit_surfaces`.
         """
         n = len(hits.t)
         point, geometric, shading = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
@@ -219,13 +219,11 @@ def spawn_origins(point: np.ndarray, geometric: np.ndarray, offset: np.ndarray,
                   direction: np.ndarray) -> np.ndarray:
     """Start points (n, 3) of rays leaving surface points along ``direction``.
 
-    The one spawn rule of every kernel, :func:`raytrace.core.leave1`: mesh hits move
+    The one spawn rule of every kernel, :func:`raytrace.kernels.core.leave1`: mesh hits move
     ``offset`` off the plane along the geometric normal, to the side the ray leaves on;
     analytic hits have offset 0 and stay put (their ray carries its shape instead, see
     :mod:`raytrace.analytic`).
     """
-    from .core import leave_rows
-
     point = f64(point)
     out = np.empty_like(point)
     leave_rows(point, f64(geometric), f64(offset), f64(direction), out)

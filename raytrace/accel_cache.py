@@ -41,9 +41,9 @@ import numpy as np
 
 from .accel import Accelerator
 from .material import COLOR_KEYS
+from .readers.texture import Texture
 from .scene import Mesh, Scene
 from .tables import SceneArrays
-from .texture import Texture
 
 #: Accelerators built in this process (a test's and a benchmark's view of the cache).
 builds = 0

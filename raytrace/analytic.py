@@ -12,7 +12,7 @@ Improvements for Ray/Sphere Intersection" (Ray Tracing Gems, 2019, ch. 7): the d
 ``r² − |f|²`` uses the ray's perpendicular offset ``f``, and the second root comes from
 ``c/q`` (Vieta), so neither cancels catastrophically.
 
-The per-ray arithmetic is in :mod:`raytrace.accel_kernels` (one intersection and one surface
+The per-ray arithmetic is in :mod:`raytrace.kernels.accel` (one intersection and one surface
 function per kind behind ``shape_t`` and ``shape_surface``, the loops ``closest_analytic`` and
 ``analytic_surface``); the tables are :func:`raytrace.tables.shape_tables`'.
 """
@@ -21,16 +21,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import accel_kernels as ak  # the compiled passes of this stage
+from .kernels import accel as ak  # the compiled passes of this stage
+from .kernels.records import Shapes
 from .rays import NO_SHAPE
-from .records import Shapes
 
 #: Stands for "no tmax" in the kernels' float64 tmax argument.
 NO_TMAX = np.empty(0)
 
 
 class AnalyticShapes:
-    """Queries over the analytic shapes of a :class:`raytrace.records.Shapes` (camera-relative,
+    """Queries over the analytic shapes of a :class:`raytrace.kernels.records.Shapes`
+    (camera-relative,
     numbered as :func:`raytrace.tables.shape_tables` numbers them)."""
 
     def __init__(self, shapes: Shapes):

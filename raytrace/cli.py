@@ -21,8 +21,8 @@
 
 Bad input prints one line ``raytrace: error: FILE: KEY: problem`` and exits with status 2;
 ``compare`` exits 1 when the difference is worse than the threshold (over it; under it for
-PSNR). The metrics are :data:`raytrace.metrics.METRICS`. ``render`` writes all of its outputs
-or none (:mod:`raytrace.outputs`); a render that completes but is probably not what was meant
+PSNR). The metrics are :data:`raytrace.film.metrics.METRICS`. ``render`` writes all of its outputs
+or none (:mod:`raytrace.film.outputs`); a render that completes but is probably not what was meant
 adds a line ``raytrace: warning: FILE: problem``. With ``--out-dir`` each scene's outputs are
 all or nothing on their own; a scene that fails is one error line naming its file, the next
 scene is rendered, and the exit status is 2.
@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .errors import ClusterError, RenderWarning, SceneError
-from .outputs import Outputs
+from .film.outputs import Outputs
 
 if TYPE_CHECKING:
     from .scene import Scene
@@ -72,7 +72,7 @@ class _Version(argparse.Action):
 
 def _exposure(text: str) -> float | str:
     """``--exposure``: stops in the accepted range, or ``auto`` (checked while parsing)."""
-    from .tonemap import check_exposure
+    from .film.tonemap import check_exposure
 
     try:
         return check_exposure(text)
@@ -81,8 +81,8 @@ def _exposure(text: str) -> float | str:
 
 
 def _parser() -> argparse.ArgumentParser:
-    from .film import EXR_COMPRESSIONS
-    from .tonemap import EXPOSURE_RANGE, TONEMAPS
+    from .film.exr import EXR_COMPRESSIONS
+    from .film.tonemap import EXPOSURE_RANGE, TONEMAPS
 
     p = _Parser(prog="raytrace", description="A Whitted ray tracer on Embree.")
     p.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")
@@ -292,11 +292,11 @@ def _render(args: argparse.Namespace) -> int:
         integrator,  # noqa: F401  (the renderer and numba: imported, not timed)
         malloc,
     )
-    from .aov import check_aovs
-    from .film import exr_compression
-    from .render import render_options
+    from .film.aov import check_aovs
+    from .film.exr import exr_compression
+    from .film.tonemap import check_tonemap
+    from .rendering import render_options
     from .scene import Scene
-    from .tonemap import check_tonemap
 
     malloc.tune()  # this process is ours: passes reuse the blocks the passes before freed
     try:
@@ -368,7 +368,7 @@ def _scene_independent(overrides: dict) -> dict:
 
 def _load(scene_path: str) -> tuple[Scene, float]:
     """A scene file loaded (its model files' notes printed as warning lines), and seconds."""
-    from .scene_file import load_scene
+    from .readers.scene_file import load_scene
 
     t0 = time.perf_counter()
     with _warnings_as_lines():  # a model file's notes
@@ -457,9 +457,10 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
     Dask client or None (:class:`_Started`); ``others``: more files no output may overwrite
     (the batch's scene files and every file its scenes read); ``scene``: the scene already
     loaded, and its load seconds (:func:`_load`), or None to load it here."""
-    from .film import write_exr, write_png
-    from .jit import CompileNotice, cache_is_warm, load_registries
-    from .render import check_memory, render, render_options
+    from .film.exr import write_exr
+    from .film.previews import write_png
+    from .kernels.compile import CompileNotice, cache_is_warm, load_registries
+    from .rendering import check_memory, render, render_options
 
     scene_path, exr_path, png_path, stats_path = paths
     # Every output is checked before anything is rendered (outputs.py): its suffix and that it
@@ -529,7 +530,7 @@ def _warnings_as_lines():
 def _render_frames(args: argparse.Namespace, cluster) -> int:
     """``render --frames``: a sequence (:func:`raytrace.frames.render_frames`), each frame
     written when it is finished, the frames already written skipped unless ``--overwrite``."""
-    from .aov import check_aovs
+    from .film.aov import check_aovs
     from .frames import (
         PLACEHOLDER,
         check_outputs,
@@ -538,7 +539,7 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
         render_frames,
         scene_source,
     )
-    from .render import render_options
+    from .rendering import render_options
     from .scene import Scene
 
     for flag, value, default in (("--tile", args.tile, None), ("--png-bits", args.png_bits, 8)):
@@ -580,7 +581,7 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
             raise (_flag_error(e) if e.key == "crop" else e) from None
     rays = sum(st["rays"]["total"] for st in result.stats.values())
     if args.stats:
-        from .film import atomic_path
+        from .film.files import atomic_path
 
         summary = {"frames": {str(f): st for f, st in sorted(result.stats.items())},
                    "rendered": sorted(result.rendered), "skipped": result.skipped,
@@ -597,8 +598,8 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
 
 
 def _explain(args: argparse.Namespace) -> int:
-    from .explain import explain, format_tree
-    from .scene_file import load_scene
+    from .raytree import explain, format_tree
+    from .readers.scene_file import load_scene
 
     scene = load_scene(args.scene)
     try:
@@ -612,9 +613,9 @@ def _explain(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from . import metrics
-    from .film import read_exr
-    from .testing import compare_images, write_diff
+    from .film import metrics
+    from .film.compare import compare_images, write_diff
+    from .film.exr import read_exr
 
     try:
         metric = metrics.get(args.metric)

@@ -45,9 +45,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from . import aov as aov_images
+from . import values
 from .errors import ClusterError, SceneError
-from .film import Image
+from .film import aov as aov_images
+from .film.image import Image
+from .integrator import WhittedIntegrator
 from .scene import Scene
 
 if TYPE_CHECKING:
@@ -93,8 +95,6 @@ def tile_grid(window: tuple[int, int, int, int], size: int) -> list[tuple[int, i
 
 def check_tile(tile: Any, key: str = "tile") -> int:
     """A tile side in pixels, checked against :data:`TILE_RANGE`; None gives :data:`TILE`."""
-    from . import values
-
     if tile is None:
         return TILE
     return values.number(tile, key, lo=TILE_RANGE[0], hi=TILE_RANGE[1], integer=True)
@@ -144,8 +144,6 @@ def cached_integrator(key: str, scene: Scene, options: RenderOptions
     """This process's integrator for ``key``, built (the BVH included) only when it is not
     among the last :data:`KEEP` used; and whether it was built now. Threads of one worker
     wait for a build in progress rather than build the same scene twice."""
-    from .integrator import WhittedIntegrator
-
     with _integrators_lock:
         found = _integrators.get(key)
         if found is not None:

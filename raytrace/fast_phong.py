@@ -23,7 +23,7 @@ truncated polynomial arithmetic on the exact quadratic ``|n|²``:
 
 V is the unit vector from the triangle's centroid to the camera: the distant-viewer
 assumption, V constant over the triangle. The highlight power ``max(S, 0)ⁿ`` is taken of the
-polynomial per hit (:func:`raytrace.shading_kernels.fast_phong1`).
+polynomial per hit (:func:`raytrace.kernels.shading.fast_phong1`).
 
 Where the assumptions do not hold, the renderer does not use the polynomials: hits lit by a
 point, spot or area light, and hits of rays that do not start at the camera (reflected,
@@ -39,9 +39,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from .kernels.core import FAST_PHONG, taylor_rows
+from .kernels.shading import BLINN
+
 #: Coefficients per (triangle, light): diffuse T₀…T₅, then specular T₀…T₅.
 COLUMNS = 12
-#: No table: the light pass shades every hit exactly (``raytrace.records.Scene.fast``).
+#: No table: the light pass shades every hit exactly (``raytrace.kernels.records.Scene.fast``).
 NONE = np.zeros((0, COLUMNS))
 #: The expansion point in barycentrics (u, v): the centroid.
 CENTRE = 1.0 / 3.0
@@ -119,13 +122,10 @@ def coefficients(corners: np.ndarray, vnormals: np.ndarray, to_light: np.ndarray
 
 def tables(triangles, highlight: np.ndarray, emitters: list) -> list[np.ndarray]:
     """The table of each emitter (a :class:`raytrace.lights.Emitter`) for the triangles of a
-    :class:`raytrace.records.Triangles`: :func:`coefficients` for a directional light where
+    :class:`raytrace.kernels.records.Triangles`: :func:`coefficients` for a directional light where
     some triangle is ``fast_phong`` (rows of other triangles are computed too and never
     read), else :data:`NONE` (exact Phong). ``highlight`` (M,): each material's highlight
-    code (``raytrace.records.Materials.highlight``)."""
-    from .core import FAST_PHONG
-    from .shading_kernels import BLINN
-
+    code (``raytrace.kernels.records.Materials.highlight``)."""
     if not np.any(triangles.shading == FAST_PHONG):
         return [NONE] * len(emitters)
     blinn = np.asarray(highlight)[triangles.material] == BLINN
@@ -138,9 +138,7 @@ def evaluate(table: np.ndarray, rows: np.ndarray,
              uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The diffuse and specular polynomials of triangles ``rows`` (n,) of ``table`` (T, 12)
     at barycentrics ``uv`` (n, 2), as the kernels evaluate them
-    (:func:`raytrace.core.taylor1`)."""
-    from .core import taylor_rows
-
+    (:func:`raytrace.kernels.core.taylor1`)."""
     table = np.ascontiguousarray(table, np.float64)
     rows = np.ascontiguousarray(rows, np.int64)
     uv = np.ascontiguousarray(uv, np.float64).reshape(-1, 2)

@@ -29,8 +29,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from . import values
+from .distributed import gather_each
 from .errors import SceneError
-from .film import Image
+from .film.exr import exr_compression
+from .film.image import Image
+from .film.tonemap import check_exposure, check_tonemap
+from .readers.scene_file import load_scene
+from .rendering import render
 from .scene import Scene
 
 if TYPE_CHECKING:
@@ -50,8 +56,6 @@ def parse_frames(spec: str | Sequence[int], key: str = "frames") -> list[int]:
     >>> parse_frames("1-3,10,2..4")
     [1, 2, 3, 10, 4]
     """
-    from . import values
-
     if not isinstance(spec, str):
         frames = [values.number(f, key, lo=0, integer=True) for f in spec]
     else:
@@ -129,8 +133,6 @@ class SceneSource:
     def scene(self, frame: int) -> Scene:
         """The scene of ``frame``; a :class:`SceneError` naming the frame when the function
         fails on bad input or returns something else than a Scene."""
-        from .scene_file import load_scene
-
         if self.files is not None:
             return load_scene(frame_path(self.files, frame))
         where = f"{self.name}({frame})"
@@ -184,8 +186,6 @@ def render_frame(source: SceneSource | bytes, frame: int, overrides: dict) -> Im
     """One frame: its scene (from the source, or ``source`` pickled: a Scene or a
     SceneSource) rendered with ``overrides`` (keywords of :func:`raytrace.render`). A worker
     task, and the local loop's step, so both raise the same errors."""
-    from .render import render
-
     if isinstance(source, bytes):
         source = pickle.loads(source)
     scene = source if isinstance(source, Scene) else source.scene(frame)
@@ -228,8 +228,6 @@ def render_frames(scenes: str | os.PathLike | Callable[[int], Scene] | SceneSour
     source = scene_source(scenes)
     numbers = parse_frames(frames)
     output, png = check_outputs(output, png)
-    from .film import exr_compression
-    from .tonemap import check_exposure, check_tonemap
 
     exr_compression(compression)  # bad names and values now, not after the first frame
     exposure, tonemap = check_exposure(exposure), check_tonemap(tonemap)
@@ -259,8 +257,6 @@ def render_frames(scenes: str | os.PathLike | Callable[[int], Scene] | SceneSour
         for frame in todo:
             write(frame, render_frame(source, frame, overrides))
     else:
-        from .distributed import gather_each
-
         remote = {**overrides, "threads": 1}  # a worker thread a frame
         token = time.time_ns()
         futures = []

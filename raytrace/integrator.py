@@ -17,7 +17,7 @@ an occlusion query unless something is transparent, no reflection or refraction 
 unless some material reflects or transmits.
 
 This module is the loop; the per-ray arithmetic of each step is a compiled pass over the batch
-in :mod:`raytrace.shading_kernels`. With ``threads`` > 1 the passes run side by side, one
+in :mod:`raytrace.kernels.shading`. With ``threads`` > 1 the passes run side by side, one
 thread a pass (the kernels and Embree release the GIL), like the image tiles of pbrt or
 Mitsuba: a pass touches only its own samples, each thread has its own scratch arrays and
 counters, and every sample's contributions are summed in a fixed order (depth by depth, in
@@ -38,28 +38,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import adaptive, fast_phong, filters, sampling
-from . import aov as aov_images
-from . import shading_kernels as sk  # the compiled passes of this stage
+from . import adaptive, fast_phong, sampling
 from .accel import Hits, Surface
 from .accel_cache import accelerator
 from .camera import camera_columns, camera_rays, directions_at, global_samples, grid
-from .film import Image
-from .lights import NO_KEY, Emitter, emitters, light_words, path_keys
-from .rays import (
-    KIND_NAMES,
-    REFLECTION,
-    REFRACTION,
-    SEE_THROUGH,
-    RayBatch,
-    count_kinds,
-    gather_chunks,
-    sample_chunks,
-    split_hits,
-    take_hits,
-)
-from .records import Children, Shadows, Spawned
+from .film import aov as aov_images
+from .film import filters
+from .film.image import Image
+from .kernels import shading as sk  # the compiled passes of this stage
+from .kernels.kinds import KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH
+from .kernels.rays import count_kinds, gather_chunks, sample_chunks, split_hits, take_hits
+from .kernels.records import Children, Shadows, Spawned
+from .lights import Emitter, emitters
+from .rays import RayBatch
 from .scene import RenderSettings, Scene
+from .shading import NO_KEY, light_words, path_keys
 from .tables import scene_arrays
 
 #: Camera samples per pass (whole pixels): the unit of work of a thread. Memory is bounded by
@@ -80,7 +73,7 @@ NO_LIGHT = np.zeros((0, 3))
 #: :func:`add`'s factor for contributions that are already weighted.
 ONE = np.ones((1, 3))
 #: Per-sample AOV columns (depth, normal, albedo, id) of a render without AOVs, and of an
-#: image without one of them: no rows, so :func:`raytrace.shading_kernels.aov_hits` skips it.
+#: image without one of them: no rows, so :func:`raytrace.kernels.shading.aov_hits` skips it.
 NO_AOV_SAMPLES = (np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int64))
 NO_AOV_PIXELS = (np.zeros(0, np.float32), np.zeros((0, 3), np.float32),
                  np.zeros((0, 3), np.float32), np.zeros(0, np.int32))
@@ -90,13 +83,14 @@ NO_AOV_PIXELS = (np.zeros(0, np.float32), np.zeros((0, 3), np.float32),
 class RenderOptions(RenderSettings):
     """Everything one render is asked for: the scene's ``[render]`` settings
     (:class:`raytrace.scene.RenderSettings`, checked the same way) and how to run it. Built
-    with keywords only (``raytrace.render.options`` makes it from a scene and overrides)."""
+    with keywords only (``raytrace.rendering.render_options`` makes it from a scene and
+    overrides)."""
 
     threads: int = 1
     pass_samples: int = PASS_SAMPLES
     #: Pixel bounds (x0, y0, x1, y1), half-open, of the window to render (None: the frame).
     crop: tuple[int, int, int, int] | None = None
-    #: The AOVs to render besides the colour (:data:`raytrace.aov.AOVS`' names).
+    #: The AOVs to render besides the colour (:data:`raytrace.film.aov.AOVS`' names).
     aovs: tuple[str, ...] = ()
 
 
@@ -162,7 +156,7 @@ class WhittedIntegrator:
     (:func:`raytrace.camera.global_samples`).
     """
 
-    #: An observer of every ray traced (``raytrace.explain.Recorder``), or None: one test per
+    #: An observer of every ray traced (``raytrace.raytree.Recorder``), or None: one test per
     #: step of a batch. It sees the integrator's own arrays, so what it records is what was
     #: rendered; with it, a hit's contribution goes through a per-ray row first (the same
     #: additions in the same order, so the same sums).
@@ -192,7 +186,7 @@ class WhittedIntegrator:
         #: scene without image textures (kernels compiled without them).
         self.texcoords = (self.arrays.triangles.texcoords if "textures" in self.features
                           else None)
-        #: What every shading kernel needs of the scene (:class:`raytrace.records.Scene`).
+        #: What every shading kernel needs of the scene (:class:`raytrace.kernels.records.Scene`).
         self.tables = self.arrays.record
         #: Each emitter's fast-Phong table (:mod:`raytrace.fast_phong`), or none (exact).
         self.fast = fast_phong.tables(self.arrays.triangles, self.table.highlight, self.emitters)
@@ -331,16 +325,10 @@ class WhittedIntegrator:
 
     def _filter(self, samples: np.ndarray) -> np.ndarray:
         """The image's pixels (n, 3) float32 from every traced sample's sum ``samples``, by
-        the options' filter (:func:`raytrace.filters.filter_pixels`)."""
+        the options' filter (:func:`raytrace.film.filters.gather`)."""
         opt = self.opt
-        f = sampling.FILTERS[opt.filter]
-        cols, rows = self.window_size
-        out = np.empty((cols * rows, 3), np.float32)
-        with np.errstate(over="ignore", invalid="ignore"):
-            filters.filter_pixels(samples, self.traced,
-                                  (opt.width, opt.spp, grid(opt.spp), opt.seed),
-                                  (f.code, f.radius, self.reach), self.window, out)
-        return out
+        return filters.gather(samples, opt.filter, self.traced, self.window,
+                              (opt.width, opt.spp, grid(opt.spp), opt.seed))
 
     def _run(self, passes: list[tuple[int, int]], pixels: np.ndarray,
              progress: Callable[[int, int], None] | None, total: int) -> None:
@@ -530,7 +518,7 @@ class WhittedIntegrator:
     def aov_hits(self, rays: RayBatch, hits: Hits, surf: Surface, depth: np.ndarray,
                  normal: np.ndarray, albedo: np.ndarray, ident: np.ndarray) -> None:
         """Write the AOVs of the hits (rays that all hit) into the rows ``rays.sample`` of the
-        outputs (:func:`raytrace.shading_kernels.aov_hits`; an output without rows is
+        outputs (:func:`raytrace.kernels.shading.aov_hits`; an output without rows is
         skipped)."""
         a = self.arrays
         sk.aov_hits(rays.record, hits.t, surf, self.tables, (a.shapes.object, a.geom_object),
@@ -583,9 +571,9 @@ class WhittedIntegrator:
         """The children of the hits whose ``status`` is KEEP, in one batch (reflected, then
         refracted, then see-through, each in hit order), and the row of each one's parent
         hit. Two passes:
-        count the children of each kind (:func:`raytrace.shading_kernels.count_keep`), then
+        count the children of each kind (:func:`raytrace.kernels.shading.count_keep`), then
         fill the rows from where each kind starts
-        (:func:`raytrace.shading_kernels.spawn_children`)."""
+        (:func:`raytrace.kernels.shading.spawn_children`)."""
         per_kind = sk.count_keep(children.status)
         first = np.concatenate([[0], np.cumsum(per_kind)[:-1]])  # where each kind starts
         k = int(per_kind.sum())
@@ -612,7 +600,7 @@ class WhittedIntegrator:
     def direct_lighting(self, rays: RayBatch, surf: Surface) -> np.ndarray:
         """Σ_l S_l · f_l · I_l · [kd·max(N·L, 0) + ks·spec] at every hit, (n, 3): per emitter,
         one pass for the unshadowed term and the shadow rays of the hits it lights
-        (:func:`raytrace.shading_kernels.light_pass`), then their shadow factors."""
+        (:func:`raytrace.kernels.shading.light_pass`), then their shadow factors."""
         n, new = len(rays), self.scratch
         out = new("lights", n, 3)
         out.fill(0.0)
@@ -754,7 +742,7 @@ KERNEL_FEATURES: dict[str, Callable] = {
 def kernel_features(table, triangles) -> frozenset[str]:
     """The names of :data:`KERNEL_FEATURES` a scene has (``table``: its
     :class:`raytrace.tables.MaterialTable`, ``triangles``: its
-    :class:`raytrace.records.Triangles`)."""
+    :class:`raytrace.kernels.records.Triangles`)."""
     if not len(table.materials):
         return frozenset()
     return frozenset(name for name, has in KERNEL_FEATURES.items() if has(table, triangles))
@@ -787,5 +775,5 @@ def add(samples: np.ndarray, sample: np.ndarray, weight: np.ndarray, factor: np.
         rows: np.ndarray) -> None:
     """``samples[sample[r]] += weight[r]·factor[r]`` for the rays ``rows`` (``factor`` of one
     row applies to every ray), one ray after another in batch order
-    (:func:`raytrace.shading_kernels.accumulate`)."""
+    (:func:`raytrace.kernels.shading.accumulate`)."""
     sk.accumulate(samples, sample, weight, factor, rows)

@@ -14,13 +14,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 
-from .records import Emitter as EmitterRecord
-
-#: ``Emitter.incidence`` without keys: every jittered cell at its centre.
-NO_KEY = np.zeros(0, np.int64)
+from . import values
+from .errors import SceneError
+from .kernels.kinds import DIRECTIONAL, POINT, SPOT
+from .kernels.records import Emitter as EmitterRecord
 
 
 @dataclass(frozen=True)
@@ -31,7 +32,7 @@ class Emitter:
     travels. ``cos_cutoff`` is None unless it is a spot light. A jittered cell of an area light
     has its centre as ``position``, its edges ``cell_u``, ``cell_v``, its light's ``stream`` ≥ 0
     that seeds the points drawn for each hit and its canonical ``offset`` (j/k, i/k) for cell
-    (i, j) of k × k (:func:`raytrace.shading_kernels.incidence1`); ``stream`` is −1 for every
+    (i, j) of k × k (:func:`raytrace.kernels.shading.incidence1`); ``stream`` is −1 for every
     other emitter.
     """
 
@@ -50,37 +51,14 @@ class Emitter:
     def jittered(self) -> bool:
         return self.stream >= 0
 
-    def incidence(self, points: np.ndarray, key: np.ndarray | None = None,
-                  depth: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Unit vectors to the light L (n, 3), distances (n,) (inf for directional) and the
-        attenuation ``f_radial · f_angular`` (n,) at ``points`` (n, 3).
-
-        A point exactly at the light's position gets factor 0 (no direction is defined). A
-        jittered area-light cell is taken at the point drawn for each ``key`` (n,) (the
-        global camera sample of the hit the point belongs to, :func:`path_keys` of it below the
-        camera rays) and ``depth``, the point the
-        integrator's shadow rays of that hit aim at; without ``key``, at the cell centre.
-        (:func:`raytrace.shading_kernels.incidence_rows`.)
-        """
-        points = np.ascontiguousarray(np.asarray(points, np.float64).reshape(-1, 3))
-        n = len(points)
-        words = NO_KEY if key is None else light_words(key, self.stream, depth)
-        to_light, dist, factor = np.empty((n, 3)), np.empty(n), np.empty(n)
-        from .shading_kernels import incidence_rows
-
-        incidence_rows(points, self.record, words, to_light, dist, factor)
-        return to_light, dist, factor
-
     @cached_property
     def record(self) -> EmitterRecord:
-        """The emitter as the kernels take it, a :class:`raytrace.records.Emitter` of 21
+        """The emitter as the kernels take it, a :class:`raytrace.kernels.records.Emitter` of 21
         floats: kind (POINT, SPOT, DIRECTIONAL), position, direction, attenuation, cos θ,
         exponent, cell edges u and v, stream (below 2⁵², so exact in a float64), offset. A named
         tuple of floats, not an array: numba passes it by value, where an array argument costs
         a reference count per call of the per-hit function that takes it (13 ns a hit in the
         light pass)."""
-        from .shading_kernels import DIRECTIONAL, POINT, SPOT
-
         kind = (DIRECTIONAL if self.position is None else
                 POINT if self.cos_cutoff is None else SPOT)
         zero = np.zeros(3)
@@ -94,33 +72,6 @@ class Emitter:
         ).astype(np.float64).tolist())
 
 
-def light_words(key: np.ndarray, stream: int, depth: int) -> np.ndarray:
-    """The draws (n,) int64 of a jittered area light (its ``stream``) at hits of camera-sample
-    or path ``key`` (n,) and ``depth``: :func:`raytrace.core.light_word` of each, one per hit
-    for all the light's cells (no rows for an unjittered emitter, stream < 0)."""
-    if stream < 0:
-        return NO_KEY
-    from .core import light_words as kernel
-
-    out = np.empty(len(key), np.int64)
-    kernel(np.ascontiguousarray(key, np.int64), np.int64(stream), np.int64(depth), out)
-    return out
-
-
-def path_keys(key: np.ndarray, origin: np.ndarray, direction: np.ndarray) -> np.ndarray:
-    """The jitter keys (n,) int64 of the hits of secondary rays: each ray's camera-sample
-    ``key`` (n,) hashed with its ``origin`` and ``direction`` (n, 3) float64
-    (:func:`raytrace.core.path_key1`), so that the children of one hit, and every path
-    of a camera sample, draw their own points on a jittered area light."""
-    from .core import path_keys as kernel
-
-    out = np.empty(len(key), np.int64)
-    kernel(np.ascontiguousarray(key, np.int64),
-           np.ascontiguousarray(origin, np.float64).view(np.uint64),
-           np.ascontiguousarray(direction, np.float64).view(np.uint64), out)
-    return out
-
-
 def cos_cutoff(degrees: float) -> float:
     """cos θ of the cone's half-angle, exactly 0 at 90° (where cos(π/2) would be 6e-17)."""
     return 0.0 if degrees == 90.0 else math.cos(math.radians(degrees))
@@ -130,3 +81,141 @@ def emitters(lights: list, origin: np.ndarray, seed: int) -> list[Emitter]:
     """Every light as point-like samples, positions made relative to ``origin``: each light
     record's own ``emitters(origin, seed, index)``."""
     return [e for i, light in enumerate(lights) for e in light.emitters(origin, seed, i)]
+
+
+def _attenuation(value: Any, key: str) -> np.ndarray:
+    a = values.vector(value, key)
+    if np.any(a < 0) or not np.any(a > 0):
+        raise SceneError(f"needs a0, a1, a2 >= 0, not all zero (1/(a0 + a1·d + a2·d²)), "
+                         f"got {a.tolist()}", key)
+    return a
+
+
+@dataclass
+class PointLight:
+    """An isotropic point source with radial attenuation 1/(a0 + a1·d + a2·d²)."""
+
+    position: Any
+    color: Any = 1.0
+    attenuation: Any = (1.0, 0.0, 0.0)
+    type = "point"
+
+    def __post_init__(self) -> None:
+        self.position = values.vector(self.position, "position")
+        self.color = values.color(self.color, "color")
+        self.attenuation = _attenuation(self.attenuation, "attenuation")
+
+    def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
+        """One point sample (:class:`raytrace.lights.Emitter`), camera-relative."""
+        return [Emitter(self.color, self.position - origin, attenuation=self.attenuation)]
+
+
+@dataclass
+class DirectionalLight:
+    """A source at infinity; ``direction`` is the way the light travels. No attenuation."""
+
+    direction: Any
+    color: Any = 1.0
+    type = "directional"
+
+    def __post_init__(self) -> None:
+        self.direction = values.unit(self.direction, "direction")
+        self.color = values.color(self.color, "color")
+
+    def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
+        """One sample at infinity (:class:`raytrace.lights.Emitter`)."""
+        return [Emitter(self.color, direction=self.direction)]
+
+
+@dataclass
+class SpotLight:
+    """A point source limited to a cone: f_angular = (cos α)^exponent inside, 0 outside."""
+
+    position: Any
+    direction: Any
+    cutoff: float = 45.0
+    exponent: float = 0.0
+    color: Any = 1.0
+    attenuation: Any = (1.0, 0.0, 0.0)
+    type = "spot"
+
+    def __post_init__(self) -> None:
+        self.position = values.vector(self.position, "position")
+        self.direction = values.unit(self.direction, "direction")
+        self.cutoff = values.number(self.cutoff, "cutoff", lo=0, hi=90, lo_open=True)
+        self.exponent = values.number(self.exponent, "exponent", lo=0)
+        self.color = values.color(self.color, "color")
+        self.attenuation = _attenuation(self.attenuation, "attenuation")
+
+    def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
+        """One point sample with its cone (:class:`raytrace.lights.Emitter`)."""
+        return [Emitter(self.color, self.position - origin, self.direction, self.attenuation,
+                        cos_cutoff(self.cutoff), self.exponent)]
+
+
+@dataclass
+class AreaLight:
+    """A two-sided rectangle ``position ± edge_u/2 ± edge_v/2``, sampled by k×k point lights.
+
+    ``color`` is the total over all samples; ``jitter`` places each sample at a random spot
+    in its cell, drawn anew for every shading point from ``[render] seed`` (stratified
+    sampling of the light), otherwise at the cell centre.
+    """
+
+    position: Any
+    edge_u: Any
+    edge_v: Any
+    samples: int = 16
+    jitter: bool = False
+    color: Any = 1.0
+    attenuation: Any = (1.0, 0.0, 0.0)
+    type = "area"
+
+    def __post_init__(self) -> None:
+        self.position = values.vector(self.position, "position")
+        self.edge_u = values.vector(self.edge_u, "edge_u", nonzero=True)
+        self.edge_v = values.vector(self.edge_v, "edge_v", nonzero=True)
+        cross = np.linalg.norm(np.cross(self.edge_u, self.edge_v))
+        if cross <= 1e-12 * np.linalg.norm(self.edge_u) * np.linalg.norm(self.edge_v):
+            raise SceneError("must not be parallel to edge_u", "edge_v")
+        self.samples = values.number(self.samples, "samples", lo=1, hi=4096, integer=True)
+        k = math.isqrt(self.samples)
+        if k * k != self.samples:
+            raise SceneError(f"must be a perfect square k² (a k×k grid), got {self.samples}; "
+                             f"try {k * k} or {(k + 1) ** 2}", "samples")
+        self.jitter = values.boolean(self.jitter, "jitter")
+        self.color = values.color(self.color, "color")
+        self.attenuation = _attenuation(self.attenuation, "attenuation")
+
+    def sample_points(self) -> np.ndarray:
+        """The k² cell centres (k², 3), cell (i, j) at ``position + ((i + ½)/k − ½)·edge_u +
+        ((j + ½)/k − ½)·edge_v``; with ``jitter`` the renderer draws each sample inside its
+        cell anew for every shading point."""
+        k = math.isqrt(self.samples)
+        i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")
+        fu = ((i + 0.5) / k - 0.5).ravel()
+        fv = ((j + 0.5) / k - 0.5).ravel()
+        return self.position + fu[:, None] * self.edge_u + fv[:, None] * self.edge_v
+
+    def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
+        """k² point samples sharing the colour (seed 001's distributed source), at the cell
+        centres; a jittered light gets a hash stream from (``seed``, ``index``) and each cell
+        its canonical offset, drawn per shading point
+        (:func:`raytrace.kernels.shading.incidence1`)."""
+        pts = self.sample_points() - origin
+        col = self.color / len(pts)
+        if not self.jitter:
+            return [Emitter(col, position=p, attenuation=self.attenuation) for p in pts]
+        k = math.isqrt(self.samples)
+        stream = int(np.random.default_rng([seed, index]).integers(0, 2**52))
+        i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")  # sample_points' order
+        return [Emitter(col, position=p, attenuation=self.attenuation, cell_u=self.edge_u / k,
+                        cell_v=self.edge_v / k, stream=stream, offset=(b / k, a / k))
+                for p, a, b in zip(pts, i.ravel(), j.ravel(), strict=True)]
+
+
+Light = PointLight | DirectionalLight | SpotLight | AreaLight
+#: The light types by their scene-file ``type``: a light is one record (its fields are its
+#: scene-file keys, ``emitters`` its samples) plus one line here.
+LIGHT_TYPES = {"point": PointLight, "directional": DirectionalLight, "spot": SpotLight,
+               "area": AreaLight}

@@ -27,14 +27,15 @@ import numpy as np
 
 from . import values
 from .errors import SceneError
+from .kernels.kinds import COLOR_KEYS, FRESNEL_CODES, HIGHLIGHT_CODES
+from .kernels.records import MATERIAL_COLUMNS
+from .readers.texture import Texture, parse_texture
 
-HIGHLIGHTS = ("phong", "blinn")
-#: How kr and kt vary with the angle of incidence (``raytrace.core.fresnel_weights1``):
+HIGHLIGHTS = tuple(HIGHLIGHT_CODES)
+#: How kr and kt vary with the angle of incidence (``raytrace.kernels.core.fresnel_weights1``):
 #: "none" constant; "schlick" kr + (1 − kr)(1 − cos θ)⁵ (Schlick 1994, F0 = kr); "dielectric"
 #: kr·F and kt·(1 − F), F the exact unpolarised Fresnel reflectance for ``ior``.
-FRESNELS = ("none", "schlick", "dielectric")
-#: The colour slots; ``ke`` is emission, a constant term added where the surface is seen.
-COLOR_KEYS = ("ka", "kd", "ks", "kr", "kt", "ke")
+FRESNELS = tuple(FRESNEL_CODES)
 MATERIAL_KEYS = ("base", *COLOR_KEYS, "shininess", "highlight", "ior", "opacity", "fresnel")
 LIBRARY_ONLY_KEYS = ("description", "source")
 
@@ -60,16 +61,6 @@ class Checker:
         object.__setattr__(self, "colors", colors)
         object.__setattr__(self, "scale", scale)
 
-    def evaluate(self, points: np.ndarray) -> np.ndarray:
-        """Colours (n, 3) at world points (n, 3): the renderer's own rule,
-        :func:`raytrace.core.checker1`."""
-        from .core import checker_rows
-
-        points = np.ascontiguousarray(np.asarray(points, np.float64).reshape(-1, 3))
-        odd = np.empty(len(points), np.int64)
-        checker_rows(points, float(self.scale), odd)
-        return np.where(odd[:, None] == 1, self.colors[1], self.colors[0])
-
     @property
     def max(self) -> np.ndarray:
         return np.maximum(self.colors[0], self.colors[1])
@@ -81,11 +72,10 @@ PATTERN_KEYS = ("pattern", "colors", "scale")
 
 def parse_color(value: Any, key: str, *, hi: float | None = None) -> Color:
     """A colour, an inline pattern table ``{ pattern = "checker", colors, scale }`` or an image
-    texture ``{ texture = "file.png", wrap, srgb, scale }`` (:mod:`raytrace.texture`); a
+    texture ``{ texture = "file.png", wrap, srgb, scale }`` (:mod:`raytrace.readers.texture`); a
     :class:`Checker` built in Python is checked by the same rules."""
     if isinstance(value, Checker):
         value = {"pattern": "checker", "colors": list(value.colors), "scale": value.scale}
-    from .texture import Texture, parse_texture
 
     if isinstance(value, Texture):
         return value
@@ -155,7 +145,7 @@ class Material:
             self.fresnel = values.string(self.fresnel, "fresnel", FRESNELS)
             self.alpha_cutoff = values.number(self.alpha_cutoff, "alpha_cutoff", lo=-1, hi=1)
             if self.alpha is not None and not hasattr(self.alpha, "texels"):
-                raise SceneError("must be a raytrace.texture.Texture or None", "alpha")
+                raise SceneError("must be a raytrace.readers.texture.Texture or None", "alpha")
         except SceneError as e:
             raise e.at(key_prefix=where) from None
 
@@ -203,33 +193,25 @@ class Material:
         return dataclasses.replace(self, **changes)
 
 
-def _code(registry: str, value: str) -> int:
-    """The kernels' code of a named choice: ``raytrace.shading``'s ``registry`` (imported
-    here, when a table is built, so that a scene does not import the kernels)."""
-    from . import shading
-
-    return getattr(shading, registry)[value]
-
-
-#: The material table's per-material columns (:class:`raytrace.records.Materials` has one
-#: field each, :class:`raytrace.tables.MaterialTable` fills them): name → (dtype, its value
-#: for a Material, what it holds). A scalar input is its Material field (with its check and
-#: its MATERIAL_KEYS entry for scene files), one line here and its use in the shading
-#: kernels (docs/architecture.md); a colour input is a COLOR_KEYS entry instead of a line.
-COLUMNS: dict[str, tuple[type, Callable[[Material], Any], str]] = {
-    "shininess": (np.float64, lambda m: m.shininess, "highlight exponent n"),
-    "highlight": (np.int64, lambda m: _code("HIGHLIGHT_CODES", m.highlight), "PHONG or BLINN"),
-    "ior": (np.float64, lambda m: m.ior, "relative index of refraction"),
-    "opacity": (np.float64, lambda m: m.opacity, "t of the seeds' blend"),
-    "lit": (np.bool_, lambda m: m.lit, "takes direct light (kd or ks not zero)"),
-    "reflects": (np.bool_, lambda m: m.reflects, "kr not zero"),
-    "transmits": (np.bool_, lambda m: m.transmits, "kt not zero"),
-    "emits": (np.bool_, lambda m: m.emits, "ke not zero"),
-    "fresnel": (np.int64, lambda m: _code("FRESNEL_CODES", m.fresnel),
-                "core.NO_FRESNEL, SCHLICK or DIELECTRIC"),
-    "alpha_cutoff": (np.float64, lambda m: m.alpha_cutoff,
-                     "alpha ≥ cutoff: opaque, else clear; −1: blend"),
+#: The material table's per-material columns (:class:`raytrace.kernels.records.Materials` has one
+#: field each, declared with its dtype in ``records.MATERIAL_COLUMNS``;
+#: :class:`raytrace.tables.MaterialTable` fills them): name → its value for a Material. A
+#: scalar input is its Material field (with its check and its MATERIAL_KEYS entry for scene
+#: files), one line here, one in ``MATERIAL_COLUMNS`` and its use in the shading kernels
+#: (docs/architecture.md); a colour input is a COLOR_KEYS entry instead.
+COLUMNS: dict[str, Callable[[Material], Any]] = {
+    "shininess": lambda m: m.shininess,
+    "highlight": lambda m: HIGHLIGHT_CODES[m.highlight],
+    "ior": lambda m: m.ior,
+    "opacity": lambda m: m.opacity,
+    "lit": lambda m: m.lit,
+    "reflects": lambda m: m.reflects,
+    "transmits": lambda m: m.transmits,
+    "emits": lambda m: m.emits,
+    "fresnel": lambda m: FRESNEL_CODES[m.fresnel],
+    "alpha_cutoff": lambda m: m.alpha_cutoff,
 }
+assert tuple(COLUMNS) == tuple(MATERIAL_COLUMNS), "one column list: records.MATERIAL_COLUMNS"
 
 
 def material_from_table(table: Mapping, key: str,

@@ -2,7 +2,7 @@
 
 Conventions: ``d`` is the incoming unit direction, ``n`` the unit normal on the side the ray
 comes from (``d·n <= 0``). All arrays are (n, 3) float64 (a single row broadcasts). The per-ray
-arithmetic is :func:`raytrace.core.reflect3` and ``refract3``, which the
+arithmetic is :func:`raytrace.kernels.core.reflect3` and ``refract3``, which the
 integrator's compiled passes call directly.
 """
 
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import shading_kernels as sk  # the compiled passes of this stage
+from .kernels import shading as sk  # the compiled passes of this stage
 
 
 def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:

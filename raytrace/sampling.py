@@ -1,7 +1,7 @@
 """The image-sampling choices of ``[render]``, by name, without importing the kernels.
 
 * ``filter``: :data:`FILTERS`, the pixel reconstruction filters with their radius in pixels
-  (the formulas and the kernel: :mod:`raytrace.filters`);
+  (the formulas and the kernel: :mod:`raytrace.film.filters`);
 * ``aa``: :data:`AA_MODES`, uniform stratified samples or adaptive corner refinement
   (:mod:`raytrace.adaptive`).
 
@@ -14,12 +14,11 @@ import math
 from typing import NamedTuple
 
 from .errors import SceneError
-
-BOX, TENT, GAUSSIAN, MITCHELL = 0, 1, 2, 3
+from .kernels.kinds import BOX, GAUSSIAN, MITCHELL, TENT  # noqa: F401
 
 
 class Filter(NamedTuple):
-    """A filter's kernel code (:func:`raytrace.filters.profile1`) and radius (pixels)."""
+    """A filter's kernel code (:func:`raytrace.film.filters.profile1`) and radius (pixels)."""
 
     code: int
     radius: float

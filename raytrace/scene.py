@@ -1,13 +1,13 @@
 """The scene: camera, lights, objects, materials and render settings.
 
-These are plain, validated dataclasses. A scene file (:mod:`raytrace.scene_file`) and a Python
+These are plain, validated dataclasses. A scene file (:mod:`raytrace.readers.scene_file`) and a
+Python
 script build the same objects, so both get the same checks and the same error text. Geometry
 stays in world coordinates here; :mod:`raytrace.accel` recentres it on the camera.
 """
 
 from __future__ import annotations
 
-import math
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -18,7 +18,10 @@ import numpy as np
 
 from . import values
 from .errors import SceneError
+from .lights import LIGHT_TYPES, AreaLight, DirectionalLight, PointLight, SpotLight  # noqa: F401
 from .material import Material, library, material_from_table
+from .readers.assets import load_with_materials
+from .readers.meshio import read_mesh
 from .sampling import check_aa, check_filter
 
 #: Largest accepted |coordinate| of a mesh vertex: Embree silently drops triangles with
@@ -40,7 +43,7 @@ class RenderSettings:
     min_weight: float = 0.0
     background: Any = 0.0
     seed: int = 0
-    #: The pixel reconstruction filter (:data:`raytrace.filters.FILTERS`).
+    #: The pixel reconstruction filter (:data:`raytrace.film.filters.FILTERS`).
     filter: str = "box"
     #: Anti-aliasing: "uniform" (``spp`` stratified samples a pixel) or "adaptive" (pixel
     #: corners, refined where they differ: :mod:`raytrace.adaptive`).
@@ -110,152 +113,6 @@ class Camera:
         right /= np.linalg.norm(right)
         up = np.cross(w, right)
         return right, up, -w
-
-
-def _attenuation(value: Any, key: str) -> np.ndarray:
-    a = values.vector(value, key)
-    if np.any(a < 0) or not np.any(a > 0):
-        raise SceneError(f"needs a0, a1, a2 >= 0, not all zero (1/(a0 + a1·d + a2·d²)), "
-                         f"got {a.tolist()}", key)
-    return a
-
-
-@dataclass
-class PointLight:
-    """An isotropic point source with radial attenuation 1/(a0 + a1·d + a2·d²)."""
-
-    position: Any
-    color: Any = 1.0
-    attenuation: Any = (1.0, 0.0, 0.0)
-    type = "point"
-
-    def __post_init__(self) -> None:
-        self.position = values.vector(self.position, "position")
-        self.color = values.color(self.color, "color")
-        self.attenuation = _attenuation(self.attenuation, "attenuation")
-
-    def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
-        """One point sample (:class:`raytrace.lights.Emitter`), camera-relative."""
-        from .lights import Emitter
-
-        return [Emitter(self.color, self.position - origin, attenuation=self.attenuation)]
-
-
-@dataclass
-class DirectionalLight:
-    """A source at infinity; ``direction`` is the way the light travels. No attenuation."""
-
-    direction: Any
-    color: Any = 1.0
-    type = "directional"
-
-    def __post_init__(self) -> None:
-        self.direction = values.unit(self.direction, "direction")
-        self.color = values.color(self.color, "color")
-
-    def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
-        """One sample at infinity (:class:`raytrace.lights.Emitter`)."""
-        from .lights import Emitter
-
-        return [Emitter(self.color, direction=self.direction)]
-
-
-@dataclass
-class SpotLight:
-    """A point source limited to a cone: f_angular = (cos α)^exponent inside, 0 outside."""
-
-    position: Any
-    direction: Any
-    cutoff: float = 45.0
-    exponent: float = 0.0
-    color: Any = 1.0
-    attenuation: Any = (1.0, 0.0, 0.0)
-    type = "spot"
-
-    def __post_init__(self) -> None:
-        self.position = values.vector(self.position, "position")
-        self.direction = values.unit(self.direction, "direction")
-        self.cutoff = values.number(self.cutoff, "cutoff", lo=0, hi=90, lo_open=True)
-        self.exponent = values.number(self.exponent, "exponent", lo=0)
-        self.color = values.color(self.color, "color")
-        self.attenuation = _attenuation(self.attenuation, "attenuation")
-
-    def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
-        """One point sample with its cone (:class:`raytrace.lights.Emitter`)."""
-        from .lights import Emitter, cos_cutoff
-
-        return [Emitter(self.color, self.position - origin, self.direction, self.attenuation,
-                        cos_cutoff(self.cutoff), self.exponent)]
-
-
-@dataclass
-class AreaLight:
-    """A two-sided rectangle ``position ± edge_u/2 ± edge_v/2``, sampled by k×k point lights.
-
-    ``color`` is the total over all samples; ``jitter`` places each sample at a random spot
-    in its cell, drawn anew for every shading point from ``[render] seed`` (stratified
-    sampling of the light), otherwise at the cell centre.
-    """
-
-    position: Any
-    edge_u: Any
-    edge_v: Any
-    samples: int = 16
-    jitter: bool = False
-    color: Any = 1.0
-    attenuation: Any = (1.0, 0.0, 0.0)
-    type = "area"
-
-    def __post_init__(self) -> None:
-        self.position = values.vector(self.position, "position")
-        self.edge_u = values.vector(self.edge_u, "edge_u", nonzero=True)
-        self.edge_v = values.vector(self.edge_v, "edge_v", nonzero=True)
-        cross = np.linalg.norm(np.cross(self.edge_u, self.edge_v))
-        if cross <= 1e-12 * np.linalg.norm(self.edge_u) * np.linalg.norm(self.edge_v):
-            raise SceneError("must not be parallel to edge_u", "edge_v")
-        self.samples = values.number(self.samples, "samples", lo=1, hi=4096, integer=True)
-        k = math.isqrt(self.samples)
-        if k * k != self.samples:
-            raise SceneError(f"must be a perfect square k² (a k×k grid), got {self.samples}; "
-                             f"try {k * k} or {(k + 1) ** 2}", "samples")
-        self.jitter = values.boolean(self.jitter, "jitter")
-        self.color = values.color(self.color, "color")
-        self.attenuation = _attenuation(self.attenuation, "attenuation")
-
-    def sample_points(self) -> np.ndarray:
-        """The k² cell centres (k², 3), cell (i, j) at ``position + ((i + ½)/k − ½)·edge_u +
-        ((j + ½)/k − ½)·edge_v``; with ``jitter`` the renderer draws each sample inside its
-        cell anew for every shading point."""
-        k = math.isqrt(self.samples)
-        i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")
-        fu = ((i + 0.5) / k - 0.5).ravel()
-        fv = ((j + 0.5) / k - 0.5).ravel()
-        return self.position + fu[:, None] * self.edge_u + fv[:, None] * self.edge_v
-
-    def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
-        """k² point samples sharing the colour (seed 001's distributed source), at the cell
-        centres; a jittered light gets a hash stream from (``seed``, ``index``) and each cell
-        its canonical offset, drawn per shading point
-        (:func:`raytrace.shading_kernels.incidence1`)."""
-        from .lights import Emitter
-
-        pts = self.sample_points() - origin
-        col = self.color / len(pts)
-        if not self.jitter:
-            return [Emitter(col, position=p, attenuation=self.attenuation) for p in pts]
-        k = math.isqrt(self.samples)
-        stream = int(np.random.default_rng([seed, index]).integers(0, 2**52))
-        i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")  # sample_points' order
-        return [Emitter(col, position=p, attenuation=self.attenuation, cell_u=self.edge_u / k,
-                        cell_v=self.edge_v / k, stream=stream, offset=(b / k, a / k))
-                for p, a, b in zip(pts, i.ravel(), j.ravel(), strict=True)]
-
-
-Light = PointLight | DirectionalLight | SpotLight | AreaLight
-#: The light types by their scene-file ``type``: a light is one record (its fields are its
-#: scene-file keys, ``emitters`` its samples) plus one line here.
-LIGHT_TYPES = {"point": PointLight, "directional": DirectionalLight, "spot": SpotLight,
-               "area": AreaLight}
 
 
 @dataclass
@@ -344,7 +201,7 @@ class Mesh:
     degenerate: int = field(default=0, init=False)
     #: With ``material = "from_file"``: the file's own materials, each face's index into
     #: them, each face corner's texture coordinates (F, 3, 2) where the file has them, and
-    #: the files read besides the mesh file (:class:`raytrace.assets.Asset`).
+    #: the files read besides the mesh file (:class:`raytrace.readers.assets.Asset`).
     file_materials: list = field(default_factory=list, init=False, repr=False)
     face_material: Any = field(default=None, init=False, repr=False)
     texcoords: Any = field(default=None, init=False, repr=False)
@@ -410,11 +267,9 @@ class Mesh:
 
     def _load_with_materials(self, path: Path) -> tuple[np.ndarray, np.ndarray]:
         """The file's triangles; its materials, faces' materials and texture coordinates
-        kept on the mesh (:func:`raytrace.assets.load_with_materials`)."""
+        kept on the mesh (:func:`raytrace.readers.assets.load_with_materials`)."""
         if not path.is_file():
             raise SceneError(f"mesh file not found: {path}", "file")
-        from .assets import load_with_materials
-
         asset = load_with_materials(path)
         self.file_materials, self.face_material = asset.materials, asset.face_material
         self.texcoords, self.sources = asset.texcoords, asset.sources
@@ -487,14 +342,12 @@ def _from_trimesh(mesh: Any, key: str) -> tuple[np.ndarray, np.ndarray]:
 
 def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Vertices, faces and, for a single textured mesh, texture coordinates (F, 3, 2): from
-    :func:`raytrace.meshio.read_mesh` where it reads the file, else from trimesh."""
+    :func:`raytrace.readers.meshio.read_mesh` where it reads the file, else from trimesh."""
     if path.is_dir():
         raise SceneError(f"is a folder, not a mesh file: {path}", "file")
     if not path.is_file():
         what = "not a regular file" if path.exists() else "mesh file not found"
         raise SceneError(f"{what}: {path}", "file")
-    from .meshio import read_mesh
-
     fast = read_mesh(path)  # binary PLY and OBJ triangles: as trimesh reads and merges them
     if fast is not None:
         return fast

@@ -14,9 +14,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import shading_kernels as sk  # the compiled passes of this stage
-from .core import DIELECTRIC, NO_FRESNEL, SCHLICK
+from .kernels import core
+from .kernels import shading as sk  # the compiled passes of this stage
+from .kernels.kinds import FRESNEL_CODES, HIGHLIGHT_CODES  # noqa: F401  (by name, as before)
+from .lights import Emitter
+from .material import Checker
 from .optics import rows3
+from .readers.texture import WRAPS, Texture
+
+#: :func:`incidence` without keys: every jittered cell at its centre.
+NO_KEY = np.zeros(0, np.int64)
 
 
 def _scalars(x, n: int) -> np.ndarray:
@@ -30,10 +37,10 @@ def cosine_power(a: np.ndarray, b: np.ndarray, n: np.ndarray) -> np.ndarray:
     ``1 − a·b`` is taken as ``|a − b|²/2``, which keeps its relative precision near
     ``a·b = 1`` (a dot product there cancels to nothing), and the power as
     ``exp(n·log1p(−h))``, or for a whole n up to 65 536 as ``(1 − h)ⁿ`` by squaring
-    (:func:`raytrace.core.whole_power1`, within 1.5e-11). So an exponent of 1e8 still gives
+    (:func:`raytrace.kernels.core.whole_power1`, within 1.5e-11). So an exponent of 1e8 still gives
     the right falloff. The value is 0
     where ``a·b <= 0`` (so ``0^0`` counts as 0 here) and 1 where ``a = b``.
-    (:func:`raytrace.shading_kernels.cosine_power1`, row by row.)
+    (:func:`raytrace.kernels.shading.cosine_power1`, row by row.)
 
     >>> x = np.array([[1.0, 0.0, 0.0]]); y = np.array([[np.cos(1e-4), np.sin(1e-4), 0.0]])
     >>> float(cosine_power(x, y, np.array([1e8]))[0])  # exp(-1e8·(1e-8/2)) = exp(-0.5)
@@ -47,7 +54,7 @@ def cosine_power(a: np.ndarray, b: np.ndarray, n: np.ndarray) -> np.ndarray:
 
 
 def _highlight(code: int, normal, to_light, to_eye, n) -> np.ndarray:
-    """The highlight of model ``code`` row by row (:func:`raytrace.shading_kernels.highlight1`)."""
+    """The highlight of model ``code`` row by row (:func:`raytrace.kernels.shading.highlight1`)."""
     n = np.asarray(n, np.float64).reshape(-1)
     normal, to_light, to_eye = rows3(normal, to_light, to_eye, n=len(n))
     out = np.empty(len(normal))
@@ -65,19 +72,13 @@ def blinn(normal: np.ndarray, to_light: np.ndarray, to_eye: np.ndarray, n: np.nd
     return _highlight(sk.BLINN, normal, to_light, to_eye, n)
 
 
-#: The highlight models' kernel codes by name (``Material.highlight``; the names are
-#: ``raytrace.material.HIGHLIGHTS``).
-HIGHLIGHT_CODES = {"phong": sk.PHONG, "blinn": sk.BLINN}
-#: Fresnel weightings of kr and kt by name (``raytrace.material.FRESNELS``), the codes the
-#: kernels read (:func:`raytrace.core.fresnel_weights1`).
-FRESNEL_CODES = {"none": NO_FRESNEL, "schlick": SCHLICK, "dielectric": DIELECTRIC}
 
 
 def direct(normal, to_light, to_eye, kd, ks, shininess, model) -> np.ndarray:
     """``kd·max(N·L, 0) + ks·spec`` per channel, (n, 3); zero where ``N·L <= 0``.
 
     ``model`` (n,) holds :data:`HIGHLIGHT_CODES`; ``kd``, ``ks`` are (n, 3); ``shininess`` (n,).
-    (:func:`raytrace.shading_kernels.direct1`, row by row.)
+    (:func:`raytrace.kernels.shading.direct1`, row by row.)
     """
     shininess = np.asarray(shininess, np.float64).reshape(-1)
     normal, to_light, to_eye, kd, ks = rows3(normal, to_light, to_eye, kd, ks,
@@ -86,4 +87,68 @@ def direct(normal, to_light, to_eye, kd, ks, shininess, model) -> np.ndarray:
     model = np.ascontiguousarray(np.broadcast_to(np.asarray(model, np.int64).reshape(-1), k))
     out = np.empty((k, 3))
     sk.direct_rows(normal, to_light, to_eye, kd, ks, _scalars(shininess, k), model, out)
+    return out
+
+
+# -- the scene's colours and lights at points, as the kernels see them ------------------------
+def checker(pattern: Checker, points: np.ndarray) -> np.ndarray:
+    """Colours (n, 3) of a :class:`~raytrace.material.Checker` at world points (n, 3): the
+    renderer's own rule, :func:`raytrace.kernels.core.checker1`."""
+    points = np.ascontiguousarray(np.asarray(points, np.float64).reshape(-1, 3))
+    odd = np.empty(len(points), np.int64)
+    core.checker_rows(points, float(pattern.scale), odd)
+    return np.where(odd[:, None] == 1, pattern.colors[1], pattern.colors[0])
+
+
+def texture(image: Texture, st: np.ndarray) -> np.ndarray:
+    """Bilinear RGB (n, 3) of a :class:`~raytrace.readers.texture.Texture` at texture
+    coordinates (n, 2): the renderer's own rule, :func:`raytrace.kernels.core.texture1`."""
+    st = np.ascontiguousarray(np.asarray(st, np.float64).reshape(-1, 2))
+    out = np.empty((len(st), 3))
+    h, w = image.texels.shape[:2]
+    info = np.array([[0, w, h, WRAPS[image.wrap[0]], WRAPS[image.wrap[1]]]], np.int64)
+    core.texture_rows(image.texels.reshape(-1), info, st, out)
+    return out
+
+
+def incidence(emitter: Emitter, points: np.ndarray, key: np.ndarray | None = None,
+              depth: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Unit vectors to the light L (n, 3), distances (n,) (inf for directional) and the
+    attenuation ``f_radial · f_angular`` (n,) of one ``emitter`` at ``points`` (n, 3).
+
+    A point exactly at the light's position gets factor 0 (no direction is defined). A
+    jittered area-light cell is taken at the point drawn for each ``key`` (n,) (the global
+    camera sample of the hit the point belongs to, :func:`path_keys` of it below the camera
+    rays) and ``depth``, the point the integrator's shadow rays of that hit aim at; without
+    ``key``, at the cell centre (:func:`raytrace.kernels.shading.incidence_rows`).
+    """
+    points = np.ascontiguousarray(np.asarray(points, np.float64).reshape(-1, 3))
+    n = len(points)
+    words = NO_KEY if key is None else light_words(key, emitter.stream, depth)
+    to_light, dist, factor = np.empty((n, 3)), np.empty(n), np.empty(n)
+    sk.incidence_rows(points, emitter.record, words, to_light, dist, factor)
+    return to_light, dist, factor
+
+
+def light_words(key: np.ndarray, stream: int, depth: int) -> np.ndarray:
+    """The draws (n,) int64 of a jittered area light (its ``stream``) at hits of camera-sample
+    or path ``key`` (n,) and ``depth``: :func:`raytrace.kernels.core.light_word` of each, one
+    per hit for all the light's cells (no rows for an unjittered emitter, stream < 0)."""
+    if stream < 0:
+        return NO_KEY
+    out = np.empty(len(key), np.int64)
+    core.light_words(np.ascontiguousarray(key, np.int64), np.int64(stream), np.int64(depth),
+                     out)
+    return out
+
+
+def path_keys(key: np.ndarray, origin: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """The jitter keys (n,) int64 of the hits of secondary rays: each ray's camera-sample
+    ``key`` (n,) hashed with its ``origin`` and ``direction`` (n, 3) float64
+    (:func:`raytrace.kernels.core.path_key1`), so that the children of one hit, and every path
+    of a camera sample, draw their own points on a jittered area light."""
+    out = np.empty(len(key), np.int64)
+    core.path_keys(np.ascontiguousarray(key, np.int64),
+                   np.ascontiguousarray(origin, np.float64).view(np.uint64),
+                   np.ascontiguousarray(direction, np.float64).view(np.uint64), out)
     return out

@@ -5,13 +5,13 @@
 in float64 and turns the scene into :class:`SceneArrays`:
 
 * the material table, :class:`MaterialTable` (one row per material, colours per channel,
-  checker patterns and image textures by reference; :class:`raytrace.records.Materials`);
-* the analytic shapes, :func:`shape_tables` (:class:`raytrace.records.Shapes`: each shape
+  checker patterns and image textures by reference; :class:`raytrace.kernels.records.Materials`);
+* the analytic shapes, :func:`shape_tables` (:class:`raytrace.kernels.records.Shapes`: each shape
   record's ``row`` with its kind, material and object);
-* the triangles, :func:`triangle_tables` (:class:`raytrace.records.Triangles`, float64,
+* the triangles, :func:`triangle_tables` (:class:`raytrace.kernels.records.Triangles`, float64,
   camera-relative) and each mesh's camera-relative vertices and faces, which the
   accelerator hands to Embree;
-* :func:`scene_record`: what the shading kernels need, one :class:`raytrace.records.Scene`.
+* :func:`scene_record`: what the shading kernels need, one :class:`raytrace.kernels.records.Scene`.
 
 The emitters (:func:`raytrace.lights.emitters`) are the integrator's, per light pass.
 """
@@ -22,13 +22,13 @@ from functools import cached_property
 
 import numpy as np
 
-from . import accel_kernels as ak  # the build kernels of the triangle tables
-from .core import FAST_PHONG, FLAT, GOURAUD, SMOOTH
+from .kernels import accel as ak  # the build kernels of the triangle tables
+from .kernels.core import FAST_PHONG, FLAT, GOURAUD, SMOOTH
+from .kernels.records import MATERIAL_COLUMNS, Materials, Scene, Shapes, Triangles
 from .material import COLOR_KEYS, COLUMNS, Checker, Material
-from .records import Materials, Scene, Shapes, Triangles
+from .readers.texture import WRAPS, Texture
 from .scene import SHAPE_TYPES, Mesh
 from .scene import Scene as SceneDescription
-from .texture import WRAPS, Texture
 
 #: A triangle's error band in float32 ulps (2⁻²³ relative) of its largest coordinate: how far
 #: along its normal a ray must start for Embree never to report it again (EMBREEX_NOTES.md).
@@ -167,7 +167,7 @@ class MaterialTable:
     at the world points of the hits; −1 means constant; ``texture[m, k]`` likewise names
     an image texture. Each entry of :data:`raytrace.material.COLUMNS` is an (M,) attribute
     of its name. :attr:`record` is the whole table as the kernels take it
-    (:class:`raytrace.records.Materials`).
+    (:class:`raytrace.kernels.records.Materials`).
     """
 
     def __init__(self, materials: list[Material]):
@@ -204,7 +204,8 @@ class MaterialTable:
         self.texels = (np.concatenate([t.texels.reshape(-1) for t in textures])
                        if textures else np.zeros(0, np.float32))
         self.checkers = np.array(checkers, dtype=np.float64).reshape(-1, 7)
-        for name, (dtype, value, _) in COLUMNS.items():  # one declaration, material.COLUMNS
+        for name, (dtype, _) in MATERIAL_COLUMNS.items():  # one declaration, records'
+            value = COLUMNS[name]
             setattr(self, name, np.array([value(m) for m in materials], dtype))
         self.transparent = np.array([m.transparent for m in materials], dtype=bool)
         self.record = Materials(**{name: getattr(self, name) for name in Materials._fields})

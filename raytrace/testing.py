@@ -20,13 +20,17 @@ import math
 import os
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from . import metrics as _metrics
-from .film import Image, preview, read_exr, write_exr, write_png_pixels
+from .film import metrics as _metrics
+from .film.compare import Comparison, ImageLike, compare_images, load_image, write_diff
+from .film.compare import size as _size
+from .film.exr import write_exr
+from .film.image import Image
+from .film.png import write_png_pixels
+from .film.previews import preview
 
 #: The environment variable naming the artefact root folder.
 ARTEFACTS_ENV = "RAYTRACE_ARTEFACTS"
@@ -34,104 +38,6 @@ ARTEFACTS_ENV = "RAYTRACE_ARTEFACTS"
 DEFAULT_ARTEFACTS = "raytrace-artefacts"
 #: The files a failing comparison writes into its artefact folder.
 ARTEFACT_FILES = ("actual.exr", "expected.exr", "diff.png", "side_by_side.png")
-
-ImageLike = Image | np.ndarray | str | os.PathLike
-
-
-@dataclass
-class Comparison:
-    """What :func:`compare_images` measured.
-
-    ``metrics`` maps metric names to values; ``bad`` counts the pixels with a channel off by
-    more than ``atol + rtol·|expected|`` out of ``pixels``; ``worst`` lists the pixels that
-    differ most beyond that tolerance (most first) as dicts with ``x``, ``y`` (column and row
-    from the top left), ``actual`` and ``expected`` (per channel) and ``excess`` (the largest
-    channel difference minus its tolerance; inf where one is not finite).
-    """
-
-    width: int
-    height: int
-    rtol: float
-    atol: float
-    metrics: dict[str, float]
-    bad: int
-    worst: list[dict] = field(default_factory=list)
-    bad_mask: np.ndarray | None = field(default=None, repr=False)
-
-    @property
-    def pixels(self) -> int:
-        return self.width * self.height
-
-    def to_dict(self) -> dict:
-        """A JSON-ready dict; a non-finite number (PSNR of equal images) is a string."""
-
-        def num(v: float) -> float | str:
-            return v if math.isfinite(v) else str(v)
-
-        return {"width": self.width, "height": self.height, "rtol": self.rtol,
-                "atol": self.atol, "metrics": {k: num(v) for k, v in self.metrics.items()},
-                "bad_pixels": self.bad, "pixels": self.pixels,
-                "worst": [{**w, "actual": [num(v) for v in w["actual"]],
-                           "expected": [num(v) for v in w["expected"]],
-                           "excess": num(w["excess"])} for w in self.worst]}
-
-
-def load_image(image: ImageLike, role: str = "image") -> np.ndarray:
-    """An :class:`Image`, an array (H, W) or (H, W, C), or an EXR path as float64 (H, W, C);
-    ``role`` names it in errors."""
-    if isinstance(image, Image):
-        rgb = image.rgb
-    elif isinstance(image, (str, os.PathLike)):
-        if not Path(image).is_file():
-            raise FileNotFoundError(f"{role}: no such EXR file: {image}")
-        rgb, _ = read_exr(image)
-    else:
-        rgb = np.asarray(image)
-    if rgb.ndim == 2:
-        rgb = rgb[..., None]
-    if rgb.ndim != 3 or not np.issubdtype(rgb.dtype, np.number):
-        raise ValueError(f"{role}: expected an image of shape (H, W) or (H, W, C), "
-                         f"got {rgb.dtype} {rgb.shape}")
-    return rgb.astype(np.float64)
-
-
-def compare_images(actual: ImageLike, expected: ImageLike, *, rtol: float = 0.0,
-                   atol: float = 0.0, metrics: Sequence[str] = _metrics.BASIC,
-                   worst: int = 5) -> Comparison:
-    """Measure ``actual`` against ``expected`` (each an :class:`Image`, array or EXR path).
-
-    A pixel is bad when a channel fails numpy's ``isclose(actual, expected, rtol, atol)``,
-    which holds where ``|actual − expected| <= atol + rtol·|expected|``, NaN equal only to
-    NaN, inf only to the same inf. ``metrics`` are names from
-    :data:`raytrace.metrics.METRICS`, taken over every value (a non-finite one makes them nan
-    or inf). The shapes must be equal (a ValueError says both otherwise).
-    """
-    a, e = load_image(actual, "actual"), load_image(expected, "expected")
-    if a.shape != e.shape:
-        raise ValueError(f"actual is {_size(a)}, expected is {_size(e)}")
-    rtol, atol = float(rtol), float(atol)
-    if not (rtol >= 0 and atol >= 0 and math.isfinite(rtol) and math.isfinite(atol)):
-        raise ValueError(f"rtol and atol must be finite and >= 0, got {rtol!r}, {atol!r}")
-    with np.errstate(invalid="ignore", over="ignore"):  # inf - inf: the metric is nan
-        values = {name: _metrics.get(name).function(a, e) for name in metrics}
-    close = np.isclose(a, e, rtol=rtol, atol=atol, equal_nan=True)
-    bad_mask = ~close.all(axis=-1)
-    identical = (a == e) | (np.isnan(a) & np.isnan(e))
-    with np.errstate(invalid="ignore"):  # inf - inf: identical, masked below
-        excess = np.abs(a - e) - (atol + rtol * np.abs(e))
-    excess = np.where(identical, -np.inf, np.where(np.isnan(excess), np.inf, excess)).max(axis=-1)
-    differ = ~identical.all(axis=-1)
-    order = np.argsort(-np.where(differ, excess, -np.inf), axis=None, kind="stable")
-    listed = []
-    for flat in order[:worst]:
-        y, x = divmod(int(flat), a.shape[1])
-        if not differ[y, x]:
-            break
-        listed.append({"x": x, "y": y, "actual": a[y, x].tolist(),
-                       "expected": e[y, x].tolist(), "excess": float(excess[y, x])})
-    return Comparison(a.shape[1], a.shape[0], rtol, atol, values, int(bad_mask.sum()), listed,
-                      bad_mask)
-
 
 def artefact_dir(name: str | None = None, root: str | os.PathLike | None = None) -> Path:
     """The artefact folder of a comparison: ``root`` (default ``$RAYTRACE_ARTEFACTS``, else
@@ -154,7 +60,7 @@ def write_artefacts(folder: str | os.PathLike, actual: ImageLike, expected: Imag
                     inputs: Sequence[str | os.PathLike] = ()) -> Path:
     """Write :data:`ARTEFACT_FILES` into ``folder`` (created): the actual and expected images
     as float EXR (``expected`` may be None: a missing golden), the diff heatmap
-    (:func:`raytrace.metrics.heatmap`) and expected | actual | diff side by side as sRGB
+    (:func:`raytrace.film.metrics.heatmap`) and expected | actual | diff side by side as sRGB
     previews (clip tone map), replacing those of an earlier failure. Refuses to write over
     any of ``inputs``."""
     folder = Path(folder)
@@ -182,7 +88,7 @@ def write_artefacts(folder: str | os.PathLike, actual: ImageLike, expected: Imag
     for p in pngs:
         pad = np.zeros((height - p.shape[0], p.shape[1], 3), np.uint8)
         row += [np.concatenate([p, pad]), gap]
-    _write_png(targets[3], np.concatenate(row[:-1], axis=1))
+    write_png_pixels(targets[3], np.concatenate(row[:-1], axis=1))
     return folder
 
 
@@ -195,7 +101,7 @@ def assert_image_close(actual: ImageLike, expected: ImageLike, *, rtol: float, a
 
     A pixel is bad when a channel is off by more than ``atol + rtol·|expected|`` (NaN matches
     only NaN); at most ``floor(max_bad_fraction · pixels)`` may be. With ``metric`` (a name in
-    :data:`raytrace.metrics.METRICS`, e.g. ``"flip"``) that metric is reported too, and with
+    :data:`raytrace.film.metrics.METRICS`, e.g. ``"flip"``) that metric is reported too, and with
     ``threshold`` it must also be within it (``<=``; ``>=`` for PSNR).
 
     On failure raises AssertionError whose message gives the metrics, the bad pixel count, the
@@ -258,10 +164,6 @@ def _vec(values: Sequence[float]) -> str:
     return "[" + ", ".join(f"{v:.6g}" for v in values) + "]"
 
 
-def _size(a: np.ndarray) -> str:
-    return f"{a.shape[1]}x{a.shape[0]}" + (f"x{a.shape[2]}" if a.shape[2] != 3 else "")
-
-
 def _rgb(a: np.ndarray) -> np.ndarray:
     """(H, W, 3) float32 for the EXR and preview writers: one channel as grey, the first
     three of more."""
@@ -271,14 +173,3 @@ def _rgb(a: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float32)
 
 
-def write_diff(path: str | os.PathLike, actual: np.ndarray,
-               expected: np.ndarray) -> tuple[np.ndarray, float]:
-    """Write the diff heatmap PNG of :func:`raytrace.metrics.heatmap` atomically; return its
-    pixels and the difference shown as white."""
-    pixels, scale = _metrics.heatmap(actual, expected)
-    _write_png(Path(path), pixels)
-    return pixels, scale
-
-
-def _write_png(path: Path, pixels: np.ndarray) -> None:
-    write_png_pixels(path, pixels)

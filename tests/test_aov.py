@@ -208,8 +208,8 @@ def test_aovs_do_not_change_the_colour(image):
 
 
 def test_only_what_is_asked_for_is_computed(monkeypatch):
-    from raytrace import shading_kernels
     from raytrace.integrator import RenderOptions, WhittedIntegrator
+    from raytrace.kernels import shading as shading_kernels
 
     def forbidden(*args):
         raise AssertionError("AOV kernel called without AOVs")

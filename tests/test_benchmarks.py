@@ -269,7 +269,9 @@ def test_quick_benchmark_json(tmp_path):
     # per-kernel part: the timers are exclusive, so build + Embree + kernels fit inside the
     # render (what is left, Python, is not negative); every timed name is a compiled kernel
     # of the package (the mesh scene's light pass and Embree's run calls among them)
-    from raytrace import accel_kernels, camera, rays, shading_kernels
+    from raytrace import camera, rays
+    from raytrace.kernels import accel as accel_kernels
+    from raytrace.kernels import shading as shading_kernels
 
     compiled = {name for m in (accel_kernels, shading_kernels, camera, rays)
                 for name, fn in vars(m).items() if hasattr(fn, "py_func")}

@@ -157,7 +157,7 @@ def test_for_window_reuses_the_build_for_any_window_even_at_once(full):
     from concurrent.futures import ThreadPoolExecutor
 
     from raytrace.integrator import WhittedIntegrator
-    from raytrace.render import render_options
+    from raytrace.rendering import render_options
 
     options = render_options(every_ray_scene(), width=W, height=H, spp=SPP, threads=1,
                              pass_samples=SMALL_PASS)

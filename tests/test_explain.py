@@ -13,7 +13,7 @@ from test_threads import scene as every_ray_scene
 
 import raytrace
 from raytrace import cli
-from raytrace.explain import explain, format_tree
+from raytrace.raytree import explain, format_tree
 
 WHITTED = Path(__file__).resolve().parent.parent / "scenes" / "whitted.toml"
 W, H = 160, 120

@@ -11,14 +11,8 @@ import pytest
 from helpers import aimed_camera, make_scene, read_png, read_png_library
 
 import raytrace
-from raytrace.film import (
-    EXR_COMPRESSIONS,
-    SRGB_CHROMATICITIES,
-    atomic_path,
-    preview,
-    write_exr,
-    write_png,
-)
+from raytrace.film import EXR_COMPRESSIONS, atomic_path, preview, write_exr, write_png
+from raytrace.film.exr import SRGB_CHROMATICITIES
 
 HDR = np.array([1e6, -3.5, 1e-30, 0.0, -0.0, 1.4e-45, 3.0e38, 0.5, 1.0 / 3.0, -1e-7, 65504.0,
                 123456.789], dtype=np.float32)

@@ -17,7 +17,7 @@ from test_threads import scene as every_ray_scene
 import raytrace
 from raytrace import cli
 from raytrace.errors import SceneError
-from raytrace.filters import profile
+from raytrace.film.filters import profile
 from raytrace.sampling import FILTERS, margin
 
 WIDE = ("tent", "gaussian", "mitchell")

@@ -43,8 +43,10 @@ from raytrace import (
 from raytrace.cli import main
 from raytrace.film import read_exr
 from raytrace.integrator import KERNEL_FEATURES, RenderOptions, WhittedIntegrator, chunks
-from raytrace.rays import CAMERA, NO_SHAPE, REFRACTION, RayBatch, gather_chunks, sample_chunks
-from raytrace.render import render_options
+from raytrace.kernels.kinds import CAMERA, NO_SHAPE, REFRACTION
+from raytrace.kernels.rays import gather_chunks, sample_chunks
+from raytrace.rays import RayBatch
+from raytrace.rendering import render_options
 
 RTOL = 1e-6  # float32 output: ~6e-8 relative rounding, so 1e-6 is tight but safe
 IOR = 1.5
@@ -836,7 +838,7 @@ def test_each_kernel_variant_renders_the_general_kernels_image_bit_for_bit(name,
 LOADED = """
 import json, sys
 import raytrace
-from raytrace import shading_kernels as sk
+from raytrace.kernels import shading as sk
 raytrace.render(raytrace.load_scene(sys.argv[1]), width=8, height=6, threads=1)
 print(json.dumps({name: [str(t) for sig in getattr(sk, name).signatures for t in sig]
                   for name in ("light_pass", "hit_terms", "count_keep", "spawn_children",

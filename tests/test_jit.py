@@ -1,4 +1,5 @@
-"""The numba set-up (raytrace/jit.py): the cache guard that drops machine code compiled from
+"""The numba set-up (raytrace/kernels/jit.py, raytrace/kernels/compile.py): the cache guard that
+drops machine code compiled from
 other sources, so an edited helper in one module reaches the kernels of another (numba's own
 cache only checks the kernel's file: numba issue #1833); and telling a cold kernel cache from
 a warm one, cheaply, so the command line can say why the first render after installing sits
@@ -40,7 +41,7 @@ def scaled(x):
         out[i] = scale1(x[i])
     return out
 '''
-RUN = ("import numpy as np; from raytrace._probe_kernel import scaled; "
+RUN = ("import numpy as np; from raytrace.kernels._probe_kernel import scaled; "
        "print(scaled(np.ones(1))[0])")
 
 
@@ -50,17 +51,17 @@ def test_an_edited_helper_in_another_module_takes_effect(tmp_path):
     # (the kernel's own file did not change) and print 2.0 twice.
     copy = tmp_path / "raytrace"
     shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))
-    (copy / "_probe_kernel.py").write_text(KERNEL)
+    (copy / "kernels" / "_probe_kernel.py").write_text(KERNEL)
     env = {**os.environ, "PYTHONPATH": str(tmp_path)}
     env.pop("NUMBA_CACHE_DIR", None)
 
     def run(factor: float) -> str:
-        (copy / "_probe_helper.py").write_text(HELPER.format(factor=factor))
+        (copy / "kernels" / "_probe_helper.py").write_text(HELPER.format(factor=factor))
         return subprocess.run([sys.executable, "-c", RUN], env=env, capture_output=True,
                               text=True, check=True, cwd=tmp_path).stdout.strip()
 
     assert run(2.0) == "2.0"
-    cached = list((copy / "__pycache__").glob("_probe_kernel.*.nbi"))
+    cached = list((copy / "kernels" / "__pycache__").glob("_probe_kernel.*.nbi"))
     assert cached, "the kernel was cached"
     assert run(3.0) == "3.0"
     assert run(3.0) == "3.0"  # and the new machine code is cached in turn
@@ -69,24 +70,24 @@ def test_an_edited_helper_in_another_module_takes_effect(tmp_path):
 def test_the_guard_hashes_every_module_that_compiles_kernels():
     # A module importing `inline, kernel` (the analytic shapes' dispatch) compiles kernels as
     # much as one importing `kernel` alone; one importing only a plain function does not.
-    from raytrace import jit
+    from raytrace.kernels import jit
 
     names = {p.name for p in jit.kernel_modules()}
-    assert {"accel_kernels.py", "shading_kernels.py", "core.py", "camera.py"} <= names
-    assert "cli.py" not in names  # `from .jit import cache_is_warm`
+    assert {"accel.py", "shading.py", "core.py", "camera.py"} <= names
+    assert "compile.py" not in names  # it imports the kernels, it compiles none
 
 
 def test_the_guard_leaves_a_current_cache_alone(tmp_path):
-    from raytrace import jit
+    from raytrace.kernels import jit
 
     assert not jit.refresh_cache()  # the import already stamped today's sources
-    stamp = PACKAGE / "__pycache__" / jit.STAMP
+    stamp = PACKAGE / "kernels" / "__pycache__" / jit.STAMP
     assert stamp.read_text() == jit.source_hash(jit.kernel_modules())
 
 
 # -- cold or warm: the compile notice ---------------------------------------------------------
 ROOT = Path(__file__).resolve().parents[1]
-CHECK = "from raytrace.jit import cache_is_warm; print(cache_is_warm())"
+CHECK = "from raytrace.kernels.compile import cache_is_warm; print(cache_is_warm())"
 
 
 def test_an_empty_cache_is_cold(tmp_path):
@@ -94,7 +95,7 @@ def test_an_empty_cache_is_cold(tmp_path):
     out = subprocess.run([sys.executable, "-c", CHECK], env=env, capture_output=True,
                          text=True, check=True).stdout
     assert out == "False\n"
-    from raytrace.jit import STAMP  # asking compiled nothing (the guard's stamps aside)
+    from raytrace.kernels.jit import STAMP  # asking compiled nothing (the guard's stamps aside)
 
     assert not [p for p in tmp_path.rglob("*") if p.is_file() and p.name != STAMP]
 
@@ -103,11 +104,11 @@ def test_a_first_compile_into_a_cache_folder_is_kept_by_the_next_process(tmp_pat
     # numba creates NUMBA_CACHE_DIR's folders when it decorates a module's kernels, after the
     # guard ran: unstamped, the next process took the first compile for a stale one.
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
-    guard = "import raytrace.jit"
+    guard = "import raytrace.kernels.jit"
     subprocess.run([sys.executable, "-c", guard], env=env, check=True)
     folders = {p.parent for p in tmp_path.rglob("raytrace-kernels.sha256")}
     assert folders  # the folders numba will write are stamped before it writes them
-    compiled = [folder / "accel_kernels.kernel-1.py311.nbi" for folder in folders]
+    compiled = [folder / "accel.kernel-1.py311.nbi" for folder in folders]
     for f in compiled:  # stands for what a first render's compile leaves there
         f.write_bytes(b"index")
     subprocess.run([sys.executable, "-c", guard], env=env, check=True)
@@ -135,7 +136,7 @@ class _Terminal(io.StringIO):
 ])
 def test_the_command_line_says_it_is_compiling_on_a_terminal(tmp_path, monkeypatch, warm,
                                                               stream, quiet, said):
-    monkeypatch.setattr("raytrace.jit.cache_is_warm", lambda: warm)
+    monkeypatch.setattr("raytrace.kernels.compile.cache_is_warm", lambda: warm)
     err = stream()
     monkeypatch.setattr(sys, "stderr", err)
     scene = tmp_path / "s.toml"
@@ -157,8 +158,8 @@ def test_the_command_line_says_so_when_a_warm_cache_still_compiles(tmp_path, mon
 
     from numba.core import event
 
-    module = importlib.import_module("raytrace.render")  # the module, not the function
-    monkeypatch.setattr("raytrace.jit.cache_is_warm", lambda: True)
+    module = importlib.import_module("raytrace.rendering")
+    monkeypatch.setattr("raytrace.kernels.compile.cache_is_warm", lambda: True)
     err = _Terminal()
     monkeypatch.setattr(sys, "stderr", err)
     real = module.render
@@ -190,9 +191,9 @@ def test_a_colour_slot_does_not_compile_a_kernel_per_value(tmp_path):
     # render. With numpy integers it compiles once for all six.
     probe = (
         "import numpy as np\n"
-        "from raytrace import shading_kernels as sk\n"
+        "from raytrace.kernels import shading as sk\n"
         "import numba\n"
-        "from raytrace.shading_kernels import KA, KD, KS, KE  # globals, as the kernels see them\n"
+        "from raytrace.kernels.shading import KA, KD, KS, KE  # globals, as the kernels see them\n"
         "@numba.njit\n"
         "def every_slot(palette):\n"
         "    t = 0.0\n"
@@ -215,7 +216,7 @@ def test_a_texel_channel_does_not_compile_a_kernel_per_value(tmp_path):
     # The same for bilinear1's channel: texture1 reads R, G and B with one compilation.
     probe = (
         "import numpy as np, numba\n"
-        "from raytrace import core\n"
+        "from raytrace.kernels import core\n"
         "@numba.njit\n"
         "def rgb(texels, info):\n"
         "    return core.texture1(texels, info, 0, 0.5, 0.5)\n"

@@ -11,8 +11,10 @@ import pytest
 from helpers import RTOL, aimed_camera, make_scene, pixel
 
 import raytrace
-from raytrace import shading_kernels as K
-from raytrace.lights import cos_cutoff, emitters, light_words
+from raytrace import shading
+from raytrace.kernels import shading as K
+from raytrace.lights import cos_cutoff, emitters
+from raytrace.shading import light_words
 
 FLOOR = dict(point=[0.0, 0.0, 0.0], normal=[0.0, 1.0, 0.0])
 KD, KA, IA = np.array([0.9, 0.6, 0.3]), np.array([0.4, 0.2, 0.1]), 0.25
@@ -97,7 +99,7 @@ def test_point_emitter_direction_distance_attenuation():
     light = raytrace.PointLight([1.0, 2.0, 3.0], attenuation=[0.5, 0.2, 0.03])
     (em,) = emitters([light], np.zeros(3), seed=0)
     pts = np.array([[1.0, 2.0, 0.0], [4.0, 6.0, 3.0]])
-    to_light, dist, f = em.incidence(pts)
+    to_light, dist, f = shading.incidence(em, pts)
     np.testing.assert_allclose(dist, [3.0, 5.0])
     np.testing.assert_allclose(to_light, [[0, 0, 1], [-0.6, -0.8, 0]], atol=1e-15)
     np.testing.assert_allclose(f, 1 / (0.5 + 0.2 * np.array([3, 5]) + 0.03 * np.array([9, 25])))
@@ -106,7 +108,7 @@ def test_point_emitter_direction_distance_attenuation():
 def test_emitters_are_camera_relative():
     light = raytrace.PointLight([10.0, 0.0, 0.0])
     (em,) = emitters([light], np.array([4.0, 0.0, 0.0]), seed=0)
-    _, dist, _ = em.incidence(np.zeros((1, 3)))      # the camera itself
+    _, dist, _ = shading.incidence(em, np.zeros((1, 3)))      # the camera itself
     assert dist[0] == pytest.approx(6.0)
 
 
@@ -116,7 +118,7 @@ def test_spot_cos_cutoff_at_90_degrees_is_exactly_zero():
     spot = raytrace.SpotLight([0, 0, 0], [0, -1, 0], cutoff=90.0)
     (em,) = emitters([spot], np.zeros(3), seed=0)
     # a point level with the spot (α = 90°): cos α = 0 >= cos θ = 0, (cos α)^0 = 1 inside.
-    _, _, f = em.incidence(np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 1.0, 0.0]]))
+    _, _, f = shading.incidence(em, np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 1.0, 0.0]]))
     np.testing.assert_allclose(f, [1.0, 1.0, 0.0])
 
 
@@ -312,7 +314,7 @@ def test_children_of_one_hit_draw_their_own_light_points():
 
 
 def test_path_keys_differ_by_path_and_keep_camera_keys():
-    from raytrace.lights import path_keys
+    from raytrace.shading import path_keys
 
     origin = np.zeros((3, 3))
     direction = np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 1.0, 0.0]])

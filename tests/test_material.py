@@ -10,7 +10,7 @@ import pytest
 from helpers import RTOL, aimed_camera, make_scene, pixel, write_text
 
 import raytrace
-from raytrace import cli
+from raytrace import cli, shading
 from raytrace.material import Checker, Material, library
 
 # The classic material table of seed 001 (Hill & Kelley Fig. 8.17, after McReynolds & Blythe):
@@ -143,7 +143,7 @@ def test_checker_parity_at_known_points():
                     [-0.5, 0.5, 0.5],     # −1+0+0 odd
                     [-2.5, -0.5, 3.0],    # −2−1+1 even
                     [4.1, 2.1, -0.1]])    # 2+1−1 even
-    np.testing.assert_array_equal(c.evaluate(pts), [A, B, B, A, A])
+    np.testing.assert_array_equal(shading.checker(c, pts), [A, B, B, A, A])
 
 
 def test_checker_bias_picks_a_side_on_a_cell_boundary():
@@ -151,11 +151,11 @@ def test_checker_bias_picks_a_side_on_a_cell_boundary():
     # counts as on the boundary's upper cell, exactly like the boundary itself.
     c = Checker((A, B), scale=1.0)
     for y in (0.0, -1e-12, 1e-12, -1e-6):
-        np.testing.assert_array_equal(c.evaluate(np.array([[0.5, y, 0.5]])), [A])
+        np.testing.assert_array_equal(shading.checker(c, np.array([[0.5, y, 0.5]])), [A])
     for y in (1.0, 1.0 - 1e-12, 1.0 + 1e-12):
-        np.testing.assert_array_equal(c.evaluate(np.array([[0.5, y, 0.5]])), [B])
+        np.testing.assert_array_equal(shading.checker(c, np.array([[0.5, y, 0.5]])), [B])
     # Beyond the bias the side really changes.
-    np.testing.assert_array_equal(c.evaluate(np.array([[0.5, -1e-3, 0.5]])), [B])
+    np.testing.assert_array_equal(shading.checker(c, np.array([[0.5, -1e-3, 0.5]])), [B])
 
 
 @pytest.mark.parametrize("plane_y", [0.0, 1.0, -3.0])

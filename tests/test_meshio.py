@@ -11,8 +11,8 @@ import pytest
 import trimesh
 
 import raytrace
-from raytrace import meshio
 from raytrace.accel import vertex_normals
+from raytrace.readers import meshio
 
 
 def trimesh_reference(path):

@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from raytrace import metrics
+from raytrace.film import metrics
 
 
 def _pair(delta: float = 0.6):
@@ -82,7 +82,7 @@ def test_flip_is_flip_evaluator_with_the_reference_first():
 
 def test_flip_refuses_what_hdr_flip_does_not_define_without_ending_the_process():
     # flip-evaluator itself calls exit(-1) on a black reference; the guard must raise first.
-    code = ("import numpy as np\nfrom raytrace import metrics\n"
+    code = ("import numpy as np\nfrom raytrace.film import metrics\n"
             "for ref in (np.zeros((4, 4, 3)), np.full((4, 4, 3), 1e-8)):\n"
             "    try:\n        metrics.flip(ref + 0.5, ref)\n"
             "    except ValueError as e:\n        print('refused:', e)\n"

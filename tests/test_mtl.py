@@ -129,7 +129,7 @@ def test_illum_7_splits_reflection_and_refraction_by_the_fresnel_reflectance(tmp
 
 
 def test_fresnel_is_one_beyond_the_critical_angle():
-    from raytrace.core import fresnel1
+    from raytrace.kernels.core import fresnel1
 
     assert fresnel1(math.cos(math.radians(45)), 1.5) == 1.0  # leaving glass past 41.8°
     assert fresnel1(1.0, 1 / 1.5) == pytest.approx(0.04, abs=1e-15)

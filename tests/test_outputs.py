@@ -30,11 +30,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import raytrace
-import raytrace.outputs
+import raytrace.film.outputs
 from raytrace import cli
 from raytrace.film import read_exr, write_exr
+from raytrace.film.outputs import Outputs
 from raytrace.material import library
-from raytrace.outputs import Outputs
 
 ROOT = Path(__file__).resolve().parents[1]
 QUAD = "v 0 0 -3\nv 1 0 -3\nv 1 1 -3\nv 0 1 -3\nf 1 2 3\nf 1 3 4\n"
@@ -95,7 +95,7 @@ def no_render(monkeypatch):
     def refuse(*args, **kwargs):
         raise AssertionError("rendered although an output was bad")
 
-    monkeypatch.setattr(sys.modules["raytrace.render"], "render", refuse)
+    monkeypatch.setattr(sys.modules["raytrace.rendering"], "render", refuse)
 
 
 # -- collisions, before anything is rendered --------------------------------------------------
@@ -214,14 +214,14 @@ def test_a_folder_that_takes_no_new_file_is_found_before_the_render(tmp_path, ca
     folder(tmp_path)
     ro = tmp_path / "ro"
     ro.mkdir()
-    real = raytrace.outputs.tempfile.mkstemp
+    real = raytrace.film.outputs.tempfile.mkstemp
 
     def mkstemp(*args, dir=None, **kwargs):  # noqa: A002  (tempfile's name)
         if Path(dir) == ro:
             raise PermissionError(errno.EACCES, "Permission denied")
         return real(*args, dir=dir, **kwargs)
 
-    monkeypatch.setattr(raytrace.outputs.tempfile, "mkstemp", mkstemp)
+    monkeypatch.setattr(raytrace.film.outputs.tempfile, "mkstemp", mkstemp)
     before = snapshot(tmp_path)
     for flag, name in (("--png", "ro/p.png"), ("--stats", "ro/s.json")):
         rc, err = run(tmp_path, ["render", "scene.toml", "-o", "out.exr", flag, name, "-q"],
@@ -357,7 +357,7 @@ def test_ctrl_c_during_the_renames_waits_for_them(tmp_path, capsys, monkeypatch)
             targets.clear()
             os.kill(os.getpid(), signal.SIGINT)
 
-    monkeypatch.setattr(raytrace.outputs.os, "replace", replace)
+    monkeypatch.setattr(raytrace.film.outputs.os, "replace", replace)
     rc, err = run(tmp_path, ["render", "scene.toml", "-o", "out.exr", "--png", "out.png",
                              "--stats", "stats.json", "-q"], capsys)
     assert rc == 130
@@ -382,7 +382,7 @@ def test_an_interrupt_between_renames_is_reported_exactly(tmp_path, capsys, monk
             raise KeyboardInterrupt
         real(src, dst)
 
-    monkeypatch.setattr(raytrace.outputs.os, "replace", replace)
+    monkeypatch.setattr(raytrace.film.outputs.os, "replace", replace)
     rc, err = run(tmp_path, ["render", "scene.toml", "-o", "out.exr", "--png", "out.png",
                              "--stats", "stats.json", "-q"], capsys)
     assert rc == 130
@@ -398,7 +398,7 @@ def test_an_interrupted_render_names_what_was_left(tmp_path, capsys, monkeypatch
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(sys.modules["raytrace.render"], "render", interrupted)
+    monkeypatch.setattr(sys.modules["raytrace.rendering"], "render", interrupted)
     folder(tmp_path)
     before = snapshot(tmp_path)
     rc, err = run(tmp_path, ["render", "scene.toml", "-o", "out.exr", "--png", "out.png",
@@ -440,7 +440,7 @@ def test_image_save_on_a_full_disk_keeps_the_old_file(tmp_path, monkeypatch):
         Path(path).write_bytes(b"\x89PN")
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr("raytrace.film._write_png_bands", full)
+    monkeypatch.setattr("raytrace.film.previews.write_png_bands", full)
     with pytest.raises(OSError) as e:
         raytrace.Image(np.ones((2, 2, 3), np.float32)).save(target)
     assert e.value.errno == errno.ENOSPC and e.value.filename == str(target)
@@ -449,7 +449,7 @@ def test_image_save_on_a_full_disk_keeps_the_old_file(tmp_path, monkeypatch):
 
 def test_outputs_module_is_light():
     # The transaction imports nothing heavy: the command line loads it before anything else.
-    got = subprocess.run([sys.executable, "-c", "import sys, raytrace.outputs; "
+    got = subprocess.run([sys.executable, "-c", "import sys, raytrace.film.outputs; "
                           "print(' '.join(sys.modules))"], capture_output=True, text=True,
                          check=True).stdout.split()
     assert not {"numba", "OpenEXR", "colour", "trimesh", "embreex"} & set(got)

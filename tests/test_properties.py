@@ -14,6 +14,7 @@ import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from raytrace import shading
 from raytrace.lights import Emitter, cos_cutoff
 from raytrace.optics import critical_angle, reflect, refract
 from raytrace.shading import HIGHLIGHT_CODES, cosine_power, direct
@@ -126,7 +127,7 @@ def test_light_factor_is_finite_and_at_most_one_over_a0(p, a0, a1, a2, cutoff, e
     point = np.asarray(p, dtype=np.float64)[None, :] * abs(offset)
     em = Emitter(np.ones(3), np.zeros(3), np.array([0.0, -1.0, 0.0]), np.array([a0, a1, a2]),
                  cos_cutoff(cutoff), exponent)
-    to_light, dist, f = em.incidence(point)
+    to_light, dist, f = shading.incidence(em, point)
     assert np.isfinite(to_light).all() and np.isfinite(f).all()
     assert 0.0 <= f[0] <= 1.0 / a0
     if dist[0] > 0:

@@ -58,7 +58,15 @@ EDGE_FRACTION = 0.03
 # raytrace.sampling holds the names and checks of [render]'s filter and aa keys, which
 # RenderSettings validates: data, no renderer code.
 ALLOWED = {"raytrace", "raytrace.scene", "raytrace.material", "raytrace.values",
-           "raytrace.errors", "raytrace.sampling", "raytrace.texture"}
+           "raytrace.errors", "raytrace.sampling", "raytrace.lights",
+           # the readers a Mesh loads its file with, and the film's tone maps a texture
+           # decodes sRGB with (their libraries load with a file that needs them)
+           "raytrace.readers", "raytrace.readers.asset", "raytrace.readers.assets",
+           "raytrace.readers.gltf", "raytrace.readers.meshio", "raytrace.readers.mtl",
+           "raytrace.readers.obj", "raytrace.readers.texture", "raytrace.film",
+           "raytrace.film.tonemap",
+           # the codes and records every stage shares with the kernels (no numba)
+           "raytrace.kernels", "raytrace.kernels.kinds", "raytrace.kernels.records"}
 
 
 def test_reference_tracer_imports_only_the_scene_description():

@@ -1,4 +1,4 @@
-"""``raytrace.render`` (raytrace/render.py; not test_render.py, a name the pytest-plugin tests
+"""``raytrace.render`` (raytrace/rendering.py; not test_render.py, a name the pytest-plugin tests
 give the test files they generate): its arguments are checked before any work, the memory
 an image needs is checked against the machine, and renders that are probably not what was
 meant (no objects, pixels beyond float32) say so: a RenderWarning, one line from the CLI.
@@ -15,7 +15,7 @@ import raytrace
 from raytrace import cli
 from raytrace.film import read_exr
 
-RENDER = sys.modules["raytrace.render"]  # the module (raytrace.render is the function)
+RENDER = sys.modules["raytrace.rendering"]  # the module (raytrace.render is the function)
 
 # Camera at y = 1 looking level with an even height: exactly the lower half of the rows look
 # down and hit the floor (test_cli.py's FLOOR_SCENE). A 1e39 light (beyond float32's 3.4e38)

@@ -277,9 +277,9 @@ def interrupt_after_half(monkeypatch, method: str, tmp_path: Path) -> None:
     """The PNG writer (OpenImageIO, fed band by band) or the JSON writer (``Path.write_text``)
     puts part of its file down, then is interrupted like Ctrl-C."""
     if method == "png_bands":
-        from raytrace import tonemap
+        from raytrace.film import previews
 
-        original = tonemap._bands
+        original = previews._bands
 
         def first_band_then_interrupt(*args, **kwargs):
             for band in original(*args, **kwargs):
@@ -287,7 +287,7 @@ def interrupt_after_half(monkeypatch, method: str, tmp_path: Path) -> None:
                 assert any(n.endswith(".png.tmp") for n in os.listdir(tmp_path))
                 raise KeyboardInterrupt
 
-        monkeypatch.setattr(tonemap, "_bands", first_band_then_interrupt)
+        monkeypatch.setattr(previews, "_bands", first_band_then_interrupt)
         return
     original = getattr(Path, method)
 

@@ -244,8 +244,8 @@ DOCS = ROOT / "docs"
 
 def test_scene_format_doc_names_every_key():
     """docs/scene_format.md documents every key the loader accepts."""
-    from raytrace import scene_file
     from raytrace.material import MATERIAL_KEYS, PATTERN_KEYS
+    from raytrace.readers import scene_file
 
     text = (DOCS / "scene_format.md").read_text(encoding="utf-8")
     keys = {*scene_file.RENDER_KEYS, *scene_file.CAMERA_KEYS, *MATERIAL_KEYS, *PATTERN_KEYS}

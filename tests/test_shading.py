@@ -16,7 +16,7 @@ import pytest
 from helpers import RTOL, aimed_camera, make_scene, pixel, unit
 
 import raytrace
-from raytrace.core import whole_power1
+from raytrace.kernels.core import whole_power1
 from raytrace.shading import blinn, cosine_power, direct, phong
 
 FLOOR = dict(point=[0.0, 0.0, 0.0], normal=[0.0, 1.0, 0.0])
@@ -319,7 +319,7 @@ def _triangles(corners: np.ndarray, vnormals: np.ndarray):
 
 
 def test_lifted_origin_rises_on_a_convex_patch_and_stays_on_a_concave_one():
-    from raytrace.shading_kernels import bulge1
+    from raytrace.kernels.shading import bulge1
 
     u, v = 0.3, 0.3
     corners, normals = _patch(0.5)
@@ -354,9 +354,9 @@ def test_light_pass_terms_and_the_shadow_rays_of_the_lit_hits_only():
     f = 1/(1 + 0.5·d²): a lit matte hit, an unlit material, a hit on a Gouraud triangle whose
     corners see the light at their own angles, and a hit seen from below (the light is then
     behind the surface the viewer sees). Only the lit ones get a shadow ray, in hit order."""
+    from raytrace.kernels.records import Rays, Scene, Shadows, Surface, Triangles
+    from raytrace.kernels.shading import light_pass
     from raytrace.lights import Emitter
-    from raytrace.records import Rays, Scene, Shadows, Surface, Triangles
-    from raytrace.shading_kernels import light_pass
     from raytrace.tables import MaterialTable
 
     kd = np.array([0.5, 0.25, 1.0])
@@ -382,7 +382,7 @@ def test_light_pass_terms_and_the_shadow_rays_of_the_lit_hits_only():
     term, rows = np.empty((n, 3)), np.empty(n, np.int64)
     s_origin, s_direction = np.empty((n, 3)), np.empty((n, 3))
     s_tmax, s_shape = np.empty(n), np.empty(n, np.int64)
-    from raytrace.core import SHADOW_SHORTEN
+    from raytrace.kernels.core import SHADOW_SHORTEN
 
     shorten = 1e-7  # the documented value (docs/architecture.md), not read from the code
     assert SHADOW_SHORTEN == shorten

@@ -12,12 +12,12 @@ import pytest
 from helpers import make_scene
 
 import raytrace
-from raytrace import accel_kernels as ak
-from raytrace import shading_kernels as sk
 from raytrace.accel import Accelerator
+from raytrace.kernels import accel as ak
+from raytrace.kernels import shading as sk
+from raytrace.kernels.records import MATERIAL_COLUMNS, Materials
 from raytrace.material import COLUMNS
 from raytrace.rays import NO_SHAPE
-from raytrace.records import Materials
 from raytrace.tables import MaterialTable, scene_arrays
 
 CAMERA = raytrace.Camera(position=[1.0, 2.0, 8.0], look_at=[0, 0, 0])
@@ -82,8 +82,8 @@ def test_material_columns_come_from_one_declaration():
     table = MaterialTable([raytrace.Material(highlight="blinn", shininess=7.0, kr=0.5),
                            raytrace.Material(kd=0.0, ks=0.0, ior=1.33, opacity=0.25)])
     rec = table.record
-    assert set(COLUMNS) <= set(Materials._fields)
-    for name, (dtype, _, _) in COLUMNS.items():
+    assert list(COLUMNS) == list(MATERIAL_COLUMNS) and set(COLUMNS) <= set(Materials._fields)
+    for name, (dtype, _) in MATERIAL_COLUMNS.items():
         assert getattr(rec, name).dtype == dtype and getattr(rec, name).shape == (2,)
     np.testing.assert_array_equal(rec.highlight, [sk.BLINN, sk.PHONG])
     np.testing.assert_array_equal(rec.shininess, [7.0, 32.0])

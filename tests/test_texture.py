@@ -9,8 +9,9 @@ from helpers import make_scene, pixel, write_gltf
 from PIL import Image
 
 import raytrace
+from raytrace import shading
 from raytrace.errors import SceneError
-from raytrace.texture import Texture
+from raytrace.readers.texture import Texture
 
 #: 4 × 2 texels, RGBA, values exact in binary so every bilinear blend below is exact
 TEXELS = np.array([[[0.0, 0.25, 0.5, 1], [0.5, 0.5, 0.5, 1], [1.0, 0.0, 0.25, 1],
@@ -24,17 +25,17 @@ def test_texel_centres_are_exact(wrap):
     tex = Texture(TEXELS, (wrap, wrap))
     i, j = np.meshgrid(np.arange(4), np.arange(2))
     st = np.column_stack([(i.ravel() + 0.5) / 4, (j.ravel() + 0.5) / 2])
-    np.testing.assert_array_equal(tex.sample(st), TEXELS[j.ravel(), i.ravel(), :3])
+    np.testing.assert_array_equal(shading.texture(tex, st), TEXELS[j.ravel(), i.ravel(), :3])
 
 
 def test_bilinear_midpoints_are_exact_means():
     tex = Texture(TEXELS)
     # between texels (0, 0) and (1, 0): s = 1/4, t = 1/4
-    np.testing.assert_array_equal(tex.sample([[0.25, 0.25]]),
+    np.testing.assert_array_equal(shading.texture(tex, [[0.25, 0.25]]),
                                   [(TEXELS[0, 0, :3] + TEXELS[0, 1, :3]) / 2])
     # the centre of four texels (1, 0), (2, 0), (1, 1), (2, 1): s = 1/2, t = 1/2
     four = (TEXELS[0, 1, :3] + TEXELS[0, 2, :3] + TEXELS[1, 1, :3] + TEXELS[1, 2, :3]) / 4
-    np.testing.assert_array_equal(tex.sample([[0.5, 0.5]]), [four])
+    np.testing.assert_array_equal(shading.texture(tex, [[0.5, 0.5]]), [four])
 
 
 def test_wrap_modes_at_the_edges():
@@ -43,13 +44,13 @@ def test_wrap_modes_at_the_edges():
     under repeat."""
     row = np.float64(TEXELS[0, :, :3])
     t = 0.25
-    assert np.array_equal(Texture(TEXELS, ("repeat",) * 2).sample([[0.0, t]])[0],
+    assert np.array_equal(shading.texture(Texture(TEXELS, ("repeat",) * 2), [[0.0, t]])[0],
                           (row[3] + row[0]) / 2)
-    assert np.array_equal(Texture(TEXELS, ("clamp",) * 2).sample([[0.0, t]])[0], row[0])
-    assert np.array_equal(Texture(TEXELS, ("mirror",) * 2).sample([[0.0, t]])[0], row[0])
-    assert np.array_equal(Texture(TEXELS).sample([[1.125, t]])[0], row[0])
+    assert np.array_equal(shading.texture(Texture(TEXELS, ("clamp",) * 2), [[0.0, t]])[0], row[0])
+    assert np.array_equal(shading.texture(Texture(TEXELS, ("mirror",) * 2), [[0.0, t]])[0], row[0])
+    assert np.array_equal(shading.texture(Texture(TEXELS), [[1.125, t]])[0], row[0])
     # mirror: texel 4 is texel 3, texel 5 texel 2: s = 1.25 (x = 4.5) blends texels 3 and 2
-    assert np.array_equal(Texture(TEXELS, ("mirror",) * 2).sample([[1.25, t]])[0],
+    assert np.array_equal(shading.texture(Texture(TEXELS, ("mirror",) * 2), [[1.25, t]])[0],
                           (row[3] + row[2]) / 2)
 
 
@@ -134,7 +135,7 @@ def test_texture_errors_are_one_line(tmp_path):
 
 def test_scenes_without_textures_carry_no_texture_arrays():
     from raytrace.integrator import WhittedIntegrator
-    from raytrace.render import render_options
+    from raytrace.rendering import render_options
 
     scene = raytrace.load_scene("scenes/mesh_model.toml")
     integ = WhittedIntegrator(scene, render_options(scene, width=8, height=6))

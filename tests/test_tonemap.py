@@ -1,4 +1,4 @@
-"""Previews (raytrace.tonemap): the wiring to colour-hdri's operators, the exact sRGB codes of
+"""Previews (raytrace.film.tonemap): the wiring to colour-hdri's operators, the exact sRGB codes of
 colour-science, automatic exposure, no overflow at any finite value, and no global state
 left changed in the caller's process."""
 
@@ -13,8 +13,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from raytrace import tonemap
-from raytrace.tonemap import EXPOSURE_RANGE, TONEMAPS, auto_exposure, preview
+from raytrace.film import tonemap
+from raytrace.film.previews import auto_exposure, preview
+from raytrace.film.tonemap import EXPOSURE_RANGE, TONEMAPS
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore")

@@ -37,7 +37,7 @@ from raytrace.lights import Emitter, cos_cutoff
 from raytrace.material import Checker
 from raytrace.optics import critical_angle, reflect, refract
 from raytrace.rays import REFLECTION, REFRACTION
-from raytrace.shading import cosine_power, direct
+from raytrace.shading import cosine_power, direct, incidence
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -419,7 +419,7 @@ def test_spot_cone_edge_exactly_at_a_general_angle():
     em = Emitter(np.ones(3), np.zeros(3), np.array([0.0, -1.0, 0.0]), np.array([1.0, 0, 0]),
                  cos_cutoff(cutoff), 2.0)
     pts = np.array([[3.0, -4.0, 0.0], [3.0 + 1e-9, -4.0, 0.0], [0.0, -5.0, 0.0]])
-    _, dist, f = em.incidence(pts)
+    _, dist, f = incidence(em, pts)
     assert dist[0] == 5.0
     assert f[0] == 0.8**2  # on the edge: inside, (cos α)^a
     assert f[1] == 0.0      # just outside

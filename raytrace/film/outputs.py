@@ -52,7 +52,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import SceneError
+from ..errors import SceneError
 
 #: Linux ``FS_IOC_GETFLAGS`` (``linux/fs.h``) and its immutable and append-only bits: files
 #: that not even root may replace (``chattr +i`` / ``+a``).

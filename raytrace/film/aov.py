@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import SceneError
+from ..errors import SceneError
 
 
 @dataclass(frozen=True)

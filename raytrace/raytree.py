@@ -23,7 +23,13 @@ from typing import Any
 
 import numpy as np
 
+from . import values
 from .errors import SceneError
+from .integrator import WhittedIntegrator
+from .kernels import shading as sk
+from .kernels.shading import KEEP, PRUNED
+from .rays import KIND_NAMES
+from .rendering import render_options
 from .scene import AreaLight, Scene
 
 #: Names of the children columns of the integrator's ``status`` (reflected, refracted,
@@ -76,8 +82,6 @@ class Recorder:
     def hits(self, rays: Any, hits: Any, surf: Any) -> None:
         """What each ray of the batch (all hits, in hit order) hit: the AOV kernel's depth,
         facing normal, kd and object index, and the surface's material and side."""
-        from . import shading_kernels as sk  # the compiled passes of this stage
-
         integ, n = self.integ, len(rays)
         depth, normal, albedo = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
         ident = np.empty(n, np.int64)
@@ -127,8 +131,6 @@ class Recorder:
                tir: np.ndarray, past_max_depth: bool) -> None:
         """Each hit's contribution as the shading kernel added it, and its children's status
         (spawned, or pruned by ``max_depth`` or ``min_weight``)."""
-        from .shading_kernels import KEEP, PRUNED
-
         ambient = self.integ.ambient
         for j, rid in enumerate(self._hits):
             rec = self.rays[rid]
@@ -155,8 +157,6 @@ class Recorder:
 
     # -- records ------------------------------------------------------------------------------
     def _new(self, rays: Any, i: int, parent: int | None) -> int:
-        from .rays import KIND_NAMES
-
         rid = len(self.rays)
         self.rays.append({
             "id": rid, "parent": parent, "kind": KIND_NAMES[int(rays.kind[i])],
@@ -205,9 +205,6 @@ def explain(scene: Scene, pixel: tuple[int, int], sample: int = 0, **overrides: 
     ``overrides``: ``width``, ``height``, ``spp``, ``max_depth``, ``min_weight``, ``seed``,
     as for :func:`raytrace.render`.
     """
-    from .integrator import WhittedIntegrator
-    from .render import render_options
-
     options = render_options(scene, threads=1, **overrides)
     x, y = _pixel(pixel, options.width, options.height, scene.path)
     s = _sample(sample, options.spp, scene.path)
@@ -229,8 +226,6 @@ def explain(scene: Scene, pixel: tuple[int, int], sample: int = 0, **overrides: 
 
 
 def _pixel(pixel: Any, width: int, height: int, path: str | None) -> tuple[int, int]:
-    from . import values
-
     try:
         if isinstance(pixel, str) or len(pixel) != 2:
             raise SceneError(f"must be two numbers X Y, got {pixel!r}", "--pixel")
@@ -246,8 +241,6 @@ def _pixel(pixel: Any, width: int, height: int, path: str | None) -> tuple[int, 
 
 
 def _sample(sample: Any, spp: int, path: str | None) -> int:
-    from . import values
-
     try:
         return values.number(sample, "--sample", lo=0, hi=spp - 1, integer=True)
     except SceneError as e:

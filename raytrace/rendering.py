@@ -12,9 +12,11 @@ from collections.abc import Callable, Iterable, Sequence
 from typing import TYPE_CHECKING
 
 from . import values
-from .aov import check_aovs
+from .distributed import check_tile, render_tiles
 from .errors import RenderWarning, SceneError
-from .film import Image
+from .film.aov import check_aovs
+from .film.image import Image
+from .integrator import PASS_SAMPLES, RenderOptions, WhittedIntegrator
 from .scene import RenderSettings, Scene
 
 if TYPE_CHECKING:
@@ -81,7 +83,7 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
 
     ``crop`` = (x0, y0, x1, y1) renders only those pixels (half-open bounds, like pbrt's
     ``--pixelbounds``): ``rgb`` is then (y1 − y0, x1 − x0, 3), bit-identical to that window
-    of the full render. ``aovs``: names from :data:`raytrace.aov.AOVS` (depth, normal,
+    of the full render. ``aovs``: names from :data:`raytrace.film.aov.AOVS` (depth, normal,
     albedo, id) to render besides the colour, read with ``Image.aov(name)``. ``filter``
     (:data:`raytrace.sampling.FILTERS`), ``aa`` ("uniform" or "adaptive"), ``aa_threshold``,
     ``aa_depth`` and ``aa_min_depth`` override the scene's ``[render]`` keys of the same
@@ -104,8 +106,6 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     The integrator, and with it numba, is imported on the first call, so ``import raytrace``
     (loading and checking scenes, reading EXRs) does not pay for the compiler.
     """
-    from .integrator import WhittedIntegrator
-
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be a callable progress(done, total) or None, got "
                         f"{type(progress).__name__}")
@@ -120,8 +120,6 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
         if client is None and tile is not None:
             raise SceneError("tiles need a client: render(scene, client=..., tile=...)", "tile")
         if client is not None:
-            from .distributed import check_tile
-
             tile = check_tile(tile)
     except SceneError as e:
         raise SceneError(e.problem, e.key, scene.path) from None
@@ -130,8 +128,6 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
         warnings.warn(f"{where}the scene has no objects: the image is the background",
                       RenderWarning, stacklevel=2)
     if client is not None:
-        from .distributed import render_tiles
-
         image = render_tiles(client, scene, options, tile, progress)
     else:
         image = WhittedIntegrator(scene, options).render(progress)
@@ -155,8 +151,6 @@ def render_options(scene: Scene, *, width: int | None = None, height: int | None
                    aa_min_depth: int | None = None) -> RenderOptions:
     """The integrator's options: the scene's ``[render]`` settings with the overrides that
     are not None, checked (a :class:`SceneError` locating a bad one in the scene's file)."""
-    from .integrator import PASS_SAMPLES, RenderOptions
-
     if not isinstance(scene, Scene):
         raise TypeError(f"render() needs a raytrace.Scene, got {type(scene).__name__}")
     r = scene.render

@@ -20,7 +20,7 @@ record              what it holds (n rays or hits, M materials, T triangles)
 :class:`Emitter`    one point-like light sample, 21 floats (``raytrace.lights.Emitter.record``)
 :class:`Shadows`    the shadow rays a light pass spawns
 :class:`Children`   each hit's reflected, refracted and see-through children
-:class:`Spawned`    the next depth's batch as :func:`raytrace.shading_kernels.spawn_children`
+:class:`Spawned`    the next depth's batch as :func:`raytrace.kernels.shading.spawn_children`
                     writes it
 ==================  ==================================================================
 """
@@ -30,8 +30,6 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-
-from .material import COLUMNS
 
 
 class Rays(NamedTuple):
@@ -82,7 +80,21 @@ class Shapes(NamedTuple):
     object: np.ndarray    #: (N,) int64 index in ``Scene.objects``
 
 
-#: The material table's arrays besides its per-material columns (``material.COLUMNS``).
+#: The material table's per-material columns, name → (dtype, what it holds); a Material's
+#: value for each: ``raytrace.material.COLUMNS``.
+MATERIAL_COLUMNS = {
+    "shininess": (np.float64, "highlight exponent n"),
+    "highlight": (np.int64, "kinds.PHONG or BLINN"),
+    "ior": (np.float64, "relative index of refraction"),
+    "opacity": (np.float64, "t of the seeds' blend"),
+    "lit": (np.bool_, "takes direct light (kd or ks not zero)"),
+    "reflects": (np.bool_, "kr not zero"),
+    "transmits": (np.bool_, "kt not zero"),
+    "emits": (np.bool_, "ke not zero"),
+    "fresnel": (np.int64, "kinds.NO_FRESNEL, SCHLICK or DIELECTRIC"),
+    "alpha_cutoff": (np.float64, "alpha ≥ cutoff: opaque, else clear; −1: blend"),
+}
+#: The material table's arrays besides its per-material columns (:data:`MATERIAL_COLUMNS`).
 MATERIAL_TABLES = {
     "colors": "(M, 3·C) constant colours of material.COLOR_KEYS (ka kd ks kr kt ke), three "
               "columns each",
@@ -98,10 +110,10 @@ MATERIAL_TABLES = {
 #: :data:`MATERIAL_TABLES`, then one (M,) array per entry of ``material.COLUMNS``, in its
 #: order (a material input is declared once, there).
 Materials = NamedTuple("Materials", [(name, np.ndarray) for name in (*MATERIAL_TABLES,
-                                                                    *COLUMNS)])
+                                                                    *MATERIAL_COLUMNS)])
 Materials.__doc__ = "The material table, indexed by ``Surface.material``.\n\n" + "\n".join(
     f"* ``{name}``: {what}" for name, what in (
-        *MATERIAL_TABLES.items(), *((k, f"(M,) {v[2]}") for k, v in COLUMNS.items())))
+        *MATERIAL_TABLES.items(), *((k, f"(M,) {v[1]}") for k, v in MATERIAL_COLUMNS.items())))
 
 
 class Triangles(NamedTuple):

@@ -1,8 +1,8 @@
 """The per-ray primitives every compiled kernel shares, each defined once.
 
-Scalar functions compiled with :data:`raytrace.jit.kernel`, inlined into the kernels of
-:mod:`raytrace.camera`, :mod:`raytrace.accel_kernels` and :mod:`raytrace.shading_kernels`
-(numba's cache would not notice an edit here from those modules; :mod:`raytrace.jit`'s cache
+Scalar functions compiled with :data:`raytrace.kernels.jit.kernel`, inlined into the kernels of
+:mod:`raytrace.camera`, :mod:`raytrace.kernels.accel` and :mod:`raytrace.kernels.shading`
+(numba's cache would not notice an edit here from those modules; :mod:`raytrace.kernels.jit`'s cache
 guard does):
 
 * hashing: :func:`finalize64` (SplitMix64's finalizer, Steele, Lea & Flood 2014),
@@ -31,6 +31,7 @@ import math
 import numpy as np
 
 from .jit import kernel
+from .kinds import DIELECTRIC, FAST_PHONG, FLAT, GOURAUD, NO_FRESNEL, SCHLICK, SMOOTH  # noqa: F401
 
 #: SplitMix64's constants (Steele et al. 2014).
 M1, M2, M3 = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xBF58476D1CE4E5B9),
@@ -39,11 +40,9 @@ _TWO = np.uint64(2)
 _S11, _S27, _S30, _S31 = np.uint64(11), np.uint64(27), np.uint64(30), np.uint64(31)
 _S32, _LOW32 = np.uint64(32), np.uint64(0xFFFFFFFF)
 #: Mesh shading codes (``raytrace.tables.SHADING_CODES``; ``Triangles.shading``).
-FLAT, SMOOTH, GOURAUD, FAST_PHONG = 0, 1, 2, 3
 #: Shadow rays stop this relative fraction short of the light.
 SHADOW_SHORTEN = 1e-7
 #: Fresnel weighting codes (``raytrace.shading.FRESNEL_CODES``; ``Materials.fresnel``).
-NO_FRESNEL, SCHLICK, DIELECTRIC = 0, 1, 2
 #: The checker's bias: ``floor(x/s + 1e-4)`` keeps a plane lying on a cell boundary on one side.
 CHECKER_BIAS = 1e-4
 #: The largest whole exponent :func:`whole_power1` takes: its bound (2n − 1)·2⁻⁵³ is then
@@ -233,7 +232,8 @@ def is_whole1(n):
 def whole_power1(c, n):
     """``cⁿ`` for a whole ``n`` in ``[1, WHOLE_POWER_MAX]`` (:func:`is_whole1`) by binary
     exponentiation (square and multiply; Knuth, TAOCP vol. 2, §4.6.3, Algorithm A): at most
-    2·(⌊log₂ n⌋ + 1) multiplications in place of ``exp(n·log c)``'s two library calls (the highlight's
+    2·(⌊log₂ n⌋ + 1) multiplications in place of ``exp(n·log c)``'s two library calls (the
+    highlight's
     ``exp``/``log1p`` were 52 of a Whitted frame's 182 ms of ``light_pass``).
 
     Error (u = 2⁻⁵³, first order): ``c^(2^j)`` after j squarings carries at most (2ʲ − 1)·u,
@@ -270,7 +270,7 @@ def checker1(x, y, z, scale):
 
 @kernel
 def wrap1(i, n, mode):
-    """Texel index ``i`` of a row of ``n`` wrapped by ``mode`` (``raytrace.texture.WRAPS``):
+    """Texel index ``i`` of a row of ``n`` wrapped by ``mode`` (``raytrace.readers.texture.WRAPS``):
     0 repeat (i mod n), 1 clamp to the edge, 2 mirrored repeat (period 2n)."""
     if mode == 1:
         return min(max(i, 0), n - 1)

@@ -35,7 +35,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .errors import SceneError
+from ..errors import SceneError
 
 #: trimesh's ``tol.merge`` (1e-8) as decimal digits: positions equal after rounding
 #: ``x·10⁸`` to an integer are one vertex (trimesh.grouping.merge_vertices).

@@ -9,7 +9,7 @@ Two layers, in pipeline order:
   ``blinn1`` / ``direct1`` (the seeds' local model, Phong 1975, Blinn 1977), ``color1`` (a
   material's colour at a point), ``bulge1``, ``gouraud1`` and ``fast_phong1`` (Bishop &
   Weimer 1986); the primitives they share with the other kernel modules (reflection,
-  refraction, the spawn rule, the checker, the hashes) are :mod:`raytrace.core`'s;
+  refraction, the spawn rule, the checker, the hashes) are :mod:`raytrace.kernels.core`'s;
 * **one batch at a time**, the passes the integrator makes over its hits, each composed of the
   functions above: ``light_pass`` (one emitter's unshadowed term at every hit, Gouraud's
   included, and the shadow rays of the hits it lights), ``add_unblocked`` (opaque shadows),
@@ -19,12 +19,13 @@ Two layers, in pipeline order:
   ``spawn_children`` (the next depth's batch from those); plus ``accumulate``, the
   fixed-order sum of the background into the pixel samples of the rays that miss.
 
-All are serial ``nogil`` kernels (``raytrace.jit.kernel``): the integrator's threads run them
+All are serial ``nogil`` kernels (``raytrace.kernels.jit.kernel``): the integrator's threads run
+them
 side by side, each on the batches of its own pass, and ``hit_terms`` and ``accumulate`` add
 into a pixel sample in batch order, one fixed order, so no result depends on the number of
-threads. Arguments are the named records of :mod:`raytrace.records` and C-contiguous
+threads. Arguments are the named records of :mod:`raytrace.kernels.records` and C-contiguous
 arrays of fixed dtypes, so each kernel compiles once, into numba's cache (which
-:mod:`raytrace.jit` keeps true when :mod:`raytrace.core` changes).
+:mod:`raytrace.kernels.jit` keeps true when :mod:`raytrace.kernels.core` changes).
 """
 
 from __future__ import annotations
@@ -54,18 +55,22 @@ from .core import (
     whole_power1,
 )
 from .jit import kernel
-
-#: Highlight model codes (``raytrace.shading.HIGHLIGHT_CODES``).
-PHONG, BLINN = 0, 1
-#: Emitter kinds (``raytrace.records.Emitter.kind``).
-POINT, SPOT, DIRECTIONAL = 0, 1, 2
-#: First column of each colour in a material's row of colours (``raytrace.material.COLOR_KEYS``).
-#: numpy integers, not Python ones: numba types a Python int constant passed to another kernel
-#: as its literal value and compiles that kernel once per value (``color1`` and ``texel1`` six
-#: times each: 2.3–2.8 s of CPU of a first render after installing, docs/performance.md).
-KA, KD, KS, KR, KT, KE = (np.int64(c) for c in (0, 3, 6, 9, 12, 15))
-#: :func:`hit_terms`' status of a child ray: none, pruned by its weight, traced.
-NONE, PRUNED, KEEP = 0, 1, 2
+from .kinds import (  # noqa: F401  (the codes, as this module's names)
+    BLINN,
+    DIRECTIONAL,
+    KA,
+    KD,
+    KE,
+    KEEP,
+    KR,
+    KS,
+    KT,
+    NONE,
+    PHONG,
+    POINT,
+    PRUNED,
+    SPOT,
+)
 
 
 # -- lights -----------------------------------------------------------------------------------
@@ -73,17 +78,18 @@ NONE, PRUNED, KEEP = 0, 1, 2
 def incidence1(p, em, word):
     """Unit vector to the light, distance and attenuation ``f_radial·f_angular`` at a point.
 
-    ``p`` is the point (a 3-tuple), ``em`` a :class:`raytrace.records.Emitter`. A jittered
+    ``p`` is the point (a 3-tuple), ``em`` a :class:`raytrace.kernels.records.Emitter`. A jittered
     area-light cell (stream ≥ 0), cell (i, j) of k × k, is sampled at
     ``position + (ξ_u − ½)·u + (ξ_v − ½)·v`` with ``ξ_u = frac(w₁ + j/k)``,
-    ``ξ_v = frac(w₂ + i/k)`` and (w₁, w₂) = :func:`raytrace.core.light_uniform` of ``word``,
-    the hit's :func:`raytrace.core.light_word` for the light, shared by its cells: a
+    ``ξ_v = frac(w₂ + i/k)`` and (w₁, w₂) = :func:`raytrace.kernels.core.light_uniform` of ``word``,
+    the hit's :func:`raytrace.kernels.core.light_word` for the light, shared by its cells: a
     Cranley–Patterson rotation (1976) of the canonical multi-jittered pattern of Chiu,
     Shirley & Wang ("Multi-jittered sampling", Graphics Gems IV, 1994). Each hit puts one
     point in every cell (the k × k strata) and one in each of the k² columns and rows of the
     whole rectangle (n-rooks), each point uniform in its cell; points of their own for each
     shading point (the word hashes its camera sample, for a secondary ray hashed with its
-    path, :func:`raytrace.core.path_key1`, and depth); with ``word`` < 0, at the cell centre.
+    path, :func:`raytrace.kernels.core.path_key1`, and depth); with ``word`` < 0, at the cell
+    centre.
     Seed 000:
     ``f_radial = 1/(a0 + a1·d + a2·d²)`` (0 where that is not finite, and at the light itself,
     where L is undefined; L stays a unit vector however near or far the light); a spot
@@ -129,7 +135,7 @@ def cosine_power1(a, b, n):
     as ``|a − b|²/2`` (no cancellation near a·b = 1, so n = 1e8 still falls off right);
     0 where ``a·b <= 0`` (0^0 counts as 0), 1 where n = 0 otherwise. ``a``, ``b``: 3-tuples.
     A whole n up to 65 536 (shininess 20, 80, 200) takes ``(1 − h)ⁿ`` by squaring instead
-    (:func:`raytrace.core.whole_power1`, within (2n − 1)·2⁻⁵³ relative, the exp/log1p form
+    (:func:`raytrace.kernels.core.whole_power1`, within (2n − 1)·2⁻⁵³ relative, the exp/log1p form
     within about (|n·log1p(−h)| + 1)·2⁻⁵²): the same value to 1.5e-11 without the two
     library calls (docs/robustness.md, "Precision budget")."""
     ax, ay, az = a
@@ -212,7 +218,8 @@ def color1(palette, m, slot, x, y, z):
 @kernel
 def texel1(materials, m, slot, st, other):
     """Colour ``slot`` of a textured material ``m`` at texture coordinates ``st``: its image
-    texture (:func:`raytrace.core.texture1`) where that colour has one, else ``other``. Called
+    texture (:func:`raytrace.kernels.core.texture1`) where that colour has one, else ``other``.
+    Called
     only for materials with ``textured[m]``, so scenes without textures never pay for it (a
     per-hit helper that takes arrays costs reference counts on every call)."""
     q = materials.texture[m, slot // 3]
@@ -308,7 +315,7 @@ def fast_phong1(table, tri, hit, kd, ks, n, model):
     """Bishop & Weimer's fast Phong shading (1986) at barycentrics (u, v) of triangle ``tri``
     seen from side ``s`` (``hit`` = (u, v, s)): ``kd·D + ks·max(S, 0)ⁿ`` with D and S the
     diffuse and specular Taylor polynomials of row ``tri`` of ``table``
-    (:mod:`raytrace.fast_phong`, :func:`raytrace.core.taylor1`) in place of ``N̂·L`` and
+    (:mod:`raytrace.fast_phong`, :func:`raytrace.kernels.core.taylor1`) in place of ``N̂·L`` and
     ``N̂·H`` (``model`` BLINN) or ``V·R`` (PHONG); all zero where ``D <= 0``, as
     :func:`direct1`. The side turns N: it negates D and ``N̂·H``, and ``V·R`` is even in N."""
     u, v, s = hit
@@ -326,8 +333,9 @@ def fast_phong1(table, tri, hit, kd, ks, n, model):
 
 @kernel
 def light_pass(rays, surf, scene, em, words, depth, term, shadow):
-    """One emitter ``em`` (a :class:`raytrace.records.Emitter`) at every hit of ``rays`` on
-    ``surf`` (:class:`raytrace.records.Rays`, :class:`raytrace.records.Surface`), in one pass:
+    """One emitter ``em`` (a :class:`raytrace.kernels.records.Emitter`) at every hit of ``rays`` on
+    ``surf`` (:class:`raytrace.kernels.records.Rays`, :class:`raytrace.kernels.records.Surface`),
+    in one pass:
     its unshadowed term and the shadow rays that must decide it. Returns k, the number of
     shadow rays.
 
@@ -337,12 +345,12 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
     its Taylor polynomials where ``scene.fast`` has this light's table and the rays are camera
     rays, ``depth`` 0, else exact); 0 for unlit materials. Only hits where some channel
     of term is > 0 need a shadow ray: the first k rows of ``shadow`` (a
-    :class:`raytrace.records.Shadows`) hold them, in hit order. A shadow ray leaves the hit
-    towards the light (:func:`leave1`) and stops :data:`raytrace.core.SHADOW_SHORTEN`
+    :class:`raytrace.kernels.records.Shadows`) hold them, in hit order. A shadow ray leaves the hit
+    towards the light (:func:`leave1`) and stops :data:`raytrace.kernels.core.SHADOW_SHORTEN`
     (relative) short of it; from a smooth or Gouraud triangle it goes from :func:`bulge1`'s
     lifted point P′ (on the side the viewer sees) to the same point of the light the shading
     used (SCENE_FORMAT.md's smooth-mesh rule 2; Blender Cycles aims from P′ as well).
-    ``words`` (n,): each hit's :func:`raytrace.core.light_word` for this emitter's light,
+    ``words`` (n,): each hit's :func:`raytrace.kernels.core.light_word` for this emitter's light,
     read only for a jittered emitter (:func:`incidence1`). ``depth``: the rays' depth, or
     None in a scene without triangles and image textures: numba then prunes their branches
     (``if depth is not None``) before typing, so such a scene compiles and loads a kernel
@@ -443,7 +451,7 @@ def crossing_rays(hits, origin, direction, tmax, live):
     order: their hits (``t``, ``shape``, ``triangle``, ``uv``), ``origin``, ``direction``,
     ``tmax`` and ``live`` (the row of the shadow factor each one multiplies), as a tuple of
     new arrays (one pass for what was eight numpy gathers). ``hits``: a
-    :class:`raytrace.records.Hits`."""
+    :class:`raytrace.kernels.records.Hits`."""
     t, shape, triangle, uv = hits
     n = 0
     for i in range(t.shape[0]):
@@ -468,7 +476,7 @@ def crossing_rays(hits, origin, direction, tmax, live):
 @kernel
 def cross_surfaces(factor, live, surf, walk, scene, texcoords):
     """Transparent shadow rays ``walk`` = (direction, t, tmax) crossing the surfaces they hit
-    (``surf``, a :class:`raytrace.records.Surface`):
+    (``surf``, a :class:`raytrace.kernels.records.Surface`):
     ``S *= t·kt + (1 − t)`` (seed 003, t the opacity) on row ``live[j]`` of ``factor``. Those
     that still let some channel through go on from the far side (:func:`leave1` along their
     ``direction``) for the rest of their ``tmax`` (minus the hit's ``t``): returns their
@@ -546,7 +554,7 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     Fresnel (the same additions into the samples).
 
     The children's directions, weights, status and TIR flags are written into ``children``
-    (a :class:`raytrace.records.Children`): ``status`` (n, 3), columns reflected, refracted,
+    (a :class:`raytrace.kernels.records.Children`): ``status`` (n, 3), columns reflected, refracted,
     see-through: NONE where the material has no such child or its weight is 0, PRUNED where
     its largest channel is under ``min_weight`` (Hall & Greenberg 1983), else KEEP. ``tir`` is
     set on transmitting hits only.
@@ -670,12 +678,13 @@ def spawn_children(children, parents, surf, first, kinds, out):
     """The children of a batch of hits: every child whose ``status`` (n, 3) is KEEP, column
     c's (reflected, refracted, see-through: directions ``r_dir``, ``t_dir`` and the parent's
     own, weights ``w_r``, ``w_t``, ``w_s`` of ``children``, a
-    :class:`raytrace.records.Children`; kind ``kinds[c]``) in hit order from row ``first[c]``
-    of ``out`` (a :class:`raytrace.records.Spawned`) on; the integrator sets ``first`` from
+    :class:`raytrace.kernels.records.Children`; kind ``kinds[c]``) in hit order from row
+    ``first[c]``
+    of ``out`` (a :class:`raytrace.kernels.records.Spawned`) on; the integrator sets ``first`` from
     :func:`count_keep`'s prefix sums, so the batch is allocated once, all reflected children
     first. Writes origin (:func:`leave1` from the hit of ``surf`` along the child's
     direction), direction, weight, sample (the parent's, of ``parents``, a
-    :class:`raytrace.records.Rays`), start shape, kind and the row of each child's parent
+    :class:`raytrace.kernels.records.Rays`), start shape, kind and the row of each child's parent
     hit."""
     r_dir, t_dir, w_r, w_t, w_s, status = (children.r_dir, children.t_dir, children.w_r,
                                            children.w_t, children.w_s, children.status)
@@ -715,7 +724,7 @@ def accumulate(samples, sample, weight, factor, rows):
             samples[s, c] += weight[r, c] * factor[f, c]
 
 
-# -- AOVs: the camera rays' first hits (raytrace.aov) ---------------------------------------------
+# -- AOVs: the camera rays' first hits (raytrace.film.aov) -----------------------------------------
 @kernel
 def aov_hits(rays, t, surf, scene, objects, aovs):
     """The AOVs of camera-ray hits (``rays``, their distances ``t`` and ``surf``) into their
@@ -810,7 +819,7 @@ def refract_rows(d, n, eta, out, tir):
 
 @kernel
 def incidence_rows(points, em, words, to_light, dist, factor):
-    """:func:`incidence1` at each point; ``words`` (n,) the :func:`raytrace.core.light_word`
+    """:func:`incidence1` at each point; ``words`` (n,) the :func:`raytrace.kernels.core.light_word`
     of each (or no rows: the cell centre)."""
     keyed = words.shape[0] > 0
     for i in range(points.shape[0]):

@@ -7,11 +7,12 @@ spawned rays' origins; and, at build time, the triangle tables and vertex normal
 
 Every kernel loops over rays and writes only that ray's rows, so no result depends on the
 number of threads or on how a batch is split (tests/test_threads.py). All are serial
-``nogil`` kernels (:data:`raytrace.jit.kernel`): the integrator's threads run them side by
+``nogil`` kernels (:data:`raytrace.kernels.jit.kernel`): the integrator's threads run them side by
 side on batches of their own, beside Embree. Their arguments are the named records of
-:mod:`raytrace.records` and C-contiguous arrays of fixed dtypes (Embree's own float32 / int32
+:mod:`raytrace.kernels.records` and C-contiguous arrays of fixed dtypes (Embree's own float32 /
+int32
 outputs among them), so each kernel compiles once, into numba's cache. Where a spawned ray
-starts is :func:`raytrace.core.leave1`, shared with the shading kernels.
+starts is :func:`raytrace.kernels.core.leave1`, shared with the shading kernels.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import numpy as np
 
 from .core import FLAT
 from .jit import inline, kernel
-from .rays import NO_SHAPE
+from .kinds import NO_SHAPE, PLANE, ROW, SHAPE_KINDS, SPHERE  # noqa: F401
 
 #: Rounding tolerance of analytic shapes, relative to the coordinates' magnitude.
 TOL = 16.0 * float(np.finfo(np.float64).eps)
@@ -46,11 +47,6 @@ SPAWN_OFFSET = 3.0 * 2.0**-23
 # number the shapes kind by kind, in SHAPE_KINDS' order (spheres, then planes), and in the
 # scene's order within a kind (:func:`raytrace.tables.shape_tables`).
 
-#: Floats in a shape's row (``raytrace.records.Shapes.rows``).
-ROW = 8
-#: The shape kinds by their scene-file ``type``: the code each row's ``kind`` holds.
-SPHERE, PLANE = 0, 1
-SHAPE_KINDS = {"sphere": SPHERE, "plane": PLANE}
 
 
 @kernel
@@ -184,7 +180,7 @@ def closest_analytic(o, d, origin_shape, tmax, has_tmax, shapes, t_out, shape_ou
     """Closest analytic hit of each ray with ``0 < t < tmax`` into ``t_out`` (inf on a miss)
     and ``shape_out`` (NO_SHAPE on a miss).
 
-    ``shapes`` is a :class:`raytrace.records.Shapes`; ``tmax`` is read only when
+    ``shapes`` is a :class:`raytrace.kernels.records.Shapes`; ``tmax`` is read only when
     ``has_tmax``. The first shape in the shapes' order wins a tie. See :func:`sphere_t` and
     :func:`plane_t` for the self-hit rules.
     """
@@ -217,7 +213,7 @@ def closest_analytic(o, d, origin_shape, tmax, has_tmax, shapes, t_out, shape_ou
 def analytic_surface(shape, point, shapes, point_out, normal_out):
     """Rows with an analytic ``shape``: ``point`` snapped onto the surface into
     ``point_out`` and the unit outward normal into ``normal_out`` (:func:`shape_surface`);
-    other rows are left as they are. ``shapes``: a :class:`raytrace.records.Shapes`."""
+    other rows are left as they are. ``shapes``: a :class:`raytrace.kernels.records.Shapes`."""
     kinds, rows = shapes.kind, shapes.rows
     for i in range(shape.shape[0]):
         s = shape[i]
@@ -254,7 +250,7 @@ def shadow_prepass(rays, shapes, to_embree, blocked, embree):
     (idx (their indices), o32, d32 (float32 origins and directions), far
     (``min(tmax, f32 max)``)); returns how many.
     One pass where a closest-hit pass, a column of t and a gathering pass were. ``shapes``: a
-    :class:`raytrace.records.Shapes`."""
+    :class:`raytrace.kernels.records.Shapes`."""
     o, d, origin_shape, tmax = rays
     idx, o32, d32, far = embree
     kinds, rows = shapes.kind, shapes.rows
@@ -308,7 +304,8 @@ def refine_hits(embree, rows, adv, tables, rays, hits, redo):
     Returns how many were set aside.
 
     ``embree`` = (geomID, primID, u, v) of Embree's answer for ray ``rows[j]`` at row j
-    (ray j itself where ``rows`` is empty); ``tables`` a :class:`raytrace.records.Triangles`;
+    (ray j itself where ``rows`` is empty); ``tables`` a
+    :class:`raytrace.kernels.records.Triangles`;
     ``rays`` = (o, d, tmax, has_tmax); ``hits`` = (t, shape, triangle, uv), updated in place;
     ``redo`` = (rows, adv) outputs.
 
@@ -430,9 +427,9 @@ def retrace_rays(redo, rays, t, out):
 # -- surfaces -------------------------------------------------------------------------------
 @kernel
 def hit_surfaces(hits, o, d, shapes, tables, out):
-    """Everything the shading needs at each of ``hits`` (:class:`raytrace.records.Hits`) of
+    """Everything the shading needs at each of ``hits`` (:class:`raytrace.kernels.records.Hits`) of
     rays ``o``, ``d``, written into the point, geometric, shading, material and offset
-    columns of ``out`` (:class:`raytrace.records.Surface`).
+    columns of ``out`` (:class:`raytrace.kernels.records.Surface`).
 
     Analytic hits: the point ``o + t·d`` snapped onto the shape (:func:`shape_surface`), its
     normal
@@ -445,8 +442,8 @@ def hit_surfaces(hits, o, d, shapes, tables, out):
     error band (:func:`triangle_tables`) is at most twice that, the offset is the band itself
     (a small triangle: Embree never reports it again to such a ray). Elsewhere a ray leaving
     the hit may meet its own triangle as a float32 artefact, which the queries discard
-    (:func:`refine_hits`). ``shapes``: the :class:`raytrace.records.Shapes`; ``tables`` the
-    :class:`raytrace.records.Triangles`.
+    (:func:`refine_hits`). ``shapes``: the :class:`raytrace.kernels.records.Shapes`; ``tables`` the
+    :class:`raytrace.kernels.records.Triangles`.
     """
     kinds, rows, shape_material = shapes.kind, shapes.rows, shapes.material
     t, shape, triangle, uv = hits

@@ -9,21 +9,20 @@ from __future__ import annotations
 import dataclasses
 import json
 import tomllib
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from . import values
-from .errors import SceneError
-from .material import Material, library, material_from_table
-from .scene import (
-    LIGHT_TYPES,
-    OBJECT_TYPES,
-    Camera,
-    Mesh,
-    RenderSettings,
-    Scene,
-)
+import numpy as np
+
+from .. import values
+from ..errors import RenderWarning, SceneError
+from ..lights import DirectionalLight
+from ..material import Material, library, material_from_table
+from ..scene import FROM_FILE, LIGHT_TYPES, OBJECT_TYPES, Camera, Mesh, RenderSettings, Scene
+from .asset import GLTF_SUFFIXES, OBJ_SUFFIXES
+from .gltf import load_gltf
 
 TOP_KEYS = ("render", "camera", "ambient", "materials", "lights", "objects")
 RENDER_KEYS = ("width", "height", "spp", "max_depth", "min_weight", "background", "seed",
@@ -54,14 +53,10 @@ REQUIRED = {cls: _required(cls) for cls in (*LIGHT_TYPES.values(), *OBJECT_TYPES
 
 def load_scene(path: str | Path) -> Scene:
     """Read a ``.toml`` or ``.json`` scene file into a :class:`Scene`; an ``.obj``, ``.gltf``
-    or ``.glb`` model alone becomes a scene too (:func:`raytrace.assets.scene_from_model`)."""
+    or ``.glb`` model alone becomes a scene too (:func:`scene_from_model`)."""
     path = Path(path)
     name = str(path)
-    from .assets import GLTF_SUFFIXES, OBJ_SUFFIXES
-
     if path.suffix.lower() in GLTF_SUFFIXES + OBJ_SUFFIXES:  # a model alone: no TOML
-        from .assets import scene_from_model
-
         return scene_from_model(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -200,3 +195,62 @@ def _object(table: Mapping, key: str, folder: Path):
     if cls is Mesh and "file" in table:
         extra["file"] = folder / values.string(table["file"], f"{key}.file")
     return _construct(cls, table, key, **extra)
+
+
+#: What a model file alone is rendered with: a grey world (a glTF or OBJ file has no
+#: background) and a little ambient light, so the unlit sides are not black.
+MODEL_BACKGROUND = 0.3
+MODEL_AMBIENT = 0.1
+
+
+def scene_from_model(path: Path) -> Any:
+    """A whole scene from a model file alone (``raytrace render model.glb``): the file's
+    meshes with their own materials; its camera and lights (glTF) where it has them, else a
+    camera framing the bounding box (:func:`framing_camera`) and a light over the camera's
+    shoulder, both reported as a :class:`~raytrace.errors.RenderWarning` line."""
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError("model file not found", file=str(path))
+    found = None
+    if path.suffix.lower() in GLTF_SUFFIXES:
+        found = load_gltf(path)
+    try:
+        mesh = Mesh(file=path, material=FROM_FILE)
+    except SceneError as e:
+        raise SceneError(e.problem, e.key if e.file else None, e.file or str(path)) from None
+    render = RenderSettings()
+    notes = []
+    if found is not None and found.camera is not None:
+        cam = found.camera
+        camera = Camera(cam["position"], cam["look_at"], cam["up"], cam["fov"])
+        if cam["aspect"]:
+            render = RenderSettings(height=max(1, round(640 / cam["aspect"])))
+    else:
+        camera = framing_camera(mesh.vertices)
+        notes.append(f"no camera in the file: camera at {_vec(camera.position)} looking at "
+                     f"{_vec(camera.look_at)}, fov {camera.fov:g}")
+    lights = list(found.lights) if found is not None else []
+    if not lights:
+        right, up, forward = camera.basis()
+        lights = [DirectionalLight(direction=forward - 0.5 * up + 0.5 * right, color=1.0)]
+        notes.append(f"no lights in the file: a directional light travelling "
+                     f"{_vec(lights[0].direction)}")
+    if notes:
+        warnings.warn(f"{path}: " + "; ".join(notes), RenderWarning, stacklevel=2)
+    render.background = values.color(MODEL_BACKGROUND, "background")
+    return Scene(camera=camera, objects=[mesh], lights=lights, ambient=MODEL_AMBIENT,
+                 render=render, path=str(path))
+
+
+def framing_camera(vertices: np.ndarray, fov: float = 40.0) -> Any:
+    """A camera that sees the whole bounding sphere of ``vertices``: looking at the box's
+    centre from the front (+z), a little right and above, at the distance where the sphere
+    of the box's half-diagonal r fills the vertical field of view, r / sin(fov/2)."""
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    centre, r = (lo + hi) / 2, max(float(np.linalg.norm(hi - lo)) / 2, 1e-9)
+    view = np.array([0.35, 0.3, 1.0]) / np.linalg.norm([0.35, 0.3, 1.0])
+    return Camera(centre + view * r / np.sin(np.radians(fov / 2)), centre, (0, 1, 0), fov)
+
+
+def _vec(v: np.ndarray) -> str:
+    return "[" + ", ".join(f"{x:.4g}" for x in v) + "]"

@@ -6,7 +6,7 @@ A :class:`Texture` holds the image as linear float32 RGBA (H, W, 4), row 0 at th
 function="sRGB")``, IEC 61966-2-1), alpha stays linear. The renderer samples it at the hit's
 texture coordinates (s, t) (t = 0 at the top row, as in glTF; OBJ's t is flipped on loading)
 with bilinear filtering between texel centres (texel (i, j) is at ((i + ½)/W, (j + ½)/H)),
-and the wrap mode per axis from :data:`WRAPS` (:func:`raytrace.core.texture1`). Images are
+and the wrap mode per axis from :data:`WRAPS` (:func:`raytrace.kernels.core.texture1`). Images are
 read with Pillow.
 """
 
@@ -18,10 +18,11 @@ from typing import Any
 
 import numpy as np
 
-from . import values
-from .errors import SceneError
+from .. import values
+from ..errors import SceneError
+from ..film.tonemap import colour as quiet_colour
 
-#: Wrap modes by name → the code :func:`raytrace.core.wrap1` reads.
+#: Wrap modes by name → the code :func:`raytrace.kernels.core.wrap1` reads.
 WRAPS = {"repeat": 0, "clamp": 1, "mirror": 2}
 #: glTF sampler wrap codes (§5.26: REPEAT, CLAMP_TO_EDGE, MIRRORED_REPEAT).
 GLTF_WRAPS = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
@@ -57,8 +58,6 @@ class Texture:
         except (OSError, UnidentifiedImageError, ValueError, Image.DecompressionBombError) as e:
             raise SceneError(f"cannot read texture {file}: {e}", key, where) from None
         if srgb:
-            from .tonemap import colour as quiet_colour
-
             colour = quiet_colour()
             rgba[..., :3] = colour.cctf_decoding(rgba[..., :3], function="sRGB")
         return cls(rgba, wrap, Path(file) if data is None else None)
@@ -72,18 +71,6 @@ class Texture:
     @property
     def max(self) -> np.ndarray:
         return self.texels[..., :3].reshape(-1, 3).max(axis=0).astype(np.float64)
-
-    def sample(self, st: np.ndarray) -> np.ndarray:
-        """Bilinear RGB at texture coordinates (n, 2): the renderer's own rule,
-        :func:`raytrace.core.texture1`."""
-        from .core import texture_rows
-
-        st = np.ascontiguousarray(np.asarray(st, np.float64).reshape(-1, 2))
-        out = np.empty((len(st), 3))
-        h, w = self.texels.shape[:2]
-        info = np.array([[0, w, h, WRAPS[self.wrap[0]], WRAPS[self.wrap[1]]]], np.int64)
-        texture_rows(self.texels.reshape(-1), info, st, out)
-        return out
 
 
 def _pixels(im: Any) -> np.ndarray:
@@ -114,39 +101,3 @@ def mtl_texture(file: Path, options: dict, key: str, where: str) -> Texture:
     """An MTL ``map_Kd`` (sRGB; ``-clamp on`` clamps, else repeats)."""
     wrap = options.get("wrap", "repeat")
     return Texture.from_file(file, key, wrap=(wrap, wrap), where=where)
-
-
-def gltf_texture(gltf: Any, info: Any, path: Path, key: str, alpha_mode: str) -> Texture:
-    """A glTF ``textureInfo``: its image (a file, a data URI or a buffer view) decoded as sRGB,
-    its sampler's wrapS / wrapT. TEXCOORD_0 only."""
-    import base64
-
-    where = str(path)
-    try:
-        tex = gltf.textures[info.index]
-        image = gltf.images[tex.source]
-    except (IndexError, TypeError):
-        raise SceneError("names no texture with an image", f"{key}.index", where) from None
-    if (info.texCoord or 0) != 0:
-        raise SceneError("only TEXCOORD_0 is supported", f"{key}.texCoord", where)
-    wrap = ("repeat", "repeat")
-    if tex.sampler is not None:
-        s = gltf.samplers[tex.sampler]
-        wrap = (GLTF_WRAPS.get(s.wrapS or 10497, "repeat"),
-                GLTF_WRAPS.get(s.wrapT or 10497, "repeat"))
-    if image.bufferView is not None:
-        from .gltf import _buffers
-
-        view = gltf.bufferViews[image.bufferView]
-        data = _buffers(gltf, path)[view.buffer]
-        start = view.byteOffset or 0
-        return Texture.from_file(Path(f"{path.name}#images[{tex.source}]"), key, wrap=wrap,
-                                 where=where, data=data[start:start + view.byteLength])
-    uri = image.uri or ""
-    if uri.startswith("data:"):
-        return Texture.from_file(Path(f"{path.name}#images[{tex.source}]"), key, wrap=wrap,
-                                 where=where, data=base64.b64decode(uri.split(",", 1)[1]))
-    from urllib.parse import unquote
-
-    return Texture.from_file(path.parent / unquote(uri), f"images[{tex.source}].uri",
-                             wrap=wrap, where=where)

@@ -24,13 +24,16 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+from urllib.parse import unquote
 
 import numpy as np
 
-from . import values
-from .assets import Asset
-from .errors import RenderWarning, SceneError
-from .material import Material
+from .. import values
+from ..errors import RenderWarning, SceneError
+from ..lights import DirectionalLight, PointLight, SpotLight
+from ..material import Material
+from .asset import Asset
+from .texture import GLTF_WRAPS, Texture
 
 COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32,
              5126: np.float32}
@@ -238,8 +241,6 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
 
 def _light(spec: dict, world: np.ndarray, where: str, path: Path):
     """A KHR_lights_punctual light at its node (:data:`LIGHTS`)."""
-    from .scene import DirectionalLight, PointLight, SpotLight
-
     kind = spec.get("type")
     color = np.array(spec.get("color", [1, 1, 1]), np.float64) * spec.get("intensity", 1.0)
     position = world[:3, 3]
@@ -313,8 +314,6 @@ def load_gltf(path: Path) -> GltfScene:
 def _load(path: Path) -> GltfScene:
     import pygltflib
 
-    from .texture import gltf_texture
-
     try:
         gltf = pygltflib.GLTF2().load(str(path))
     except Exception as e:  # pygltflib raises what json, struct or its own code raise
@@ -385,3 +384,33 @@ def _load(path: Path) -> GltfScene:
                   np.concatenate(face_mat).astype(np.int64), mats,
                   np.concatenate(uvs) if any(len(u) for u in uvs) else None, tuple(sources))
     return GltfScene(asset, camera, lights)
+
+
+def gltf_texture(gltf: Any, info: Any, path: Path, key: str, alpha_mode: str) -> Texture:
+    """A glTF ``textureInfo``: its image (a file, a data URI or a buffer view) decoded as sRGB,
+    its sampler's wrapS / wrapT. TEXCOORD_0 only."""
+    where = str(path)
+    try:
+        tex = gltf.textures[info.index]
+        image = gltf.images[tex.source]
+    except (IndexError, TypeError):
+        raise SceneError("names no texture with an image", f"{key}.index", where) from None
+    if (info.texCoord or 0) != 0:
+        raise SceneError("only TEXCOORD_0 is supported", f"{key}.texCoord", where)
+    wrap = ("repeat", "repeat")
+    if tex.sampler is not None:
+        s = gltf.samplers[tex.sampler]
+        wrap = (GLTF_WRAPS.get(s.wrapS or 10497, "repeat"),
+                GLTF_WRAPS.get(s.wrapT or 10497, "repeat"))
+    if image.bufferView is not None:
+        view = gltf.bufferViews[image.bufferView]
+        data = _buffers(gltf, path)[view.buffer]
+        start = view.byteOffset or 0
+        return Texture.from_file(Path(f"{path.name}#images[{tex.source}]"), key, wrap=wrap,
+                                 where=where, data=data[start:start + view.byteLength])
+    uri = image.uri or ""
+    if uri.startswith("data:"):
+        return Texture.from_file(Path(f"{path.name}#images[{tex.source}]"), key, wrap=wrap,
+                                 where=where, data=base64.b64decode(uri.split(",", 1)[1]))
+    return Texture.from_file(path.parent / unquote(uri), f"images[{tex.source}].uri",
+                             wrap=wrap, where=where)

@@ -22,7 +22,7 @@ A preview of linear RGB is, per pixel,
 
 Cost: ``clip`` and the per-pixel operators (``reinhard``/``simple``, ``gamma``, ``filmic``) run
 band by band, so the memory a preview adds does not grow with the image; ``clip`` reads the
-float32 image in place in one compiled pass (:mod:`raytrace.tonemap_kernels`). The other
+float32 image in place in one compiled pass (:mod:`raytrace.kernels.tonemap`). The other
 operators compute statistics of the whole image (maximum, log-average, mean) inside
 colour-hdri, so they run on the whole image in float64, as colour-hdri computes.
 Measurements: docs/performance.md, "Previews".
@@ -39,7 +39,7 @@ import inspect
 import math
 import sys
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -214,7 +214,7 @@ def srgb_encode(y: np.ndarray) -> np.ndarray:
 
 
 class SRGBTable(NamedTuple):
-    """Where each sRGB code begins, for :func:`raytrace.tonemap_kernels.encode`."""
+    """Where each sRGB code begins, for :func:`raytrace.kernels.tonemap.encode`."""
 
     lut: np.ndarray
     thresholds: np.ndarray
@@ -249,109 +249,3 @@ def srgb_table(bits: int = 8) -> SRGBTable:
     n = 1 << (16 if bits == 8 else 20)
     lut = np.searchsorted(thresholds, np.arange(n) / n, side="right").astype(np.uint16)
     return SRGBTable(lut, thresholds)
-
-
-def _as_rgb(rgb: Any) -> np.ndarray:
-    """``rgb`` as an (H, W, 3) float array without a copy where it already is one."""
-    rgb = np.asarray(rgb)
-    if rgb.ndim != 3 or rgb.shape[2] != 3:
-        raise ValueError(f"expected an (H, W, 3) image, got shape {rgb.shape}")
-    if rgb.dtype not in (np.float32, np.float64):
-        rgb = rgb.astype(np.float32)
-    return rgb
-
-
-def _linear(band: np.ndarray, scale: float) -> np.ndarray:
-    """``max(x, 0) · scale`` in float64 with non-finite values as 0: what an operator sees."""
-    from .tonemap_kernels import exposed
-
-    out = np.empty(band.shape, np.float64)
-    exposed(band, scale, out)
-    return out
-
-
-def _rows(rgb: np.ndarray) -> int:
-    return max(1, BAND_PIXELS // max(1, rgb.shape[1]))
-
-
-def luminance_weights() -> np.ndarray:
-    """The Y row of the sRGB/Rec. 709 RGB → XYZ matrix (D65), by colour-science: the weights
-    of ``colour.RGB_luminance`` for these primaries (0.2126, 0.7152, 0.0722)."""
-    c = colour()
-    srgb = c.RGB_COLOURSPACES["sRGB"]
-    return np.ascontiguousarray(c.normalised_primary_matrix(srgb.primaries, srgb.whitepoint)[1])
-
-
-def auto_exposure(rgb: np.ndarray) -> float:
-    """The exposure (stops) that maps the log-average luminance to :data:`AUTO_KEY`:
-    ``log2(0.18 / L̄)``, ``L̄ = exp(mean(log L))`` over the pixels with ``L > 0``
-    (Reinhard et al. 2002, eqs. 1-2), L the Rec. 709 luminance (:func:`luminance_weights`);
-    0 for an image with no lit pixel. One compiled pass over the image in place; clamped to
-    :data:`EXPOSURE_RANGE`.
-
-    >>> round(auto_exposure(np.full((2, 2, 3), 0.36, np.float32)), 6)
-    -1.0
-    """
-    from .tonemap_kernels import log_luminance
-
-    log_sum, count = log_luminance(_as_rgb(rgb), luminance_weights())
-    if not count:
-        return 0.0
-    ev = math.log2(AUTO_KEY) - log_sum / count / math.log(2.0)
-    return float(min(max(ev, EXPOSURE_RANGE[0]), EXPOSURE_RANGE[1]))
-
-
-def bands(rgb: np.ndarray, exposure: float | str = 0.0, tonemap: str = "clip", *,
-          bits: int = 8, params: dict | None = None) -> Iterator[tuple[int, int, np.ndarray]]:
-    """The preview of ``rgb`` (see the module docstring) as ``(row0, row1, codes)`` bands,
-    top to bottom: ``codes`` is (row1 − row0, W, 3) uint8 or uint16 (``bits``).
-
-    Arguments are checked before the first band (ValueError naming the problem).
-    """
-    rgb = _as_rgb(rgb)
-    ev = check_exposure(exposure)
-    dtype, _ = BIT_DEPTHS[check_bits(bits)]
-    op = operator(tonemap, params)
-    return _bands(rgb, ev, op, TONEMAPS[check_tonemap(tonemap)].per_pixel, dtype,
-                  srgb_table(bits))
-
-
-def _bands(rgb, ev, op, per_pixel, dtype, table) -> Iterator[tuple[int, int, np.ndarray]]:
-    from .tonemap_kernels import encode
-
-    scale = 2.0 ** (auto_exposure(rgb) if ev == "auto" else ev)
-    rows = _rows(rgb)
-    whole = None
-    if op is not None and not per_pixel:  # statistics of the whole image, in colour-hdri
-        with np.errstate(divide="ignore", invalid="ignore"):  # 0/0 at black pixels: black
-            whole = op(_linear(rgb, scale))
-    for y0 in range(0, rgb.shape[0], rows):
-        band = rgb[y0:y0 + rows]
-        out = np.empty(band.shape, dtype)
-        if whole is not None:
-            encode(whole[y0:y0 + rows], 1.0, table.lut, table.thresholds, out)
-        elif op is None:
-            encode(band, scale, table.lut, table.thresholds, out)
-        else:
-            with np.errstate(divide="ignore", invalid="ignore"):  # 0/0 at black pixels
-                encode(op(_linear(band, scale)), 1.0, table.lut, table.thresholds, out)
-        yield y0, y0 + len(band), out
-
-
-def preview(rgb: np.ndarray, exposure: float | str = 0.0, tonemap: str = "clip", *,
-            bits: int = 8, params: dict | None = None) -> np.ndarray:
-    """The sRGB preview (H, W, 3) uint8 (``bits=16``: uint16) of linear RGB: ``2^exposure``
-    (``"auto"``: :func:`auto_exposure`), the operator ``tonemap`` of :data:`TONEMAPS` (with
-    colour-hdri keyword ``params``), clip to [0, 1], sRGB encoding. Non-finite values and
-    negatives show black.
-
-    >>> preview(np.full((1, 2, 3), 0.5, np.float32))[0, 0].tolist()
-    [188, 188, 188]
-    """
-    rgb = _as_rgb(rgb)
-    out = None
-    for y0, y1, codes in bands(rgb, exposure, tonemap, bits=bits, params=params):
-        if out is None:
-            out = np.empty(rgb.shape, codes.dtype)
-        out[y0:y1] = codes
-    return out if out is not None else np.zeros(rgb.shape, BIT_DEPTHS[bits][0])

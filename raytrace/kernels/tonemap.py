@@ -1,14 +1,14 @@
-"""Compiled quantisation of the preview, used by :mod:`raytrace.tonemap`.
+"""Compiled quantisation of the preview, used by :mod:`raytrace.film.tonemap`.
 
 ``encode`` turns linear values into sRGB code values (8- or 16-bit) in one pass over a band of
 pixels, reading float32 (or float64) in place: no float copy of the image is made. It does not
 evaluate the sRGB transfer function itself; it looks each value up among the thresholds that
-:func:`raytrace.tonemap.srgb_table` finds by bisection on the float64 sRGB encoding
-(:func:`raytrace.tonemap.srgb_encode`: IEC 61966-2-1, the same numbers as colour-science's
+:func:`raytrace.film.tonemap.srgb_table` finds by bisection on the float64 sRGB encoding
+(:func:`raytrace.film.tonemap.srgb_encode`: IEC 61966-2-1, the same numbers as colour-science's
 ``cctf_encoding(..., function="sRGB")``), so the codes are exactly those of
 ``round(255 · cctf_encoding(clip(x · 2^EV, 0, 1)))`` evaluated in float64.
 
-A serial ``nogil`` kernel (``raytrace.jit.kernel``), like every other kernel of the package.
+A serial ``nogil`` kernel (``raytrace.kernels.jit.kernel``), like every other kernel of the package.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ def encode(src, scale, lut, thresholds, out):
         Linear values, any strides. NaN, ±inf and values ≤ 0 give code 0 (black).
     scale : float
         ``2^EV``, applied in float64 (no overflow for the exposures
-        :func:`raytrace.tonemap.check_exposure` accepts).
+        :func:`raytrace.film.tonemap.check_exposure` accepts).
     lut : (n,) uint16
         ``lut[b]`` is the code of ``y = b / n``: where to start counting thresholds for any
         ``y`` in ``[b / n, (b + 1) / n)``.

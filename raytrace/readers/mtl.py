@@ -23,8 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import RenderWarning, SceneError
-from .material import Material
+from ..errors import RenderWarning, SceneError
+from ..material import Material
 
 #: Statements read as colours: ``Ka r [g b]``.
 COLOR_STATEMENTS = ("Ka", "Kd", "Ks", "Ke", "Tf")

@@ -1,0 +1,59 @@
+"""Pixel reconstruction filters: a pixel is a weighted average of the samples around it.
+
+A pixel centred at ``c`` takes ``Σ_s f(x_s − c_x)·f(y_s − c_y)·L_s / Σ_s f(…)·f(…)`` over the
+samples ``s`` (at image positions ``x_s, y_s``, radiance ``L_s``) of every pixel whose area
+reaches within the filter's radius (pbrt-v4, "Image Reconstruction", §8.8; Mitchell &
+Netravali 1988). The filters are separable, ``f(x)·f(y)``, and each 1-D profile integrates
+to 1 over ``[−r, r]``:
+
+==========  ======  =============================================================
+name        radius  profile ``f(x)`` on ``|x| ≤ r``
+==========  ======  =============================================================
+box         0.5     1 (the mean of the pixel's own samples: the default)
+tent        1       ``1 − |x|`` (Mitsuba's ``tent``)
+gaussian    1.5     ``(g(x) − g(r)) / Z``, ``g = exp(−x²/2σ²)``, σ = 0.5 (pbrt-v4's
+                    defaults), ``Z = σ√(2π)·erf(r/σ√2) − 2r·g(r)``
+mitchell    2       Mitchell–Netravali cubic with B = C = 1/3, ``(2/r)·M(2x/r)``
+==========  ======  =============================================================
+
+``box`` keeps today's images bit for bit (the integrator averages each pixel's samples). A
+wider filter needs the samples of neighbouring pixels: the integrator traces the window plus
+a margin of :func:`raytrace.sampling.margin` pixels (clipped to the frame) and gathers each
+pixel's footprint in one fixed order (rows, then columns, then the pixel's samples), so a
+pixel's value is the same for any pass size, thread count or crop (:func:`filter_pixels`).
+Sample positions are those of the camera (:func:`raytrace.kernels.core.pixel_offset`), recomputed
+from the samples' global indices. The names and radii: :mod:`raytrace.sampling`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..kernels.filters import filter_pixels, profile_rows
+from ..sampling import FILTERS, check_filter, margin
+
+
+def profile(name: str, x: np.ndarray) -> np.ndarray:
+    """:func:`profile1` of filter ``name`` at each offset ``x`` (pixels), (n,) float64.
+
+    >>> float(profile("tent", np.array([0.5]))[0])
+    0.5
+    """
+    f = FILTERS[check_filter(name, "filter")]
+    x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1)
+    out = np.empty(len(x))
+    profile_rows(f.code, f.radius, x, out)
+    return out
+
+
+def gather(samples: np.ndarray, name: str, traced: tuple[int, int, int, int],
+           window: tuple[int, int, int, int], frame: tuple[int, int, int, int]) -> np.ndarray:
+    """The pixels (n, 3) float32 of ``window`` (x0, y0, x1, y1) from the sums (m, 3) of every
+    sample of the ``traced`` window, by filter ``name``: each pixel's footprint gathered in one
+    compiled pass (:func:`raytrace.kernels.filters.filter_pixels`). ``frame`` = (width, spp,
+    stratification grid, seed): where the camera put each sample."""
+    f = FILTERS[name]
+    out = np.empty(((window[2] - window[0]) * (window[3] - window[1]), 3), np.float32)
+    with np.errstate(over="ignore", invalid="ignore"):
+        filter_pixels(samples, traced, frame, (f.code, f.radius, margin(name)), window, out)
+    return out

@@ -1,0 +1,29 @@
+"""A mesh file with its own materials, as the readers give it (:class:`Asset`), and the file
+suffixes that carry their own materials."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..material import Material
+
+#: Suffixes whose files carry their own materials.
+OBJ_SUFFIXES = (".obj",)
+GLTF_SUFFIXES = (".gltf", ".glb")
+
+
+@dataclass
+class Asset:
+    """Triangles with per-face materials (object space)."""
+
+    vertices: np.ndarray       #: (V, 3) float64
+    faces: np.ndarray          #: (F, 3) int64
+    face_material: np.ndarray  #: (F,) int64 index into ``materials``
+    materials: list[Material]
+    texcoords: np.ndarray | None = None  #: (F, 3, 2) per corner (s, t), t = 0 at the top
+    #: Files read besides the mesh file (MTL, textures, glTF buffers): inputs no output
+    #: may overwrite.
+    sources: tuple[Path, ...] = ()

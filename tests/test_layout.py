@@ -1,0 +1,110 @@
+"""The package's layout (docs/architecture.md): a module's dependencies stand at its head, the
+import graph has no circle, the compiled kernels import nothing outside their folder, and
+``import raytrace`` loads no compiler.
+
+The graph is read from the source (every ``import`` statement, those inside functions
+included), not from a run, so a circle that only closes on some code path is found too.
+"""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import raytrace
+
+PACKAGE = Path(raytrace.__file__).resolve().parent
+#: The two lazy boundaries (docs/architecture.md, "Imports"): the command line's front door
+#: and the package's ``__init__`` (PEP 562 ``__getattr__``). Everywhere else a module imports
+#: the package's modules at its head.
+LAZY_BOUNDARIES = {"raytrace", "raytrace.cli"}
+#: What a compiled kernel module may import besides its own folder.
+KERNEL_IMPORTS = {"__future__", "math", "numpy", "numba", "hashlib", "os", "re", "sys",
+                  "tempfile", "threading", "collections", "contextlib", "pathlib", "typing"}
+
+
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+MODULES = {module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
+
+
+def imports(name: str) -> list[tuple[str, bool, int]]:
+    """(imported module, inside a function, line) for every import of ``name``'s source;
+    a package-internal ``from X import y`` names the module ``X.y`` where that is one."""
+    path = MODULES[name]
+    tree = ast.parse(path.read_text("utf-8"))
+    package = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+    found = []
+
+    def visit(node: ast.AST, inside: bool) -> None:
+        for child in ast.iter_child_nodes(node):
+            nested = inside or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef,
+                                                  ast.Lambda))
+            if isinstance(child, ast.Import):
+                found.extend((a.name, inside, child.lineno) for a in child.names)
+            elif isinstance(child, ast.ImportFrom):
+                if child.level:
+                    base = package[:len(package) - child.level + 1]
+                    module = ".".join(base + ([child.module] if child.module else []))
+                else:
+                    module = child.module or ""
+                subs = [f"{module}.{a.name}" for a in child.names if f"{module}.{a.name}" in
+                MODULES]
+                found.extend((m, inside, child.lineno) for m in (subs or [module]))
+            visit(child, nested)
+
+    visit(tree, False)
+    return found
+
+
+def test_package_modules_are_imported_at_the_head_outside_the_two_lazy_boundaries():
+    inner = [f"{name}:{line} imports {target}" for name in MODULES for target, inside, line
+             in imports(name) if inside and target in MODULES and name not in LAZY_BOUNDARIES]
+    assert inner == []
+
+
+def test_the_import_graph_has_no_circle():
+    graph = {name: {t for t, _, _ in imports(name) if t in MODULES and t != name}
+             for name in MODULES}
+    done: set[str] = set()
+
+    def walk(name: str, path: list[str]) -> None:
+        if name in path:
+            raise AssertionError("import circle: " + " -> ".join(path[path.index(name):] + [name]))
+        if name in done:
+            return
+        for target in sorted(graph[name]):
+            walk(target, [*path, name])
+        done.add(name)
+
+    for name in MODULES:
+        walk(name, [])
+
+
+def test_the_kernels_import_nothing_outside_their_folder():
+    outside = [f"{name}:{line} imports {target}" for name in MODULES
+               if name.startswith("raytrace.kernels") for target, _, line in imports(name)
+               if not target.startswith("raytrace.kernels")
+               and target.split(".")[0] not in KERNEL_IMPORTS]
+    assert outside == []
+
+
+def test_import_raytrace_loads_neither_numba_nor_numpy_s_users_of_it():
+    # The package's __init__ names its API lazily (PEP 562): the compiler, Embree and the
+    # renderer load when first used.
+    code = ("import sys, raytrace; raytrace.__all__; "
+            "print(sorted(m for m in ('numba', 'embreex', 'raytrace.integrator', "
+            "'raytrace.kernels.jit') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "[]"
+
+
+def test_every_name_the_package_exports_resolves():
+    for name in raytrace.__all__:
+        assert getattr(raytrace, name) is not None, name
