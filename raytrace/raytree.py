@@ -26,9 +26,8 @@ import numpy as np
 from . import values
 from .errors import SceneError
 from .integrator import WhittedIntegrator
-from .kernels import shading as sk
-from .kernels.shading import KEEP, PRUNED
-from .rays import KIND_NAMES
+from .kernels.kinds import KA, KEEP, KIND_NAMES, PRUNED
+from .kernels.material import surface_color1, surface_opacity1
 from .rendering import render_options
 from .scene import AreaLight, Scene
 
@@ -90,15 +89,11 @@ class Recorder:
             m = int(surf.material[j])
             material = integ.materials[m]
             point = surf.point[j] + self.origin
-            mats = integ.table.record
-            ka = sk.color1((mats.colors, mats.pattern, mats.checkers), m, sk.KA, *point)
-            opacity = float(mats.opacity[m])
-            if mats.textured[m]:  # the kernels' own texture and alpha lookups
-                st = sk.texcoord1(integ.tables.triangles.texcoords, int(surf.triangle[j]),
-                                  *surf.uv[j])
-                ka = sk.texel1(mats, m, sk.KA, st, ka)
-                if mats.alpha[m] >= 0:
-                    opacity = float(sk.opacity1(mats, m, st))
+            # the kernels' own material lookup (colour, checker, texture, alpha)
+            look = (integ.tables.materials, integ.tables.triangles.texcoords)  # as kernels
+            hit = (*(float(x) for x in point), int(surf.triangle[j]), *map(float, surf.uv[j]))
+            ka = surface_color1(*look, m, KA, hit)
+            opacity = float(surface_opacity1(*look, m, hit))
             obj = int(ident[j])
             entering = float(np.dot(rays.direction[j], surf.geometric[j])) < 0.0
             self.rays[rid]["hit"] = {

@@ -191,9 +191,9 @@ def test_a_colour_slot_does_not_compile_a_kernel_per_value(tmp_path):
     # render. With numpy integers it compiles once for all six.
     probe = (
         "import numpy as np\n"
-        "from raytrace.kernels import shading as sk\n"
+        "from raytrace.kernels import material as sk\n"
         "import numba\n"
-        "from raytrace.kernels.shading import KA, KD, KS, KE  # globals, as the kernels see them\n"
+        "from raytrace.kernels.kinds import KA, KD, KS, KE  # globals, as the kernels see them\n"
         "@numba.njit\n"
         "def every_slot(palette):\n"
         "    t = 0.0\n"

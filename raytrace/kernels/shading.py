@@ -35,14 +35,11 @@ import math
 import numpy as np
 
 from .core import (
-    ALPHA,
     FAST_PHONG,
     FLAT,
     GOURAUD,
     NO_FRESNEL,
     SHADOW_SHORTEN,
-    bilinear1,
-    checker1,
     facing1,
     fresnel_weights1,
     is_whole1,
@@ -51,7 +48,6 @@ from .core import (
     reflect3,
     refract3,
     taylor1,
-    texture1,
     whole_power1,
 )
 from .jit import kernel
@@ -71,6 +67,7 @@ from .kinds import (  # noqa: F401  (the codes, as this module's names)
     PRUNED,
     SPOT,
 )
+from .material import surface_color1, surface_opacity1
 
 
 # -- lights -----------------------------------------------------------------------------------
@@ -202,57 +199,6 @@ def direct1(normal, light, view, kd, ks, n, model):
 
 
 # -- surfaces ---------------------------------------------------------------------------------
-@kernel
-def color1(palette, m, slot, x, y, z):
-    """Colour ``slot`` (KA … KE) of material ``m`` at the world point (x, y, z): its constant
-    or its checker pattern there (``palette`` = the materials' colours, patterns and
-    checkers). A material with an image texture then takes :func:`texel1` instead."""
-    colors, pattern, checkers = palette
-    p = pattern[m, slot // 3]
-    if p < 0:
-        return colors[m, slot], colors[m, slot + 1], colors[m, slot + 2]
-    c = 3 * checker1(x, y, z, checkers[p, 6])
-    return checkers[p, c], checkers[p, c + 1], checkers[p, c + 2]
-
-
-@kernel
-def texel1(materials, m, slot, st, other):
-    """Colour ``slot`` of a textured material ``m`` at texture coordinates ``st``: its image
-    texture (:func:`raytrace.kernels.core.texture1`) where that colour has one, else ``other``.
-    Called
-    only for materials with ``textured[m]``, so scenes without textures never pay for it (a
-    per-hit helper that takes arrays costs reference counts on every call)."""
-    q = materials.texture[m, slot // 3]
-    if q < 0:
-        return other
-    return texture1(materials.texels, materials.tex_info, q, st[0], st[1])
-
-
-@kernel
-def opacity1(materials, m, st):
-    """Opacity t of a material ``m`` with an alpha texture (``materials.alpha[m] >= 0``) at
-    texture coordinates ``st``: its constant times the texture's alpha (glTF BLEND), or 1 / 0
-    by the alpha cutoff (MASK). Others take ``materials.opacity[m]`` without this call."""
-    a = materials.opacity[m] * bilinear1(materials.texels, materials.tex_info,
-                                         materials.alpha[m], st[0], st[1], ALPHA)
-    cutoff = materials.alpha_cutoff[m]
-    if cutoff >= 0.0:
-        return 1.0 if a >= cutoff else 0.0
-    return a
-
-
-@kernel
-def texcoord1(tc, tri, u, v):
-    """The texture coordinates (s, t) at barycentrics (u, v) of triangle ``tri``,
-    ``(1 − u − v)·st₀ + u·st₁ + v·st₂`` from its corners' ``tc`` (T, 3, 2); (0, 0) off a
-    triangle. Called only for textured materials."""
-    if tri < 0:
-        return 0.0, 0.0
-    w = 1.0 - u - v
-    return (w * tc[tri, 0, 0] + u * tc[tri, 1, 0] + v * tc[tri, 2, 0],
-            w * tc[tri, 0, 1] + u * tc[tri, 1, 1] + v * tc[tri, 2, 1])
-
-
 # -- batch kernels of the integrator ----------------------------------------------------------
 @kernel
 def bulge1(p, tri, u, v, side, smooth):
@@ -359,8 +305,10 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
     direction, eye = rays.direction, rays.origin
     point, geometric, shading, material = surf.point, surf.geometric, surf.shading, surf.material
     materials, triangles, origin = scene.materials, scene.triangles, scene.origin
-    palette = (materials.colors, materials.pattern, materials.checkers)
-    textured, texcoords = materials.textured, scene.triangles.texcoords
+    if depth is None:  # no triangles, no image textures: no texture code compiled
+        texcoords = None
+    else:
+        texcoords = triangles.texcoords
     code = triangles.shading
     smooth_tables = (triangles.corners, triangles.vnormals)
     rows, s_origin, s_direction, s_tmax, s_shape = shadow
@@ -385,12 +333,9 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
         wx, wy, wz = px + origin[0], py + origin[1], pz + origin[2]
         tri = surf.triangle[i]
         u, v = surf.uv[i, 0], surf.uv[i, 1]
-        kd = color1(palette, m, KD, wx, wy, wz)
-        ks = color1(palette, m, KS, wx, wy, wz)
-        if depth is not None and textured[m]:
-            st = texcoord1(texcoords, tri, u, v)
-            kd = texel1(materials, m, KD, st, kd)
-            ks = texel1(materials, m, KS, st, ks)
+        hit = (wx, wy, wz, tri, u, v)
+        kd = surface_color1(materials, texcoords, m, KD, hit)
+        ks = surface_color1(materials, texcoords, m, KS, hit)
         smooth = tri >= 0 and code[tri] != FLAT
         if depth is not None and smooth and code[tri] == GOURAUD:
             r, g, b = gouraud1((tri, u, v, s), (eye[i, 0], eye[i, 1], eye[i, 2]), smooth_tables,
@@ -486,20 +431,14 @@ def cross_surfaces(factor, live, surf, walk, scene, texcoords):
     direction, t, tmax = walk
     material, point, geometric = surf.material, surf.point, surf.geometric
     origin, materials = scene.origin, scene.materials
-    palette = (materials.colors, materials.pattern, materials.checkers)
-    textured, alpha = materials.textured, materials.alpha
     n, on = live.shape[0], 0
     through = np.empty(n, np.bool_)
     for j in range(n):
         mj = material[j]
-        op = materials.opacity[mj]
-        kt = color1(palette, mj, KT, point[j, 0] + origin[0], point[j, 1] + origin[1],
-                    point[j, 2] + origin[2])
-        if texcoords is not None and textured[mj]:  # compiled only for textured scenes
-            st = texcoord1(texcoords, surf.triangle[j], surf.uv[j, 0], surf.uv[j, 1])
-            kt = texel1(materials, mj, KT, st, kt)
-            if alpha[mj] >= 0:
-                op = opacity1(materials, mj, st)
+        hit = (point[j, 0] + origin[0], point[j, 1] + origin[1], point[j, 2] + origin[2],
+               surf.triangle[j], surf.uv[j, 0], surf.uv[j, 1])
+        kt = surface_color1(materials, texcoords, mj, KT, hit)
+        op = surface_opacity1(materials, texcoords, mj, hit)
         r = live[j]
         for c in range(3):
             factor[r, c] *= op * kt[c] + (1.0 - op)
@@ -562,9 +501,7 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     direction, weight = rays.direction, rays.weight
     geometric, shading, material, point = surf.geometric, surf.shading, surf.material, surf.point
     origin, materials = scene.origin, scene.materials
-    palette = (materials.colors, materials.pattern, materials.checkers)
-    textured, texcoords = materials.textured, scene.triangles.texcoords
-    alpha = materials.alpha
+    texcoords = scene.triangles.texcoords
     samples, sample = into
     if children is not None:
         r_dir, t_dir, w_r, w_t, w_s, status, tir = children
@@ -574,19 +511,11 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     lit = lights.shape[0] > 0
     for i in range(direction.shape[0]):
         m = material[i]
-        wx, wy, wz = point[i, 0] + origin[0], point[i, 1] + origin[1], point[i, 2] + origin[2]
-        tex = textured[m]
-        op = materials.opacity[m]
-        ka = color1(palette, m, KA, wx, wy, wz)
-        ke = color1(palette, m, KE, wx, wy, wz) if emits[m] else (0.0, 0.0, 0.0)
-        st = (0.0, 0.0)
-        if tex:
-            st = texcoord1(texcoords, surf.triangle[i], surf.uv[i, 0], surf.uv[i, 1])
-            ka = texel1(materials, m, KA, st, ka)
-            if emits[m]:
-                ke = texel1(materials, m, KE, st, ke)
-            if alpha[m] >= 0:
-                op = opacity1(materials, m, st)
+        hit = (point[i, 0] + origin[0], point[i, 1] + origin[1], point[i, 2] + origin[2],
+               surf.triangle[i], surf.uv[i, 0], surf.uv[i, 1])
+        op = surface_opacity1(materials, texcoords, m, hit)
+        ka = surface_color1(materials, texcoords, m, KA, hit)
+        ke = surface_color1(materials, texcoords, m, KE, hit) if emits[m] else (0.0, 0.0, 0.0)
         for c in range(3):
             here = ambient[c] * ka[c]
             if lit:
@@ -605,13 +534,9 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
         fx, fy, fz = gx * s, gy * s, gz * s
         kr, kt = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         if reflects[m]:
-            kr = color1(palette, m, KR, wx, wy, wz)
-            if tex:
-                kr = texel1(materials, m, KR, st, kr)
+            kr = surface_color1(materials, texcoords, m, KR, hit)
         if transmits[m]:
-            kt = color1(palette, m, KT, wx, wy, wz)
-            if tex:
-                kt = texel1(materials, m, KT, st, kt)
+            kt = surface_color1(materials, texcoords, m, KT, hit)
         if fresnel[m] != NO_FRESNEL:  # kr, kt for this angle (V = −d, N facing the viewer)
             entering = dx * gx + dy * gy + dz * gz < 0.0
             kr, kt = fresnel_weights1(fresnel[m], -(dx * nx + dy * ny + dz * nz),
@@ -738,9 +663,8 @@ def aov_hits(rays, t, surf, scene, objects, aovs):
     sample, direction = rays.sample, rays.direction
     geometric, shading, material, point = surf.geometric, surf.shading, surf.material, surf.point
     shape, triangle = surf.shape, surf.triangle
-    origin, materials, geom_first = scene.origin, scene.materials, scene.triangles.geom_first
-    palette = (materials.colors, materials.pattern, materials.checkers)
-    textured, texcoords = materials.textured, scene.triangles.texcoords
+    origin, geom_first = scene.origin, scene.triangles.geom_first
+    materials, texcoords = scene.materials, scene.triangles.texcoords
     shape_object, geom_object = objects
     depth, normal, albedo, ident = aovs
     for i in range(sample.shape[0]):
@@ -753,12 +677,9 @@ def aov_hits(rays, t, surf, scene, objects, aovs):
             for c in range(3):
                 normal[s, c] = f * shading[i, c]
         if albedo.shape[0]:
-            mi = material[i]
-            kd = color1(palette, mi, KD, point[i, 0] + origin[0], point[i, 1] + origin[1],
-                        point[i, 2] + origin[2])
-            if textured[mi]:
-                kd = texel1(materials, mi, KD,
-                            texcoord1(texcoords, triangle[i], surf.uv[i, 0], surf.uv[i, 1]), kd)
+            kd = surface_color1(materials, texcoords, material[i], KD, (
+                point[i, 0] + origin[0], point[i, 1] + origin[1], point[i, 2] + origin[2],
+                triangle[i], surf.uv[i, 0], surf.uv[i, 1]))
             for c in range(3):
                 albedo[s, c] = kd[c]
         if ident.shape[0]:
