@@ -121,9 +121,10 @@ def _parser() -> argparse.ArgumentParser:
                         "OpenEXR >= 3.5 to read)")
     r.add_argument("-q", "--quiet", action="store_true",
                    help="no progress bar and no summary line (both only on a terminal)")
-    r.add_argument("--aov", help="AOVs written as more channels of the EXR, comma-separated: "
-                                 "depth (Z), normal (N.X N.Y N.Z), albedo (albedo.R .G .B), "
-                                 "id (the object's index)")
+    r.add_argument("--aov", metavar="NAMES",
+                   help="AOVs written as more channels of the EXR, comma-separated names "
+                        "(depth, normal, ...; a wrong one lists them all; docs/testing.md "
+                        "gives their channels)")
     r.add_argument("--crop", type=int, nargs=4, metavar=("X0", "Y0", "X1", "Y1"),
                    help="render only these pixels (half-open bounds; the EXR's data window "
                         "in the full frame's display window)")

@@ -46,9 +46,10 @@ from .film import aov as aov_images
 from .film import filters
 from .film.image import Image
 from .kernels import shading as sk  # the compiled passes of this stage
+from .kernels.aov import aov_hits, aov_pixels
 from .kernels.kinds import KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH
 from .kernels.rays import count_kinds, gather_chunks, sample_chunks, split_hits, take_hits
-from .kernels.records import Children, Shadows, Spawned
+from .kernels.records import AOVLayout, Children, Objects, Shadows, Spawned
 from .lights import Emitter, emitters
 from .rays import RayBatch
 from .scene import RenderSettings, Scene
@@ -72,11 +73,8 @@ DEBUG = os.environ.get("RAYTRACE_DEBUG", "") not in ("", "0")
 NO_LIGHT = np.zeros((0, 3))
 #: :func:`add`'s factor for contributions that are already weighted.
 ONE = np.ones((1, 3))
-#: Per-sample AOV columns (depth, normal, albedo, id) of a render without AOVs, and of an
-#: image without one of them: no rows, so :func:`raytrace.kernels.shading.aov_hits` skips it.
-NO_AOV_SAMPLES = (np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int64))
-NO_AOV_PIXELS = (np.zeros(0, np.float32), np.zeros((0, 3), np.float32),
-                 np.zeros((0, 3), np.float32), np.zeros(0, np.int32))
+#: The per-pixel AOV table of a render without AOVs (:func:`raytrace.film.aov.layout`).
+NO_AOV_PIXELS = np.zeros((0, 1))
 
 
 @dataclass(kw_only=True)
@@ -142,7 +140,7 @@ class Worker(threading.local):
         self.camera_columns: RayBatch | None = None  # raytrace.camera.camera_columns
         self.first_sample = 0  # index (in the window) of the current pass's first sample
         self.keys: np.ndarray | None = None  # adaptive: each sample's lattice id (light key)
-        self.aov = NO_AOV_SAMPLES  # this pass's per-sample AOV columns
+        self.aov = NO_AOV_PIXELS  # this pass's per-sample AOV table
         self.stats: Stats | None = None
         self.render = -1  # the render (WhittedIntegrator._renders) the stats count
 
@@ -186,6 +184,8 @@ class WhittedIntegrator:
         #: scene without image textures (kernels compiled without them).
         self.texcoords = (self.arrays.triangles.texcoords if "textures" in self.features
                           else None)
+        #: Which scene object each analytic shape and mesh is (the id AOV).
+        self.objects = Objects(self.arrays.shapes.object, self.arrays.geom_object)
         #: What every shading kernel needs of the scene (:class:`raytrace.kernels.records.Scene`).
         self.tables = self.arrays.record
         #: Each emitter's fast-Phong table (:mod:`raytrace.fast_phong`), or none (exact).
@@ -200,6 +200,8 @@ class WhittedIntegrator:
         frame) and the window traced: the same, or, for a filter wider than a pixel, grown by
         its reach (clipped to the frame)."""
         self.opt = options
+        #: The columns of the AOVs asked for (:func:`raytrace.film.aov.layout`).
+        self.aov_layout = aov_images.layout(options.aovs)
         #: Whether missed rays add anything (the background is not black).
         self.any_background = bool(np.any(options.background))
         self.window = options.crop or (0, 0, options.width, options.height)
@@ -281,11 +283,12 @@ class WhittedIntegrator:
         filtered = opt.filter != "box"
         pixels = np.empty((total if filtered else cols * rows, 3),
                           dtype=np.float64 if filtered else np.float32)
-        aovs = {name: aov_images.empty(name, (rows, cols)) for name in opt.aovs}
-        flat = {name: a.reshape(cols * rows, *a.shape[2:]) for name, a in aovs.items()}
-        self._aov_out = tuple(flat.get(name, none)
-                              for name, none in zip(aov_images.AOVS, NO_AOV_PIXELS, strict=True))
+        self._aov_out = NO_AOV_PIXELS
+        if opt.aovs:  # one table, a row per pixel (raytrace.film.aov.layout's columns)
+            self._aov_out = np.empty((cols * rows, len(self.aov_layout.miss)))
+            self._aov_out[:] = self.aov_layout.miss
         self._run(passes, pixels, progress, total)
+        aovs = aov_images.images(self._aov_out, opt.aovs, (rows, cols))
         if filtered:
             pixels, (cols, rows) = self._filter(pixels), self.window_size
             dx, dy = self.window[0] - self.traced[0], self.window[1] - self.traced[1]
@@ -380,8 +383,9 @@ class WhittedIntegrator:
         keep = pixels.dtype == np.float64  # every sample kept for the filter
         samples = pixels[start:stop] if keep else self.scratch("samples", n, 3)
         samples.fill(0.0)
-        if opt.aovs:
-            w.aov = self._aov_samples(n)
+        if opt.aovs:  # every camera sample a miss until its ray hits
+            w.aov = self.scratch("aov", n, len(self.aov_layout.miss))
+            w.aov[:] = self.aov_layout.miss
         self.trace_samples(start, stop, samples)
         first, last = start // opt.spp, stop // opt.spp
         if not keep:
@@ -389,8 +393,8 @@ class WhittedIntegrator:
                 pixels[first:last] = (
                     samples if opt.spp == 1 else samples.reshape(-1, opt.spp, 3).mean(1))
         if opt.aovs:
-            sk.aov_pixels(last - first, opt.spp, tuple(w.aov),
-                         tuple(a[first:last] for a in self._aov_out))
+            aov_pixels(last - first, opt.spp, w.aov, self.aov_layout,
+                       self._aov_out[first:last])
         self.stats.pass_seconds += time.perf_counter() - t0
 
     def _render_rows(self, start: int, stop: int, pixels: np.ndarray) -> None:
@@ -455,26 +459,6 @@ class WhittedIntegrator:
             if len(children):
                 pending.append(children)
 
-    def _aov_samples(self, n: int) -> tuple[np.ndarray, ...]:
-        """This thread's per-sample AOV columns for a pass of ``n`` samples, set to a miss
-        (depth +inf, normal and albedo 0, id −1); no rows for what was not asked for (depth
-        is kept for id too: the nearest sample's id)."""
-        want, new = self.opt.aovs, self.scratch
-        depth, normal, albedo, ident = NO_AOV_SAMPLES
-        if "depth" in want or "id" in want:
-            depth = new("aov_depth", n)
-            depth.fill(np.inf)
-        if "normal" in want:
-            normal = new("aov_normal", n, 3)
-            normal.fill(0.0)
-        if "albedo" in want:
-            albedo = new("aov_albedo", n, 3)
-            albedo.fill(0.0)
-        if "id" in want:
-            ident = new("aov_id", n, dtype=np.int64)
-            ident.fill(-1)
-        return depth, normal, albedo, ident
-
     def trace(self, rays: RayBatch, samples: np.ndarray) -> RayBatch:
         """One depth: intersect, add background and local shading, return the next depth."""
         st, opt, n = self.stats, self.opt, len(rays)
@@ -508,21 +492,18 @@ class WhittedIntegrator:
             rays = RayBatch(origin, direction, sample, weight, rays.depth, origin_shape, kind)
         surf = self.accel.surface(hits, rays.origin, rays.direction)
         if rays.depth == 0 and opt.aovs:  # the camera rays' first hits
-            self.aov_hits(rays, hits, surf, *self._worker.aov)
+            self.aov_hits(rays, hits, surf, self.aov_layout, self._worker.aov)
         if self.observer is not None:
             self.observer.hits(rays, hits, surf)
         children = self.shade(rays, surf, samples)
         st.shade_seconds += time.perf_counter() - t1 - (st.trace_seconds - trace_before)
         return children
 
-    def aov_hits(self, rays: RayBatch, hits: Hits, surf: Surface, depth: np.ndarray,
-                 normal: np.ndarray, albedo: np.ndarray, ident: np.ndarray) -> None:
-        """Write the AOVs of the hits (rays that all hit) into the rows ``rays.sample`` of the
-        outputs (:func:`raytrace.kernels.shading.aov_hits`; an output without rows is
-        skipped)."""
-        a = self.arrays
-        sk.aov_hits(rays.record, hits.t, surf, self.tables, (a.shapes.object, a.geom_object),
-                    (depth, normal, albedo, ident))
+    def aov_hits(self, rays: RayBatch, hits: Hits, surf: Surface, layout: AOVLayout,
+                 out: np.ndarray) -> None:
+        """Write the AOVs of ``layout`` at the hits (rays that all hit) into the rows
+        ``rays.sample`` of the per-sample table ``out`` (:func:`raytrace.kernels.aov.aov_hits`)."""
+        aov_hits(rays.record, hits.t, surf, self.tables, self.objects, layout, out)
 
     # -- shading -----------------------------------------------------------------------------
 

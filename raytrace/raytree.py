@@ -25,6 +25,7 @@ import numpy as np
 
 from . import values
 from .errors import SceneError
+from .film import aov
 from .integrator import WhittedIntegrator
 from .kernels.kinds import KA, KEEP, KIND_NAMES, PRUNED
 from .kernels.material import surface_color1, surface_opacity1
@@ -82,9 +83,13 @@ class Recorder:
         """What each ray of the batch (all hits, in hit order) hit: the AOV kernel's depth,
         facing normal, kd and object index, and the surface's material and side."""
         integ, n = self.integ, len(rays)
-        depth, normal, albedo = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
-        ident = np.empty(n, np.int64)
-        integ.aov_hits(_rows(rays), hits, surf, depth, normal, albedo, ident)
+        names = ("depth", "normal", "albedo", "id")  # the AOV kernel's own values
+        values = np.empty((n, len(aov.layout(names).miss)))
+        integ.aov_hits(_rows(rays), hits, surf, aov.layout(names), values)
+        cols = aov.columns(names)
+        depth, normal, albedo = values[:, cols["depth"]][:, 0], values[:, cols["normal"]], \
+            values[:, cols["albedo"]]
+        ident = values[:, cols["id"]][:, 0].astype(np.int64)
         for j, rid in enumerate(self._hits):
             m = int(surf.material[j])
             material = integ.materials[m]

@@ -150,10 +150,12 @@ def triangle_tables(meshes: list[Mesh], origin: np.ndarray, index: dict[int, int
         ak.triangle_tables(v, faces, vn, BAND_ULPS * 2.0**-23, corners[s], normal[s],
                            vnormals[s], band[s])
         relative.append((v, faces))
-    textured = bool(table.textured.any()) if len(table.materials) else False
+    # the texture coordinates of every triangle where some mesh's file gives them (image
+    # textures and the uv AOV read them; zeros for the faces of a mesh without them)
     texcoords = np.ascontiguousarray(np.concatenate(
         [m.texcoords if m.texcoords is not None else np.zeros((len(m.faces), 3, 2))
-         for m in meshes]) if textured and meshes else np.zeros((0, 3, 2)))
+         for m in meshes]) if any(m.texcoords is not None for m in meshes)
+        else np.zeros((0, 3, 2)))
     return Triangles(geom_first, corners, normal, vnormals, shading, material, band,
                      texcoords), relative
 

@@ -208,28 +208,74 @@ def test_aovs_do_not_change_the_colour(image):
 
 
 def test_only_what_is_asked_for_is_computed(monkeypatch):
-    from raytrace.integrator import RenderOptions, WhittedIntegrator
-    from raytrace.kernels import shading as shading_kernels
+    from raytrace import integrator
 
     def forbidden(*args):
         raise AssertionError("AOV kernel called without AOVs")
 
     with monkeypatch.context() as m:
-        m.setattr(shading_kernels, "aov_hits", forbidden)
-        m.setattr(shading_kernels, "aov_pixels", forbidden)
+        m.setattr(integrator, "aov_hits", forbidden)
+        m.setattr(integrator, "aov_pixels", forbidden)
         raytrace.render(scene(), width=8, height=6)          # no AOVs: never called
-    opts = RenderOptions(width=8, height=6, max_depth=2, aovs=("normal",))
-    integ = WhittedIntegrator(scene(), opts)
+    opts = integrator.RenderOptions(width=8, height=6, max_depth=2, aovs=("normal",))
+    integ = integrator.WhittedIntegrator(scene(), opts)
     img = integ.render()
-    depth, normal, albedo, ident = integ._worker.aov
-    assert (len(depth), len(normal), len(albedo), len(ident)) == (0, 48, 0, 0)
+    assert integ._worker.aov.shape == (48, 1 + 3)  # the distance, then N.X N.Y N.Z
     assert list(img.aovs) == ["normal"]
 
 
 def test_unknown_aov_names_are_one_clear_error():
     with pytest.raises(raytrace.SceneError, match=r"aovs: unknown AOV 'deph' \(choose from "
-                                                  r"depth, normal, albedo, id\)"):
+                                                  r"depth, normal, albedo, id, uv, position\)"):
         raytrace.render(scene(), width=4, height=3, aovs=["deph"])
     img = raytrace.render(scene(), width=4, height=3, aovs=["id"])
     with pytest.raises(KeyError, match="rendered: id"):
         img.aov("depth")
+
+
+# -- position and uv ------------------------------------------------------------------------
+def test_position_is_the_world_point_of_the_nearest_hit(image):
+    img = raytrace.render(scene(), aovs="position,depth", threads=2)
+    for col, row in ((3, 27), (22, 13)):                   # the floor, the sphere
+        d = centre_ray(col + 0.5, row + 0.5)
+        t = 1.0 / -d[1] if row == 27 else sphere_t(d)
+        np.testing.assert_allclose(img.aov("position")[row, col], EYE + t * d, atol=2e-6)
+    # every pixel: the point is the camera plus the depth along the pixel's ray
+    rows, cols = np.mgrid[0:H, 0:W]
+    t = math.tan(math.radians(FOV) / 2)
+    d = np.stack([(2 * (cols + 0.5) / W - 1) * t * W / H, (1 - 2 * (rows + 0.5) / H) * t,
+                  -np.ones((H, W))], axis=-1)
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    hit = np.isfinite(img.aov("depth"))
+    np.testing.assert_allclose(img.aov("position")[hit],
+                               EYE + img.aov("depth")[hit][:, None] * d[hit], atol=1e-5)
+    np.testing.assert_array_equal(img.aov("position")[~hit], 0.0)
+    assert img.aov("position").shape == (H, W, 3) and img.aov("position").dtype == np.float32
+
+
+def test_uv_is_the_file_s_texture_coordinates_at_the_hit(tmp_path):
+    # A unit quad facing the camera with vt at its corners (OBJ: v up), seen head-on: the
+    # pixel at (x, y) of the quad reads (s, t) = (x, 1 − y), t running down the image as
+    # textures read it. A sphere has no texture coordinates: (0, 0).
+    (tmp_path / "quad.obj").write_text("v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n"
+                                       "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+                                       "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n")
+    s = raytrace.Scene(camera=raytrace.Camera(position=[0, 0, 4], look_at=[0, 0, 0], fov=40),
+                       objects=[raytrace.Mesh(file=tmp_path / "quad.obj"),
+                                raytrace.Sphere([2.2, 0, 0], 0.5)],
+                       lights=[raytrace.PointLight([0, 0, 5])])
+    w = h = 41
+    img = raytrace.render(s, width=w, height=h, aovs="uv,position,id")
+    uv, p, ident = img.aov("uv"), img.aov("position"), img.aov("id")
+    quad = ident == 0
+    assert quad.sum() > 200
+    np.testing.assert_allclose(uv[quad, 0], (p[quad, 0] + 1) / 2, atol=1e-5)
+    np.testing.assert_allclose(uv[quad, 1], 1 - (p[quad, 1] + 1) / 2, atol=1e-5)
+    np.testing.assert_allclose(uv[h // 2, w // 2], [0.5, 0.5], atol=1e-6)
+    np.testing.assert_array_equal(uv[ident == 1], 0.0)
+    assert uv.shape == (h, w, 2) and uv.dtype == np.float32
+    # read back from the EXR under the channel names compositors know
+    img.save(tmp_path / "uv.exr")
+    back = raytrace.Image.from_exr(tmp_path / "uv.exr")
+    np.testing.assert_array_equal(back.aov("uv"), uv)
+    np.testing.assert_array_equal(back.aov("position"), p)

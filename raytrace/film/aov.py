@@ -16,13 +16,22 @@ albedo    ``albedo.R .G .B``: kd at the   0, 0, 0             mean of the sample
           hit (a checker evaluated there)
 id        ``id``: the object's index in   −1                  the nearest sample's
           the scene's ``objects``
+uv        ``uv.U uv.V``: a mesh's texture 0, 0                mean of the samples
+          coordinates (s, t) where its
+          file gives them, else 0, 0
+position  ``P.X P.Y P.Z``: the world-     0, 0, 0             the nearest sample's
+          space hit point
 ========  ==============================  ==================  ======================
 
-Depth and id are not averaged (an average of two depths or two ids is neither): they are the
-sample with the smallest t (the first one on ties), as a Z buffer keeps the nearest surface.
-Normal and albedo are filtered like the colour: the mean over the pixel's samples, misses
-counting as 0, so an edge pixel's normal is shorter than 1. Only the camera rays' first hits
-count; nothing is computed or stored for an AOV that was not asked for.
+Depth, id and position are not averaged (an average of two depths, two ids or two points on
+different surfaces is neither): they are the sample with the smallest t (the first one on
+ties), as a Z buffer keeps the nearest surface. Normal, albedo and uv are filtered like the
+colour: the mean over the pixel's samples, misses counting as 0, so an edge pixel's normal is
+shorter than 1. Only the camera rays' first hits count; nothing is computed or stored for an
+AOV that was not asked for.
+
+**Adding an AOV** is one entry in :data:`AOVS` and, in :mod:`raytrace.kernels.aov`, its kind
+code in ``AOV_KINDS`` and its branch in ``aov_value1`` (docs/architecture.md, "Extending").
 """
 
 from __future__ import annotations
@@ -33,6 +42,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SceneError
+from ..kernels.aov import AOV_KINDS, MEAN, NEAREST
+from ..kernels.records import AOVLayout
 
 
 @dataclass(frozen=True)
@@ -52,6 +63,8 @@ AOVS: dict[str, AOV] = {
     "normal": AOV(("N.X", "N.Y", "N.Z"), 0.0, np.float32, "mean"),
     "albedo": AOV(("albedo.R", "albedo.G", "albedo.B"), 0.0, np.float32, "mean"),
     "id": AOV(("id",), -1.0, np.int32, "nearest"),
+    "uv": AOV(("uv.U", "uv.V"), 0.0, np.float32, "mean"),
+    "position": AOV(("P.X", "P.Y", "P.Z"), 0.0, np.float32, "nearest"),
 }
 
 
@@ -71,6 +84,39 @@ def check_aovs(names: str | Iterable[str] | None, key: str = "aovs") -> tuple[st
         if not isinstance(n, str) or n not in AOVS:
             raise SceneError(f"unknown AOV {n!r} (choose from {', '.join(AOVS)})", key)
     return tuple(n for n in AOVS if n in names)
+
+
+def layout(names: tuple[str, ...]) -> AOVLayout:
+    """The columns of the AOVs ``names`` (checked, in :data:`AOVS`' order) in the kernels'
+    per-sample and per-pixel tables: column 0 the hit's distance, then each AOV's channels."""
+    rows, miss, col = [], [np.inf], 1
+    for name in names:
+        a = AOVS[name]
+        rows.append((AOV_KINDS[name], col, len(a.channels),
+                     NEAREST if a.combine == "nearest" else MEAN))
+        miss += [a.miss] * len(a.channels)
+        col += len(a.channels)
+    return AOVLayout(np.array(rows, np.int64).reshape(-1, 4), np.array(miss, np.float64))
+
+
+def columns(names: tuple[str, ...]) -> dict[str, slice]:
+    """Each AOV's columns in the tables of :func:`layout` (``names``' order)."""
+    table = layout(names).table
+    return {name: slice(int(row[1]), int(row[1] + row[2]))
+            for name, row in zip(names, table, strict=True)}
+
+
+def images(pixels: np.ndarray, names: tuple[str, ...], shape: tuple[int, int]
+           ) -> dict[str, np.ndarray]:
+    """The AOV images (H, W) or (H, W, channels) in their dtypes from the per-pixel table
+    ``pixels`` (H·W, columns) of :func:`layout` ``names``."""
+    out = {}
+    for name, cols in columns(names).items():
+        a = AOVS[name]
+        image = pixels[:, cols].astype(a.dtype)
+        out[name] = image.reshape(shape) if len(a.channels) == 1 else image.reshape(
+            *shape, len(a.channels))
+    return out
 
 
 def empty(name: str, shape: tuple[int, ...]) -> np.ndarray:

@@ -200,3 +200,19 @@ class Spawned(NamedTuple):
     shape: np.ndarray
     kind: np.ndarray
     parent: np.ndarray  #: (k,) int64 row of the parent hit
+
+
+class Objects(NamedTuple):
+    """Which object of the scene's ``objects`` each analytic shape and mesh is."""
+
+    shape_object: np.ndarray  #: (N,) int64 index in ``Scene.objects`` of each analytic shape
+    geom_object: np.ndarray   #: (G,) int64 index in ``Scene.objects`` of each mesh (geomID)
+
+
+class AOVLayout(NamedTuple):
+    """The columns of the AOVs asked for in the per-sample and per-pixel tables of
+    :mod:`raytrace.kernels.aov` (built by :func:`raytrace.film.aov.layout`)."""
+
+    table: np.ndarray  #: (K, 4) int64 per AOV: kind (kernels.aov.AOV_KINDS), first column,
+                       #: columns, combine (kernels.aov.NEAREST or MEAN)
+    miss: np.ndarray   #: (C,) float64 each column where the camera ray missed (0: +inf)

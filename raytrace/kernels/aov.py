@@ -1,0 +1,110 @@
+"""Compiled AOVs (:mod:`raytrace.film.aov`): what each camera ray first hit, per sample, and each
+pixel's value from its samples.
+
+The AOVs asked for share one float64 table per pass, a row per camera sample: column 0 holds the
+distance t of the sample's hit (+inf on a miss), which picks a pixel's nearest sample; each AOV
+has the columns :class:`raytrace.kernels.records.AOVLayout` gives it. An AOV is a kind code of
+:data:`AOV_KINDS` and its branch in :func:`aov_value1`; :mod:`raytrace.film.aov` names its
+channels, its miss value and how a pixel's samples combine.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .core import facing1
+from .jit import inline, kernel
+from .kinds import KD
+from .material import surface_color1, texcoord1
+
+#: The AOVs' kernel codes, by their name in :data:`raytrace.film.aov.AOVS`.
+AOV_KINDS = {"depth": 0, "normal": 1, "albedo": 2, "id": 3, "uv": 4, "position": 5}
+DEPTH, NORMAL, ALBEDO, ID, UV, POSITION = AOV_KINDS.values()
+#: A pixel's value of an AOV (``AOVLayout.table``'s ``combine``): its nearest sample's, or
+#: the mean of its samples.
+NEAREST, MEAN = 0, 1
+
+
+@inline
+def aov_value1(kind, i, hits, scene, objects, out, row, col):
+    """Write AOV ``kind``'s value at hit ``i`` into ``out[row, col …]``: the distance t
+    (``depth``), the shading normal turned to face the ray (``normal``, as the shading uses it:
+    :func:`facing1`), kd at the hit (``albedo``, the material lookup), the object's index in
+    the scene (``id``: an analytic shape's ``shape_object``, a triangle's mesh the last
+    ``geom_first`` at or before it, ``geom_object`` of that), the hit's texture coordinates
+    (``uv``: a mesh's (s, t) where its file gives them, else (0, 0), as Blender's UV pass)
+    or its world point (``position``). ``hits`` = (rays, t, surf): the camera rays, their
+    distances and surfaces (all hit); ``scene``: a :class:`raytrace.kernels.records.Scene`,
+    ``objects`` an :class:`raytrace.kernels.records.Objects`."""
+    rays, t, surf = hits
+    if kind == DEPTH:
+        out[row, col] = t[i]
+    elif kind == NORMAL:
+        d, g = rays.direction, surf.geometric
+        f = facing1(g[i, 0], g[i, 1], g[i, 2], d[i, 0], d[i, 1], d[i, 2])
+        for c in range(3):
+            out[row, col + c] = f * surf.shading[i, c]
+    elif kind == ALBEDO or kind == POSITION:
+        p, o = surf.point, scene.origin
+        x, y, z = p[i, 0] + o[0], p[i, 1] + o[1], p[i, 2] + o[2]
+        if kind == POSITION:
+            out[row, col], out[row, col + 1], out[row, col + 2] = x, y, z
+        else:
+            kd = surface_color1(scene.materials, scene.triangles.texcoords, surf.material[i],
+                                KD, (x, y, z, surf.triangle[i], surf.uv[i, 0], surf.uv[i, 1]))
+            for c in range(3):
+                out[row, col + c] = kd[c]
+    elif kind == ID:
+        triangle = surf.triangle[i]
+        if triangle >= 0:
+            mesh = np.searchsorted(scene.triangles.geom_first, triangle, side="right") - 1
+            out[row, col] = objects.geom_object[mesh]
+        else:
+            out[row, col] = objects.shape_object[surf.shape[i]]
+    elif kind == UV:
+        triangle, texcoords = surf.triangle[i], scene.triangles.texcoords
+        s, t = 0.0, 0.0
+        if 0 <= triangle < texcoords.shape[0]:
+            s, t = texcoord1(texcoords, triangle, surf.uv[i, 0], surf.uv[i, 1])
+        out[row, col], out[row, col + 1] = s, t
+
+
+@kernel
+def aov_hits(rays, t, surf, scene, objects, layout, out):
+    """The AOVs of camera-ray hits (``rays``, their distances ``t`` and ``surf``) into their
+    samples' rows (``rays.sample``) of ``out`` (samples, columns): column 0 the distance, then
+    each AOV of ``layout`` (a :class:`raytrace.kernels.records.AOVLayout`) by
+    :func:`aov_value1`."""
+    sample, table = rays.sample, layout.table
+    for i in range(sample.shape[0]):
+        s = sample[i]
+        out[s, 0] = t[i]
+        for k in range(table.shape[0]):
+            aov_value1(table[k, 0], i, (rays, t, surf), scene, objects, out, s, table[k, 1])
+
+
+@kernel
+def aov_pixels(pixels, spp, samples, layout, out):
+    """``pixels`` pixels of ``out`` (pixels, columns), pixel j from samples ``j·spp … j·spp +
+    spp − 1`` of ``samples`` (the per-sample table of :func:`aov_hits`): each AOV of ``layout``
+    its nearest sample's value (the smallest distance, the first on ties: a Z buffer) or the
+    mean of its samples (misses counting as their miss value), channel by channel, summed in
+    sample order."""
+    table = layout.table
+    for j in range(pixels):
+        first = j * spp
+        best = first
+        for k in range(first + 1, first + spp):
+            if samples[k, 0] < samples[best, 0]:
+                best = k
+        out[j, 0] = samples[best, 0]
+        for a in range(table.shape[0]):
+            col, count, combine = table[a, 1], table[a, 2], table[a, 3]
+            for c in range(col, col + count):
+                if combine == NEAREST:
+                    out[j, c] = samples[best, c]
+                else:
+                    total = 0.0
+                    for k in range(first, first + spp):
+                        total += samples[k, c]
+                    out[j, c] = total / spp
