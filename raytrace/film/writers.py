@@ -139,10 +139,10 @@ def writer_for(path: str | os.PathLike) -> Writer:
 
     >>> writer_for("out.EXR").flag
     '-o'
-    >>> writer_for("out.jpg")
+    >>> writer_for("out.jpg")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    ValueError: out.jpg: unknown image type '.jpg' (use .exr or .png)
+    ValueError: out.jpg: unknown image type '.jpg' (use .exr...png...)
     """
     suffix = Path(path).suffix.lower()
     if suffix not in WRITERS:
