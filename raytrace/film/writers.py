@@ -36,7 +36,7 @@ What reads the registry:
         out = oiio.ImageOutput.create("hdr")  # by name: ``path`` is a temporary file
         ...
 
-    Writer(".hdr", "--hdr", "also write Radiance RGBE (float, linear) to FILE", 13,
+    Writer(".hdr", "--hdr", "also write Radiance RGBE (float, linear) to FILE", 15,
            _write_hdr)
 
 and ``raytrace render --hdr out.hdr``, ``--out-dir DIR --hdr``, ``--frames 1-9 --hdr
