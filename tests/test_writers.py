@@ -1,7 +1,10 @@
 """The image-writer registry (raytrace/film/writers.py): the lookup and its error, every
 registered writer's file read back, the memory check's figures, and a writer registered at
 run time reaching Image.save, the command line (one render, --out-dir, --frames), frames and
-the memory check with no other change: the one-file recipe of the module docstring."""
+the memory check with no other change: the one-file recipe of the module docstring. (That
+reading the registry loads no compiler is test_cli's
+test_loading_checking_and_comparing_import_no_renderer_machinery: every command builds its
+flags from it.)"""
 
 from __future__ import annotations
 
@@ -9,8 +12,6 @@ import dataclasses
 import doctest
 import importlib
 import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -251,13 +252,3 @@ def test_render_frames_checks_its_extras_before_any_frame(tmp_path, extras, says
     assert e.value.key == key
     assert os.listdir(tmp_path) == []
 
-
-def test_reading_the_registry_loads_no_compiler():
-    # The command line builds its flags from the registry for every command, `materials` and
-    # `compare` included: the preview's writer (numba kernels) loads only when it writes.
-    code = ("import sys, raytrace.film.writers as w; w.WRITERS; w.writer_for('a.png'); "
-            "print(sorted(m for m in ('numba', 'OpenImageIO', 'raytrace.film.previews') "
-            "if m in sys.modules))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout.strip()
-    assert out == "[]"
