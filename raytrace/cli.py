@@ -80,9 +80,21 @@ def _exposure(text: str) -> float | str:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
+def _dest(writer) -> str:
+    """The attribute of the parsed arguments that holds an extra writer's file
+    (``--png`` → ``png``); ``-o``'s is ``output``."""
+    return writer.flag.lstrip("-").replace("-", "_")
+
+
+def _and(names: list[str]) -> str:
+    """``["a", "b", "c"]`` → ``"a, b and c"``."""
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} and {names[-1]}"
+
+
 def _parser() -> argparse.ArgumentParser:
     from .film.exr import EXR_COMPRESSIONS
     from .film.tonemap import EXPOSURE_RANGE, TONEMAPS
+    from .film.writers import extra_writers, main_writer
 
     p = _Parser(prog="raytrace", description="A Whitted ray tracer on Embree.")
     p.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")
@@ -91,19 +103,22 @@ def _parser() -> argparse.ArgumentParser:
     r = sub.add_parser("render", help="render a scene file to a float EXR")
     r.add_argument("scenes", nargs="+", metavar="SCENE",
                    help="scene file (.toml or .json, or a model file); several with --out-dir")
-    r.add_argument("-o", "--output", help="output EXR (default: SCENE's name with .exr, here)")
+    main, extras = main_writer(), extra_writers()  # the flags of the writers (film/writers.py)
+    r.add_argument(main.flag, "--output",
+                   help=f"{main.help} (default: SCENE's name with {main.suffix}, here)")
     r.add_argument("--out-dir", metavar="DIR",
-                   help="render every SCENE in one process, each to DIR/<scene name>.exr "
-                        "(an existing folder; and .png, .json with --png, --stats given no "
-                        "file name), all or "
-                        "nothing scene by scene; a bad scene is one error line, the others "
-                        "are rendered, and the exit status is 2")
+                   help=f"render every SCENE in one process, each to DIR/<scene name>"
+                        f"{main.suffix} (an existing folder; and "
+                        f"{', '.join(w.suffix for w in extras)}, .json with "
+                        f"{', '.join(w.flag for w in extras)}, --stats given no file name), "
+                        "all or nothing scene by scene; a bad scene is one error line, the "
+                        "others are rendered, and the exit status is 2")
     _overrides(r)
     r.add_argument("--threads", type=int, default=os.cpu_count() or 1,
                    help="worker threads (default: all cores)")
-    r.add_argument("--png", nargs="?", const=True, metavar="FILE",
-                   help="also write a tone-mapped sRGB PNG preview to FILE (.png; no FILE "
-                        "only with --out-dir)")
+    for w in extras:
+        r.add_argument(w.flag, nargs="?", const=True, metavar="FILE", dest=_dest(w),
+                       help=f"{w.help} ({w.suffix}; no FILE only with --out-dir)")
     r.add_argument("--exposure", type=_exposure, default=0.0,
                    help=f"preview exposure in stops, {EXPOSURE_RANGE[0]:g} to "
                         f"{EXPOSURE_RANGE[1]:g}, or 'auto' (key 0.18 over the log-average "
@@ -141,7 +156,8 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--frames", metavar="LIST",
                    help="render frames 1-24, 1..24 or 1,5,9-12: SCENE is a pattern of scene "
                         "files (shot_####.toml, shot_%%04d.toml) or FILE.py:FUNCTION of the "
-                        "frame number; -o and --png are patterns too (out.####.exr)")
+                        f"frame number; {_and([main.flag, *(w.flag for w in extras)])} "
+                        f"are patterns too (out.####{main.suffix})")
     f.add_argument("--overwrite", action="store_true",
                    help="with --frames: render frames whose outputs exist (default: skip them)")
     d = r.add_argument_group("Dask cluster (pip install 'raytrace[distributed]'; "
@@ -296,6 +312,7 @@ def _render(args: argparse.Namespace) -> int:
     from .film.aov import check_aovs
     from .film.exr import exr_compression
     from .film.tonemap import check_tonemap
+    from .film.writers import main_writer
     from .rendering import render_options
     from .scene import Scene
 
@@ -322,10 +339,12 @@ def _render(args: argparse.Namespace) -> int:
                      aa=args.aa, aa_threshold=args.aa_threshold, aa_depth=args.aa_depth,
                      aa_min_depth=args.aa_min_depth)
     if batch is None:
+        main = main_writer()  # -o, or the scene's name with its suffix; the others' flags
+        files = {w.suffix: (args.output or Path(args.scene).stem + w.suffix) if w is main
+                 else getattr(args, _dest(w)) for w in _asked_for(args)}
         with _Started(cluster) as client:
-            return _render_one(args, args.outputs, (args.scene, args.output or
-                               Path(args.scene).stem + ".exr", args.png, args.stats),
-                               overrides, client)
+            return _render_one(args, args.outputs, (args.scene, files, args.stats), overrides,
+                               client)
     try:  # the flags' values, found once for the batch (a crop: against each scene's frame)
         render_options(Scene(), **_scene_independent(overrides))
     except SceneError as e:
@@ -396,32 +415,47 @@ class _Started(contextlib.ExitStack):
         return self._client
 
 
-def _batch_outputs(args: argparse.Namespace) -> list[tuple[str, str, str | None, str | None]]:
-    """``render A.toml B.toml … --out-dir DIR``: each scene's (scene, EXR, PNG, stats) paths
-    in DIR, named after the scene (DIR/A.exr, DIR/A.png, DIR/A.json), checked before any
-    render: DIR is a folder, no two scenes share a name. None for the one-scene form
-    (``SCENE [-o OUT.exr] [--png P.png] [--stats S.json]``), whose ``--png`` and ``--stats``
-    need a file name."""
+def _asked_for(args: argparse.Namespace) -> list:
+    """The writers of the images to write: ``-o``'s (always) and those whose flag is given,
+    in registry order."""
+    from .film.writers import MAIN_FLAG, WRITERS
+
+    return [w for w in WRITERS.values() if w.flag == MAIN_FLAG or getattr(args, _dest(w))]
+
+
+def _batch_outputs(args: argparse.Namespace
+                   ) -> list[tuple[str, dict[str, str], str | None]] | None:
+    """``render A.toml B.toml … --out-dir DIR``: each scene's (scene, images, stats) paths
+    in DIR, named after the scene (DIR/A.exr, DIR/A.png, DIR/A.json), the images by suffix
+    (:data:`raytrace.film.writers.WRITERS`), checked before any render: DIR is a folder, no
+    two scenes share a name. None for the one-scene form (``SCENE [-o OUT.exr] [--png P.png]
+    [--stats S.json]``), whose ``--png`` and ``--stats`` need a file name."""
+    from .film.writers import extra_writers, main_writer
+
     scenes, out_dir = args.scenes, args.out_dir
+    main = main_writer()
+    # The flags that ask for one more file each: the extra writers' and --stats.
+    more = [(w.flag, getattr(args, _dest(w)), w.suffix) for w in extra_writers()]
+    more.append(("--stats", args.stats, ".json"))
     if out_dir is None:
         if len(scenes) > 1:
             raise SceneError(f"{len(scenes)} scenes need --out-dir DIR (each is written to "
-                             "DIR/<scene name>.exr); -o names one scene's output", "SCENE")
-        for flag, value in (("--png", args.png), ("--stats", args.stats)):
+                             f"DIR/<scene name>{main.suffix}); {main.flag} names one scene's "
+                             "output", "SCENE")
+        for flag, value, _ in more:
             if value is True:
                 raise SceneError("needs a file name (or --out-dir DIR, which names each "
                                  "scene's file)", flag)
         args.scene = scenes[0]
         return None
-    for flag, value in (("-o", args.output), ("--frames", args.frames)):
+    for flag, value in ((main.flag, args.output), ("--frames", args.frames)):
         if value is not None:
             raise SceneError("is not used with --out-dir (each scene is written to "
-                             "DIR/<scene name>.exr)", flag)
-    for flag, value in (("--png", args.png), ("--stats", args.stats)):
+                             f"DIR/<scene name>{main.suffix})", flag)
+    for flag, value, suffix in more:
         if isinstance(value, str):
             raise SceneError(f"takes no file name with --out-dir (each scene's goes to "
-                             f"DIR/<scene name>{'.png' if flag == '--png' else '.json'}), "
-                             f"got {value!r}", flag)
+                             f"DIR/<scene name>{suffix}), got {value!r}", flag)
     if not Path(out_dir).is_dir():
         raise SceneError(f"is not an existing folder: {out_dir}", "--out-dir")
     seen: dict[str, str] = {}
@@ -430,11 +464,11 @@ def _batch_outputs(args: argparse.Namespace) -> list[tuple[str, str, str | None,
         stem = Path(scene).stem
         if stem in seen:
             raise SceneError(f"{seen[stem]} and {scene} would both be written to "
-                             f"{Path(out_dir) / stem}.exr: give each scene a name of its own",
-                             "--out-dir")
+                             f"{Path(out_dir) / stem}{main.suffix}: give each scene a name of "
+                             "its own", "--out-dir")
         seen[stem] = scene
-        batch.append((scene, str(Path(out_dir) / f"{stem}.exr"),
-                      str(Path(out_dir) / f"{stem}.png") if args.png else None,
+        batch.append((scene, {w.suffix: str(Path(out_dir) / f"{stem}{w.suffix}")
+                              for w in _asked_for(args)},
                       str(Path(out_dir) / f"{stem}.json") if args.stats else None))
     return batch
 
@@ -449,26 +483,27 @@ def _one_line(e: SceneError | OSError, scene: str, outputs: Outputs) -> str:
 
 
 def _render_one(args: argparse.Namespace, outputs: Outputs,
-                paths: tuple[str, str, str | None, str | None], overrides: dict,
+                paths: tuple[str, dict[str, str], str | None], overrides: dict,
                 client, others: list[tuple[str, str]] = (),
                 scene: tuple[Scene, float] | None = None) -> int:
     """Render one scene file to its EXR (and PNG, stats), all or nothing through ``outputs``.
 
-    ``paths``: the scene, EXR, PNG and stats files (None: not written); ``client()``: the
-    Dask client or None (:class:`_Started`); ``others``: more files no output may overwrite
-    (the batch's scene files and every file its scenes read); ``scene``: the scene already
-    loaded, and its load seconds (:func:`_load`), or None to load it here."""
-    from .film.exr import write_exr
-    from .film.previews import write_png
+    ``paths``: the scene file, the images to write by suffix (the EXR's first, then those of
+    the other writers asked for, :data:`raytrace.film.writers.WRITERS`) and the stats file
+    (None: not written); ``client()``: the Dask client or None (:class:`_Started`);
+    ``others``: more files no output may overwrite (the batch's scene files and every file its
+    scenes read); ``scene``: the scene already loaded, and its load seconds (:func:`_load`),
+    or None to load it here."""
+    from .film.writers import WRITERS, Settings, main_writer
     from .kernels.compile import CompileNotice, cache_is_warm, load_registries
     from .rendering import check_memory, render, render_options
 
-    scene_path, exr_path, png_path, stats_path = paths
+    scene_path, files, stats_path = paths
     # Every output is checked before anything is rendered (outputs.py): its suffix and that it
     # is no other output and not the scene file now; after loading, that it is no mesh or
     # material file the scene reads and that its folder takes a new file.
-    exr = outputs.add(exr_path, "-o", ".exr")
-    png = outputs.add(png_path, "--png", ".png") if png_path else None
+    images = [(WRITERS[suffix], outputs.add(path, WRITERS[suffix].flag, suffix))
+              for suffix, path in files.items()]
     stats_file = outputs.add(stats_path, "--stats") if stats_path else None
     outputs.refuse_inputs([(scene_path, "the scene file"), *others])
     t0 = time.perf_counter()
@@ -479,7 +514,7 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
     try:
         o = render_options(scene, **overrides)
         x0, y0, x1, y1 = o.crop or (0, 0, o.width, o.height)
-        check_memory(x1 - x0, y1 - y0, ("exr", "png") if png else ("exr",))
+        check_memory(x1 - x0, y1 - y0, tuple(w.name for w, _ in images))
         notice = args.__dict__.setdefault("compile_notice", CompileNotice(
             lambda line: sys.stderr.write(line)))  # once a process, batch or not
         if progress.enabled and not cache_is_warm():
@@ -492,17 +527,16 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
     except SceneError as e:  # a flag's value: name the flag, not the scene key
         raise _flag_error(e) from None
     t1 = time.perf_counter()
-    with outputs.stage(exr) as tmp:
-        write_exr(tmp, image.rgb, image.metadata, args.threads, args.compression,
-                  channels=image.channels(), crop=image.crop, frame=image.frame)
-    if png:
-        with outputs.stage(png) as tmp:
-            write_png(tmp, image.rgb, args.exposure, args.tonemap, bits=args.png_bits)
+    settings = Settings(exposure=args.exposure, tonemap=args.tonemap, bits=args.png_bits,
+                        threads=args.threads, compression=args.compression)
+    for writer, out in images:
+        with outputs.stage(out) as tmp:
+            writer.write(tmp, image, settings)
     stats = image.stats
     stats["seconds"]["load"] = load_seconds
     stats["seconds"]["write"] = time.perf_counter() - t1
     stats["seconds"]["total"] = time.perf_counter() - t0
-    stats["output"] = exr.path
+    stats["output"] = files[main_writer().suffix]
     if stats_file:
         with outputs.stage(stats_file) as tmp:
             tmp.write_text(json.dumps(stats, indent=2) + "\n")
@@ -532,6 +566,7 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
     """``render --frames``: a sequence (:func:`raytrace.frames.render_frames`), each frame
     written when it is finished, the frames already written skipped unless ``--overwrite``."""
     from .film.aov import check_aovs
+    from .film.writers import WRITERS, main_writer
     from .frames import (
         PLACEHOLDER,
         check_outputs,
@@ -550,7 +585,11 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
     source = scene_source(args.scene, "SCENE")
     stem = Path(source.files or source.name.rpartition(":")[0]).stem
     stem = PLACEHOLDER.sub("", stem).rstrip("._-") or "frame"  # shot_####.toml → shot
-    out, png = check_outputs(args.output or f"{stem}.####.exr", args.png, ("-o", "--png"))
+    main = main_writer()  # -o's pattern, or the scene's name with #### and its suffix
+    patterns = check_outputs({w.suffix: (args.output or f"{stem}.####{w.suffix}") if w is main
+                              else getattr(args, _dest(w)) for w in WRITERS.values()},
+                             {w.suffix: w.flag for w in WRITERS.values()})
+    out = patterns.pop(main.suffix)
     if args.stats and not Path(args.stats).resolve().parent.is_dir():
         raise SceneError(f"folder does not exist: {Path(args.stats).parent}", "--stats")
     if args.stats and source.files and any(
@@ -573,7 +612,7 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
 
     with _warnings_as_lines(), cluster as client:
         try:
-            result = render_frames(source, out, frames, png=png, client=client,
+            result = render_frames(source, out, frames, extras=patterns, client=client,
                                    overwrite=args.overwrite, progress=progress,
                                    compression=args.compression, exposure=args.exposure,
                                    tonemap=args.tonemap, on_frame=written, crop=args.crop,

@@ -24,7 +24,7 @@ import pickle
 import re
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 from . import values
 from .distributed import gather_each
 from .errors import SceneError
+from .film import writers
 from .film.exr import exr_compression
 from .film.image import Image
 from .film.tonemap import check_exposure, check_tonemap
@@ -90,22 +91,24 @@ def check_pattern(pattern: str | os.PathLike, key: str) -> str:
     return text
 
 
-def check_outputs(output: str | os.PathLike, png: str | os.PathLike | None,
-                  keys: tuple[str, str] = ("output", "png")) -> tuple[str, str | None]:
-    """The EXR and PNG patterns, checked: one frame number each (:func:`check_pattern`), the
-    right suffix, an existing folder; a :class:`SceneError` naming ``keys``' one otherwise."""
-    checked = []
-    for pattern, key, suffix in ((output, keys[0], ".exr"), (png, keys[1], ".png")):
+def check_outputs(patterns: Mapping[str, str | os.PathLike | None],
+                  keys: Mapping[str, str]) -> dict[str, str]:
+    """The output patterns by suffix (``{".exr": "out.####.exr", ".png": None}``), checked:
+    one frame number each (:func:`check_pattern`), that suffix, an existing folder; a
+    :class:`SceneError` naming the suffix's key in ``keys`` otherwise. Those given (not None),
+    in the order of :data:`~raytrace.film.writers.WRITERS`."""
+    checked = {}
+    for suffix in sorted(patterns, key=list(writers.WRITERS).index):
+        pattern, key = patterns[suffix], keys[suffix]
         if pattern is None:
-            checked.append(None)
             continue
         text = check_pattern(pattern, key)
         if Path(text).suffix.lower() != suffix:
             raise SceneError(f"must end in {suffix}, got {text!r}", key)
         if not Path(text).resolve().parent.is_dir():
             raise SceneError(f"folder does not exist: {Path(text).parent}", key)
-        checked.append(text)
-    return checked[0], checked[1]
+        checked[suffix] = text
+    return checked
 
 
 def frame_path(pattern: str, frame: int) -> Path:
@@ -211,9 +214,12 @@ def render_frames(scenes: str | os.PathLike | Callable[[int], Scene] | SceneSour
                   progress: Callable[[int, int], None] | None = None,
                   on_frame: Callable[[int, list[str]], None] | None = None,
                   compression: str = "zip", exposure: float = 0.0, tonemap: str = "clip",
+                  extras: Mapping[str, str | os.PathLike] | None = None,
                   **overrides: Any) -> FramesResult:
     """Render ``frames`` of a sequence to ``output`` (a pattern, ``out.####.exr``) and, with
     ``png``, previews (``preview.####.png``), each written atomically as it is finished.
+    ``extras``: more output patterns by suffix, each written by its writer
+    (:data:`raytrace.film.writers.WRITERS`; ``png`` is ``extras={".png": png}``).
 
     ``scenes``: a function of the frame number returning a Scene, or a pattern of scene
     files (module docstring). ``frames``: ``"1-24"`` and the like (:func:`parse_frames`) or
@@ -227,14 +233,24 @@ def render_frames(scenes: str | os.PathLike | Callable[[int], Scene] | SceneSour
     t0 = time.perf_counter()
     source = scene_source(scenes)
     numbers = parse_frames(frames)
-    output, png = check_outputs(output, png)
+    given = {writers.main_writer().suffix: output, ".png": png}
+    for suffix, pattern in (extras or {}).items():
+        if suffix not in writers.WRITERS:
+            raise SceneError(f"unknown image type {suffix!r} (use {writers.suffixes()})",
+                             "extras")
+        if given.get(suffix) is not None:
+            raise SceneError(f"{suffix} is given twice, in extras and as its own argument",
+                             "extras")
+        given[suffix] = pattern
+    keys = {w.suffix: w.name for w in writers.WRITERS.values()}
+    patterns = check_outputs(given, {**keys, writers.main_writer().suffix: "output"})
 
     exr_compression(compression)  # bad names and values now, not after the first frame
     exposure, tonemap = check_exposure(exposure), check_tonemap(tonemap)
     result = FramesResult()
     todo = []
     for frame in numbers:
-        paths = [str(frame_path(p, frame)) for p in (output, png) if p is not None]
+        paths = [str(frame_path(p, frame)) for p in patterns.values()]
         result.outputs[frame] = paths
         if not overwrite and all(Path(p).is_file() for p in paths):
             result.skipped.append(frame)
@@ -243,9 +259,8 @@ def render_frames(scenes: str | os.PathLike | Callable[[int], Scene] | SceneSour
 
     def write(frame: int, image: Image) -> None:
         threads = overrides.get("threads") or os.cpu_count() or 1
-        image.save(frame_path(output, frame), threads=threads, compression=compression)
-        if png is not None:
-            image.save(frame_path(png, frame), exposure, tonemap)
+        for pattern in patterns.values():  # each by its suffix's writer
+            image.save(frame_path(pattern, frame), exposure, tonemap, threads, compression)
         result.rendered.append(frame)
         result.stats[frame] = image.stats
         if on_frame is not None:

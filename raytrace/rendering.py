@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 from . import values
 from .distributed import check_tile, render_tiles
 from .errors import RenderWarning, SceneError
+from .film import writers
 from .film.aov import check_aovs
 from .film.image import Image
 from .integrator import PASS_SAMPLES, RenderOptions, WhittedIntegrator
@@ -27,17 +28,18 @@ if TYPE_CHECKING:
 #: Peak resident memory of a render, measured (``ru_maxrss`` at 3000² and 6000² pixels, 2
 #: threads; docs/robustness.md, "Memory"): a fixed part (the interpreter, numba, Embree, a
 #: pass of rays per thread) plus bytes a pixel for the step that holds the most: the render
-#: (the float32 image and a mask), writing the EXR (the image and a contiguous copy of each
-#: channel); the PNG preview, tone-mapped and written band by band, adds no more than the
-#: EXR's step (23.8 B a pixel measured with both). AOVs are not counted.
+#: (the float32 image and a mask), or writing an output (each writer's own figure,
+#: :data:`raytrace.film.writers.WRITERS`). AOVs are not counted.
 PEAK_BASE_BYTES = 256 * 2**20
-PEAK_BYTES_PER_PIXEL = {"render": 15, "exr": 25, "png": 25}
+PEAK_RENDER_BYTES_PER_PIXEL = 15
 
 
 def peak_bytes(width: int, height: int, steps: Iterable[str] = ()) -> int:
     """Estimated peak memory of a ``width`` × ``height`` render followed by ``steps``
-    (``"exr"``, ``"png"``): the base plus the pixels times the largest step's bytes."""
-    per_pixel = max(PEAK_BYTES_PER_PIXEL[s] for s in ("render", *steps))
+    (writers' names, ``"exr"``, ``"png"``): the base plus the pixels times the largest
+    step's bytes."""
+    per_pixel = max([PEAK_RENDER_BYTES_PER_PIXEL,
+                     *(writers.named(s).peak_bytes_per_pixel for s in steps)])
     return PEAK_BASE_BYTES + per_pixel * width * height
 
 

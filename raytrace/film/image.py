@@ -13,9 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from .aov import AOVS, channels, from_channels
-from .exr import read_exr_channels, write_exr
+from .exr import read_exr_channels
 from .outputs import Outputs
 from .previews import preview, write_png
+from .writers import Settings, writer_for
 
 
 @dataclass
@@ -70,24 +71,22 @@ class Image:
     def save(self, path: str | os.PathLike, exposure: float | str = 0.0, tonemap: str = "clip",
              threads: int = 1, compression: str = "zip", *, bits: int = 8,
              params: dict | None = None) -> None:
-        """Write ``.exr`` (float, linear; ``compression`` one of :data:`EXR_COMPRESSIONS`, run
-        on ``threads`` threads) or ``.png`` (the sRGB preview of :func:`preview` with
-        ``exposure``, ``tonemap``, its ``params`` and ``bits`` 8 or 16; ``compression``
-        unused). Like the command line's outputs, the file is written whole or not at all
+        """Write ``path`` by the writer of its suffix (:data:`~raytrace.film.writers.WRITERS`;
+        a ValueError naming the valid suffixes otherwise): ``.exr`` (float, linear;
+        ``compression`` one of :data:`EXR_COMPRESSIONS`, run on ``threads`` threads) or
+        ``.png`` (the sRGB preview of :func:`preview` with ``exposure``, ``tonemap``, its
+        ``params`` and ``bits`` 8 or 16); a writer ignores the arguments it has no use for.
+        Like the command line's outputs, the file is written whole or not at all
         (:mod:`raytrace.film.outputs`); errors name ``path``, never a temporary file.
         """
-        suffix = Path(path).suffix.lower()
-        if suffix not in (".exr", ".png"):
-            raise ValueError(f"{path}: unknown image type {suffix!r} (use .exr or .png)")
+        writer = writer_for(path)
+        settings = Settings(exposure=exposure, tonemap=tonemap, bits=bits, params=params,
+                            threads=threads, compression=compression)
         with Outputs() as outputs:
-            out = outputs.add(path, "path", suffix)
+            out = outputs.add(path, "path", writer.suffix)
             outputs.preflight()
             with outputs.stage(out) as tmp:
-                if suffix == ".exr":
-                    write_exr(tmp, self.rgb, self.metadata, threads, compression,
-                              channels=self.channels(), crop=self.crop, frame=self.frame)
-                else:
-                    write_png(tmp, self.rgb, exposure, tonemap, bits=bits, params=params)
+                writer.write(tmp, self, settings)
             outputs.commit()
 
     def channels(self) -> dict[str, np.ndarray]:
