@@ -23,7 +23,7 @@ import numpy as np
 
 from .core import FLAT
 from .jit import inline, kernel
-from .kinds import NO_SHAPE, PLANE, ROW, SHAPE_KINDS, SPHERE  # noqa: F401
+from .kinds import NO_SHAPE
 
 #: Rounding tolerance of analytic shapes, relative to the coordinates' magnitude.
 TOL = 16.0 * float(np.finfo(np.float64).eps)
@@ -44,9 +44,16 @@ SPAWN_OFFSET = 3.0 * 2.0**-23
 # parameters (``row``, an 8-tuple of floats: what the scene record's ``row`` method packs,
 # camera-relative, zero-padded), registered by a kind code in SHAPE_KINDS and named once in
 # each of the two dispatchers, :func:`shape_t` and :func:`shape_surface`. The shape loops
-# number the shapes kind by kind, in SHAPE_KINDS' order (spheres, then planes), and in the
+# number the shapes kind by kind, in SHAPE_KINDS' order (spheres, then planes, …), and in the
 # scene's order within a kind (:func:`raytrace.tables.shape_tables`).
 
+#: Analytic shape kinds by scene-file type (``raytrace.scene.SHAPE_TYPES``' keys), in the
+#: order the shapes are numbered: each is one intersection and one surface function below,
+#: named in the dispatchers. Here, beside them, so a shape is its record and this file.
+SHAPE_KINDS = {"sphere": 0, "plane": 1}
+SPHERE, PLANE = SHAPE_KINDS.values()
+#: Floats in a shape's row of parameters (``Shapes.rows``: a record's ``row``, zero-padded).
+ROW = 8
 
 
 @kernel
