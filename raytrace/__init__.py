@@ -23,26 +23,34 @@ that only loads and checks scenes never pays for the compiler.
 
 from importlib import import_module
 
-#: Public name → (module, its name there).
+#: Public name → (module, its name there). The light and object records are not listed: each
+#: is found by its class name in its registry (:func:`records`), so a new one is exported by
+#: the line that registers it.
 EXPORTS = {
     "RenderWarning": ("errors", "RenderWarning"), "SceneError": ("errors", "SceneError"),
     "explain": ("raytree", "explain"), "Image": ("film.image", "Image"),
     "read_exr": ("film.exr", "read_exr"), "render_frames": ("frames", "render_frames"),
     "Checker": ("material", "Checker"), "Material": ("material", "Material"),
     "MaterialLibrary": ("material", "MaterialLibrary"), "materials": ("material", "library"),
-    "render": ("rendering", "render"), "AreaLight": ("lights", "AreaLight"),
-    "DirectionalLight": ("lights", "DirectionalLight"), "PointLight": ("lights", "PointLight"),
-    "SpotLight": ("lights", "SpotLight"), "Camera": ("scene", "Camera"),
-    "Mesh": ("scene", "Mesh"), "Plane": ("scene", "Plane"),
+    "render": ("rendering", "render"), "Camera": ("scene", "Camera"),
     "RenderSettings": ("scene", "RenderSettings"), "Scene": ("scene", "Scene"),
-    "Sphere": ("scene", "Sphere"), "load_scene": ("readers.scene_file", "load_scene"),
+    "load_scene": ("readers.scene_file", "load_scene"),
     "scene_from_dict": ("readers.scene_file", "scene_from_dict"),
 }
-__all__ = sorted(EXPORTS)
+
+
+def records() -> dict[str, type]:
+    """Every registered light and object record by its class name: ``lights.LIGHT_TYPES``
+    and ``scene.OBJECT_TYPES`` (``PointLight``, ``Sphere``, ``Mesh``, …). Loads the scene
+    description (no compiler) on first use."""
+    lights, scene = import_module(".lights", __name__), import_module(".scene", __name__)
+    return {cls.__name__: cls for cls in (*lights.LIGHT_TYPES.values(),
+                                          *scene.OBJECT_TYPES.values())}
 
 
 def __getattr__(name: str):
-    """A public name, loaded from its module on first use (PEP 562); and
+    """A public name, loaded from its module on first use (PEP 562): one of :data:`EXPORTS`,
+    a registered record (:func:`records`), ``__all__`` (both, sorted); and
     ``raytrace.__version__``: the installed distribution's version (pyproject.toml), not a
     second copy of it (``importlib.metadata`` costs 20–40 ms, so only when asked for)."""
     if name == "__version__":
@@ -52,10 +60,22 @@ def __getattr__(name: str):
             value = metadata.version("raytrace")
         except metadata.PackageNotFoundError:  # a source tree that was never installed
             value = "0+unknown"
+    elif name == "__all__":  # (not kept: a record registered later is in it too)
+        return sorted({*EXPORTS, *records()})
     elif name in EXPORTS:
         module, attribute = EXPORTS[name]
         value = getattr(import_module(f".{module}", __name__), attribute)
+    elif name[:1].isupper() and name in (found := records()):
+        # (a class name: a lower-case one may be a submodule that ``from . import`` asks
+        # for while the registries themselves are loading)
+        value = found[name]
     else:
         raise AttributeError(f"module 'raytrace' has no attribute {name!r}")
     globals()[name] = value
     return value
+
+
+def __dir__() -> list[str]:
+    """The module's names and the public API, records included (``dir(raytrace)``, tab
+    completion)."""
+    return sorted({*globals(), *__getattr__("__all__")})

@@ -33,7 +33,9 @@ class Emitter:
     has its centre as ``position``, its edges ``cell_u``, ``cell_v``, its light's ``stream`` ≥ 0
     that seeds the points drawn for each hit and its canonical ``offset`` (j/k, i/k) for cell
     (i, j) of k × k (:func:`raytrace.kernels.shading.incidence1`); ``stream`` is −1 for every
-    other emitter.
+    other emitter. ``part`` names which part of its light the emitter is where the light has
+    several (an area light's ``"cell 5"``), for the labels of ``raytrace explain``
+    (:func:`labels`); empty for a light of one emitter.
     """
 
     color: np.ndarray
@@ -46,6 +48,7 @@ class Emitter:
     cell_v: np.ndarray | None = None
     stream: int = -1
     offset: tuple[float, float] = (0.0, 0.0)
+    part: str = ""
 
     @property
     def jittered(self) -> bool:
@@ -81,6 +84,15 @@ def emitters(lights: list, origin: np.ndarray, seed: int) -> list[Emitter]:
     """Every light as point-like samples, positions made relative to ``origin``: each light
     record's own ``emitters(origin, seed, index)``."""
     return [e for i, light in enumerate(lights) for e in light.emitters(origin, seed, i)]
+
+
+def labels(lights: list, origin: np.ndarray, seed: int) -> list[str]:
+    """A label per emitter of :func:`emitters` (the same arguments), in its order, for
+    ``raytrace explain``: the light's key and type, and the emitter's ``part`` where it has
+    one (``lights[2] (area, cell 5)``). Each light record names the parts of its own
+    emitters, so a light of several emitters never shifts the labels of those after it."""
+    return [f"lights[{i}] ({light.type}{', ' + e.part if e.part else ''})"
+            for i, light in enumerate(lights) for e in light.emitters(origin, seed, i)]
 
 
 def _attenuation(value: Any, key: str) -> np.ndarray:
@@ -201,21 +213,24 @@ class AreaLight:
         """k² point samples sharing the colour (seed 001's distributed source), at the cell
         centres; a jittered light gets a hash stream from (``seed``, ``index``) and each cell
         its canonical offset, drawn per shading point
-        (:func:`raytrace.kernels.shading.incidence1`)."""
+        (:func:`raytrace.kernels.shading.incidence1`). Cell c is the part ``"cell c"``."""
         pts = self.sample_points() - origin
         col = self.color / len(pts)
         if not self.jitter:
-            return [Emitter(col, position=p, attenuation=self.attenuation) for p in pts]
+            return [Emitter(col, position=p, attenuation=self.attenuation, part=f"cell {c}")
+                    for c, p in enumerate(pts)]
         k = math.isqrt(self.samples)
         stream = int(np.random.default_rng([seed, index]).integers(0, 2**52))
         i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")  # sample_points' order
         return [Emitter(col, position=p, attenuation=self.attenuation, cell_u=self.edge_u / k,
-                        cell_v=self.edge_v / k, stream=stream, offset=(b / k, a / k))
-                for p, a, b in zip(pts, i.ravel(), j.ravel(), strict=True)]
+                        cell_v=self.edge_v / k, stream=stream, offset=(b / k, a / k),
+                        part=f"cell {c}")
+                for c, (p, a, b) in enumerate(zip(pts, i.ravel(), j.ravel(), strict=True))]
 
 
 Light = PointLight | DirectionalLight | SpotLight | AreaLight
 #: The light types by their scene-file ``type``: a light is one record (its fields are its
-#: scene-file keys, ``emitters`` its samples) plus one line here.
+#: scene-file keys, ``emitters`` its samples, each naming its ``part`` where there are several)
+#: plus one line here, which also exports it (``raytrace.<its class name>``).
 LIGHT_TYPES = {"point": PointLight, "directional": DirectionalLight, "spot": SpotLight,
                "area": AreaLight}

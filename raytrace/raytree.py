@@ -29,8 +29,9 @@ from .film import aov
 from .integrator import WhittedIntegrator
 from .kernels.kinds import KA, KEEP, KIND_NAMES, PRUNED
 from .kernels.material import surface_color1, surface_opacity1
+from .lights import labels
 from .rendering import render_options
-from .scene import AreaLight, Scene
+from .scene import Scene
 
 #: Names of the children columns of the integrator's ``status`` (reflected, refracted,
 #: see-through).
@@ -58,7 +59,8 @@ class Recorder:
         self._next: list[int] = []   # records of the children just spawned, in batch order
         self._hits: list[int] = []   # records of the current batch's hits, in hit order
         self._lights: list[tuple[int, np.ndarray]] = []  # (emitter, rows of its shadow rays)
-        self._labels = _emitter_labels(integrator.scene)
+        # each emitter's label (the light's key, its part), as the lights name them
+        self._labels = labels(integrator.scene.lights, self.origin, integrator.opt.seed)
 
     # -- the integrator's calls ---------------------------------------------------------------
     def traced(self, rays: Any, found: np.ndarray, missed: np.ndarray,
@@ -174,19 +176,6 @@ def _rows(rays: Any) -> Any:
     from dataclasses import replace
 
     return replace(rays, sample=np.arange(len(rays), dtype=np.int64))
-
-
-def _emitter_labels(scene: Scene) -> list[str]:
-    """A label per emitter of the integrator (``raytrace.lights.emitters``' order): the
-    light's key, and the cell for the k² point samples of an area light."""
-    out = []
-    for i, light in enumerate(scene.lights):
-        kind = type(light).__name__.removesuffix("Light").lower()
-        if isinstance(light, AreaLight):
-            out.extend(f"lights[{i}] ({kind}, cell {c})" for c in range(light.samples))
-        else:
-            out.append(f"lights[{i}] ({kind})")
-    return out
 
 
 def explain(scene: Scene, pixel: tuple[int, int], sample: int = 0, **overrides: Any) -> dict:

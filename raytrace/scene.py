@@ -156,10 +156,34 @@ class Plane:
         return (*p, *self.normal, np.abs(p).max())
 
 
+@dataclass
+class Disk:
+    """A flat round analytic shape: the points of the plane through ``center`` with unit
+    ``normal`` (its outward side) within ``radius`` of the centre; a lamp or a table top."""
+
+    center: Any
+    normal: Any
+    radius: float
+    material: Any = None
+    type = "disk"
+
+    def __post_init__(self) -> None:
+        self.center = values.vector(self.center, "center")
+        self.normal = values.unit(self.normal, "normal")
+        self.radius = values.number(self.radius, "radius", lo=0, lo_open=True)
+
+    def row(self, origin: np.ndarray) -> tuple[float, ...]:
+        """Its parameters as ``kernels.accel.disk_t`` reads them, camera-relative: a plane's
+        row (the centre, the unit normal, the centre's largest absolute coordinate) and the
+        radius."""
+        c = self.center - origin
+        return (*c, *self.normal, np.abs(c).max(), self.radius)
+
+
 #: The analytic shapes by their scene-file ``type``: a shape is one record (its fields are
 #: its scene-file keys, ``row`` its parameters for the kernels) plus one line here, and its
-#: intersection and surface in ``accel_kernels`` (docs/architecture.md).
-SHAPE_TYPES = {"sphere": Sphere, "plane": Plane}
+#: kind, intersection and surface in ``kernels/accel.py`` (docs/architecture.md).
+SHAPE_TYPES = {"sphere": Sphere, "plane": Plane, "disk": Disk}
 
 
 SHADINGS = ("flat", "smooth", "gouraud", "fast_phong")

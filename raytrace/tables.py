@@ -108,8 +108,8 @@ def scene_arrays(scene: SceneDescription) -> SceneArrays:
 
 def shape_tables(objects: list, origin: np.ndarray, index: dict[int, int]) -> Shapes:
     """The analytic shapes of ``objects`` (those of :data:`raytrace.scene.SHAPE_TYPES`),
-    kind by kind in ``accel_kernels.SHAPE_KINDS``' order, in scene order within a kind: each
-    one's kind code, its ``row(origin)`` zero-padded to ``accel_kernels.ROW`` floats, its
+    kind by kind in ``kernels.accel.SHAPE_KINDS``' order, in scene order within a kind: each
+    one's kind code, its ``row(origin)`` zero-padded to ``kernels.accel.ROW`` floats, its
     material's row (``index``: ``id(material)`` → row) and its index in ``objects``."""
     kinds = tuple(SHAPE_TYPES.values())
     order = sorted((ak.SHAPE_KINDS[o.type], i) for i, o in enumerate(objects)

@@ -17,7 +17,8 @@ that in a fresh interpreter).
   ``t² + 2bt + c = 0`` (``b = d·(o − c)``) with its discriminant written as ``r² − |f|²``,
   ``f = (o − c) − b·d``, and the second root from Vieta (Haines et al., "Precision
   Improvements for Ray/Sphere Intersection", Ray Tracing Gems, 2019); planes by
-  ``t = (p − o)·n / (d·n)``; every triangle of every mesh by Möller & Trumbore ("Fast,
+  ``t = (p − o)·n / (d·n)``, disks as their plane's hit where ``|o + t·d − c| ≤ r``; every
+  triangle of every mesh by Möller & Trumbore ("Fast,
   minimum storage ray-triangle intersection", 1997), a ray through the edge two triangles
   share counting as a hit on one of them (``EDGE``), small meshes tested together and each
   group behind a bounding sphere.
@@ -32,7 +33,11 @@ that in a fresh interpreter).
   ``I = ka·Ia + Σ_l S_l·f_radial·f_angular·I_l·[kd·max(N·L, 0) + ks·spec] + kr·I_r + kt·I_t``
   then ``I_ray = t·I + (1 − t)·I_behind``; ``spec = (V·R)^n`` with ``R = 2(N·L)N − L``
   (Phong 1975) or ``(N·H)^n`` with ``H = (L + V)/|L + V|`` (Blinn 1977), 0 where the cosine
-  is ≤ 0 and where N·L ≤ 0; ka defaults to kd; N is turned to the viewer. Lights:
+  is ≤ 0 and where N·L ≤ 0; ka defaults to kd; N is turned to the viewer; the emission
+  ``ke`` is added to I (inside the opacity blend). ``fresnel`` weights kr and kt by the
+  angle of incidence, cos θ = −d·N: "schlick" ``kr + (1 − kr)(1 − cos θ)⁵`` (Schlick 1994),
+  "dielectric" ``kr·F``, ``kt·(1 − F)`` with F the unpolarised Fresnel reflectance
+  ``(r_s² + r_p²)/2`` of the interface (Born & Wolf), 1 under TIR. Lights:
   ``f_radial = 1/(a0 + a1·d + a2·d²)`` (1 for directional), spots ``(cos α)^exponent``
   inside the cone (``cos α ≥ cos cutoff``), 0 outside; an area light is its k×k cell
   centres, each a point light of ``color/k²`` (jittered area lights are not supported: the
@@ -76,16 +81,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from raytrace.material import Checker, Material
-from raytrace.scene import (
-    AreaLight,
-    DirectionalLight,
-    Mesh,
-    Plane,
-    PointLight,
-    Scene,
-    Sphere,
-    SpotLight,
-)
+from raytrace.scene import Scene
 
 #: A shadow ray crossing more surfaces than this counts as blocked (docs/recursion.md).
 MAX_CROSSINGS = 64
@@ -100,6 +96,12 @@ NORMAL_FLOOR = 1e-12
 EDGE = 1e-12
 #: Meshes with fewer triangles are intersected together, behind one bounding sphere.
 GROUP = 256
+#: The object types traced, by scene-file ``type``: spheres, the flat shapes (planes, and
+#: disks: the part of their plane within their radius) and meshes. A scene with any other
+#: raises NotImplementedError: the reference never skips what it does not know.
+OBJECTS = ("sphere", "plane", "disk", "mesh")
+#: The light types, by scene-file ``type`` (any other raises NotImplementedError).
+LIGHTS = ("point", "directional", "spot", "area")
 
 
 @dataclass
@@ -208,6 +210,51 @@ def blinn(n: np.ndarray, l: np.ndarray, v: np.ndarray) -> float:
 HIGHLIGHTS = {"phong": phong, "blinn": blinn}
 
 
+def reflectance(cos_i: float, eta: float) -> float:
+    """The unpolarised Fresnel reflectance F = (r_s² + r_p²)/2 of light arriving at cos θᵢ
+    (clipped to [0, 1]) on an interface of relative index η = η₁/η₂ (Born & Wolf §1.5.2):
+    sin θₜ = η·sin θᵢ (Snell), r_s = (η cos θᵢ − cos θₜ)/(η cos θᵢ + cos θₜ),
+    r_p = (cos θᵢ − η cos θₜ)/(cos θᵢ + η cos θₜ); 1 where sin θₜ ≥ 1 (TIR)."""
+    c = min(max(cos_i, 0.0), 1.0)
+    sin_t = eta * math.sqrt(max(0.0, 1.0 - c * c))
+    if sin_t >= 1.0:
+        return 1.0
+    cos_t = math.sqrt(1.0 - sin_t * sin_t)
+    rs = (eta * c - cos_t) / (eta * c + cos_t)
+    rp = (c - eta * cos_t) / (c + eta * cos_t)
+    return 0.5 * (rs * rs + rp * rp)
+
+
+def schlick(kr: np.ndarray, kt: np.ndarray, cos_i: float, eta: float):
+    """Schlick 1994 with F0 = kr: kr + (1 − kr)(1 − cos θ)⁵; kt unchanged."""
+    g = (1.0 - min(max(cos_i, 0.0), 1.0)) ** 5
+    return kr + (1.0 - kr) * g, kt
+
+
+def dielectric(kr: np.ndarray, kt: np.ndarray, cos_i: float, eta: float):
+    """The dielectric split: kr·F and kt·(1 − F), F = :func:`reflectance`."""
+    f = reflectance(cos_i, eta)
+    return kr * f, kt * (1.0 - f)
+
+
+#: How kr and kt vary with the angle of incidence, by the ``fresnel`` key ("none": not at all).
+FRESNELS = {"none": lambda kr, kt, cos_i, eta: (kr, kt), "schlick": schlick,
+            "dielectric": dielectric}
+
+
+def check_material(m: Material, where: str) -> None:
+    """NotImplementedError for what the reference does not model: a highlight model or
+    Fresnel mode it does not know, image textures (a colour that is neither a constant nor
+    a checker) and texture alpha."""
+    if m.highlight not in HIGHLIGHTS or m.fresnel not in FRESNELS:
+        raise NotImplementedError(f"{where}: the reference tracer has no highlight "
+                                  f"{m.highlight!r} or fresnel {m.fresnel!r}")
+    colors = (m.ka, m.kd, m.ks, m.kr, m.kt, m.ke)
+    if m.alpha is not None or any(c is not None and not isinstance(c, (np.ndarray, Checker))
+                                  for c in colors):
+        raise NotImplementedError(f"{where}: the reference tracer has no image textures")
+
+
 def highlight(model: str, n: np.ndarray, l: np.ndarray, v: np.ndarray, power: float) -> float:
     """spec = cos^n of the model's cosine, 0 where the cosine is ≤ 0."""
     if model not in HIGHLIGHTS:
@@ -262,17 +309,30 @@ class ReferenceTracer:
 
     # -- the scene as float64 tables ------------------------------------------------------------
     def _shapes(self, objects: list) -> None:
-        """Spheres, planes and triangles, numbered in that order (``prim``)."""
-        spheres = [o for o in objects if isinstance(o, Sphere)]
-        planes = [o for o in objects if isinstance(o, Plane)]
-        meshes = [o for o in objects if isinstance(o, Mesh)]
+        """Spheres, flat shapes (planes, then disks) and triangles, numbered in that order
+        (``prim``)."""
+        for i, o in enumerate(objects):
+            if getattr(o, "type", None) not in OBJECTS:
+                raise NotImplementedError(f"objects[{i}]: the reference tracer has no "
+                                          f"{type(o).__name__} (it traces {', '.join(OBJECTS)})")
+            for j, m in enumerate(getattr(o, "materials", [o.material])):
+                check_material(m, f"objects[{i}] material {j}")
+            if o.type == "mesh" and len(o.materials) > 1:
+                raise NotImplementedError(f"objects[{i}]: the reference tracer has no "
+                                          "per-face materials")
+        spheres = [o for o in objects if o.type == "sphere"]
+        flats = [o for o in objects if o.type == "plane"] + [o for o in objects
+                                                             if o.type == "disk"]
+        meshes = [o for o in objects if o.type == "mesh"]
         self.centers = np.array([s.center for s in spheres], np.float64).reshape(-1, 3)
         self.radii = np.array([s.radius for s in spheres], np.float64)
-        self.plane_points = np.array([p.point for p in planes], np.float64).reshape(-1, 3)
-        self.plane_normals = np.array([unit(np.asarray(p.normal, np.float64)) for p in planes],
-                                      np.float64).reshape(-1, 3)
-        self.shape_materials = [o.material for o in spheres + planes]
-        self.n_spheres, self.n_analytic = len(spheres), len(spheres) + len(planes)
+        self.flat_points = np.array([o.point if o.type == "plane" else o.center for o in flats],
+                                    np.float64).reshape(-1, 3)
+        self.flat_normals = np.array([unit(np.asarray(o.normal, np.float64)) for o in flats],
+                                     np.float64).reshape(-1, 3)
+        self.flat_radii = [math.inf if o.type == "plane" else float(o.radius) for o in flats]
+        self.shape_materials = [o.material for o in spheres + flats]
+        self.n_spheres, self.n_analytic = len(spheres), len(spheres) + len(flats)
         corners, vnormals, fnormals = [], [], []
         self.tri_materials, self.tri_shading = [], []
         for mesh in meshes:
@@ -323,16 +383,20 @@ class ReferenceTracer:
     def _emitters(light) -> list[Emitter]:
         """A light as point-like emitters; an area light as its k×k cell centres, each with
         color/k² (SCENE_FORMAT.md)."""
+        kind = getattr(light, "type", None)
+        if kind not in LIGHTS:
+            raise NotImplementedError(f"the reference tracer has no {type(light).__name__} "
+                                      f"(it has {', '.join(LIGHTS)} lights)")
         color = np.asarray(light.color, np.float64)
-        if isinstance(light, DirectionalLight):
+        if kind == "directional":
             return [Emitter(color, direction=unit(np.asarray(light.direction, np.float64)))]
         att = tuple(float(a) for a in light.attenuation)
-        if isinstance(light, SpotLight):
+        if kind == "spot":
             cos_cutoff = 0.0 if light.cutoff == 90.0 else math.cos(math.radians(light.cutoff))
             return [Emitter(color, np.asarray(light.position, np.float64), attenuation=att,
                             spot_axis=unit(np.asarray(light.direction, np.float64)),
                             cos_cutoff=cos_cutoff, exponent=float(light.exponent))]
-        if isinstance(light, AreaLight):
+        if kind == "area":
             if light.jitter:
                 raise NotImplementedError("the reference tracer has no jittered area lights "
                                           "(use jitter = false)")
@@ -342,8 +406,7 @@ class ReferenceTracer:
             return [Emitter(color / (k * k), c + ((i + 0.5) / k - 0.5) * eu
                             + ((j + 0.5) / k - 0.5) * ev, attenuation=att)
                     for i in range(k) for j in range(k)]
-        assert isinstance(light, PointLight), type(light)
-        return [Emitter(color, np.asarray(light.position, np.float64), attenuation=att)]
+        return [Emitter(color, np.asarray(light.position, np.float64), attenuation=att)]  # point
 
     # -- camera ------------------------------------------------------------------------------
     def camera_ray(self, row: int, col: int, width: int, height: int, sx: float = 0.5,
@@ -389,7 +452,7 @@ class ReferenceTracer:
             if t < best_t:
                 best_t, best = t, s
         if self.n_analytic > self.n_spheres:
-            t, p = self._planes(o, d, leaving, tmin)
+            t, p = self._flats(o, d, leaving, tmin)
             if t < best_t:
                 best_t, best = t, p
         bary = (0.0, 0.0, 0.0)
@@ -408,7 +471,7 @@ class ReferenceTracer:
             n = unit(p - self.centers[best])
             return Hit(best_t, best, p, n, n, self.shape_materials[best])
         if best < self.n_analytic:
-            n = self.plane_normals[best - self.n_spheres]
+            n = self.flat_normals[best - self.n_spheres]
             return Hit(best_t, best, p, n, n, self.shape_materials[best])
         tri = best - self.n_analytic
         ng = self.face_normals[tri]
@@ -448,17 +511,24 @@ class ReferenceTracer:
                 best_t, best = t, i
         return best_t, best
 
-    def _planes(self, o, d, leaving, tmin) -> tuple[float, int]:
-        """Closest plane hit: t = (p − o)·n / (d·n); never the plane the ray leaves."""
+    def _flats(self, o, d, leaving, tmin) -> tuple[float, int]:
+        """Closest hit on a plane or disk: its plane's t = (p − o)·n / (d·n), on a disk only
+        where |o + t·d − c| ≤ r; never the one the ray leaves."""
         best_t, best = math.inf, -1
-        dist = np.einsum("ij,ij->i", self.plane_points - o, self.plane_normals).tolist()
-        cos = (self.plane_normals @ d).tolist()
+        dist = np.einsum("ij,ij->i", self.flat_points - o, self.flat_normals).tolist()
+        cos = (self.flat_normals @ d).tolist()
         for i in range(len(cos)):
             if cos[i] == 0.0 or self.n_spheres + i == leaving:
                 continue
             t = dist[i] / cos[i]
-            if tmin < t < best_t:
-                best_t, best = t, self.n_spheres + i
+            if not tmin < t < best_t:
+                continue
+            r = self.flat_radii[i]
+            if r < math.inf:
+                q = o + t * d - self.flat_points[i]
+                if float(q @ q) > r * r:
+                    continue
+            best_t, best = t, self.n_spheres + i
         return best_t, best
 
     def _triangles(self, o, d, first, last, leaving, tmin, tmax, lifted):
@@ -520,7 +590,8 @@ class ReferenceTracer:
         n, n_face = s * hit.normal, s * hit.outward
         t = mat.opacity
 
-        color = self.ambient * coefficient(mat.kd if mat.ka is None else mat.ka, p)
+        color = self.ambient * coefficient(mat.kd if mat.ka is None else mat.ka, p) \
+            + coefficient(mat.ke, p)
         kd, ks = coefficient(mat.kd, p), coefficient(mat.ks, p)
         gouraud = hit.tri >= 0 and self.tri_shading[hit.tri] == "gouraud"
         shadow_from = self.lifted(hit, s) if hit.tri >= 0 and \
@@ -535,13 +606,16 @@ class ReferenceTracer:
                 color = color + term * self.shadow(hit, em, shadow_from) * em.color
 
         kr, kt = coefficient(mat.kr, p), coefficient(mat.kt, p)
+        entering = float(d @ hit.outward) < 0.0
+        kr, kt = FRESNELS[mat.fresnel](kr, kt, -float(d @ n), 1.0 / mat.ior if entering
+                                       else mat.ior)
         r = refracted = None
         if t > 0 and nonzero(mat.kr):
             r = mirror(d, n)
             if float(r @ n_face) <= 0.0:  # rule 3: the shading normal sent it inside
                 r = mirror(d, n_face)
         if t > 0 and nonzero(mat.kt):
-            eta = 1.0 / mat.ior if float(d @ hit.outward) < 0.0 else mat.ior
+            eta = 1.0 / mat.ior if entering else mat.ior
             refracted, tir = snell(d, n, eta)
             side = float(refracted @ n_face)
             if (side <= 0.0) if tir else (side >= 0.0):  # rule 3: wrong side of the face

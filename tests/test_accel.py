@@ -181,6 +181,8 @@ def _self_hit_objects(kind: str, s: float, shift: np.ndarray):
         return raytrace.Sphere(shift, 1.0 * s)
     if kind == "plane":
         return raytrace.Plane(shift, [0.3, 1.0, 0.2])
+    if kind == "disk":
+        return raytrace.Disk(shift, [0.3, 1.0, 0.2], 1.5 * s)
     if kind == "icosphere":
         return raytrace.Mesh(mesh=trimesh.creation.icosphere(subdivisions=3), scale=s,
                              translate=shift)
@@ -193,7 +195,7 @@ def _self_hit_objects(kind: str, s: float, shift: np.ndarray):
                          rotate=[17.0, 5.0, -11.0], translate=shift)
 
 
-@pytest.mark.parametrize("kind", ["sphere", "plane", "icosphere", "quad", "floor1e5",
+@pytest.mark.parametrize("kind", ["sphere", "plane", "disk", "icosphere", "quad", "floor1e5",
                                   "floor1e7"])
 @pytest.mark.parametrize("scale,shift", [(1e-4, 0.0), (1.0, 0.0), (1e4, 0.0), (1.0, 1e5),
                                          (1e-4, 1e5)])
@@ -242,7 +244,7 @@ def test_no_self_hits(kind, scale, shift):
     inward = -out
     origin = spawn_origins(surf.point, surf.geometric, surf.offset, inward)
     through = acc.intersect(origin, inward, surf.shape)
-    if kind in ("plane", "quad", "floor1e5", "floor1e7"):
+    if kind in ("plane", "disk", "quad", "floor1e5", "floor1e7"):
         assert int(through.hit.sum()) == 0, "a ray leaving a flat surface re-hit it"
     elif kind == "sphere":
         assert through.hit.all()

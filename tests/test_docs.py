@@ -6,10 +6,16 @@ tables), so a ``#`` line inside a code block is not a heading and a ``[x](y)`` i
 not a link. Heading anchors are GitHub's: the heading's text lower-cased, spaces turned into
 ``-``, everything but letters, digits, ``_`` and ``-`` dropped, and ``-1``, ``-2``, ...
 appended to repeats (``mdit_py_plugins.anchors``, which follows GitHub's toc filter).
+
+docs/scene_format.md names everything a scene file and the command line accept, read from the
+registries: every object and light type (a section each, its table holding exactly the
+reader's keys), the keys of every table, each choice by name (filters, anti-aliasing,
+highlights, Fresnel modes, mesh shadings, texture wraps, tone maps, AOVs).
 """
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
@@ -143,3 +149,131 @@ def test_checker_reports_broken_links(tmp_path):
         "table.md: no such file",
     ]
     assert "not-a-heading" not in anchors(page)
+
+
+# -- docs/scene_format.md names every registered type, key and choice ----------------------------
+SCENE_FORMAT = ROOT / "docs" / "scene_format.md"
+
+
+def sections(page: Path) -> dict[str, dict]:
+    """Each heading of ``page`` by its text: its ``level``, its ``parent`` (the heading one
+    level up), its ``tables`` (each a list of rows, each row its cells' inline Markdown) and
+    its ``text`` (the page's lines from the heading to the next one)."""
+    source = page.read_text(encoding="utf-8")
+    lines = source.splitlines()
+    tokens = _parser().parse(source)
+    out: dict[str, dict] = {}
+    stack: list[str] = []
+    current = None
+    for i, t in enumerate(tokens):
+        if t.type == "heading_open":
+            title, level = tokens[i + 1].content, int(t.tag[1])
+            assert title not in out, f"{page.name}: two headings {title!r}"
+            stack = [*stack[:level - 1], title]
+            current = out[title] = {"level": level, "parent": stack[-2] if level > 1 else None,
+                                    "tables": [], "start": t.map[0]}
+        elif current is None:
+            continue
+        elif t.type == "table_open":
+            current["tables"].append([])
+        elif t.type == "tr_open":
+            current["tables"][-1].append([])
+        elif t.type == "inline" and tokens[i - 1].type in ("th_open", "td_open"):
+            current["tables"][-1][-1].append(t.content)
+    starts = sorted(s["start"] for s in out.values()) + [len(lines)]
+    for s in out.values():
+        end = starts[starts.index(s["start"]) + 1]
+        s["text"] = "\n".join(lines[s["start"]:end])
+    return out
+
+
+def keys(section: dict) -> dict[str, list[str]]:
+    """The rows of a section's tables by the code span of their first cell (`` `key` ``)."""
+    found = {}
+    for table in section["tables"]:
+        for row in table[1:]:  # (the header row names the columns)
+            m = re.fullmatch(r"`([^`]+)`", row[0].strip())
+            if m:
+                found[m.group(1)] = row
+    return found
+
+
+def quoted(cell: str) -> set[str]:
+    """The ``"name"`` code spans of a table cell: the choices it lists."""
+    return set(re.findall(r'`"([^"`]+)"`', cell))
+
+
+@pytest.fixture(scope="module")
+def doc() -> dict[str, dict]:
+    return sections(SCENE_FORMAT)
+
+
+def test_every_table_of_a_scene_file_is_documented_key_by_key(doc):
+    from raytrace.material import MATERIAL_KEYS, PATTERN_KEYS
+    from raytrace.readers import scene_file
+    from raytrace.readers.texture import TEXTURE_KEYS
+
+    assert all(doc[k]["level"] == 2 for k in scene_file.TOP_KEYS)
+    for title, want in (("render", scene_file.RENDER_KEYS), ("camera", scene_file.CAMERA_KEYS),
+                        ("ambient", ("color",)), ("materials", MATERIAL_KEYS),
+                        ("The checker pattern", PATTERN_KEYS),
+                        ("Image textures", TEXTURE_KEYS)):
+        assert set(keys(doc[title])) == set(want), title
+
+
+@pytest.mark.parametrize("part", ["objects", "lights"])
+def test_every_object_and_light_type_has_its_section_with_its_keys(doc, part):
+    # One "### type" section under "## objects" or "## lights" per registered type, whose
+    # table has exactly the keys the scene-file reader accepts for it (none missing, none
+    # stale), its `type` row naming it.
+    from raytrace.readers import scene_file
+
+    registry, accepted = ((scene_file.OBJECT_TYPES, scene_file.OBJECT_KEYS) if part == "objects"
+                          else (scene_file.LIGHT_TYPES, scene_file.LIGHT_KEYS))
+    typed = {title for title, s in doc.items() if s["parent"] == part and "type" in keys(s)}
+    assert typed == set(registry)
+    for kind, cls in registry.items():
+        table = keys(doc[kind])
+        assert set(table) == set(accepted[cls]), kind
+        assert quoted(table["type"][1]) == {kind}, kind
+
+
+def test_every_choice_by_name_is_listed(doc):
+    # Each key that takes a name lists every name of its registry, and only those.
+    from raytrace.material import FRESNELS, HIGHLIGHTS
+    from raytrace.readers.texture import WRAPS
+    from raytrace.sampling import AA_MODES, FILTERS
+    from raytrace.scene import SHADINGS
+
+    for title, key, names in (("render", "filter", FILTERS), ("render", "aa", AA_MODES),
+                              ("materials", "highlight", HIGHLIGHTS),
+                              ("materials", "fresnel", FRESNELS), ("mesh", "shading", SHADINGS),
+                              ("Image textures", "wrap", WRAPS),
+                              ("The checker pattern", "pattern", ("checker",))):
+        assert quoted(keys(doc[title])[key][1]) == set(names), (title, key)
+
+
+def test_every_tone_map_and_aov_is_documented(doc):
+    from raytrace.film.aov import AOVS
+    from raytrace.film.tonemap import TONEMAPS
+    from raytrace.sampling import AA_MODES, FILTERS
+
+    assert set(keys(doc["Tone maps"])) == set(TONEMAPS)
+    assert doc["Tone maps"]["parent"] == "Command line"
+    cli = doc["Command line"]["text"]
+    assert f"[--aov {','.join(AOVS)}]" in cli
+    described = set(re.findall(r"`(\w+)`\s+\(`", cli.split("`--aov` adds AOVs")[1]))
+    assert set(AOVS) <= described  # each named, its channels in brackets after it
+    assert f"[--filter {'|'.join(FILTERS)}]" in cli and f"[--aa {'|'.join(AA_MODES)}]" in cli
+
+
+def test_the_section_reader_finds_tables_and_choices(tmp_path):
+    # The helpers above on a page made by hand.
+    page = tmp_path / "p.md"
+    page.write_text('# P\n\n## a\n\ntext\n\n### b\n\n| key | type |\n|---|---|\n'
+                    '| `x` | `"u"` or `"v"` |\n| not a key | y |\n\n## c\n\nmore\n',
+                    encoding="utf-8")
+    s = sections(page)
+    assert (s["b"]["parent"], s["c"]["parent"], s["b"]["level"]) == ("a", "P", 3)
+    assert list(keys(s["b"])) == ["x"] and quoted(keys(s["b"])["x"][1]) == {"u", "v"}
+    assert s["a"]["text"] == "## a\n\ntext\n" and s["c"]["text"].endswith("more")

@@ -5,14 +5,18 @@ of the render."""
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
+from helpers import make_scene
 from test_threads import scene as every_ray_scene
 
 import raytrace
-from raytrace import cli
+from raytrace import cli, values
+from raytrace.lights import LIGHT_TYPES, Emitter
 from raytrace.raytree import explain, format_tree
 
 WHITTED = Path(__file__).resolve().parent.parent / "scenes" / "whitted.toml"
@@ -155,3 +159,49 @@ def test_a_tree_larger_than_a_batch_is_refused_in_one_line(whitted, glass_pixel)
     # recorder cannot follow ray by ray; it says so instead of mislabelling rays.
     with pytest.raises(raytrace.SceneError, match="too many to explain"):
         explain(whitted, glass_pixel, width=W, height=H, pass_samples=1)
+
+
+@dataclass
+class LineLight:
+    """A segment from ``start`` to ``end`` sampled by ``samples`` point lights at the centres
+    of equal pieces, sharing ``color``: a light by docs/architecture.md's recipe (one record
+    and its ``LIGHT_TYPES`` line), whose emitters name their parts."""
+
+    start: Any
+    end: Any
+    samples: int = 3
+    color: Any = 1.0
+    type = "line"
+
+    def __post_init__(self) -> None:
+        self.start = values.vector(self.start, "start")
+        self.end = values.vector(self.end, "end")
+        self.samples = values.number(self.samples, "samples", lo=1, hi=4096, integer=True)
+        self.color = values.color(self.color, "color")
+
+    def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
+        n = self.samples
+        return [Emitter(self.color / n, self.start + (k + 0.5) / n * (self.end - self.start)
+                        - origin, part=f"sample {k}") for k in range(n)]
+
+
+def test_each_light_names_its_own_emitters(monkeypatch):
+    # A light of several emitters registered by its one line, before a point light and an
+    # area light: every emitter's label is its own light's key and part, none shifted.
+    monkeypatch.setitem(LIGHT_TYPES, "line", LineLight)
+    floor = raytrace.Plane([0, 0, 0], [0, 1, 0], raytrace.Material(kd=0.8))
+    scene = make_scene([floor], [LineLight([-1, 2, 0], [1, 2, 0]), raytrace.PointLight([0, 3, 1]),
+                                 raytrace.AreaLight([0, 2, -1], [0.4, 0, 0], [0, 0, 0.4],
+                                                    samples=4)],
+                       raytrace.Camera([0, 1, 3], [0, 0, 0]), ambient=0.1)
+    report = explain(scene, (4, 3), width=8, height=6)
+    lights = report["rays"][0]["lights"]
+    assert [lt["light"] for lt in lights] == [
+        "lights[0] (line, sample 0)", "lights[0] (line, sample 1)",
+        "lights[0] (line, sample 2)", "lights[1] (point)", "lights[2] (area, cell 0)",
+        "lights[2] (area, cell 1)", "lights[2] (area, cell 2)", "lights[2] (area, cell 3)"]
+    assert all(np.all(np.array(lt["contribution"]) > 0) for lt in lights)  # all lit
+    np.testing.assert_allclose(report["rays"][0]["contribution"], np.sum(
+        [lt["contribution"] for lt in lights], axis=0) + report["rays"][0]["ambient"],
+        rtol=1e-12)
+    assert "lights[0] (line, sample 2)  term" in format_tree(report)

@@ -13,6 +13,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 import raytrace
 
 PACKAGE = Path(raytrace.__file__).resolve().parent
@@ -108,3 +110,27 @@ def test_import_raytrace_loads_neither_numba_nor_numpy_s_users_of_it():
 def test_every_name_the_package_exports_resolves():
     for name in raytrace.__all__:
         assert getattr(raytrace, name) is not None, name
+
+
+def test_every_registered_record_is_exported_by_its_class_name(monkeypatch):
+    # A light or object record is exported by the line that registers it: raytrace's
+    # __getattr__, __all__ and __dir__ read lights.LIGHT_TYPES and scene.OBJECT_TYPES.
+    from raytrace.lights import LIGHT_TYPES
+    from raytrace.scene import OBJECT_TYPES
+
+    for cls in (*LIGHT_TYPES.values(), *OBJECT_TYPES.values()):
+        assert getattr(raytrace, cls.__name__) is cls
+        assert cls.__name__ in raytrace.__all__ and cls.__name__ in dir(raytrace)
+
+    class LineLight:  # a light registered after import is found too
+        type = "line"
+
+    monkeypatch.setitem(LIGHT_TYPES, "line", LineLight)
+    try:
+        assert raytrace.LineLight is LineLight
+        assert "LineLight" in raytrace.__all__
+    finally:
+        vars(raytrace).pop("LineLight", None)  # what __getattr__ kept
+    monkeypatch.delitem(LIGHT_TYPES, "line")
+    with pytest.raises(AttributeError, match="has no attribute 'LineLight'"):
+        raytrace.LineLight  # noqa: B018

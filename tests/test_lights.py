@@ -13,7 +13,7 @@ from helpers import RTOL, aimed_camera, make_scene, pixel
 import raytrace
 from raytrace import shading
 from raytrace.kernels import shading as K
-from raytrace.lights import cos_cutoff, emitters
+from raytrace.lights import cos_cutoff, emitters, labels
 from raytrace.shading import light_words
 
 FLOOR = dict(point=[0.0, 0.0, 0.0], normal=[0.0, 1.0, 0.0])
@@ -336,3 +336,17 @@ def test_per_path_jitter_is_the_same_for_any_threads_and_pass_size():
     np.testing.assert_array_equal(
         one, raytrace.render(scene, width=24, height=16, spp=4, max_depth=2, threads=2,
                              pass_samples=64).rgb)
+
+
+@pytest.mark.parametrize("jitter", [False, True])
+def test_every_emitter_has_a_label_naming_its_light_and_part(jitter):
+    # explain's labels (raytrace.raytree): one per emitter, in emitters' order, each light
+    # naming the parts of its own (an area light's cells).
+    lights = [raytrace.AreaLight([0, 3, 0], [1, 0, 0], [0, 0, 1], samples=4, jitter=jitter),
+              raytrace.PointLight([0, 2, 0]), raytrace.DirectionalLight([0, -1, 0]),
+              raytrace.SpotLight([0, 2, 0], [0, -1, 0])]
+    origin = np.array([0.5, 1.0, 2.0])
+    assert labels(lights, origin, 7) == [
+        *(f"lights[0] (area, cell {c})" for c in range(4)), "lights[1] (point)",
+        "lights[2] (directional)", "lights[3] (spot)"]
+    assert len(labels(lights, origin, 7)) == len(emitters(lights, origin, 7))

@@ -1,10 +1,15 @@
 """The scene's dataclasses built in Python (raytrace/scene.py): a wrong argument is a clear
 SceneError naming it when the Scene is made, never an AttributeError from deep inside a render;
-mesh paths that are not files say what they are."""
+mesh paths that are not files say what they are; the disk, the shape added by the recipe of
+docs/architecture.md, against closed forms and rendered from TOML and Python."""
 
 from __future__ import annotations
 
+import tomllib
+
+import numpy as np
 import pytest
+from helpers import aimed_camera, make_scene, pixel
 
 import raytrace
 
@@ -61,3 +66,187 @@ def test_input_files_are_the_scene_its_meshes_and_its_library_materials(tmp_path
     paths = {p for p, _ in files}
     assert paths == {tmp_path / "s.toml", tmp_path / "m.obj", library._files["glass"],
                      library._files["brass"]}
+
+
+# -- the disk: an analytic shape added by the recipe (scene.py + kernels/accel.py) ----------------
+def _disk_pixel(target, disk, light, **render) -> np.ndarray:
+    """The one pixel of a camera 3 above ``target`` looking straight down at it."""
+    scene = make_scene([disk], [light], aimed_camera(np.add(target, [0, 0, 3.0]), target),
+                       ambient=0.5, background=0.25, **render)
+    return pixel(scene)
+
+
+def test_a_disk_facing_the_camera_is_lit_by_lambert_s_law_inside_its_radius():
+    # A disk of radius 1 at the origin facing +z (the camera), a point light of colour
+    # I_l = (1, 0.5, 0.25) at P + (1.2, 0, 1.6) with f = 1/d², P = (0.3, 0.4, 0) on the disk:
+    # d = 2, N·L = 1.6/2 = 0.8, so I = ka·Ia + kd·(N·L)·I_l/d² = 0.2·0.5 + 0.7·0.8·I_l/4
+    # = 0.1 + 0.14·I_l = (0.24, 0.17, 0.135).
+    disk = raytrace.Disk([0, 0, 0], [0, 0, 1], 1.0, raytrace.Material(ka=0.2, kd=0.7))
+    light = raytrace.PointLight([1.5, 0.4, 1.6], [1.0, 0.5, 0.25], attenuation=[0, 0, 1])
+    np.testing.assert_allclose(_disk_pixel([0.3, 0.4, 0.0], disk, light),
+                               [0.24, 0.17, 0.135], rtol=1e-6)
+    # On the rim's radius at (0.6, 0.8): 1e-9 inside it is lit, 1e-9 outside it is the
+    # background (0.25) seen past it.
+    inside = _disk_pixel(np.multiply([0.6, 0.8, 0.0], 1 - 1e-9), disk, light)
+    outside = _disk_pixel(np.multiply([0.6, 0.8, 0.0], 1 + 1e-9), disk, light)
+    assert np.all(inside > 0.1) and not np.allclose(inside, 0.25)
+    np.testing.assert_array_equal(outside, [0.25, 0.25, 0.25])
+
+
+def test_a_disk_casts_a_round_shadow():
+    # A disk of radius 0.5 at height 1 between a floor and a point light at (0, 3, 0): floor
+    # points whose ray to the light crosses y = 1 within 0.5 of the axis get ka·Ia only;
+    # (0.4, 0, 0) crosses it at x = 0.4·2/3 ≈ 0.27 (shadowed), (0.9, 0, 0) at 0.6 (lit:
+    # ka·Ia + kd·N·L with N·L = 3/√(0.81 + 9)). The disk is seen from below: two-sided.
+    floor = raytrace.Plane([0, 0, 0], [0, 1, 0], raytrace.Material(ka=0.2, kd=0.7))
+    disk = raytrace.Disk([0, 1, 0], [0, 1, 0], 0.5)
+    light = raytrace.PointLight([0, 3, 0])
+    for x, lit in ((0.0, False), (0.4, False), (0.9, True)):
+        scene = make_scene([floor, disk], [light],
+                           aimed_camera([x + 0.3, 0.5, 2.0], [x, 0.0, 0.0]), ambient=0.5)
+        want = 0.1 + (0.7 * 3 / np.sqrt(x * x + 9) if lit else 0.0)
+        np.testing.assert_allclose(pixel(scene), np.full(3, want), rtol=1e-6)
+
+
+@pytest.mark.parametrize(("table", "key", "says"), [
+    ({"radius": 0}, "radius", "must be"),
+    ({"radius": -1}, "radius", "must be"),
+    ({"radius": "big"}, "radius", "number"),
+    ({"normal": [0, 0, 0]}, "normal", "zero"),
+    ({"radius": float("inf")}, "radius", "must be finite"),
+    ({"normal": [0, 1]}, "normal", "a list of 3 numbers"),
+    ({"center": [0, "a", 0]}, "center[1]", "must be a number"),
+    ({"center": None}, "center", "is required"),
+    ({"radus": 1}, "radus", "unknown key (did you mean 'radius'?)"),
+    ({"material": "brss"}, "material", "did you mean 'brass'?"),
+])
+def test_a_disk_s_bad_keys_are_one_line_errors_naming_the_key(table, key, says):
+    disk = {"type": "disk", "center": [0, 0, -3], "normal": [0, 0, 1], "radius": 1, **table}
+    disk = {k: v for k, v in disk.items() if v is not None}
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.scene_from_dict({"objects": [{"type": "sphere", "center": [0, 0, -5],
+                                               "radius": 1}, disk]})
+    text = str(e.value)
+    assert text.startswith(f"objects[1].{key}: ") and says in text and "\n" not in text
+
+
+def test_a_disk_from_python_is_checked_as_from_a_file():
+    with pytest.raises(raytrace.SceneError, match=r"^radius: must be"):
+        raytrace.Disk([0, 0, 0], [0, 0, 1], 0.0)
+    with pytest.raises(raytrace.SceneError, match=r"^normal: "):
+        raytrace.Disk([0, 0, 0], [0, 0, 0], 1.0)
+
+
+DISK_SCENE = """
+[render]
+width = 32
+height = 24
+max_depth = 3
+background = [0.3, 0.4, 0.6]
+
+[camera]
+position = [0.5, 2.0, 4.0]
+look_at = [0.0, 0.6, 0.0]
+
+[ambient]
+color = 0.1
+
+[[lights]]
+type = "point"
+position = [2.0, 4.0, 3.0]
+
+[[lights]]
+type = "area"
+position = [-1.5, 3.0, 0.0]
+edge_u = [0.5, 0.0, 0.0]
+edge_v = [0.0, 0.0, 0.5]
+samples = 4
+jitter = true
+color = 0.5
+
+[[objects]]
+type = "plane"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+material = { kd = { pattern = "checker", colors = [0.8, 0.2], scale = 0.5 } }
+
+[[objects]]
+type = "disk"                       # a table top, a ball on it
+center = [0.0, 0.6, 0.0]
+normal = [0.0, 1.0, 0.0]
+radius = 0.9
+material = "polished_gold"
+
+[[objects]]
+type = "sphere"
+center = [0.2, 0.9, -0.1]
+radius = 0.3
+material = "red_plastic"
+
+[[objects]]
+type = "disk"                       # a mirror behind
+center = [0.0, 1.2, -2.0]
+normal = [0.1, 0.0, 1.0]
+radius = 1.3
+material = "mirror"
+
+[[objects]]
+type = "disk"                       # a glass lens in front
+center = [-0.7, 0.9, 1.0]
+normal = [0.3, 0.2, 1.0]
+radius = 0.45
+material = "glass"
+"""
+
+
+def _disk_scene_in_python() -> raytrace.Scene:
+    floor = raytrace.Material(kd=raytrace.Checker(([0.8] * 3, [0.2] * 3), 0.5))
+    return make_scene(
+        [raytrace.Plane([0, 0, 0], [0, 1, 0], floor),
+         raytrace.Disk([0, 0.6, 0], [0, 1, 0], 0.9, "polished_gold"),
+         raytrace.Sphere([0.2, 0.9, -0.1], 0.3, "red_plastic"),
+         raytrace.Disk([0, 1.2, -2], [0.1, 0, 1], 1.3, "mirror"),
+         raytrace.Disk([-0.7, 0.9, 1], [0.3, 0.2, 1], 0.45, "glass")],
+        [raytrace.PointLight([2, 4, 3]),
+         raytrace.AreaLight([-1.5, 3, 0], [0.5, 0, 0], [0, 0, 0.5], samples=4, jitter=True,
+                            color=0.5)],
+        raytrace.Camera([0.5, 2, 4], [0, 0.6, 0]), ambient=0.1, width=32, height=24,
+        max_depth=3, background=[0.3, 0.4, 0.6])
+
+
+@pytest.fixture(scope="module")
+def disk_renders(tmp_path_factory) -> dict:
+    path = tmp_path_factory.mktemp("disk") / "disks.toml"
+    path.write_text(DISK_SCENE)
+    scene = raytrace.load_scene(path)
+    return {"scene": scene,
+            "toml": raytrace.render(scene, threads=1, aovs=["id"]),
+            "python": raytrace.render(_disk_scene_in_python(), threads=1),
+            "threads": raytrace.render(scene, threads=2, pass_samples=36),
+            "crop": raytrace.render(scene, threads=2, crop=(5, 4, 27, 19), aovs=["id"])}
+
+
+def test_disks_render_the_same_from_toml_and_python_at_any_threads_and_crop(disk_renders):
+    full = disk_renders["toml"]
+    assert np.isfinite(full.rgb).all() and full.rgb.max() > 0.2
+    np.testing.assert_array_equal(disk_renders["python"].rgb, full.rgb)
+    np.testing.assert_array_equal(disk_renders["threads"].rgb, full.rgb)
+    np.testing.assert_array_equal(disk_renders["crop"].rgb, full.rgb[4:19, 5:27])
+    np.testing.assert_array_equal(disk_renders["crop"].aov("id"), full.aov("id")[4:19, 5:27])
+
+
+def test_disks_are_in_the_id_aov_lit_shadowed_mirrored_and_seen_through(disk_renders):
+    # Every disk is seen (its object index in the id AOV), and plays its part where it is
+    # seen: the table top changes without the ball (its shadow, and the ball's image in the
+    # gold), the mirror disk and the glass disk change when made matte (what they reflect
+    # and refract).
+    full, ids = disk_renders["toml"].rgb, disk_renders["toml"].aov("id")
+    assert {1, 3, 4} <= set(np.unique(ids).tolist())
+    matte = raytrace.Material(kd=0.5)
+    for change, disk in ((lambda s: s.objects.pop(2), 1),
+                         (lambda s: setattr(s.objects[3], "material", matte), 3),
+                         (lambda s: setattr(s.objects[4], "material", matte), 4)):
+        scene = raytrace.scene_from_dict(tomllib.loads(DISK_SCENE))
+        change(scene)
+        differ = np.abs(raytrace.render(scene, threads=2).rgb - full).max(axis=2) > 1e-3
+        assert differ[ids == disk].sum() > 3, disk

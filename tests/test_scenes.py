@@ -242,25 +242,6 @@ def test_mirrored_glass_mesh_renders_like_the_original():
 DOCS = ROOT / "docs"
 
 
-def test_scene_format_doc_names_every_key():
-    """docs/scene_format.md documents every key the loader accepts."""
-    from raytrace.material import MATERIAL_KEYS, PATTERN_KEYS
-    from raytrace.readers import scene_file
-
-    text = (DOCS / "scene_format.md").read_text(encoding="utf-8")
-    keys = {*scene_file.RENDER_KEYS, *scene_file.CAMERA_KEYS, *MATERIAL_KEYS, *PATTERN_KEYS}
-    for table in (scene_file.LIGHT_KEYS, scene_file.OBJECT_KEYS):
-        for allowed in table.values():
-            keys.update(allowed)
-    missing = sorted(k for k in keys if f"`{k}`" not in text)
-    assert not missing, f"docs/scene_format.md does not mention: {', '.join(missing)}"
-    # Tables appear as `[render]`, `[[lights]]`, `[materials.NAME]`...
-    missing = [k for k in scene_file.TOP_KEYS if f"[{k}]" not in text and f"[{k}." not in text]
-    assert not missing, f"docs/scene_format.md has no table for: {', '.join(missing)}"
-    for kind in (*scene_file.LIGHT_TYPES, *scene_file.OBJECT_TYPES):
-        assert f"### {kind}" in text, f"no section for type {kind!r}"
-
-
 def _python_blocks(path: Path) -> list[str]:
     text = path.read_text(encoding="utf-8")
     blocks, inside, current = [], False, []

@@ -23,7 +23,7 @@ import numpy as np
 
 from .core import FLAT
 from .jit import inline, kernel
-from .kinds import NO_SHAPE, PLANE, ROW, SHAPE_KINDS, SPHERE  # noqa: F401
+from .kinds import NO_SHAPE
 
 #: Rounding tolerance of analytic shapes, relative to the coordinates' magnitude.
 TOL = 16.0 * float(np.finfo(np.float64).eps)
@@ -44,9 +44,16 @@ SPAWN_OFFSET = 3.0 * 2.0**-23
 # parameters (``row``, an 8-tuple of floats: what the scene record's ``row`` method packs,
 # camera-relative, zero-padded), registered by a kind code in SHAPE_KINDS and named once in
 # each of the two dispatchers, :func:`shape_t` and :func:`shape_surface`. The shape loops
-# number the shapes kind by kind, in SHAPE_KINDS' order (spheres, then planes), and in the
+# number the shapes kind by kind, in SHAPE_KINDS' order (spheres, then planes, …), and in the
 # scene's order within a kind (:func:`raytrace.tables.shape_tables`).
 
+#: Analytic shape kinds by scene-file type (``raytrace.scene.SHAPE_TYPES``' keys), in the
+#: order the shapes are numbered: each is one intersection and one surface function below,
+#: named in the dispatchers. Here, beside them, so a shape is its record and this file.
+SHAPE_KINDS = {"sphere": 0, "plane": 1, "disk": 2}
+SPHERE, PLANE, DISK = SHAPE_KINDS.values()
+#: Floats in a shape's row of parameters (``Shapes.rows``: a record's ``row``, zero-padded).
+ROW = 8
 
 
 @kernel
@@ -146,6 +153,32 @@ def plane_surface(row, p):
     return x - off * nx, y - off * ny, z - off * nz, nx, ny, nz
 
 
+@kernel
+def disk_t(o, d, row, extent, on_it, spawned):
+    """Ray parameter of the hit of one ray with one disk (inf on a miss): its plane's hit
+    (:func:`plane_t`, with its rules for a ray leaving it or starting on it) where that point
+    ``o + t·d`` lies within the radius of the centre, ``|o + t·d − c|² ≤ r²``.
+
+    ``row`` = (the centre c, the unit normal, c's largest absolute coordinate, the radius r:
+    ``Disk.row``), the first seven a plane's row.
+    """
+    t = plane_t(o, d, row, extent, on_it, spawned)
+    if t == math.inf:
+        return t
+    r = row[7]
+    qx, qy, qz = o[0] + t * d[0] - row[0], o[1] + t * d[1] - row[1], o[2] + t * d[2] - row[2]
+    if qx * qx + qy * qy + qz * qz <= r * r:
+        return t
+    return math.inf
+
+
+@kernel
+def disk_surface(row, p):
+    """The point ``p`` snapped onto the disk of ``row`` and its unit normal, as a 6-tuple:
+    its plane's (:func:`plane_surface`; a disk's row begins with its plane's)."""
+    return plane_surface(row, p)
+
+
 @inline
 def shape_t(kind, row, o, d, extent, on_it, spawned):
     """The one dispatch of the intersections: the ray parameter of shape kind ``kind``
@@ -155,6 +188,8 @@ def shape_t(kind, row, o, d, extent, on_it, spawned):
         return sphere_t(o, d, row, extent, on_it, spawned)
     if kind == PLANE:
         return plane_t(o, d, row, extent, on_it, spawned)
+    if kind == DISK:
+        return disk_t(o, d, row, extent, on_it, spawned)
     return math.inf
 
 
@@ -165,6 +200,8 @@ def shape_surface(kind, row, p):
     costs reference counting)."""
     if kind == SPHERE:
         return sphere_surface(row, p)
+    if kind == DISK:
+        return disk_surface(row, p)
     return plane_surface(row, p)
 
 

@@ -1,5 +1,6 @@
-"""The codes every stage shares with the kernels: kinds of ray, shape, emitter, highlight,
-Fresnel weighting, mesh shading and filter, the colour slots and a child ray's status.
+"""The codes every stage shares with the kernels: kinds of ray, emitter, highlight, Fresnel
+weighting, mesh shading and filter, the colour slots and a child ray's status. (The analytic
+shape kinds live beside their kernels, in :mod:`raytrace.kernels.accel`.)
 
 Plain Python (and numpy integers), no numba: the scene, the material table and the command line
 read them without loading the compiler. Each list of names is the one place its codes come
@@ -18,15 +19,6 @@ CAMERA, REFLECTION, REFRACTION, SEE_THROUGH = range(len(KIND_NAMES))
 NO_SHAPE = -1
 #: A child ray's status (``Children.status``): none, pruned by its weight, traced.
 NONE, PRUNED, KEEP = 0, 1, 2
-
-# -- shapes -----------------------------------------------------------------------------------
-#: Analytic shape kinds by scene-file type, in the order the shapes are numbered
-#: (``raytrace.tables.shape_tables``); each is one intersection and one surface function in
-#: :mod:`raytrace.kernels.accel`, named in its dispatchers.
-SHAPE_KINDS = {"sphere": 0, "plane": 1}
-SPHERE, PLANE = SHAPE_KINDS.values()
-#: Floats in a shape's row of parameters (``Shapes.rows``: a record's ``row``, zero-padded).
-ROW = 8
 
 # -- lights -----------------------------------------------------------------------------------
 #: Emission laws (``Emitter.kind``), each one branch of ``kernels.shading.incidence1``.
