@@ -4,7 +4,7 @@
                           [--min-weight W] [--seed S] [--threads T] [--png PREVIEW.png]
                           [--exposure EV|auto] [--tonemap NAME] [--png-bits 8|16]
                           [--stats STATS.json] [--compression none|rle|zips|zip|piz|zstd]
-                          [--quiet] [--aov depth,normal,albedo,id] [--crop X0 Y0 X1 Y1]
+                          [--quiet] [--aov depth,normal,albedo,id,uv,position] [--crop X0 Y0 X1 Y1]
                           [--filter box|tent|gaussian|mitchell]
                           [--aa uniform|adaptive] [--aa-threshold T] [--aa-depth D]
                           [--aa-min-depth M]

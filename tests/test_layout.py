@@ -134,3 +134,23 @@ def test_every_registered_record_is_exported_by_its_class_name(monkeypatch):
     monkeypatch.delitem(LIGHT_TYPES, "line")
     with pytest.raises(AttributeError, match="has no attribute 'LineLight'"):
         raytrace.LineLight  # noqa: B018
+
+
+def test_a_hits_material_is_looked_up_in_one_place():
+    # Colour, checker, texture, texture coordinates and opacity are read by the material
+    # lookup of kernels/material.py alone; every kernel and explain call its two functions.
+    pieces = {"color1", "texel1", "texcoord1", "opacity1"}
+    calls = []
+    for name, path in MODULES.items():
+        if name == "raytrace.kernels.material":
+            continue
+        for node in ast.walk(ast.parse(path.read_text("utf-8"))):
+            if isinstance(node, ast.Call):
+                f = node.func
+                called = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", "")
+                if called in pieces:
+                    calls.append(f"{name}:{node.lineno} {called}")
+    assert calls == []
+    users = {name for name, path in MODULES.items()
+             if "surface_color1(" in path.read_text("utf-8")} - {"raytrace.kernels.material"}
+    assert {"raytrace.kernels.shading", "raytrace.kernels.aov", "raytrace.raytree"} <= users

@@ -15,7 +15,7 @@ import numpy as np
 from .core import facing1
 from .jit import inline, kernel
 from .kinds import KD
-from .material import surface_color1, texcoord1
+from .material import surface_color1, surface_texcoords1
 
 #: The AOVs' kernel codes, by their name in :data:`raytrace.film.aov.AOVS`.
 AOV_KINDS = {"depth": 0, "normal": 1, "albedo": 2, "id": 3, "uv": 4, "position": 5}
@@ -62,11 +62,8 @@ def aov_value1(kind, i, hits, scene, objects, out, row, col):
         else:
             out[row, col] = objects.shape_object[surf.shape[i]]
     elif kind == UV:
-        triangle, texcoords = surf.triangle[i], scene.triangles.texcoords
-        s, t = 0.0, 0.0
-        if 0 <= triangle < texcoords.shape[0]:
-            s, t = texcoord1(texcoords, triangle, surf.uv[i, 0], surf.uv[i, 1])
-        out[row, col], out[row, col + 1] = s, t
+        out[row, col], out[row, col + 1] = surface_texcoords1(scene.triangles.texcoords, (
+            0.0, 0.0, 0.0, surf.triangle[i], surf.uv[i, 0], surf.uv[i, 1]))
 
 
 @kernel

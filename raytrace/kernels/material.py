@@ -1,8 +1,8 @@
 """The material at a hit: the one place a kernel looks up a surface's colours and opacity.
 
 Every kernel that needs a hit's colour (the light pass's kd and ks, the hit's ka, ke, kr and
-kt, a transparent shadow's kt, the albedo AOV) and opacity asks :func:`surface_color1` and
-:func:`surface_opacity1`, inlined in numba's IR into the caller (``raytrace.kernels.jit.inline``,
+kt, a transparent shadow's kt, the albedo AOV), opacity and texture coordinates (the uv AOV) asks :func:`surface_color1`,
+:func:`surface_opacity1` and :func:`surface_texcoords1`, inlined in numba's IR into the caller (``raytrace.kernels.jit.inline``,
 so the material's arrays cross no call), with
 
 * ``materials``: the :class:`raytrace.kernels.records.Materials` record; ``texcoords``: the
@@ -35,6 +35,16 @@ def surface_color1(materials, texcoords, m, slot, hit):
     if texcoords is not None and materials.textured[m]:
         c = texel1(materials, m, slot, texcoord1(texcoords, triangle, u, v), c)
     return c
+
+
+@inline
+def surface_texcoords1(texcoords, hit):
+    """The texture coordinates (s, t) at ``hit`` where its triangle has them (a mesh whose file
+    gives them), else (0, 0): where an image texture, and the ``uv`` AOV, read."""
+    _, _, _, triangle, u, v = hit
+    if 0 <= triangle < texcoords.shape[0]:
+        return texcoord1(texcoords, triangle, u, v)
+    return 0.0, 0.0
 
 
 @inline
