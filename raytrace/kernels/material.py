@@ -1,9 +1,10 @@
 """The material at a hit: the one place a kernel looks up a surface's colours and opacity.
 
 Every kernel that needs a hit's colour (the light pass's kd and ks, the hit's ka, ke, kr and
-kt, a transparent shadow's kt, the albedo AOV), opacity and texture coordinates (the uv AOV) asks :func:`surface_color1`,
-:func:`surface_opacity1` and :func:`surface_texcoords1`, inlined in numba's IR into the caller (``raytrace.kernels.jit.inline``,
-so the material's arrays cross no call), with
+kt, a transparent shadow's kt, the albedo AOV), opacity or texture coordinates (the uv AOV)
+asks :func:`surface_color1`, :func:`surface_opacity1` or :func:`surface_texcoords1`, inlined
+in numba's IR into the caller (``raytrace.kernels.jit.inline``, so the material's arrays
+cross no call), with
 
 * ``materials``: the :class:`raytrace.kernels.records.Materials` record; ``texcoords``: the
   triangles' per-corner texture coordinates (T, 3, 2), or None in a kernel variant compiled
