@@ -4,11 +4,14 @@ meant to leave pictures alone (a refactor) can prove it did, bit for bit.
 Two parts, both written to ``tests/references/image_hashes.json``:
 
 * ``scenes``: every file of ``scenes/`` rendered at 64×48 with 1 and 4 samples a pixel, with
-  every AOV, with a Gaussian filter and with adaptive anti-aliasing (its crop too);
-* ``suite``: every :class:`raytrace.Image` the default test suite makes, test by test, in the
-  order each test makes them (recorded by this module as a pytest plugin, loaded by
-  ``tests/conftest.py`` when ``RAYTRACE_IMAGE_HASHES`` names a folder). Tests whose images
-  differ between two runs of one commit (random property examples, timing) are left out.
+  the depth, normal, albedo and id AOVs, with a Gaussian filter, with adaptive anti-aliasing
+  and as a crop (:data:`SCENE_SETTINGS`);
+* ``suite``: every :class:`raytrace.Image` the default test suite makes, test by test
+  (recorded by this module as a pytest plugin, loaded by ``tests/conftest.py`` when
+  ``RAYTRACE_IMAGE_HASHES`` names a folder). Images a second run of the same commit does not
+  make again (random property examples) are left out; a check counts an image as unmoved when
+  any test of its run makes that hash (a module-scoped fixture's image counts for whichever
+  test asks for it first, which depends on how xdist shares the tests out).
 
 The hashes are of the float32 bytes on this machine: numba, numpy and the CPU's instruction
 set are recorded beside them, and a check on another platform is reported as such.
@@ -152,7 +155,7 @@ def main(argv: list[str] | None = None) -> int:
     scenes = scene_hashes()
     suite = {} if args.no_suite else suite_hashes(args.pytest_args)
     if args.action == "record":
-        if not args.no_suite:  # keep only tests whose images are the same in a second run
+        if not args.no_suite:  # keep only the images a second run makes again
             again = suite_hashes(args.pytest_args)
             made = {h for images in again.values() for h in images}
             suite = {k: [h for h in v if h in made] for k, v in suite.items()}
