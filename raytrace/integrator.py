@@ -49,7 +49,7 @@ from .kernels import shading as sk  # the compiled passes of this stage
 from .kernels.aov import aov_hits, aov_pixels
 from .kernels.kinds import KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH
 from .kernels.rays import count_kinds, gather_chunks, sample_chunks, split_hits, take_hits
-from .kernels.records import AOVLayout, Children, Objects, Shadows, Spawned
+from .kernels.records import AOVLayout, Children, Local, Objects, Shadows, Spawned
 from .lights import Emitter, emitters
 from .rays import RayBatch
 from .scene import RenderSettings, Scene
@@ -521,8 +521,8 @@ class WhittedIntegrator:
         # weight and status.
         obs = self.observer
         if "children" not in self.features and obs is None:  # no hit has a child
-            sk.hit_terms(rays.record, surf, self.tables, self.ambient, lights,
-                         self.opt.min_weight, (samples, rays.sample), None)
+            sk.hit_terms(rays.record, surf, self.tables, Local(self.ambient, lights),
+                         self.opt.min_weight, (samples, rays.sample), None, self.texcoords)
             return RayBatch.empty(rays.depth + 1)
         children = Children(*(new(name, n, 3) for name in ("r_dir", "t_dir", "w_r", "w_t", "w_s")),
                             new("status", n, 3, np.int8), new("tir", n, dtype=bool))
@@ -530,8 +530,8 @@ class WhittedIntegrator:
         # Observed, each hit's term goes to a row of its own, then to its sample: the same
         # additions in the same order (0 + x and x·1 are exact).
         into, rows = (samples, rays.sample) if obs is None else (np.zeros((n, 3)), np.arange(n))
-        sk.hit_terms(rays.record, surf, self.tables, self.ambient, lights, self.opt.min_weight,
-                    (into, rows), children)
+        sk.hit_terms(rays.record, surf, self.tables, Local(self.ambient, lights),
+                     self.opt.min_weight, (into, rows), children, self.texcoords)
         depth = rays.depth + 1
         if obs is not None:
             add(samples, rays.sample, into, ONE, rows)
@@ -712,7 +712,7 @@ KERNEL_FEATURES: dict[str, Callable] = {
     # light_pass' Gouraud, fast-Phong, Hanika-lift and texture code (its ``depth``)
     "meshes": lambda table, triangles: len(triangles.material) > 0
     or bool(table.textured.any()),
-    # cross_surfaces' texture lookups (its ``texcoords``)
+    # the material lookup's texture code in hit_terms and cross_surfaces (their ``texcoords``)
     "textures": lambda table, triangles: bool(table.textured.any()),
     # hit_terms' reflected, refracted and see-through children, and the spawn kernels
     "children": lambda table, triangles: bool(table.reflects.any())

@@ -28,7 +28,12 @@ from .errors import SceneError
 from .film import aov
 from .integrator import WhittedIntegrator
 from .kernels.kinds import KA, KEEP, KIND_NAMES, PRUNED
-from .kernels.material import surface_color1, surface_opacity1
+from .kernels.material import (
+    alpha_tables1,
+    surface_color1,
+    surface_opacity1,
+    texture_tables1,
+)
 from .lights import labels
 from .rendering import render_options
 from .scene import Scene
@@ -97,10 +102,12 @@ class Recorder:
             material = integ.materials[m]
             point = surf.point[j] + self.origin
             # the kernels' own material lookup (colour, checker, texture, alpha)
-            look = (integ.tables.materials, integ.tables.triangles.texcoords)  # as kernels
+            mats, texcoords = integ.tables.materials, integ.tables.triangles.texcoords
             hit = (*(float(x) for x in point), int(surf.triangle[j]), *map(float, surf.uv[j]))
-            ka = surface_color1(*look, m, KA, hit)
-            opacity = float(surface_opacity1(*look, m, hit))
+            ka = surface_color1((mats.colors, mats.pattern, mats.checkers),
+                                texture_tables1(mats, texcoords), m, KA, hit)
+            opacity = float(surface_opacity1(mats.opacity, alpha_tables1(mats, texcoords), m,
+                                             hit))
             obj = int(ident[j])
             entering = float(np.dot(rays.direction[j], surf.geometric[j])) < 0.0
             self.rays[rid]["hit"] = {

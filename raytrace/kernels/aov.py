@@ -15,7 +15,7 @@ import numpy as np
 from .core import facing1
 from .jit import inline, kernel
 from .kinds import KD
-from .material import surface_color1, surface_texcoords1
+from .material import surface_color1, surface_texcoords1, texture_tables1
 
 #: The AOVs' kernel codes, by their name in :data:`raytrace.film.aov.AOVS`.
 AOV_KINDS = {"depth": 0, "normal": 1, "albedo": 2, "id": 3, "uv": 4, "position": 5}
@@ -50,7 +50,9 @@ def aov_value1(kind, i, hits, scene, objects, out, row, col):
         if kind == POSITION:
             out[row, col], out[row, col + 1], out[row, col + 2] = x, y, z
         else:
-            kd = surface_color1(scene.materials, scene.triangles.texcoords, surf.material[i],
+            mats = scene.materials
+            kd = surface_color1((mats.colors, mats.pattern, mats.checkers),
+                                texture_tables1(mats, scene.triangles.texcoords), surf.material[i],
                                 KD, (x, y, z, surf.triangle[i], surf.uv[i, 0], surf.uv[i, 1]))
             for c in range(3):
                 out[row, col + c] = kd[c]

@@ -22,20 +22,59 @@ two are used by them alone.
 
 from __future__ import annotations
 
+from numba.core import types
+from numba.extending import overload
+
 from .core import ALPHA, bilinear1, checker1, texture1
 from .jit import inline, kernel
 
 
+def texture_tables1(materials, texcoords):
+    """What :func:`surface_color1` reads of image textures, taken once at a kernel's top (each
+    array a per-hit helper is handed costs reference counts on every hit): (textured, texture,
+    texels, tex_info, texcoords); None where ``texcoords`` is None (a scene without image
+    textures), and the lookup's texture code is then not compiled. Chosen by type when a
+    kernel compiles (``numba.extending.overload``), so no kernel sees an optional value; the
+    same in Python (``raytrace explain``)."""
+    if texcoords is None:
+        return None
+    return (materials.textured, materials.texture, materials.texels, materials.tex_info,
+            texcoords)
+
+
+@overload(texture_tables1, inline="always")
+def _texture_tables1(materials, texcoords):
+    if isinstance(texcoords, types.NoneType):
+        return lambda materials, texcoords: None
+    return lambda materials, texcoords: (materials.textured, materials.texture,
+                                         materials.texels, materials.tex_info, texcoords)
+
+
+def alpha_tables1(materials, texcoords):
+    """What :func:`surface_opacity1` reads of alpha textures, taken once at a kernel's top:
+    (alpha, alpha_cutoff, texels, tex_info, texcoords); None where ``texcoords`` is None."""
+    if texcoords is None:
+        return None
+    return (materials.alpha, materials.alpha_cutoff, materials.texels, materials.tex_info,
+            texcoords)
+
+
+@overload(alpha_tables1, inline="always")
+def _alpha_tables1(materials, texcoords):
+    if isinstance(texcoords, types.NoneType):
+        return lambda materials, texcoords: None
+    return lambda materials, texcoords: (materials.alpha, materials.alpha_cutoff,
+                                         materials.texels, materials.tex_info, texcoords)
+
+
 @inline
-def surface_color1(materials, texcoords, m, slot, hit):
+def surface_color1(palette, textures, m, slot, hit):
     """Colour ``slot`` (:data:`raytrace.kernels.kinds.KA` … ``KE``) of material ``m`` at
-    ``hit`` (module docstring): its image texture where it has one, else its checker or
-    constant (a 3-tuple)."""
-    x, y, z, triangle, u, v = hit
-    c = color1((materials.colors, materials.pattern, materials.checkers), m, slot, x, y, z)
-    if texcoords is not None and materials.textured[m]:
-        c = texel1(materials, m, slot, texcoord1(texcoords, triangle, u, v), c)
-    return c
+    ``hit`` (module docstring): its image texture where it has one (``textures``, from
+    :func:`texture_tables1`), else its checker or constant (``palette`` = the materials'
+    colours, patterns and checkers); a 3-tuple."""
+    x, y, z, _, _, _ = hit
+    return texel1(textures, m, slot, hit, color1(palette, m, slot, x, y, z))
 
 
 @inline
@@ -49,13 +88,55 @@ def surface_texcoords1(texcoords, hit):
 
 
 @inline
-def surface_opacity1(materials, texcoords, m, hit):
+def surface_opacity1(opacity, alphas, m, hit):
     """Opacity t of material ``m`` at ``hit``: its constant, or with an alpha texture
-    (:func:`opacity1`) the texture's alpha there."""
-    _, _, _, triangle, u, v = hit
-    if texcoords is not None and materials.alpha[m] >= 0:
-        return opacity1(materials, m, texcoord1(texcoords, triangle, u, v))
-    return materials.opacity[m]
+    (``alphas``, from :func:`alpha_tables1`) the texture's alpha there (:func:`opacity1`)."""
+    return alpha1(alphas, m, hit, opacity[m])
+
+
+def texel1(textures, m, slot, hit, other):
+    """Colour ``slot`` of material ``m`` at ``hit`` from its image texture where the material
+    has one for that slot (:func:`raytrace.kernels.core.texture1` at the hit's texture
+    coordinates), else ``other``; ``other`` itself where ``textures`` is None (no code)."""
+
+
+@overload(texel1, inline="always")
+def _texel1(textures, m, slot, hit, other):
+    if isinstance(textures, types.NoneType):
+        return lambda textures, m, slot, hit, other: other
+
+    def texel(textures, m, slot, hit, other):
+        textured, texture, texels, tex_info, texcoords = textures
+        if not textured[m]:
+            return other
+        q = texture[m, slot // 3]
+        if q < 0:
+            return other
+        _, _, _, triangle, u, v = hit
+        s, t = texcoord1(texcoords, triangle, u, v)
+        return texture1(texels, tex_info, q, s, t)
+    return texel
+
+
+def alpha1(alphas, m, hit, constant):
+    """Opacity of material ``m`` at ``hit``: ``constant`` times its alpha texture's alpha
+    there (glTF BLEND), or 1 / 0 by the alpha cutoff (MASK); ``constant`` where it has no alpha
+    texture, or ``alphas`` is None (no code)."""
+
+
+@overload(alpha1, inline="always")
+def _alpha1(alphas, m, hit, constant):
+    if isinstance(alphas, types.NoneType):
+        return lambda alphas, m, hit, constant: constant
+
+    def alpha(alphas, m, hit, constant):
+        alpha, alpha_cutoff, texels, tex_info, texcoords = alphas
+        if alpha[m] < 0:
+            return constant
+        _, _, _, triangle, u, v = hit
+        return opacity1(constant, (alpha[m], alpha_cutoff[m]), (texels, tex_info),
+                        texcoord1(texcoords, triangle, u, v))
+    return alpha
 
 
 @kernel
@@ -72,26 +153,13 @@ def color1(palette, m, slot, x, y, z):
 
 
 @kernel
-def texel1(materials, m, slot, st, other):
-    """Colour ``slot`` of a textured material ``m`` at texture coordinates ``st``: its image
-    texture (:func:`raytrace.kernels.core.texture1`) where that colour has one, else ``other``.
-    Called
-    only for materials with ``textured[m]``, so scenes without textures never pay for it (a
-    per-hit helper that takes arrays costs reference counts on every call)."""
-    q = materials.texture[m, slot // 3]
-    if q < 0:
-        return other
-    return texture1(materials.texels, materials.tex_info, q, st[0], st[1])
-
-
-@kernel
-def opacity1(materials, m, st):
-    """Opacity t of a material ``m`` with an alpha texture (``materials.alpha[m] >= 0``) at
-    texture coordinates ``st``: its constant times the texture's alpha (glTF BLEND), or 1 / 0
-    by the alpha cutoff (MASK). Others take ``materials.opacity[m]`` without this call."""
-    a = materials.opacity[m] * bilinear1(materials.texels, materials.tex_info,
-                                         materials.alpha[m], st[0], st[1], ALPHA)
-    cutoff = materials.alpha_cutoff[m]
+def opacity1(constant, cut, image, st):
+    """Opacity of a material with an alpha texture at texture coordinates ``st``: its
+    ``constant`` times the texture's alpha (glTF BLEND), or 1 / 0 by the alpha cutoff (MASK;
+    −1: blend); ``cut`` = (its texture's row of ``image`` = (texels, tex_info), cutoff)."""
+    q, cutoff = cut
+    texels, tex_info = image
+    a = constant * bilinear1(texels, tex_info, q, st[0], st[1], ALPHA)
     if cutoff >= 0.0:
         return 1.0 if a >= cutoff else 0.0
     return a

@@ -216,3 +216,11 @@ class AOVLayout(NamedTuple):
     table: np.ndarray  #: (K, 4) int64 per AOV: kind (kernels.aov.AOV_KINDS), first column,
                        #: columns, combine (kernels.aov.NEAREST or MEAN)
     miss: np.ndarray   #: (C,) float64 each column where the camera ray missed (0: +inf)
+
+
+class Local(NamedTuple):
+    """What a hit's own light adds, besides its emission: the ambient light and the direct
+    light the light passes summed (``kernels.shading.hit_terms``)."""
+
+    ambient: np.ndarray  #: (3,) Ia
+    lights: np.ndarray   #: (n, 3) Σ_l S_l·f_l·I_l·[kd·max(N·L, 0) + ks·spec]; no rows: unlit

@@ -67,7 +67,7 @@ from .kinds import (  # noqa: F401  (the codes, as this module's names)
     PRUNED,
     SPOT,
 )
-from .material import surface_color1, surface_opacity1
+from .material import alpha_tables1, surface_color1, surface_opacity1, texture_tables1
 
 
 # -- lights -----------------------------------------------------------------------------------
@@ -305,10 +305,11 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
     direction, eye = rays.direction, rays.origin
     point, geometric, shading, material = surf.point, surf.geometric, surf.shading, surf.material
     materials, triangles, origin = scene.materials, scene.triangles, scene.origin
+    palette = (materials.colors, materials.pattern, materials.checkers)
     if depth is None:  # no triangles, no image textures: no texture code compiled
-        texcoords = None
+        textures = texture_tables1(materials, None)
     else:
-        texcoords = triangles.texcoords
+        textures = texture_tables1(materials, triangles.texcoords)
     code = triangles.shading
     smooth_tables = (triangles.corners, triangles.vnormals)
     rows, s_origin, s_direction, s_tmax, s_shape = shadow
@@ -334,8 +335,8 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
         tri = surf.triangle[i]
         u, v = surf.uv[i, 0], surf.uv[i, 1]
         hit = (wx, wy, wz, tri, u, v)
-        kd = surface_color1(materials, texcoords, m, KD, hit)
-        ks = surface_color1(materials, texcoords, m, KS, hit)
+        kd = surface_color1(palette, textures, m, KD, hit)
+        ks = surface_color1(palette, textures, m, KS, hit)
         smooth = tri >= 0 and code[tri] != FLAT
         if depth is not None and smooth and code[tri] == GOURAUD:
             r, g, b = gouraud1((tri, u, v, s), (eye[i, 0], eye[i, 1], eye[i, 2]), smooth_tables,
@@ -431,14 +432,17 @@ def cross_surfaces(factor, live, surf, walk, scene, texcoords):
     direction, t, tmax = walk
     material, point, geometric = surf.material, surf.point, surf.geometric
     origin, materials = scene.origin, scene.materials
+    palette, opacity = (materials.colors, materials.pattern, materials.checkers), materials.opacity
+    # None without image textures: the lookup's texture code is then not compiled
+    textures, alphas = texture_tables1(materials, texcoords), alpha_tables1(materials, texcoords)
     n, on = live.shape[0], 0
     through = np.empty(n, np.bool_)
     for j in range(n):
         mj = material[j]
         hit = (point[j, 0] + origin[0], point[j, 1] + origin[1], point[j, 2] + origin[2],
                surf.triangle[j], surf.uv[j, 0], surf.uv[j, 1])
-        kt = surface_color1(materials, texcoords, mj, KT, hit)
-        op = surface_opacity1(materials, texcoords, mj, hit)
+        kt = surface_color1(palette, textures, mj, KT, hit)
+        op = surface_opacity1(opacity, alphas, mj, hit)
         r = live[j]
         for c in range(3):
             factor[r, c] *= op * kt[c] + (1.0 - op)
@@ -461,14 +465,15 @@ def cross_surfaces(factor, live, surf, walk, scene, texcoords):
 
 
 @kernel
-def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
+def hit_terms(rays, surf, scene, local, min_weight, into, children, texcoords):
     """What every hit of ``rays`` on ``surf`` adds to its sample and the children it spawns
     (Whitted 1980; seed 003's opacity blend), with t the opacity and N_s, N_g the shading and
     geometric normals turned to the viewer:
 
     * ``w·t·(ka·Ia + lights)`` added to row ``rows[i]`` of ``into`` = (samples, rows), one
-      hit after another in batch order (as :func:`accumulate` adds); ``lights`` (n, 3) is
-      Σ_l S_l·f_l·I_l·[…], or has no rows in a scene without lights;
+      hit after another in batch order (as :func:`accumulate` adds); ``local`` (a
+      :class:`raytrace.kernels.records.Local`) holds Ia and ``lights`` (n, 3),
+      Σ_l S_l·f_l·I_l·[…], which has no rows in a scene without lights;
     * reflected: ``reflect(d, N_s)`` with weight ``w·t·kr``; where the interpolated normal
       sends it into the surface (``r·N_g <= 0``) it is mirrored about N_g instead;
     * refracted: ``refract(d, N_s, η)`` with η = 1/ior entering (``d·N_g < 0`` for the outward
@@ -487,6 +492,10 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     TIR one (``w·t·kt``, refracted column, along the mirror direction), each kept or pruned by
     its own path weight as the contract says: a merged ray would be pruned by the sum.
 
+    ``texcoords``: the triangles' texture coordinates, or None in a scene without image
+    textures, whose kernel is compiled without the material lookup's texture code (which,
+    compiled, costs every hit the reference counts of the texture tables it is handed).
+
     ``children`` None: a scene none of whose materials reflects, transmits or is see-through
     (no hit has a child); numba prunes the children's code (``if children is None``) before
     typing, so such a scene compiles and loads a kernel without reflection, refraction or
@@ -501,7 +510,10 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
     direction, weight = rays.direction, rays.weight
     geometric, shading, material, point = surf.geometric, surf.shading, surf.material, surf.point
     origin, materials = scene.origin, scene.materials
-    texcoords = scene.triangles.texcoords
+    palette, opacity = (materials.colors, materials.pattern, materials.checkers), materials.opacity
+    # None without image textures: the lookup's texture code is then not compiled
+    textures, alphas = texture_tables1(materials, texcoords), alpha_tables1(materials, texcoords)
+    ambient, lights = local.ambient, local.lights
     samples, sample = into
     if children is not None:
         r_dir, t_dir, w_r, w_t, w_s, status, tir = children
@@ -513,9 +525,9 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
         m = material[i]
         hit = (point[i, 0] + origin[0], point[i, 1] + origin[1], point[i, 2] + origin[2],
                surf.triangle[i], surf.uv[i, 0], surf.uv[i, 1])
-        op = surface_opacity1(materials, texcoords, m, hit)
-        ka = surface_color1(materials, texcoords, m, KA, hit)
-        ke = surface_color1(materials, texcoords, m, KE, hit) if emits[m] else (0.0, 0.0, 0.0)
+        op = surface_opacity1(opacity, alphas, m, hit)
+        ka = surface_color1(palette, textures, m, KA, hit)
+        ke = surface_color1(palette, textures, m, KE, hit) if emits[m] else (0.0, 0.0, 0.0)
         for c in range(3):
             here = ambient[c] * ka[c]
             if lit:
@@ -534,9 +546,9 @@ def hit_terms(rays, surf, scene, ambient, lights, min_weight, into, children):
         fx, fy, fz = gx * s, gy * s, gz * s
         kr, kt = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         if reflects[m]:
-            kr = surface_color1(materials, texcoords, m, KR, hit)
+            kr = surface_color1(palette, textures, m, KR, hit)
         if transmits[m]:
-            kt = surface_color1(materials, texcoords, m, KT, hit)
+            kt = surface_color1(palette, textures, m, KT, hit)
         if fresnel[m] != NO_FRESNEL:  # kr, kt for this angle (V = −d, N facing the viewer)
             entering = dx * gx + dy * gy + dz * gz < 0.0
             kr, kt = fresnel_weights1(fresnel[m], -(dx * nx + dy * ny + dz * nz),
