@@ -180,14 +180,13 @@ class WhittedIntegrator:
         #: Which variant of the shading kernels the scene compiles and loads (a scene leaves
         #: out the compiled code of what it lacks: :func:`kernel_features`).
         self.features = kernel_features(self.table, self.arrays.triangles)
-        #: The triangles' texture coordinates for the kernels' texture lookups, or None in a
-        #: scene without image textures (kernels compiled without them).
-        self.texcoords = (self.arrays.triangles.texcoords if "textures" in self.features
-                          else None)
         #: Which scene object each analytic shape and mesh is (the id AOV).
         self.objects = Objects(self.arrays.shapes.object, self.arrays.geom_object)
-        #: What every shading kernel needs of the scene (:class:`raytrace.kernels.records.Scene`).
-        self.tables = self.arrays.record
+        #: What every shading kernel needs of the scene (:class:`raytrace.kernels.records.Scene`),
+        #: with the texture coordinates where the scene has image textures (kernels compiled
+        #: without the texture lookups otherwise).
+        self.tables = self.arrays.record._replace(
+            texcoords=self.arrays.triangles.texcoords if "textures" in self.features else None)
         #: Each emitter's fast-Phong table (:mod:`raytrace.fast_phong`), or none (exact).
         self.fast = fast_phong.tables(self.arrays.triangles, self.table.highlight, self.emitters)
         self._lock = threading.Lock()
@@ -522,7 +521,7 @@ class WhittedIntegrator:
         obs = self.observer
         if "children" not in self.features and obs is None:  # no hit has a child
             sk.hit_terms(rays.record, surf, self.tables, Local(self.ambient, lights),
-                         self.opt.min_weight, (samples, rays.sample), None, self.texcoords)
+                         self.opt.min_weight, (samples, rays.sample), None)
             return RayBatch.empty(rays.depth + 1)
         children = Children(*(new(name, n, 3) for name in ("r_dir", "t_dir", "w_r", "w_t", "w_s")),
                             new("status", n, 3, np.int8), new("tir", n, dtype=bool))
@@ -531,7 +530,7 @@ class WhittedIntegrator:
         # additions in the same order (0 + x and x·1 are exact).
         into, rows = (samples, rays.sample) if obs is None else (np.zeros((n, 3)), np.arange(n))
         sk.hit_terms(rays.record, surf, self.tables, Local(self.ambient, lights),
-                     self.opt.min_weight, (into, rows), children, self.texcoords)
+                     self.opt.min_weight, (into, rows), children)
         depth = rays.depth + 1
         if obs is not None:
             add(samples, rays.sample, into, ONE, rows)
@@ -643,7 +642,7 @@ class WhittedIntegrator:
                 break
             s2 = self.accel.surface(Hits(t, hit_shape, triangle, uv), origin, direction)
             origin, direction, shape, tmax, live = sk.cross_surfaces(
-                factor, live, s2, (direction, t, tmax), self.tables, self.texcoords)
+                factor, live, s2, (direction, t, tmax), self.tables)
             if not len(live):
                 break
             self.stats.rays["shadow"] += len(live)

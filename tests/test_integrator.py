@@ -857,5 +857,5 @@ def test_a_diffuse_scene_loads_no_reflection_refraction_or_mesh_kernels():
     assert loaded["count_keep"] == loaded["spawn_children"] == []
     assert loaded["cross_surfaces"] == loaded["add_light"] == []
     assert loaded["light_pass"][5] == "none"  # depth
-    assert loaded["hit_terms"][7] == "none"  # children
-    assert len(loaded["light_pass"]) == 8 and len(loaded["hit_terms"]) == 8
+    assert loaded["hit_terms"][6] == "none"  # children
+    assert len(loaded["light_pass"]) == 8 and len(loaded["hit_terms"]) == 7

@@ -140,6 +140,10 @@ class Scene(NamedTuple):
     #: (T, 12) the fast-Phong polynomials of the light of a light pass (directional, some
     #: ``fast_phong`` mesh: ``raytrace.fast_phong.tables``); no rows: exact shading
     fast: np.ndarray = np.zeros((0, 12))
+    #: (T, 3, 2) the triangles' texture coordinates where some material has an image texture,
+    #: else None: the material lookup's texture code (``kernels.material``) is compiled, and
+    #: its tables bound, only where they are an array
+    texcoords: np.ndarray | None = None
 
 
 class Emitter(NamedTuple):

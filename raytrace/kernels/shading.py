@@ -306,10 +306,7 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
     point, geometric, shading, material = surf.point, surf.geometric, surf.shading, surf.material
     materials, triangles, origin = scene.materials, scene.triangles, scene.origin
     palette = (materials.colors, materials.pattern, materials.checkers)
-    if depth is None:  # no triangles, no image textures: no texture code compiled
-        textures = texture_tables1(materials, None)
-    else:
-        textures = texture_tables1(materials, triangles.texcoords)
+    textures = texture_tables1(materials, scene.texcoords)  # None: no texture code compiled
     code = triangles.shading
     smooth_tables = (triangles.corners, triangles.vnormals)
     rows, s_origin, s_direction, s_tmax, s_shape = shadow
@@ -420,21 +417,21 @@ def crossing_rays(hits, origin, direction, tmax, live):
 
 
 @kernel
-def cross_surfaces(factor, live, surf, walk, scene, texcoords):
+def cross_surfaces(factor, live, surf, walk, scene):
     """Transparent shadow rays ``walk`` = (direction, t, tmax) crossing the surfaces they hit
     (``surf``, a :class:`raytrace.kernels.records.Surface`):
     ``S *= t·kt + (1 − t)`` (seed 003, t the opacity) on row ``live[j]`` of ``factor``. Those
     that still let some channel through go on from the far side (:func:`leave1` along their
     ``direction``) for the rest of their ``tmax`` (minus the hit's ``t``): returns their
-    (origin, direction, start shape, tmax, live) as new arrays. ``texcoords``: the
-    triangles' texture coordinates, or None in a scene without image textures, whose kernel
-    is then compiled without the texture lookups."""
+    (origin, direction, start shape, tmax, live) as new arrays. A scene without image
+    textures (``scene.texcoords`` None) compiles it without the texture lookups."""
     direction, t, tmax = walk
     material, point, geometric = surf.material, surf.point, surf.geometric
     origin, materials = scene.origin, scene.materials
     palette, opacity = (materials.colors, materials.pattern, materials.checkers), materials.opacity
     # None without image textures: the lookup's texture code is then not compiled
-    textures, alphas = texture_tables1(materials, texcoords), alpha_tables1(materials, texcoords)
+    textures = texture_tables1(materials, scene.texcoords)
+    alphas = alpha_tables1(materials, scene.texcoords)
     n, on = live.shape[0], 0
     through = np.empty(n, np.bool_)
     for j in range(n):
@@ -465,7 +462,7 @@ def cross_surfaces(factor, live, surf, walk, scene, texcoords):
 
 
 @kernel
-def hit_terms(rays, surf, scene, local, min_weight, into, children, texcoords):
+def hit_terms(rays, surf, scene, local, min_weight, into, children):
     """What every hit of ``rays`` on ``surf`` adds to its sample and the children it spawns
     (Whitted 1980; seed 003's opacity blend), with t the opacity and N_s, N_g the shading and
     geometric normals turned to the viewer:
@@ -492,9 +489,9 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children, texcoords):
     TIR one (``w·t·kt``, refracted column, along the mirror direction), each kept or pruned by
     its own path weight as the contract says: a merged ray would be pruned by the sum.
 
-    ``texcoords``: the triangles' texture coordinates, or None in a scene without image
-    textures, whose kernel is compiled without the material lookup's texture code (which,
-    compiled, costs every hit the reference counts of the texture tables it is handed).
+    A scene without image textures (``scene.texcoords`` None) compiles this kernel without
+    the material lookup's texture code (which, compiled, costs every hit the reference counts
+    of the texture tables it is handed).
 
     ``children`` None: a scene none of whose materials reflects, transmits or is see-through
     (no hit has a child); numba prunes the children's code (``if children is None``) before
@@ -512,7 +509,8 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children, texcoords):
     origin, materials = scene.origin, scene.materials
     palette, opacity = (materials.colors, materials.pattern, materials.checkers), materials.opacity
     # None without image textures: the lookup's texture code is then not compiled
-    textures, alphas = texture_tables1(materials, texcoords), alpha_tables1(materials, texcoords)
+    textures = texture_tables1(materials, scene.texcoords)
+    alphas = alpha_tables1(materials, scene.texcoords)
     ambient, lights = local.ambient, local.lights
     samples, sample = into
     if children is not None:
