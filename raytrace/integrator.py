@@ -182,11 +182,8 @@ class WhittedIntegrator:
         self.features = kernel_features(self.table, self.arrays.triangles)
         #: Which scene object each analytic shape and mesh is (the id AOV).
         self.objects = Objects(self.arrays.shapes.object, self.arrays.geom_object)
-        #: What every shading kernel needs of the scene (:class:`raytrace.kernels.records.Scene`),
-        #: with the texture coordinates where the scene has image textures (kernels compiled
-        #: without the texture lookups otherwise).
-        self.tables = self.arrays.record._replace(
-            texcoords=self.arrays.triangles.texcoords if "textures" in self.features else None)
+        #: What every shading kernel needs of the scene (:class:`raytrace.kernels.records.Scene`).
+        self.tables = self.arrays.record
         #: Each emitter's fast-Phong table (:mod:`raytrace.fast_phong`), or none (exact).
         self.fast = fast_phong.tables(self.arrays.triangles, self.table.highlight, self.emitters)
         self._lock = threading.Lock()

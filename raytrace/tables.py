@@ -214,5 +214,9 @@ class MaterialTable:
 
 
 def scene_record(origin: np.ndarray, table: MaterialTable, triangles: Triangles) -> Scene:
-    """What every shading kernel needs of the scene, as one record."""
-    return Scene(np.ascontiguousarray(origin, dtype=np.float64), table.record, triangles)
+    """What every shading kernel needs of the scene, as one record: the texture coordinates
+    only where some material has an image texture (the kernels' texture code is compiled
+    only then)."""
+    textured = bool(table.textured.any()) if len(table.materials) else False
+    return Scene(np.ascontiguousarray(origin, dtype=np.float64), table.record, triangles,
+                 texcoords=triangles.texcoords if textured else None)
