@@ -82,7 +82,7 @@ def test_the_guard_leaves_a_current_cache_alone(tmp_path):
 
     assert not jit.refresh_cache()  # the import already stamped today's sources
     stamp = PACKAGE / "kernels" / "__pycache__" / jit.STAMP
-    assert stamp.read_text() == jit.source_hash(jit.kernel_modules())
+    assert stamp.read_text() == jit.source_hash(jit.hashed_modules())
 
 
 # -- cold or warm: the compile notice ---------------------------------------------------------
