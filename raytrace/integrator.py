@@ -49,7 +49,7 @@ from .kernels import shading as sk  # the compiled passes of this stage
 from .kernels.aov import aov_hits, aov_pixels
 from .kernels.kinds import KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH
 from .kernels.rays import count_kinds, gather_chunks, sample_chunks, split_hits, take_hits
-from .kernels.records import AOVLayout, Children, Objects, Shadows, Spawned
+from .kernels.records import AOVLayout, Children, Objects, Sampling, Shadows, Spawned
 from .lights import Emitter, emitters
 from .rays import RayBatch
 from .scene import RenderSettings, Scene
@@ -331,7 +331,7 @@ class WhittedIntegrator:
         the options' filter (:func:`raytrace.film.filters.gather`)."""
         opt = self.opt
         return filters.gather(samples, opt.filter, self.traced, self.window,
-                              (opt.width, opt.spp, grid(opt.spp), opt.seed))
+                              Sampling(opt.width, opt.spp, grid(opt.spp), opt.seed))
 
     def _run(self, passes: list[tuple[int, int]], pixels: np.ndarray,
              progress: Callable[[int, int], None] | None, total: int) -> None:
