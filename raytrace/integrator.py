@@ -49,7 +49,7 @@ from .kernels import shading as sk  # the compiled passes of this stage
 from .kernels.aov import aov_hits, aov_pixels
 from .kernels.kinds import KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH
 from .kernels.rays import count_kinds, gather_chunks, sample_chunks, split_hits, take_hits
-from .kernels.records import AOVLayout, Children, Objects, Sampling, Shadows, Spawned
+from .kernels.records import AOVLayout, Children, Objects, Rays, Sampling, Shadows, Spawned
 from .lights import Emitter, emitters
 from .rays import RayBatch
 from .scene import RenderSettings, Scene
@@ -486,10 +486,11 @@ class WhittedIntegrator:
                 (3,), (3,), (0, rays.sample.dtype), (3,), (0, rays.origin_shape.dtype),
                 (0, rays.kind.dtype), (0, hits.t.dtype), (0, hits.shape.dtype),
                 (0, hits.triangle.dtype), (hits.uv.shape[1], hits.uv.dtype))))
-            take_hits(found, rays.record, hits, (out[:6], out[6:]))
-            origin, direction, sample, weight, origin_shape, kind = out[:6]
-            hits = Hits(*out[6:])
-            rays = RayBatch(origin, direction, sample, weight, rays.depth, origin_shape, kind)
+            taken, kept = Rays(*out[:6]), Hits(*out[6:])
+            take_hits(found, rays.record, hits, taken, kept)
+            hits = kept
+            rays = RayBatch(taken.origin, taken.direction, taken.sample, taken.weight,
+                            rays.depth, taken.origin_shape, taken.kind)
         surf = self.accel.surface(hits, rays.origin, rays.direction)
         if rays.depth == 0 and opt.aovs:  # the camera rays' first hits
             self.aov_hits(rays, hits, surf, self.aov_layout, self._worker.aov)
