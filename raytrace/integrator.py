@@ -49,7 +49,17 @@ from .kernels import shading as sk  # the compiled passes of this stage
 from .kernels.aov import aov_hits, aov_pixels
 from .kernels.kinds import KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH
 from .kernels.rays import count_kinds, gather_chunks, sample_chunks, split_hits, take_hits
-from .kernels.records import AOVLayout, Children, Objects, Rays, Sampling, Shadows, Spawned
+from .kernels.records import (
+    AOVLayout,
+    Children,
+    Objects,
+    Rays,
+    SampleSums,
+    Sampling,
+    Shadows,
+    ShadowWalk,
+    Spawned,
+)
 from .lights import Emitter, emitters
 from .rays import RayBatch
 from .scene import RenderSettings, Scene
@@ -523,7 +533,7 @@ class WhittedIntegrator:
         obs = self.observer
         if "children" not in self.features and obs is None:  # no hit has a child
             sk.hit_terms(rays.record, surf, self.tables, self.ambient, lights,
-                         self.opt.min_weight, (samples, rays.sample), None)
+                         self.opt.min_weight, SampleSums(samples, rays.sample), None)
             return RayBatch.empty(rays.depth + 1)
         children = Children(*(new(name, n, 3) for name in ("r_dir", "t_dir", "w_r", "w_t", "w_s")),
                             new("status", n, 3, np.int8), new("tir", n, dtype=bool))
@@ -532,7 +542,7 @@ class WhittedIntegrator:
         # additions in the same order (0 + x and x·1 are exact).
         into, rows = (samples, rays.sample) if obs is None else (np.zeros((n, 3)), np.arange(n))
         sk.hit_terms(rays.record, surf, self.tables, self.ambient, lights, self.opt.min_weight,
-                    (into, rows), children)
+                     SampleSums(into, rows), children)
         depth = rays.depth + 1
         if obs is not None:
             add(samples, rays.sample, into, ONE, rows)
@@ -644,7 +654,7 @@ class WhittedIntegrator:
                 break
             s2 = self.accel.surface(Hits(t, hit_shape, triangle, uv), origin, direction)
             origin, direction, shape, tmax, live = sk.cross_surfaces(
-                factor, live, s2, (direction, t, tmax), self.tables, self.texcoords)
+                factor, live, s2, ShadowWalk(direction, t, tmax), self.tables, self.texcoords)
             if not len(live):
                 break
             self.stats.rays["shadow"] += len(live)

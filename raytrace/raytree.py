@@ -29,6 +29,7 @@ from .film import aov
 from .integrator import WhittedIntegrator
 from .kernels.kinds import KA, KEEP, KIND_NAMES, PRUNED
 from .kernels.material import surface_color1, surface_opacity1
+from .kernels.records import MaterialHit
 from .lights import labels
 from .rendering import render_options
 from .scene import Scene
@@ -98,7 +99,8 @@ class Recorder:
             point = surf.point[j] + self.origin
             # the kernels' own material lookup (colour, checker, texture, alpha)
             look = (integ.tables.materials, integ.tables.triangles.texcoords)  # as kernels
-            hit = (*(float(x) for x in point), int(surf.triangle[j]), *map(float, surf.uv[j]))
+            hit = MaterialHit(tuple(float(x) for x in point), int(surf.triangle[j]),
+                              *map(float, surf.uv[j]))
             ka = surface_color1(*look, m, KA, hit)
             opacity = float(surface_opacity1(*look, m, hit))
             obj = int(ident[j])

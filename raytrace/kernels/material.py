@@ -9,8 +9,9 @@ so the material's arrays cross no call), with
   triangles' per-corner texture coordinates (T, 3, 2), or None in a kernel variant compiled
   for a scene without image textures (numba prunes the texture code before typing; a separate
   argument, not a tuple's element, for that);
-* ``hit`` = (x, y, z, triangle, u, v): the hit's world point (a checker is a function of it),
-  its triangle (−1 off a mesh) and barycentrics (where an image texture is read).
+* ``hit``: a :class:`raytrace.kernels.records.MaterialHit`, the hit's world point (a checker
+  is a function of it), its triangle (−1 off a mesh) and barycentrics (where an image texture
+  is read).
 
 A colour is its constant, or its checker at the world point (SCENE_FORMAT.md), or, where the
 material's colour has an image texture, the texture's bilinear texel at the hit's texture
@@ -23,6 +24,7 @@ from __future__ import annotations
 
 from .core import ALPHA, bilinear1, checker1, texture1
 from .jit import inline, kernel
+from .records import CHECKER_COLOR0, CHECKER_COLOR1, CHECKER_SCALE, Palette
 
 
 @inline
@@ -30,10 +32,11 @@ def surface_color1(materials, texcoords, m, slot, hit):
     """Colour ``slot`` (:data:`raytrace.kernels.kinds.KA` … ``KE``) of material ``m`` at
     ``hit`` (module docstring): its image texture where it has one, else its checker or
     constant (a 3-tuple)."""
-    x, y, z, triangle, u, v = hit
-    c = color1((materials.colors, materials.pattern, materials.checkers), m, slot, x, y, z)
+    x, y, z = hit.world
+    c = color1(Palette(materials.colors, materials.pattern, materials.checkers), m, slot, x,
+               y, z)
     if texcoords is not None and materials.textured[m]:
-        c = texel1(materials, m, slot, texcoord1(texcoords, triangle, u, v), c)
+        c = texel1(materials, m, slot, texcoord1(texcoords, hit.triangle, hit.u, hit.v), c)
     return c
 
 
@@ -41,22 +44,23 @@ def surface_color1(materials, texcoords, m, slot, hit):
 def surface_opacity1(materials, texcoords, m, hit):
     """Opacity t of material ``m`` at ``hit``: its constant, or with an alpha texture
     (:func:`opacity1`) the texture's alpha there."""
-    _, _, _, triangle, u, v = hit
     if texcoords is not None and materials.alpha[m] >= 0:
-        return opacity1(materials, m, texcoord1(texcoords, triangle, u, v))
+        return opacity1(materials, m, texcoord1(texcoords, hit.triangle, hit.u, hit.v))
     return materials.opacity[m]
 
 
 @kernel
 def color1(palette, m, slot, x, y, z):
     """Colour ``slot`` (KA … KE) of material ``m`` at the world point (x, y, z): its constant
-    or its checker pattern there (``palette`` = the materials' colours, patterns and
-    checkers). A material with an image texture then takes :func:`texel1` instead."""
-    colors, pattern, checkers = palette
+    or its checker pattern there, colour 0 or colour 1 by :func:`checker1`'s parity
+    (``palette``: a :class:`raytrace.kernels.records.Palette`, the materials' colours,
+    patterns and checkers). A material with an image texture then takes :func:`texel1`
+    instead."""
+    colors, pattern, checkers = palette.colors, palette.pattern, palette.checkers
     p = pattern[m, slot // 3]
     if p < 0:
         return colors[m, slot], colors[m, slot + 1], colors[m, slot + 2]
-    c = 3 * checker1(x, y, z, checkers[p, 6])
+    c = CHECKER_COLOR1 if checker1(x, y, z, checkers[p, CHECKER_SCALE]) else CHECKER_COLOR0
     return checkers[p, c], checkers[p, c + 1], checkers[p, c + 2]
 
 
