@@ -37,13 +37,14 @@ def judge_by_luminance(relative: bool):
     where ``relative``); otherwise as :func:`raytrace.adaptive.judge_cells`."""
 
     @kernel
-    def judge(slot, values, origin, cells, rule, out, cut):
-        ci, cj, pixel = cells
-        s, threshold, everywhere, last, weight = rule
+    def judge(slot, values, grid, cells, level, out, cut):
+        ci, cj, pixel = cells.ci, cells.cj, cells.pixel
+        s, threshold, everywhere = level.size, level.threshold, level.everywhere
+        last, weight = level.last, level.weight
         n = 0
         ys = np.empty(4)
         for k in range(ci.shape[0]):
-            r = corners1(slot, origin, ci[k], cj[k], s)
+            r = corners1(slot, grid, ci[k], cj[k], s)
             split = False
             if not last:
                 if everywhere:

@@ -26,10 +26,10 @@ counts = {"embree": 0, "artefacts": 0, "rechecks": 0}
 _refine, _occlusion = K.refine_hits, K.occlusion
 
 
-def refine_hits(embree, rows, adv, *rest):
-    k = _refine(embree, rows, adv, *rest)
-    if len(rows) == 0:  # a first pass: every ray of the query
-        counts["embree"] += len(embree[0])
+def refine_hits(embree, traced, *rest):
+    k = _refine(embree, traced, *rest)
+    if len(traced.rows) == 0:  # a first pass: every ray of the query
+        counts["embree"] += len(embree.geom_id)
     counts["artefacts"] += k
     return k
 

@@ -29,7 +29,7 @@ import numpy as np
 from .analytic import NO_TMAX, AnalyticShapes, f64, i64
 from .kernels import accel as ak  # the compiled passes of this stage
 from .kernels.core import SHADOW_SHORTEN, leave_rows
-from .kernels.records import Hits, Surface
+from .kernels.records import EmbreeHits, EmbreeRays, Hits, Query, Redo, ShadowQuery, Surface
 from .rays import NO_SHAPE
 from .tables import SceneArrays
 
@@ -38,8 +38,8 @@ MAX_RETRACES = 4
 
 __all__ = ["SHADOW_SHORTEN", "Accelerator", "Hits", "Surface", "spawn_origins",
            "vertex_normals"]
-#: Rows and advances of a first pass: every ray, from its origin.
-_IDENTITY = (np.zeros(0, np.int64), np.zeros(0))
+#: The rays a first pass traces: every ray, from its origin (no rows).
+_FIRST_PASS = Redo(np.zeros(0, np.int64), np.zeros(0))
 
 
 class Accelerator:
@@ -131,26 +131,24 @@ class Accelerator:
         Hits that the float64 solve finds behind the origin are float32 artefacts
         (:func:`raytrace.kernels.accel.refine_hits`): those rays are traced again from
         beyond the artefact's error band, at most :data:`MAX_RETRACES` times."""
-        n = len(o)
-        o32, d32 = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
-        far = np.empty(n, np.float32)  # a fresh array: Embree overwrites it
-        ak.embree_rays(o, d, t, tmax, has_tmax, o32, d32, far)
-        rays, hits = (o, d, tmax, has_tmax), (t, shape, triangle, uv)
-        redo = (np.empty(n, np.int64), np.empty(n))
-        rows, adv = _IDENTITY
+        query = Query(o, d, tmax, has_tmax)
+        rays = _embree_rays(len(o))  # far: a fresh array, Embree overwrites it
+        ak.embree_rays(query, t, rays)
+        hits = Hits(t, shape, triangle, uv)
+        redo = Redo(np.empty(len(o), np.int64), np.empty(len(o)))
+        traced = _FIRST_PASS
         for _ in range(MAX_RETRACES + 1):
-            out = self.embree.run(o32, d32, dists=far, output=1)
-            k = ak.refine_hits((out["geomID"], out["primID"], out["u"], out["v"]), rows, adv,
-                              self.triangles, rays, hits, redo)
+            out = self.embree.run(rays.origin, rays.direction, dists=rays.far, output=1)
+            k = ak.refine_hits(EmbreeHits(out["geomID"], out["primID"], out["u"], out["v"]),
+                               traced, self.triangles, query, hits, redo)
             if not k:
                 return
-            rows, adv = np.empty(k, np.int64), np.empty(k)
-            o32, d32 = np.empty((k, 3), np.float32), np.empty((k, 3), np.float32)
-            far = np.empty(k, np.float32)
-            k = ak.retrace_rays((redo[0][:k], redo[1][:k]), rays, t, (o32, d32, far, rows, adv))
+            traced, rays = Redo(np.empty(k, np.int64), np.empty(k)), _embree_rays(k)
+            k = ak.retrace_rays(Redo(redo.rows[:k], redo.adv[:k]), query, t, rays, traced)
             if not k:
                 return
-            rows, adv, o32, d32, far = rows[:k], adv[:k], o32[:k], d32[:k], far[:k]
+            traced = Redo(traced.rows[:k], traced.adv[:k])
+            rays = EmbreeRays(rays.origin[:k], rays.direction[:k], rays.far[:k])
 
     def occluded(self, origin: np.ndarray, direction: np.ndarray, origin_shape: np.ndarray,
                  tmax: np.ndarray) -> np.ndarray:
@@ -172,12 +170,12 @@ class Accelerator:
         n, meshes = len(origin), self.embree is not None
         blocked = np.empty(n, dtype=bool)
         m = n if meshes else 0
-        idx, far = np.empty(m, np.int64), np.empty(m, np.float32)
-        o32, d32 = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
-        k = ak.shadow_prepass((origin, direction, origin_shape, tmax), self.shapes.table, meshes,
-                             blocked, (idx, o32, d32, far))
+        idx, rays = np.empty(m, np.int64), _embree_rays(m)
+        k = ak.shadow_prepass(ShadowQuery(origin, direction, origin_shape, tmax),
+                              self.shapes.table, meshes, blocked, idx, rays)
         if k:
-            res = self.embree.run(o32[:k], d32[:k], dists=far[:k], query="OCCLUDED")
+            res = self.embree.run(rays.origin[:k], rays.direction[:k], dists=rays.far[:k],
+                                  query="OCCLUDED")
             recheck = np.empty(k, np.int64)
             j = ak.occlusion(idx[:k], res, origin_shape, blocked, recheck)
             if j:
@@ -213,6 +211,12 @@ class Accelerator:
         ak.hit_surfaces(hits, f64(origin), f64(direction), self.shapes.table, self.triangles,
                         surface)
         return surface
+
+
+def _embree_rays(n: int) -> EmbreeRays:
+    """Room for ``n`` rays as Embree takes them (float32)."""
+    return EmbreeRays(np.empty((n, 3), np.float32), np.empty((n, 3), np.float32),
+                      np.empty(n, np.float32))
 
 
 def spawn_origins(point: np.ndarray, geometric: np.ndarray, offset: np.ndarray,

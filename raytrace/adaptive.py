@@ -29,6 +29,7 @@ import numpy as np
 
 from .camera import hash_uniform
 from .kernels.adaptive import judge_cells
+from .kernels.records import Cells, Level, SlotGrid
 
 #: ``trace(x, y, ids)``: radiance (n, 3) float64 of the samples at image positions ``x, y``
 #: (pixels, (n,) float64 each) with lattice ``ids`` (n,) int64.
@@ -129,9 +130,11 @@ def refine(window: tuple[int, int, int, int], width: int, depth: int, threshold:
     for level in range(depth + 1):
         s = top >> level
         cut = np.empty(len(ci), bool)
-        if not judge_cells(lattice.slot, lattice.values, (lattice.stride, lattice.i0, lattice.j0),
-                           (ci, cj, pixel), (s, float(threshold), level < first,
-                                             level == depth, 0.25**level), out, cut):
+        rule = Level(size=s, threshold=float(threshold), everywhere=level < first,
+                     last=level == depth, weight=0.25**level)
+        if not judge_cells(lattice.slot, lattice.values,
+                           SlotGrid(lattice.stride, lattice.i0, lattice.j0),
+                           Cells(ci, cj, pixel), rule, out, cut):
             break
         ci, cj, pixel, h = ci[cut], cj[cut], pixel[cut], s >> 1
         deepest[pixel] = level + 1

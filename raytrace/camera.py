@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from .kernels.camera import directions, directions_at_rows, offset_rows, uniform_rows
+from .kernels.records import Pinhole, Sampling, Window
 from .rays import CAMERA, NO_SHAPE, RayBatch
 from .scene import Camera
 
@@ -75,23 +76,25 @@ def camera_directions(camera: Camera, width: int, height: int, spp: int, seed: i
                       window: tuple[int, int, int, int] | None = None) -> None:
     """Unit directions (n, 3) of samples ``start …`` of ``window`` (the whole frame when
     None) into ``out``."""
-    tan_half = math.tan(math.radians(camera.fov) / 2.0)
-    right, up, forward = (np.ascontiguousarray(v, dtype=np.float64) for v in camera.basis())
-    x0, y0, x1, _ = window or (0, 0, width, height)
-    directions(start, (width, height, spp, grid(spp), seed), (tan_half, right, up, forward),
-                (x0, y0, x1), out)
+    directions(start, Sampling(width, spp, grid(spp), seed), pinhole(camera, width, height),
+               Window(*(window or (0, 0, width, height))), out)
 
 
 def directions_at(camera: Camera, width: int, height: int, x: np.ndarray,
                   y: np.ndarray) -> np.ndarray:
     """Unit directions (n, 3) through image positions ``x``, ``y`` (n,) (pixels of the
-    ``width`` × ``height`` frame; :func:`direction1`)."""
-    tan_half = math.tan(math.radians(camera.fov) / 2.0)
-    basis = tuple(tuple(float(c) for c in v) for v in camera.basis())
+    ``width`` × ``height`` frame; :func:`raytrace.kernels.camera.direction1`)."""
     out = np.empty((len(x), 3))
     directions_at_rows(np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64),
-                   (width, height), (tan_half, *basis), out)
+                       pinhole(camera, width, height), out)
     return out
+
+
+def pinhole(camera: Camera, width: int, height: int) -> Pinhole:
+    """The ``width`` × ``height`` frame as ``camera`` sees it, as the kernels take it:
+    tan(fov/2) and the camera's unit axes (:meth:`raytrace.scene.Camera.basis`)."""
+    right, up, forward = (tuple(float(c) for c in v) for v in camera.basis())
+    return Pinhole(width, height, math.tan(math.radians(camera.fov) / 2.0), right, up, forward)
 
 
 def global_samples(local: np.ndarray, width: int, spp: int,

@@ -40,12 +40,11 @@ from __future__ import annotations
 import numpy as np
 
 from .kernels.core import FAST_PHONG, taylor_rows
+from .kernels.records import FAST_COLUMNS, FAST_DIFFUSE, FAST_SPECULAR, FAST_TERMS
 from .kernels.shading import BLINN
 
-#: Coefficients per (triangle, light): diffuse T₀…T₅, then specular T₀…T₅.
-COLUMNS = 12
 #: No table: the light pass shades every hit exactly (``raytrace.kernels.records.Scene.fast``).
-NONE = np.zeros((0, COLUMNS))
+NONE = np.zeros((0, FAST_COLUMNS))
 #: The expansion point in barycentrics (u, v): the centroid.
 CENTRE = 1.0 / 3.0
 
@@ -92,9 +91,10 @@ def _inverse_powers(centre: np.ndarray, a: np.ndarray,
 
 def coefficients(corners: np.ndarray, vnormals: np.ndarray, to_light: np.ndarray,
                  blinn: np.ndarray) -> np.ndarray:
-    """The fast-Phong table of one directional light: (T, 12) float64, per triangle the
-    diffuse polynomial of ``L·n/|n|`` and the specular polynomial (Blinn's ``N̂·H`` where
-    ``blinn`` (T,) is true, Phong's ``V·R`` elsewhere), in ``du = u − ⅓``, ``dv = v − ⅓``.
+    """The fast-Phong table of one directional light: (T, FAST_COLUMNS) float64, per triangle
+    the diffuse polynomial of ``L·n/|n|`` and the specular polynomial (Blinn's ``N̂·H`` where
+    ``blinn`` (T,) is true, Phong's ``V·R`` elsewhere), in ``du = u − ⅓``, ``dv = v − ⅓``, from
+    the columns ``FAST_DIFFUSE`` and ``FAST_SPECULAR`` of ``kernels.records``.
 
     ``corners`` (T, 3, 3) camera-relative (the camera at the origin), ``vnormals`` (T, 3, 3)
     unit vertex normals, ``to_light`` (3,) the unit vector L towards the light. Both
@@ -117,7 +117,10 @@ def coefficients(corners: np.ndarray, vnormals: np.ndarray, to_light: np.ndarray
     phong_s = 2.0 * poly_mul(poly_mul(l_n, _dot(view, centre, a, b)), inv2)
     phong_s[:, 0] -= np.einsum("ij,ij->i", light, view)
     specular = np.where(np.asarray(blinn, bool)[:, None], blinn_s, phong_s)
-    return np.ascontiguousarray(np.concatenate([diffuse, specular], axis=1))
+    table = np.zeros((len(corners), FAST_COLUMNS))
+    table[:, FAST_DIFFUSE:FAST_DIFFUSE + FAST_TERMS] = diffuse
+    table[:, FAST_SPECULAR:FAST_SPECULAR + FAST_TERMS] = specular
+    return table
 
 
 def tables(triangles, highlight: np.ndarray, emitters: list) -> list[np.ndarray]:
@@ -136,13 +139,13 @@ def tables(triangles, highlight: np.ndarray, emitters: list) -> list[np.ndarray]
 
 def evaluate(table: np.ndarray, rows: np.ndarray,
              uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The diffuse and specular polynomials of triangles ``rows`` (n,) of ``table`` (T, 12)
-    at barycentrics ``uv`` (n, 2), as the kernels evaluate them
+    """The diffuse and specular polynomials of triangles ``rows`` (n,) of ``table`` (T,
+    FAST_COLUMNS) at barycentrics ``uv`` (n, 2), as the kernels evaluate them
     (:func:`raytrace.kernels.core.taylor1`)."""
     table = np.ascontiguousarray(table, np.float64)
     rows = np.ascontiguousarray(rows, np.int64)
     uv = np.ascontiguousarray(uv, np.float64).reshape(-1, 2)
     diffuse, specular = np.empty(len(rows)), np.empty(len(rows))
-    taylor_rows(table, rows, 0, uv, diffuse)
-    taylor_rows(table, rows, 6, uv, specular)
+    taylor_rows(table, rows, FAST_DIFFUSE, uv, diffuse)
+    taylor_rows(table, rows, FAST_SPECULAR, uv, specular)
     return diffuse, specular

@@ -49,7 +49,18 @@ from .kernels import shading as sk  # the compiled passes of this stage
 from .kernels.aov import aov_hits, aov_pixels
 from .kernels.kinds import KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH
 from .kernels.rays import count_kinds, gather_chunks, sample_chunks, split_hits, take_hits
-from .kernels.records import AOVLayout, Children, Local, Objects, Shadows, Spawned
+from .kernels.records import (
+    AOVLayout,
+    Children,
+    Local,
+    Objects,
+    Rays,
+    SampleSums,
+    Sampling,
+    Shadows,
+    ShadowWalk,
+    Spawned,
+)
 from .lights import Emitter, emitters
 from .rays import RayBatch
 from .scene import RenderSettings, Scene
@@ -327,7 +338,7 @@ class WhittedIntegrator:
         the options' filter (:func:`raytrace.film.filters.gather`)."""
         opt = self.opt
         return filters.gather(samples, opt.filter, self.traced, self.window,
-                              (opt.width, opt.spp, grid(opt.spp), opt.seed))
+                              Sampling(opt.width, opt.spp, grid(opt.spp), opt.seed))
 
     def _run(self, passes: list[tuple[int, int]], pixels: np.ndarray,
              progress: Callable[[int, int], None] | None, total: int) -> None:
@@ -482,10 +493,11 @@ class WhittedIntegrator:
                 (3,), (3,), (0, rays.sample.dtype), (3,), (0, rays.origin_shape.dtype),
                 (0, rays.kind.dtype), (0, hits.t.dtype), (0, hits.shape.dtype),
                 (0, hits.triangle.dtype), (hits.uv.shape[1], hits.uv.dtype))))
-            take_hits(found, rays.record, hits, (out[:6], out[6:]))
-            origin, direction, sample, weight, origin_shape, kind = out[:6]
-            hits = Hits(*out[6:])
-            rays = RayBatch(origin, direction, sample, weight, rays.depth, origin_shape, kind)
+            taken, kept = Rays(*out[:6]), Hits(*out[6:])
+            take_hits(found, rays.record, hits, taken, kept)
+            hits = kept
+            rays = RayBatch(taken.origin, taken.direction, taken.sample, taken.weight,
+                            rays.depth, taken.origin_shape, taken.kind)
         surf = self.accel.surface(hits, rays.origin, rays.direction)
         if rays.depth == 0 and opt.aovs:  # the camera rays' first hits
             self.aov_hits(rays, hits, surf, self.aov_layout, self._worker.aov)
@@ -518,7 +530,7 @@ class WhittedIntegrator:
         obs = self.observer
         if "children" not in self.features and obs is None:  # no hit has a child
             sk.hit_terms(rays.record, surf, self.tables, Local(self.ambient, lights),
-                         self.opt.min_weight, (samples, rays.sample), None)
+                         self.opt.min_weight, SampleSums(samples, rays.sample), None)
             return RayBatch.empty(rays.depth + 1)
         children = Children(*(new(name, n, 3) for name in ("r_dir", "t_dir", "w_r", "w_t", "w_s")),
                             new("status", n, 3, np.int8), new("tir", n, dtype=bool))
@@ -527,7 +539,7 @@ class WhittedIntegrator:
         # additions in the same order (0 + x and x·1 are exact).
         into, rows = (samples, rays.sample) if obs is None else (np.zeros((n, 3)), np.arange(n))
         sk.hit_terms(rays.record, surf, self.tables, Local(self.ambient, lights),
-                     self.opt.min_weight, (into, rows), children)
+                     self.opt.min_weight, SampleSums(into, rows), children)
         depth = rays.depth + 1
         if obs is not None:
             add(samples, rays.sample, into, ONE, rows)
@@ -639,7 +651,7 @@ class WhittedIntegrator:
                 break
             s2 = self.accel.surface(Hits(t, hit_shape, triangle, uv), origin, direction)
             origin, direction, shape, tmax, live = sk.cross_surfaces(
-                factor, live, s2, (direction, t, tmax), self.tables)
+                factor, live, s2, ShadowWalk(direction, t, tmax), self.tables)
             if not len(live):
                 break
             self.stats.rays["shadow"] += len(live)

@@ -34,6 +34,7 @@ from .kernels.material import (
     surface_opacity1,
     texture_tables1,
 )
+from .kernels.records import MaterialHit, Palette
 from .lights import labels
 from .rendering import render_options
 from .scene import Scene
@@ -102,9 +103,10 @@ class Recorder:
             material = integ.materials[m]
             point = surf.point[j] + self.origin
             # the kernels' own material lookup (colour, checker, texture, alpha)
-            mats, texcoords = integ.tables.materials, integ.tables.triangles.texcoords
-            hit = (*(float(x) for x in point), int(surf.triangle[j]), *map(float, surf.uv[j]))
-            ka = surface_color1((mats.colors, mats.pattern, mats.checkers),
+            mats, texcoords = integ.tables.materials, integ.tables.texcoords
+            hit = MaterialHit(tuple(float(x) for x in point), int(surf.triangle[j]),
+                              *map(float, surf.uv[j]))
+            ka = surface_color1(Palette(mats.colors, mats.pattern, mats.checkers),
                                 texture_tables1(mats, texcoords), m, KA, hit)
             opacity = float(surface_opacity1(mats.opacity, alpha_tables1(mats, texcoords), m,
                                              hit))

@@ -18,6 +18,18 @@ import numpy as np
 
 from . import values
 from .errors import SceneError
+from .kernels.records import (
+    DISK_CENTRE,
+    DISK_NORMAL,
+    DISK_RADIUS,
+    DISK_SCALE,
+    PLANE_NORMAL,
+    PLANE_POINT,
+    PLANE_SCALE,
+    SPHERE_CENTRE,
+    SPHERE_RADIUS,
+    SPHERE_SCALE,
+)
 from .lights import LIGHT_TYPES, AreaLight, DirectionalLight, PointLight, SpotLight  # noqa: F401
 from .material import Material, library, material_from_table
 from .readers.assets import load_with_materials
@@ -128,12 +140,13 @@ class Sphere:
         self.center = values.vector(self.center, "center")
         self.radius = values.number(self.radius, "radius", lo=0, lo_open=True)
 
-    def row(self, origin: np.ndarray) -> tuple[float, ...]:
-        """Its parameters as ``accel_kernels.sphere_t`` reads them, camera-relative: the
-        centre, the radius and the centre's largest absolute coordinate (its rounding
-        scale)."""
+    def row(self, origin: np.ndarray) -> np.ndarray:
+        """Its parameters as ``kernels.accel.sphere_t`` reads them, camera-relative, at their
+        columns (``kernels.records.SPHERE_CENTRE``, …): the centre, the radius and the
+        centre's largest absolute coordinate (its rounding scale)."""
         c = self.center - origin
-        return (*c, self.radius, np.abs(c).max())
+        return shape_row({SPHERE_CENTRE: c, SPHERE_RADIUS: self.radius,
+                          SPHERE_SCALE: np.abs(c).max()})
 
 
 @dataclass
@@ -149,11 +162,13 @@ class Plane:
         self.point = values.vector(self.point, "point")
         self.normal = values.unit(self.normal, "normal")
 
-    def row(self, origin: np.ndarray) -> tuple[float, ...]:
-        """Its parameters as ``accel_kernels.plane_t`` reads them, camera-relative: the
-        point, the unit normal and the point's largest absolute coordinate."""
+    def row(self, origin: np.ndarray) -> np.ndarray:
+        """Its parameters as ``kernels.accel.plane_t`` reads them, camera-relative, at their
+        columns (``kernels.records.PLANE_POINT``, …): the point, the unit normal and the
+        point's largest absolute coordinate."""
         p = self.point - origin
-        return (*p, *self.normal, np.abs(p).max())
+        return shape_row({PLANE_POINT: p, PLANE_NORMAL: self.normal,
+                          PLANE_SCALE: np.abs(p).max()})
 
 
 @dataclass
@@ -172,12 +187,23 @@ class Disk:
         self.normal = values.unit(self.normal, "normal")
         self.radius = values.number(self.radius, "radius", lo=0, lo_open=True)
 
-    def row(self, origin: np.ndarray) -> tuple[float, ...]:
-        """Its parameters as ``kernels.accel.disk_t`` reads them, camera-relative: a plane's
-        row (the centre, the unit normal, the centre's largest absolute coordinate) and the
-        radius."""
+    def row(self, origin: np.ndarray) -> np.ndarray:
+        """Its parameters as ``kernels.accel.disk_t`` reads them, camera-relative, at their
+        columns (``kernels.records.DISK_CENTRE``, …): a plane's row (the centre, the unit
+        normal, the centre's largest absolute coordinate) and the radius."""
         c = self.center - origin
-        return (*c, *self.normal, np.abs(c).max(), self.radius)
+        return shape_row({DISK_CENTRE: c, DISK_NORMAL: self.normal, DISK_SCALE: np.abs(c).max(),
+                          DISK_RADIUS: self.radius})
+
+
+def shape_row(columns: dict[int, Any]) -> np.ndarray:
+    """A shape's row of parameters (float64), each value (a number, or a vector over three
+    columns) at its column of ``kernels.records`` (``SPHERE_CENTRE``, …)."""
+    values = {c: np.atleast_1d(np.asarray(v, np.float64)) for c, v in columns.items()}
+    row = np.zeros(max(c + len(v) for c, v in values.items()))
+    for c, v in values.items():
+        row[c:c + len(v)] = v
+    return row
 
 
 #: The analytic shapes by their scene-file ``type``: a shape is one record (its fields are

@@ -24,7 +24,23 @@ import numpy as np
 
 from .kernels import accel as ak  # the build kernels of the triangle tables
 from .kernels.core import FAST_PHONG, FLAT, GOURAUD, SMOOTH
-from .kernels.records import MATERIAL_COLUMNS, Materials, Scene, Shapes, Triangles
+from .kernels.records import (
+    CHECKER_COLOR0,
+    CHECKER_COLOR1,
+    CHECKER_COLUMNS,
+    CHECKER_SCALE,
+    MATERIAL_COLUMNS,
+    TEX_COLUMNS,
+    TEX_HEIGHT,
+    TEX_OFFSET,
+    TEX_WIDTH,
+    TEX_WRAP_S,
+    TEX_WRAP_T,
+    Materials,
+    Scene,
+    Shapes,
+    Triangles,
+)
 from .material import COLOR_KEYS, COLUMNS, Checker, Material
 from .readers.texture import WRAPS, Texture
 from .scene import SHAPE_TYPES, Mesh
@@ -165,9 +181,11 @@ class MaterialTable:
 
     ``colors`` (M, 18) holds the constant colours ka kd ks kr kt ke, three columns each
     (``shading_kernels.KA`` …); where colour k of material m is a :class:`Checker`,
-    ``pattern[m, k]`` indexes its row of ``checkers`` (colour 0, colour 1, scale), evaluated
-    at the world points of the hits; −1 means constant; ``texture[m, k]`` likewise names
-    an image texture. Each entry of :data:`raytrace.material.COLUMNS` is an (M,) attribute
+    ``pattern[m, k]`` indexes its row of ``checkers`` (colour 0, colour 1, scale, at the
+    columns ``CHECKER_COLOR0``, … of ``kernels.records``), evaluated at the world points of
+    the hits; −1 means constant; ``texture[m, k]`` likewise names an image texture, its row
+    of ``tex_info`` (``TEX_OFFSET``, …) where its texels start in ``texels``, its size and
+    wrap modes. Each entry of :data:`raytrace.material.COLUMNS` is an (M,) attribute
     of its name. :attr:`record` is the whole table as the kernels take it
     (:class:`raytrace.kernels.records.Materials`).
     """
@@ -183,7 +201,11 @@ class MaterialTable:
                 c = m.ambient if key == "ka" else getattr(m, key)
                 if isinstance(c, Checker):
                     self.pattern[i, k] = len(checkers)
-                    checkers.append([*c.colors[0], *c.colors[1], c.scale])
+                    row = np.zeros(CHECKER_COLUMNS)
+                    row[CHECKER_COLOR0:CHECKER_COLOR0 + 3] = c.colors[0]
+                    row[CHECKER_COLOR1:CHECKER_COLOR1 + 3] = c.colors[1]
+                    row[CHECKER_SCALE] = c.scale
+                    checkers.append(row)
                 elif isinstance(c, Texture):
                     if c not in textures:
                         textures.append(c)
@@ -199,13 +221,15 @@ class MaterialTable:
         self.textured = (self.texture >= 0).any(axis=1) | (self.alpha >= 0)
         # only scenes with textures pay for them: one float a texture channel, else none
         sizes = [t.texels.size for t in textures]
-        self.tex_info = np.array(
-            [[off, t.texels.shape[1], t.texels.shape[0], WRAPS[t.wrap[0]], WRAPS[t.wrap[1]]]
-             for off, t in zip(np.cumsum([0, *sizes])[:-1], textures, strict=True)],
-            np.int64).reshape(-1, 5)
+        self.tex_info = np.zeros((len(textures), TEX_COLUMNS), np.int64)
+        for info, off, t in zip(self.tex_info, np.cumsum([0, *sizes])[:-1], textures,
+                                strict=True):
+            info[TEX_OFFSET], info[TEX_WIDTH], info[TEX_HEIGHT] = (off, t.texels.shape[1],
+                                                                   t.texels.shape[0])
+            info[TEX_WRAP_S], info[TEX_WRAP_T] = WRAPS[t.wrap[0]], WRAPS[t.wrap[1]]
         self.texels = (np.concatenate([t.texels.reshape(-1) for t in textures])
                        if textures else np.zeros(0, np.float32))
-        self.checkers = np.array(checkers, dtype=np.float64).reshape(-1, 7)
+        self.checkers = np.array(checkers, dtype=np.float64).reshape(-1, CHECKER_COLUMNS)
         for name, (dtype, _) in MATERIAL_COLUMNS.items():  # one declaration, records'
             value = COLUMNS[name]
             setattr(self, name, np.array([value(m) for m in materials], dtype))

@@ -82,7 +82,7 @@ def test_the_guard_leaves_a_current_cache_alone(tmp_path):
 
     assert not jit.refresh_cache()  # the import already stamped today's sources
     stamp = PACKAGE / "kernels" / "__pycache__" / jit.STAMP
-    assert stamp.read_text() == jit.source_hash(jit.kernel_modules())
+    assert stamp.read_text() == jit.source_hash(jit.hashed_modules())
 
 
 # -- cold or warm: the compile notice ---------------------------------------------------------
@@ -204,7 +204,8 @@ def test_a_colour_slot_does_not_compile_a_kernel_per_value(tmp_path):
         "        t += c[0] + c[1] + c[2]\n"
         "    return t\n"
         "colors = np.arange(18, dtype=np.float64).reshape(1, 18)\n"
-        "palette = (colors, np.full((1, 6), -1, np.int64), np.zeros((1, 7)))\n"
+        "from raytrace.kernels.records import Palette\n"
+        "palette = Palette(colors, np.full((1, 6), -1, np.int64), np.zeros((1, 7)))\n"
         "print(every_slot(palette), len(sk.color1.signatures))\n")
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}  # compiled here, not loaded
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,

@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 import raytrace
+from raytrace.kernels import records
 
 PACKAGE = Path(raytrace.__file__).resolve().parent
 #: The two lazy boundaries (docs/architecture.md, "Imports"): the command line's front door
@@ -154,3 +155,77 @@ def test_a_hits_material_is_looked_up_in_one_place():
     users = {name for name, path in MODULES.items()
              if "surface_color1(" in path.read_text("utf-8")} - {"raytrace.kernels.material"}
     assert {"raytrace.kernels.shading", "raytrace.kernels.aov", "raytrace.raytree"} <= users
+
+
+# -- the kernels read named records (STYLE.md point 9; pbrt-v4's workitems.soa) -------------
+KERNELS = PACKAGE / "kernels"
+#: The most inputs a kernel reads (docs/architecture.md, "No kernel reads more than eight
+#: inputs").
+MOST_INPUTS = 8
+
+
+def kernel_functions() -> list[tuple[str, ast.FunctionDef]]:
+    """Every function decorated ``@kernel`` or ``@inline`` in ``kernels/*.py``, as
+    ``("module.py:name", node)``."""
+    found = []
+    for path in sorted(KERNELS.glob("*.py")):
+        for node in ast.parse(path.read_text("utf-8")).body:
+            if isinstance(node, ast.FunctionDef) and any(
+                    getattr(d, "id", "") in ("kernel", "inline") for d in node.decorator_list):
+                found.append((f"{path.name}:{node.name}", node))
+    return found
+
+
+def unpacked(fn: ast.FunctionDef) -> dict[str, list[list[str]]]:
+    """Each parameter the body unpacks by position (``a, b, c = param``): the targets of
+    every such unpacking, as source text."""
+    params = {a.arg for a in fn.args.args}
+    found: dict[str, list[list[str]]] = {}
+    for node in ast.walk(fn):
+        if (isinstance(node, ast.Assign) and isinstance(node.value, ast.Name)
+                and node.value.id in params and isinstance(node.targets[0], ast.Tuple)):
+            found.setdefault(node.value.id, []).append(
+                [ast.unparse(e) for e in node.targets[0].elts])
+    return found
+
+
+def inputs(fn: ast.FunctionDef) -> int:
+    """How many inputs a kernel reads: one per parameter, except a parameter unpacked by
+    position, which counts as many as the names it is unpacked into (a named record read by
+    attribute, ``rays.origin``, counts one)."""
+    count = {a.arg: 1 for a in fn.args.args}
+    for param, targets in unpacked(fn).items():
+        count[param] = max(count[param], *(len(t) for t in targets))
+    return sum(count.values())
+
+
+def test_no_kernel_reads_more_than_eight_inputs():
+    # A kernel reads a few named records, not twenty values in a row (STYLE.md point 9).
+    over = {name: inputs(fn) for name, fn in kernel_functions() if inputs(fn) > MOST_INPUTS}
+    assert over == {}
+
+
+def test_no_kernel_unpacks_a_record_by_position():
+    # A record's fields are read by name (``hits.t``), never as ``t, shape, … = hits``, whose
+    # order a new field would silently shift. From the source, a parameter unpacked by
+    # position is taken for a record of kernels/records.py where its names are one record's
+    # fields, as many and at least half of them that record's (a prefix such as ``s_``
+    # aside), or where it has more than four names or nests tuples: the plain tuples a
+    # kernel unpacks are points, directions and colours (3) and the four corners of a cell.
+    fields = [cls._fields for cls in vars(records).values()
+              if isinstance(cls, type) and issubclass(cls, tuple) and hasattr(cls, "_fields")]
+    assert len(fields) > 10
+
+    def is_record(names: list[str]) -> bool:
+        if len(names) > 4 or any(n.startswith("(") for n in names):  # long, or nested
+            return True
+        return any(len(f) == len(names) and 2 * sum(
+            n in f or n.split("_", 1)[-1] in f for n in names) >= len(names) for f in fields)
+
+    assert is_record(["t", "shape", "triangle", "uv"])             # = hits (Hits)
+    assert is_record(["rows", "s_origin", "s_direction", "s_tmax", "s_shape"])  # Shadows
+    assert is_record(["origin", "direction"])                       # = ray (Ray)
+    assert not is_record(["px", "py", "pz"]) and not is_record(["r0", "r1", "r2", "r3"])
+    found = [f"{name}: {', '.join(t)} = {param}" for name, fn in kernel_functions()
+             for param, targets in unpacked(fn).items() for t in targets if is_record(t)]
+    assert found == []

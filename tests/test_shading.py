@@ -314,11 +314,14 @@ def _patch(bend: float):
 
 
 def _triangles(corners: np.ndarray, vnormals: np.ndarray):
-    """One triangle's (corners, vertex normals), as :func:`bulge1` takes them."""
-    return corners, vnormals
+    """One triangle's corners and vertex normals, as :func:`bulge1` takes them."""
+    from raytrace.kernels.records import SmoothTriangles
+
+    return SmoothTriangles(corners, vnormals)
 
 
 def test_lifted_origin_rises_on_a_convex_patch_and_stays_on_a_concave_one():
+    from raytrace.kernels.records import MeshHit
     from raytrace.kernels.shading import bulge1
 
     u, v = 0.3, 0.3
@@ -330,21 +333,22 @@ def test_lifted_origin_rises_on_a_convex_patch_and_stays_on_a_concave_one():
     expected = sum(w[k] * (p - min(0.0, normals[0, k] @ (p - corners[0, k])) * normals[0, k])
                    for k in range(3))
     p3 = tuple(p)
-    got = np.array(bulge1(p3, 0, u, v, 1.0, _triangles(corners, normals)))
+    got = np.array(bulge1(p3, MeshHit(0, u, v, 1.0), _triangles(corners, normals)))
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-15)
     assert got[2] > 1e-3                                   # lifted off the flat facet
     # seen from the other side (side −1) the same patch is concave: no lift
-    np.testing.assert_array_equal(bulge1(p3, 0, u, v, -1.0, _triangles(corners, normals)), p)
+    np.testing.assert_array_equal(
+        bulge1(p3, MeshHit(0, u, v, -1.0), _triangles(corners, normals)), p)
     # a concave patch (normals leaning inward) seen from the front: no lift either
     corners, inward = _patch(-0.5)
-    np.testing.assert_array_equal(bulge1(p3, 0, u, v, 1.0, _triangles(corners, inward)), p)
+    np.testing.assert_array_equal(bulge1(p3, MeshHit(0, u, v, 1.0), _triangles(corners, inward)), p)
     # flat normals: nothing to lift
     corners, flat = _patch(0.0)
-    np.testing.assert_allclose(bulge1(p3, 0, u, v, 1.0, _triangles(corners, flat)), p,
+    np.testing.assert_allclose(bulge1(p3, MeshHit(0, u, v, 1.0), _triangles(corners, flat)), p,
                                atol=1e-15)
     # at a vertex the point is that vertex (its own tangent plane passes through it)
     corners, normals = _patch(0.5)
-    np.testing.assert_allclose(bulge1(tuple(corners[0, 1]), 0, 1.0, 0.0, 1.0,
+    np.testing.assert_allclose(bulge1(tuple(corners[0, 1]), MeshHit(0, 1.0, 0.0, 1.0),
                                       _triangles(corners, normals)), corners[0, 1], atol=1e-15)
 
 

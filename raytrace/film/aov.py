@@ -43,7 +43,15 @@ import numpy as np
 
 from ..errors import SceneError
 from ..kernels.aov import AOV_KINDS, MEAN, NEAREST
-from ..kernels.records import AOVLayout
+from ..kernels.records import (
+    AOV_COLUMNS,
+    AOV_COMBINE,
+    AOV_COUNT,
+    AOV_DISTANCE,
+    AOV_FIRST,
+    AOV_KIND,
+    AOVLayout,
+)
 
 
 @dataclass(frozen=True)
@@ -88,21 +96,25 @@ def check_aovs(names: str | Iterable[str] | None, key: str = "aovs") -> tuple[st
 
 def layout(names: tuple[str, ...]) -> AOVLayout:
     """The columns of the AOVs ``names`` (checked, in :data:`AOVS`' order) in the kernels'
-    per-sample and per-pixel tables: column 0 the hit's distance, then each AOV's channels."""
-    rows, miss, col = [], [np.inf], 1
-    for name in names:
+    per-sample and per-pixel tables: column ``AOV_DISTANCE`` (0) the hit's distance, then each
+    AOV's channels; a row of the layout's table per AOV, its columns named by
+    ``kernels.records`` (``AOV_KIND``, …)."""
+    table = np.zeros((len(names), AOV_COLUMNS), np.int64)
+    miss, col = [np.inf], AOV_DISTANCE + 1
+    for k, name in enumerate(names):
         a = AOVS[name]
-        rows.append((AOV_KINDS[name], col, len(a.channels),
-                     NEAREST if a.combine == "nearest" else MEAN))
+        table[k, AOV_KIND], table[k, AOV_FIRST] = AOV_KINDS[name], col
+        table[k, AOV_COUNT] = len(a.channels)
+        table[k, AOV_COMBINE] = NEAREST if a.combine == "nearest" else MEAN
         miss += [a.miss] * len(a.channels)
         col += len(a.channels)
-    return AOVLayout(np.array(rows, np.int64).reshape(-1, 4), np.array(miss, np.float64))
+    return AOVLayout(table, np.array(miss, np.float64))
 
 
 def columns(names: tuple[str, ...]) -> dict[str, slice]:
     """Each AOV's columns in the tables of :func:`layout` (``names``' order)."""
     table = layout(names).table
-    return {name: slice(int(row[1]), int(row[1] + row[2]))
+    return {name: slice(int(row[AOV_FIRST]), int(row[AOV_FIRST] + row[AOV_COUNT]))
             for name, row in zip(names, table, strict=True)}
 
 

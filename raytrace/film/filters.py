@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..kernels.filters import filter_pixels, profile_rows
+from ..kernels.records import FilterProfile, Sampling, Window
 from ..sampling import FILTERS, check_filter, margin
 
 
@@ -51,9 +52,12 @@ def gather(samples: np.ndarray, name: str, traced: tuple[int, int, int, int],
     """The pixels (n, 3) float32 of ``window`` (x0, y0, x1, y1) from the sums (m, 3) of every
     sample of the ``traced`` window, by filter ``name``: each pixel's footprint gathered in one
     compiled pass (:func:`raytrace.kernels.filters.filter_pixels`). ``frame`` = (width, spp,
-    stratification grid, seed): where the camera put each sample."""
+    stratification grid, seed) (a :class:`raytrace.kernels.records.Sampling`): where the
+    camera put each sample."""
     f = FILTERS[name]
-    out = np.empty(((window[2] - window[0]) * (window[3] - window[1]), 3), np.float32)
+    window, traced = Window(*window), Window(*traced)
+    out = np.empty(((window.x1 - window.x0) * (window.y1 - window.y0), 3), np.float32)
     with np.errstate(over="ignore", invalid="ignore"):
-        filter_pixels(samples, traced, frame, (f.code, f.radius, margin(name)), window, out)
+        filter_pixels(samples, traced, Sampling(*frame),
+                      FilterProfile(f.code, f.radius, margin(name)), window, out)
     return out

@@ -24,6 +24,17 @@ import numpy as np
 from .core import FLAT
 from .jit import inline, kernel
 from .kinds import NO_SHAPE
+from .records import (
+    DISK_CENTRE,
+    DISK_RADIUS,
+    PLANE_NORMAL,
+    PLANE_POINT,
+    PLANE_SCALE,
+    SPHERE_CENTRE,
+    SPHERE_RADIUS,
+    SPHERE_SCALE,
+    Ray,
+)
 
 #: Rounding tolerance of analytic shapes, relative to the coordinates' magnitude.
 TOL = 16.0 * float(np.finfo(np.float64).eps)
@@ -42,7 +53,8 @@ SPAWN_OFFSET = 3.0 * 2.0**-23
 # -- analytic shapes ------------------------------------------------------------------------
 # A shape kind is an intersection function and a surface function of one row of its
 # parameters (``row``, an 8-tuple of floats: what the scene record's ``row`` method packs,
-# camera-relative, zero-padded), registered by a kind code in SHAPE_KINDS and named once in
+# camera-relative, zero-padded, at the columns named in kernels/records.py: SPHERE_CENTRE, …),
+# registered by a kind code in SHAPE_KINDS and named once in
 # each of the two dispatchers, :func:`shape_t` and :func:`shape_surface`. The shape loops
 # number the shapes kind by kind, in SHAPE_KINDS' order (spheres, then planes, …), and in the
 # scene's order within a kind (:func:`raytrace.tables.shape_tables`).
@@ -57,18 +69,20 @@ ROW = 8
 
 
 @kernel
-def sphere_t(o, d, row, extent, on_it, spawned):
+def sphere_t(ray, row, extent, on_it, spawned):
     """Ray parameter of the hit of one ray with one sphere (inf on a miss), float64.
 
     Haines et al. (Ray Tracing Gems, 2019, ch. 7): ``b = d·(o − c)``, the perpendicular offset
     ``f = (o − c) − b·d``, discriminant ``r² − |f|²``, roots ``q = −b − sign(b)·√disc`` and
-    ``c/q``. ``o``, ``d``: origin and unit direction as 3-tuples; ``row`` = (centre, radius,
-    the centre's largest absolute coordinate: the rounding scale, ``Sphere.row``); ``on_it``:
-    the ray starts on this sphere; ``extent``: the largest absolute coordinate of the origin.
+    ``c/q``. ``ray``: a :class:`raytrace.kernels.records.Ray` (origin o, unit direction d);
+    ``row``: the centre, the radius and the centre's largest absolute coordinate (the
+    rounding scale) at ``SPHERE_CENTRE``, … (``Sphere.row``); ``on_it``: the ray starts on
+    this sphere; ``extent``: the largest absolute coordinate of the origin.
     """
-    ox, oy, oz = o
-    dx, dy, dz = d
-    cx, cy, cz, r, c_max = row[0], row[1], row[2], row[3], row[4]
+    ox, oy, oz = ray.origin
+    dx, dy, dz = ray.direction
+    cx, cy, cz = row[SPHERE_CENTRE], row[SPHERE_CENTRE + 1], row[SPHERE_CENTRE + 2]
+    r, c_max = row[SPHERE_RADIUS], row[SPHERE_SCALE]
     ocx, ocy, ocz = ox - cx, oy - cy, oz - cz
     b = ocx * dx + ocy * dy + ocz * dz                    # d·(o − c), |d| = 1
     fx, fy, fz = ocx - b * dx, ocy - b * dy, ocz - b * dz
@@ -112,7 +126,8 @@ def sphere_surface(row, p):
     """The point ``p`` (a 3-tuple) snapped onto the sphere of ``row``, ``c + r·n``, and its
     unit outward normal ``n``, the normalised radial vector, as a 6-tuple."""
     x, y, z = p
-    cx, cy, cz, r = row[0], row[1], row[2], row[3]
+    cx, cy, cz = row[SPHERE_CENTRE], row[SPHERE_CENTRE + 1], row[SPHERE_CENTRE + 2]
+    r = row[SPHERE_RADIUS]
     rx, ry, rz = x - cx, y - cy, z - cz
     length = math.sqrt(rx * rx + ry * ry + rz * rz)
     rx, ry, rz = rx / length, ry / length, rz / length
@@ -120,19 +135,22 @@ def sphere_surface(row, p):
 
 
 @kernel
-def plane_t(o, d, row, extent, on_it, spawned):
+def plane_t(ray, row, extent, on_it, spawned):
     """Ray parameter of the hit of one ray with one plane (inf on a miss): ``(p − o)·n / d·n``.
 
-    ``o``, ``d`` are 3-tuples, ``row`` = (the plane's point p, unit normal n, p's largest
-    absolute coordinate, ``Plane.row``). A ray leaving the plane (``on_it``) never re-hits
-    it. A ray spawned on another analytic shape that touches this plane (a sphere resting on
-    it) starts on the plane within rounding: it crosses here, at t = 0.
+    ``ray``: a :class:`raytrace.kernels.records.Ray`; ``row``: the plane's point p, unit
+    normal n and p's largest absolute coordinate at ``PLANE_POINT``, … (``Plane.row``). A ray
+    leaving the plane (``on_it``) never re-hits it. A ray spawned on another analytic shape
+    that touches this plane (a sphere resting on it) starts on the plane within rounding: it
+    crosses here, at t = 0.
     """
     if on_it:
         return math.inf
-    ox, oy, oz = o
-    dx, dy, dz = d
-    px, py, pz, nx, ny, nz, p_max = row[0], row[1], row[2], row[3], row[4], row[5], row[6]
+    ox, oy, oz = ray.origin
+    dx, dy, dz = ray.direction
+    px, py, pz = row[PLANE_POINT], row[PLANE_POINT + 1], row[PLANE_POINT + 2]
+    nx, ny, nz = row[PLANE_NORMAL], row[PLANE_NORMAL + 1], row[PLANE_NORMAL + 2]
+    p_max = row[PLANE_SCALE]
     denom = dx * nx + dy * ny + dz * nz
     dist = (px - ox) * nx + (py - oy) * ny + (pz - oz) * nz
     t = dist / denom
@@ -148,25 +166,28 @@ def plane_surface(row, p):
     """The point ``p`` moved onto the plane of ``row`` along its normal by its signed
     distance, and the plane's unit normal, as a 6-tuple."""
     x, y, z = p
-    px, py, pz, nx, ny, nz = row[0], row[1], row[2], row[3], row[4], row[5]
+    px, py, pz = row[PLANE_POINT], row[PLANE_POINT + 1], row[PLANE_POINT + 2]
+    nx, ny, nz = row[PLANE_NORMAL], row[PLANE_NORMAL + 1], row[PLANE_NORMAL + 2]
     off = (x - px) * nx + (y - py) * ny + (z - pz) * nz
     return x - off * nx, y - off * ny, z - off * nz, nx, ny, nz
 
 
 @kernel
-def disk_t(o, d, row, extent, on_it, spawned):
+def disk_t(ray, row, extent, on_it, spawned):
     """Ray parameter of the hit of one ray with one disk (inf on a miss): its plane's hit
     (:func:`plane_t`, with its rules for a ray leaving it or starting on it) where that point
     ``o + t·d`` lies within the radius of the centre, ``|o + t·d − c|² ≤ r²``.
 
-    ``row`` = (the centre c, the unit normal, c's largest absolute coordinate, the radius r:
-    ``Disk.row``), the first seven a plane's row.
+    ``row``: the centre c, the unit normal, c's largest absolute coordinate and the radius r
+    at ``DISK_CENTRE``, … (``Disk.row``), a plane's row and the radius.
     """
-    t = plane_t(o, d, row, extent, on_it, spawned)
+    t = plane_t(ray, row, extent, on_it, spawned)
     if t == math.inf:
         return t
-    r = row[7]
-    qx, qy, qz = o[0] + t * d[0] - row[0], o[1] + t * d[1] - row[1], o[2] + t * d[2] - row[2]
+    r = row[DISK_RADIUS]
+    o, d = ray.origin, ray.direction
+    qx, qy, qz = (o[0] + t * d[0] - row[DISK_CENTRE], o[1] + t * d[1] - row[DISK_CENTRE + 1],
+                  o[2] + t * d[2] - row[DISK_CENTRE + 2])
     if qx * qx + qy * qy + qz * qz <= r * r:
         return t
     return math.inf
@@ -180,16 +201,17 @@ def disk_surface(row, p):
 
 
 @inline
-def shape_t(kind, row, o, d, extent, on_it, spawned):
+def shape_t(kind, row, ray, extent, on_it, spawned):
     """The one dispatch of the intersections: the ray parameter of shape kind ``kind``
-    (SHAPE_KINDS) with parameters ``row`` for the ray ``o``, ``d`` (inf on a miss); ``on_it``:
-    the ray starts on this shape, ``spawned``: on some analytic shape."""
+    (SHAPE_KINDS) with parameters ``row`` for the ray ``ray`` (a
+    :class:`raytrace.kernels.records.Ray`; inf on a miss); ``on_it``: the ray starts on this
+    shape, ``spawned``: on some analytic shape."""
     if kind == SPHERE:
-        return sphere_t(o, d, row, extent, on_it, spawned)
+        return sphere_t(ray, row, extent, on_it, spawned)
     if kind == PLANE:
-        return plane_t(o, d, row, extent, on_it, spawned)
+        return plane_t(ray, row, extent, on_it, spawned)
     if kind == DISK:
-        return disk_t(o, d, row, extent, on_it, spawned)
+        return disk_t(ray, row, extent, on_it, spawned)
     return math.inf
 
 
@@ -225,15 +247,14 @@ def closest_analytic(o, d, origin_shape, tmax, has_tmax, shapes, t_out, shape_ou
     for i in range(o.shape[0]):
         ox, oy, oz = o[i, 0], o[i, 1], o[i, 2]
         dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
-        o3, d3 = (ox, oy, oz), (dx, dy, dz)
+        ray = Ray(origin=(ox, oy, oz), direction=(dx, dy, dz))
         own = origin_shape[i]
         extent = max(max(abs(ox), abs(oy)), abs(oz))     # scale of the rounding tolerances
         best_t = tmax[i] if has_tmax else math.inf
         best = NO_SHAPE
         own_t = math.inf                                  # where it leaves its own shape
         for s in range(kinds.shape[0]):
-            t = shape_t(kinds[s], shape_row(rows, s), o3, d3, extent, own == s,
-                        own != NO_SHAPE)
+            t = shape_t(kinds[s], shape_row(rows, s), ray, extent, own == s, own != NO_SHAPE)
             if own == s:
                 own_t = t
             if t < best_t:
@@ -263,9 +284,13 @@ def analytic_surface(shape, point, shapes, point_out, normal_out):
 
 # -- Embree's rays ------------------------------------------------------------------------
 @kernel
-def embree_rays(o, d, t, tmax, has_tmax, o32, d32, far):
-    """Rays as Embree takes them: float32 origins and directions, and ``far`` = the closest
-    analytic hit ``t`` or ``tmax`` (float32 max where neither is finite)."""
+def embree_rays(query, t, out):
+    """The rays of ``query`` (a :class:`raytrace.kernels.records.Query`) as Embree takes them,
+    into ``out`` (an :class:`raytrace.kernels.records.EmbreeRays`): float32 origins and
+    directions, and ``far`` = the closest analytic hit ``t`` or ``tmax`` (float32 max where
+    neither is finite)."""
+    o, d, tmax, has_tmax = query.origin, query.direction, query.tmax, query.has_tmax
+    o32, d32, far = out.origin, out.direction, out.far
     for i in range(o.shape[0]):
         for k in range(3):
             o32[i, k] = np.float32(o[i, k])
@@ -278,29 +303,30 @@ def embree_rays(o, d, t, tmax, has_tmax, o32, d32, far):
 
 
 @kernel
-def shadow_prepass(rays, shapes, to_embree, blocked, embree):
-    """The first half of an occlusion query of ``rays`` = (o, d, origin_shape, tmax):
-    ``blocked[i]`` where an analytic shape lies in ``(0, tmax[i])``, found as any hit (the
-    first one ends the search), with :func:`closest_analytic`'s self-hit rules, so
-    ``blocked`` is exactly "its closest analytic hit is finite". With ``to_embree``, the rays
-    it does not block are written, as Embree takes them, into the first rows of ``embree`` =
-    (idx (their indices), o32, d32 (float32 origins and directions), far
-    (``min(tmax, f32 max)``)); returns how many.
+def shadow_prepass(query, shapes, to_embree, blocked, idx, embree):
+    """The first half of an occlusion query of the rays of ``query`` (a
+    :class:`raytrace.kernels.records.ShadowQuery`): ``blocked[i]`` where an analytic shape
+    lies in ``(0, tmax[i])``, found as any hit (the first one ends the search), with
+    :func:`closest_analytic`'s self-hit rules, so ``blocked`` is exactly "its closest
+    analytic hit is finite". With ``to_embree``, the rays it does not block are written, as
+    Embree takes them, into the first rows of ``embree`` (an
+    :class:`raytrace.kernels.records.EmbreeRays`: float32 origins and directions, ``far`` =
+    ``min(tmax, f32 max)``), and their indices into ``idx``; returns how many.
     One pass where a closest-hit pass, a column of t and a gathering pass were. ``shapes``: a
     :class:`raytrace.kernels.records.Shapes`."""
-    o, d, origin_shape, tmax = rays
-    idx, o32, d32, far = embree
+    o, d, origin_shape, tmax = query.origin, query.direction, query.origin_shape, query.tmax
+    o32, d32, far = embree.origin, embree.direction, embree.far
     kinds, rows = shapes.kind, shapes.rows
     k = 0
     for i in range(o.shape[0]):
         ox, oy, oz = o[i, 0], o[i, 1], o[i, 2]
         dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
-        o3, d3 = (ox, oy, oz), (dx, dy, dz)
+        ray = Ray(origin=(ox, oy, oz), direction=(dx, dy, dz))
         own, limit = origin_shape[i], tmax[i]
         extent = max(max(abs(ox), abs(oy)), abs(oz))
         hit = False
         for s in range(kinds.shape[0]):
-            if shape_t(kinds[s], shape_row(rows, s), o3, d3, extent, own == s,
+            if shape_t(kinds[s], shape_row(rows, s), ray, extent, own == s,
                        own != NO_SHAPE) < limit:
                 hit = True
                 break
@@ -335,16 +361,18 @@ def occlusion(idx, embree_result, origin_shape, blocked, recheck):
 
 # -- Embree's hits ------------------------------------------------------------------------
 @kernel
-def refine_hits(embree, rows, adv, tables, rays, hits, redo):
+def refine_hits(embree, traced, tables, query, hits, redo):
     """Embree's hits re-solved in float64, written where they come before the analytic hit;
     the hits that float64 shows to be float32 artefacts are set aside for a second pass.
     Returns how many were set aside.
 
-    ``embree`` = (geomID, primID, u, v) of Embree's answer for ray ``rows[j]`` at row j
-    (ray j itself where ``rows`` is empty); ``tables`` a
-    :class:`raytrace.kernels.records.Triangles`;
-    ``rays`` = (o, d, tmax, has_tmax); ``hits`` = (t, shape, triangle, uv), updated in place;
-    ``redo`` = (rows, adv) outputs.
+    ``embree``: Embree's answer (an :class:`raytrace.kernels.records.EmbreeHits`), at row j
+    for ray ``traced.rows[j]`` of ``query`` started ``traced.adv[j]`` along it (``traced``: a
+    :class:`raytrace.kernels.records.Redo`, :func:`retrace_rays`' kept rays; no rows: ray j
+    from its origin); ``tables`` a :class:`raytrace.kernels.records.Triangles`; ``query`` a
+    :class:`raytrace.kernels.records.Query`; ``hits`` a
+    :class:`raytrace.kernels.records.Hits`, updated in place; ``redo`` a
+    :class:`raytrace.kernels.records.Redo`, the rays set aside in its first rows.
 
     Embree's float32 ``u, v`` are off by ~1e-5 (measured), enough to move smooth normals and
     hit points visibly between scales; solving ``o + t·d = a + u·e1 + v·e2`` again on the
@@ -371,12 +399,13 @@ def refine_hits(embree, rows, adv, tables, rays, hits, redo):
     rounding scale, :func:`triangle_tables`), ``2·adv + h/|d·n|``. Embree's answer beyond
     that point is the ray's answer (:meth:`raytrace.accel.Accelerator.intersect`).
     """
-    geom_id, prim_id, u32, v32 = embree
+    geom_id, prim_id, u32, v32 = embree.geom_id, embree.prim_id, embree.u, embree.v
+    rows, adv = traced.rows, traced.adv
     geom_first, corners, face_normal = tables.geom_first, tables.corners, tables.normal
     band, code = tables.band, tables.shading
-    o, d, tmax, has_tmax = rays
-    t, shape, triangle, uv = hits
-    redo_rows, redo_adv = redo
+    o, d, tmax, has_tmax = query.origin, query.direction, query.tmax, query.has_tmax
+    t, shape, triangle, uv = hits.t, hits.shape, hits.triangle, hits.uv
+    redo_rows, redo_adv = redo.rows, redo.adv
     mapped = rows.shape[0] > 0
     k = 0
     for j in range(geom_id.shape[0]):
@@ -434,15 +463,18 @@ def refine_hits(embree, rows, adv, tables, rays, hits, redo):
 
 
 @kernel
-def retrace_rays(redo, rays, t, out):
-    """The second pass's rays as Embree takes them: ray ``rows[j]`` of ``redo`` = (rows,
-    adv) restarted ``adv[j]`` along itself, ``o + adv·d`` in float32, and ``far`` = what is
-    left of its bound (the analytic hit ``t`` or ``tmax``) beyond that, into ``out`` = (o32,
-    d32, far, keep, keep_adv). Rays with nothing left are dropped; the kept ones' rows and
-    advances go to ``keep`` and ``keep_adv``. Returns how many were kept."""
-    rows, adv = redo
-    o, d, tmax, has_tmax = rays
-    o32, d32, far, keep, keep_adv = out
+def retrace_rays(redo, query, t, out, kept):
+    """The second pass's rays as Embree takes them: ray ``redo.rows[j]`` of ``query`` (a
+    :class:`raytrace.kernels.records.Query`) restarted ``redo.adv[j]`` along itself
+    (``redo``: a :class:`raytrace.kernels.records.Redo`), ``o + adv·d`` in float32, and
+    ``far`` = what is left of its bound (the analytic hit ``t`` or ``tmax``) beyond that, into
+    ``out`` (an :class:`raytrace.kernels.records.EmbreeRays`). Rays with nothing left are
+    dropped; the kept ones' rows and advances go to ``kept`` (a ``Redo``: the next
+    :func:`refine_hits`' ``traced``). Returns how many were kept."""
+    rows, adv = redo.rows, redo.adv
+    o, d, tmax, has_tmax = query.origin, query.direction, query.tmax, query.has_tmax
+    o32, d32, far = out.origin, out.direction, out.far
+    keep, keep_adv = kept.rows, kept.adv
     k = 0
     for j in range(rows.shape[0]):
         i, a = rows[j], adv[j]
@@ -483,7 +515,7 @@ def hit_surfaces(hits, o, d, shapes, tables, out):
     :class:`raytrace.kernels.records.Triangles`.
     """
     kinds, rows, shape_material = shapes.kind, shapes.rows, shapes.material
-    t, shape, triangle, uv = hits
+    t, shape, triangle, uv = hits.t, hits.shape, hits.triangle, hits.uv
     point, geometric, shading, material, offset = (out.point, out.geometric, out.shading,
                                                    out.material, out.offset)
     corners, face_normal, vnormals = tables.corners, tables.normal, tables.vnormals

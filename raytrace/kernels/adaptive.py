@@ -10,12 +10,13 @@ from .jit import inline, kernel
 
 
 @inline
-def corners1(slot, origin, ci, cj, s):
+def corners1(slot, grid, ci, cj, s):
     """The rows in ``values`` of the four corners of the cell whose top-left lattice point is
-    (ci, cj) and side ``s``, through the pass's ``slot`` table (``origin`` = (stride, i0, j0)):
-    top-left, top-right, bottom-left, bottom-right."""
-    stride, i0, j0 = origin
-    i, j = ci - i0, cj - j0
+    (ci, cj) and side ``s``, through the pass's ``slot`` table (laid out by ``grid``, a
+    :class:`raytrace.kernels.records.SlotGrid`): top-left, top-right, bottom-left,
+    bottom-right."""
+    stride = grid.stride
+    i, j = ci - grid.i0, cj - grid.j0
     return (slot[j * stride + i], slot[j * stride + i + s],
             slot[(j + s) * stride + i], slot[(j + s) * stride + i + s])
 
@@ -30,21 +31,23 @@ def add_mean1(out, p, values, r, weight):
 
 
 @kernel
-def judge_cells(slot, values, origin, cells, rule, out, cut):
-    """One level of :func:`refine` over its cells, in cell order: each cell's four corners
-    (top-left lattice point (ci, cj), side ``s``) looked up through the pass's ``slot``
-    table (``origin`` = (stride, i0, j0)) in ``values`` (n, 3) (:func:`corners1`); ``cut[k]``
-    where the cell is cut: not at the last level, and every cell of a level before the first
-    judged one, or its corners' spread ``max_c (max − min)`` ≥ ``threshold`` (never where a
-    corner is NaN: the spread is NaN); an uncut cell adds ``¼(c₀ + c₁ + c₂ + c₃)·weight`` to
-    its pixel's row of ``out`` (:func:`add_mean1`), one cell after another (the fixed order of
-    the pixel's sum). ``cells`` = (ci, cj, pixel), ``rule`` = (s, threshold, everywhere, last,
-    weight). Returns the number cut."""
-    ci, cj, pixel = cells
-    s, threshold, everywhere, last, weight = rule
+def judge_cells(slot, values, grid, cells, level, out, cut):
+    """One level of :func:`raytrace.adaptive.refine` over its ``cells`` (a
+    :class:`raytrace.kernels.records.Cells`), in cell order: each cell's four corners
+    (top-left lattice point (ci, cj), side ``s`` = ``level.size``) looked up through the
+    pass's ``slot`` table (laid out by ``grid``, a :class:`raytrace.kernels.records.SlotGrid`)
+    in ``values`` (n, 3) (:func:`corners1`); ``cut[k]`` where the cell is cut: not at the
+    ``last`` level, and every cell of a level before the first judged one (``everywhere``), or
+    its corners' spread ``max_c (max − min)`` ≥ ``threshold`` (never where a corner is NaN:
+    the spread is NaN); an uncut cell adds ``¼(c₀ + c₁ + c₂ + c₃)·weight`` to its pixel's row
+    of ``out`` (:func:`add_mean1`), one cell after another (the fixed order of the pixel's
+    sum). ``level``: a :class:`raytrace.kernels.records.Level`. Returns the number cut."""
+    ci, cj, pixel = cells.ci, cells.cj, cells.pixel
+    s, threshold, everywhere = level.size, level.threshold, level.everywhere
+    last, weight = level.last, level.weight
     n = 0
     for k in range(ci.shape[0]):
-        r = corners1(slot, origin, ci[k], cj[k], s)
+        r = corners1(slot, grid, ci[k], cj[k], s)
         r0, r1, r2, r3 = r
         split = False
         if not last:

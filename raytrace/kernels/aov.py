@@ -1,9 +1,10 @@
 """Compiled AOVs (:mod:`raytrace.film.aov`): what each camera ray first hit, per sample, and each
 pixel's value from its samples.
 
-The AOVs asked for share one float64 table per pass, a row per camera sample: column 0 holds the
-distance t of the sample's hit (+inf on a miss), which picks a pixel's nearest sample; each AOV
-has the columns :class:`raytrace.kernels.records.AOVLayout` gives it. An AOV is a kind code of
+The AOVs asked for share one float64 table per pass, a row per camera sample: column
+``AOV_DISTANCE`` (0) holds the distance t of the sample's hit (+inf on a miss), which picks a
+pixel's nearest sample; each AOV has the columns :class:`raytrace.kernels.records.AOVLayout`
+gives it. An AOV is a kind code of
 :data:`AOV_KINDS` and its branch in :func:`aov_value1`; :mod:`raytrace.film.aov` names its
 channels, its miss value and how a pixel's samples combine.
 """
@@ -16,6 +17,16 @@ from .core import facing1
 from .jit import inline, kernel
 from .kinds import KD
 from .material import surface_color1, surface_texcoords1, texture_tables1
+from .records import (
+    AOV_COMBINE,
+    AOV_COUNT,
+    AOV_DISTANCE,
+    AOV_FIRST,
+    AOV_KIND,
+    FirstHits,
+    MaterialHit,
+    Palette,
+)
 
 #: The AOVs' kernel codes, by their name in :data:`raytrace.film.aov.AOVS`.
 AOV_KINDS = {"depth": 0, "normal": 1, "albedo": 2, "id": 3, "uv": 4, "position": 5}
@@ -33,14 +44,15 @@ def aov_value1(kind, i, hits, scene, objects, out, row, col):
     the scene (``id``: an analytic shape's ``shape_object``, a triangle's mesh the last
     ``geom_first`` at or before it, ``geom_object`` of that), the hit's texture coordinates
     (``uv``: a mesh's (s, t) where its file gives them, else (0, 0), as Blender's UV pass)
-    or its world point (``position``). ``hits`` = (rays, t, surf): the camera rays, their
-    distances and surfaces (all hit); ``scene``: a :class:`raytrace.kernels.records.Scene`,
-    ``objects`` an :class:`raytrace.kernels.records.Objects`."""
-    rays, t, surf = hits
+    or its world point (``position``). ``hits``: the camera rays' first hits (a
+    :class:`raytrace.kernels.records.FirstHits`); ``scene``: a
+    :class:`raytrace.kernels.records.Scene`, ``objects`` an
+    :class:`raytrace.kernels.records.Objects`."""
+    surf = hits.surface
     if kind == DEPTH:
-        out[row, col] = t[i]
+        out[row, col] = hits.t[i]
     elif kind == NORMAL:
-        d, g = rays.direction, surf.geometric
+        d, g = hits.direction, surf.geometric
         f = facing1(g[i, 0], g[i, 1], g[i, 2], d[i, 0], d[i, 1], d[i, 2])
         for c in range(3):
             out[row, col + c] = f * surf.shading[i, c]
@@ -51,9 +63,10 @@ def aov_value1(kind, i, hits, scene, objects, out, row, col):
             out[row, col], out[row, col + 1], out[row, col + 2] = x, y, z
         else:
             mats = scene.materials
-            kd = surface_color1((mats.colors, mats.pattern, mats.checkers),
-                                texture_tables1(mats, scene.triangles.texcoords), surf.material[i],
-                                KD, (x, y, z, surf.triangle[i], surf.uv[i, 0], surf.uv[i, 1]))
+            at = MaterialHit(world=(x, y, z), triangle=surf.triangle[i], u=surf.uv[i, 0],
+                             v=surf.uv[i, 1])
+            kd = surface_color1(Palette(mats.colors, mats.pattern, mats.checkers),
+                                texture_tables1(mats, scene.texcoords), surf.material[i], KD, at)
             for c in range(3):
                 out[row, col + c] = kd[c]
     elif kind == ID:
@@ -64,22 +77,24 @@ def aov_value1(kind, i, hits, scene, objects, out, row, col):
         else:
             out[row, col] = objects.shape_object[surf.shape[i]]
     elif kind == UV:
-        out[row, col], out[row, col + 1] = surface_texcoords1(scene.triangles.texcoords, (
-            0.0, 0.0, 0.0, surf.triangle[i], surf.uv[i, 0], surf.uv[i, 1]))
+        at = MaterialHit(world=(0.0, 0.0, 0.0), triangle=surf.triangle[i], u=surf.uv[i, 0],
+                         v=surf.uv[i, 1])
+        out[row, col], out[row, col + 1] = surface_texcoords1(scene.triangles.texcoords, at)
 
 
 @kernel
 def aov_hits(rays, t, surf, scene, objects, layout, out):
     """The AOVs of camera-ray hits (``rays``, their distances ``t`` and ``surf``) into their
-    samples' rows (``rays.sample``) of ``out`` (samples, columns): column 0 the distance, then
-    each AOV of ``layout`` (a :class:`raytrace.kernels.records.AOVLayout`) by
+    samples' rows (``rays.sample``) of ``out`` (samples, columns): column ``AOV_DISTANCE`` the
+    distance, then each AOV of ``layout`` (a :class:`raytrace.kernels.records.AOVLayout`) by
     :func:`aov_value1`."""
     sample, table = rays.sample, layout.table
+    hits = FirstHits(direction=rays.direction, t=t, surface=surf)
     for i in range(sample.shape[0]):
         s = sample[i]
-        out[s, 0] = t[i]
+        out[s, AOV_DISTANCE] = t[i]
         for k in range(table.shape[0]):
-            aov_value1(table[k, 0], i, (rays, t, surf), scene, objects, out, s, table[k, 1])
+            aov_value1(table[k, AOV_KIND], i, hits, scene, objects, out, s, table[k, AOV_FIRST])
 
 
 @kernel
@@ -94,11 +109,11 @@ def aov_pixels(pixels, spp, samples, layout, out):
         first = j * spp
         best = first
         for k in range(first + 1, first + spp):
-            if samples[k, 0] < samples[best, 0]:
+            if samples[k, AOV_DISTANCE] < samples[best, AOV_DISTANCE]:
                 best = k
-        out[j, 0] = samples[best, 0]
+        out[j, AOV_DISTANCE] = samples[best, AOV_DISTANCE]
         for a in range(table.shape[0]):
-            col, count, combine = table[a, 1], table[a, 2], table[a, 3]
+            col, count, combine = table[a, AOV_FIRST], table[a, AOV_COUNT], table[a, AOV_COMBINE]
             for c in range(col, col + count):
                 if combine == NEAREST:
                     out[j, c] = samples[best, c]

@@ -24,16 +24,16 @@ def offset_rows(spp, k, seed, sample, sx, sy):
 
 
 @kernel
-def direction1(x, y, size, view):
+def direction1(x, y, pinhole):
     """The unit direction through image position (x, y) (pixels, (0, 0) the frame's top-left
-    corner) of a frame of ``size`` = (width, height) seen with ``view`` = (tan(fov/2), right,
-    up, forward) (3-tuples): ``(2x/W − 1)·tan(fov/2)·W/H·right + (1 − 2y/H)·tan(fov/2)·up +
-    forward``, normalised (the image plane one unit along ``forward``)."""
-    width, height = size
-    tan_half, right, up, forward = view
-    rx, ry, rz = right
-    ux, uy, uz = up
-    fx, fy, fz = forward
+    corner) of the frame of ``pinhole`` (a :class:`raytrace.kernels.records.Pinhole`: W × H
+    pixels, tan(fov/2), the axes right, up, forward):
+    ``(2x/W − 1)·tan(fov/2)·W/H·right + (1 − 2y/H)·tan(fov/2)·up + forward``, normalised (the
+    image plane one unit along ``forward``)."""
+    width, height, tan_half = pinhole.width, pinhole.height, pinhole.tan_half
+    rx, ry, rz = pinhole.right
+    ux, uy, uz = pinhole.up
+    fx, fy, fz = pinhole.forward
     a = (2.0 * x / width - 1.0) * tan_half * (width / height)
     b = (1.0 - 2.0 * y / height) * tan_half
     dx = a * rx + b * ux + fx
@@ -44,34 +44,31 @@ def direction1(x, y, size, view):
 
 
 @kernel
-def directions_at_rows(x, y, size, view, out):
+def directions_at_rows(x, y, pinhole, out):
     for j in range(out.shape[0]):
-        out[j, 0], out[j, 1], out[j, 2] = direction1(x[j], y[j], size, view)
+        out[j, 0], out[j, 1], out[j, 2] = direction1(x[j], y[j], pinhole)
 
 
 @kernel
-def directions(start, frame, view, window, out):
-    """Unit directions of the samples ``start …`` of the window of columns ``x0 … x1 − 1``
-    from row ``y0`` on (the whole frame: 0, 0, ``width``) into ``out`` (n, 3): through
+def directions(start, sampling, pinhole, window, out):
+    """Unit directions of the samples ``start …`` of ``window`` (a
+    :class:`raytrace.kernels.records.Window`: its columns ``x0 … x1 − 1`` from row ``y0`` on;
+    the whole frame: 0, 0, ``width``) into ``out`` (n, 3): through
     ``x = (2(col + sx)/W − 1)·tan(fov/2)·W/H``, ``y = (1 − 2(row + sy)/H)·tan(fov/2)`` on the
-    image plane one unit along ``forward``, jittered by the sample's global index ``g``. The
-    pixel (row, col), the sample's cell within it and ``g`` are counted along, not divided
-    out of the sample index for every sample. ``frame`` = (width, height, spp, k (the
-    stratification grid, :func:`grid`), seed); ``view`` = (tan(fov/2), right, up, forward)
-    as arrays; ``window`` = (x0, y0, x1)."""
-    width, height, spp, k, seed = frame
-    tan_half, right, up, forward = view
-    x0, y0, x1 = window
-    view3 = (tan_half, (right[0], right[1], right[2]), (up[0], up[1], up[2]),
-             (forward[0], forward[1], forward[2]))
+    image plane one unit along ``forward`` (:func:`direction1` of ``pinhole``, a
+    :class:`raytrace.kernels.records.Pinhole`), jittered by the sample's global index ``g``
+    (``sampling``: a :class:`raytrace.kernels.records.Sampling`). The pixel (row, col), the
+    sample's cell within it and ``g`` are counted along, not divided out of the sample index
+    for every sample."""
+    width, spp, k, seed = sampling.width, sampling.spp, sampling.k, sampling.seed
+    x0, y0, x1 = window.x0, window.y0, window.x1
     cols = x1 - x0
     pixel, cell = start // spp, start % spp
     row, col = y0 + pixel // cols, x0 + pixel % cols
     g = (row * width + col) * spp + cell
     for j in range(out.shape[0]):
         sx, sy = pixel_offset(spp, k, seed, g, cell)
-        out[j, 0], out[j, 1], out[j, 2] = direction1(col + sx, row + sy, (width, height),
-                                                     view3)
+        out[j, 0], out[j, 1], out[j, 2] = direction1(col + sx, row + sy, pinhole)
         cell += 1
         g += 1
         if cell == spp:

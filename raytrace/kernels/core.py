@@ -32,6 +32,7 @@ import numpy as np
 
 from .jit import kernel
 from .kinds import DIELECTRIC, FAST_PHONG, FLAT, GOURAUD, NO_FRESNEL, SCHLICK, SMOOTH  # noqa: F401
+from .records import TEX_HEIGHT, TEX_OFFSET, TEX_WIDTH, TEX_WRAP_S, TEX_WRAP_T, SpawnPoint
 
 #: SplitMix64's constants (Steele et al. 2014).
 M1, M2, M3 = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xBF58476D1CE4E5B9),
@@ -206,17 +207,19 @@ def facing1(gx, gy, gz, dx, dy, dz):
 
 
 @kernel
-def leave1(p, g, offset, d):
-    """Start of a ray leaving a surface point along ``d``: ``offset`` off the surface along the
-    geometric normal, on the side it leaves on (the sign of ``d·N_g``, +1 where it is 0; a NaN
-    direction gives a NaN start, which no query hits). Analytic shapes have offset 0: their
-    rays carry their shape instead (:mod:`raytrace.analytic`). ``p``, ``g``, ``d``: 3-tuples."""
-    px, py, pz = p
-    gx, gy, gz = g
+def leave1(at, d):
+    """Start of a ray leaving a surface point along ``d`` (a 3-tuple): ``at.offset`` off the
+    surface along the geometric normal, on the side it leaves on (the sign of ``d·N_g``, +1
+    where it is 0; a NaN direction gives a NaN start, which no query hits). ``at``: a
+    :class:`raytrace.kernels.records.SpawnPoint`, the hit point, its geometric normal N_g and
+    the offset. Analytic shapes have offset 0: their rays carry their shape instead
+    (:mod:`raytrace.analytic`)."""
+    px, py, pz = at.point
+    gx, gy, gz = at.geometric
     dx, dy, dz = d
     dot = dx * gx + dy * gy + dz * gz
     side = 1.0 if dot >= 0.0 else (-1.0 if dot < 0.0 else math.nan)  # sign, +1 at 0
-    step = side * offset
+    step = side * at.offset
     return px + step * gx, py + step * gy, pz + step * gz
 
 
@@ -291,14 +294,15 @@ def bilinear1(texels, info, q, s, t, channel):
     """Channel ``channel`` (0 … 3: R, G, B, A) of texture ``q`` bilinearly filtered at (s, t):
     with ``x = s·W − ½``, ``y = t·H − ½``, the four texels around (x, y) weighted by their
     distances (texel (i, j)'s centre is at ((i + ½)/W, (j + ½)/H), where the result is that
-    texel exactly). ``texels``: every texture's RGBA rows, flat float32; ``info[q]`` =
-    (offset, W, H, wrap s, wrap t)."""
-    off, w, h = info[q, 0], info[q, 1], info[q, 2]
+    texel exactly). ``texels``: every texture's RGBA rows, flat float32; ``info[q]``: its
+    offset into them, W, H and wrap modes (``Materials.tex_info``, at ``TEX_OFFSET``, …)."""
+    off, w, h = info[q, TEX_OFFSET], info[q, TEX_WIDTH], info[q, TEX_HEIGHT]
     x, y = s * w - 0.5, t * h - 0.5
     fx, fy = math.floor(x), math.floor(y)
     ax, ay = x - fx, y - fy
-    i0, i1 = wrap1(int(fx), w, info[q, 3]), wrap1(int(fx) + 1, w, info[q, 3])
-    j0, j1 = wrap1(int(fy), h, info[q, 4]), wrap1(int(fy) + 1, h, info[q, 4])
+    wrap_s, wrap_t = info[q, TEX_WRAP_S], info[q, TEX_WRAP_T]
+    i0, i1 = wrap1(int(fx), w, wrap_s), wrap1(int(fx) + 1, w, wrap_s)
+    j0, j1 = wrap1(int(fy), h, wrap_t), wrap1(int(fy) + 1, h, wrap_t)
     a, b = off + 4 * (j0 * w + i0) + channel, off + 4 * (j0 * w + i1) + channel
     c, d = off + 4 * (j1 * w + i0) + channel, off + 4 * (j1 * w + i1) + channel
     return (1.0 - ay) * ((1.0 - ax) * texels[a] + ax * texels[b]) + ay * (
@@ -361,7 +365,8 @@ def leave_rows(point, geometric, offset, direction, out):
     """:func:`leave1` for each row: the start points (n, 3) of rays leaving ``point`` along
     ``direction``."""
     for i in range(point.shape[0]):
+        at = SpawnPoint(point=(point[i, 0], point[i, 1], point[i, 2]),
+                        geometric=(geometric[i, 0], geometric[i, 1], geometric[i, 2]),
+                        offset=offset[i])
         out[i, 0], out[i, 1], out[i, 2] = leave1(
-            (point[i, 0], point[i, 1], point[i, 2]),
-            (geometric[i, 0], geometric[i, 1], geometric[i, 2]), offset[i],
-            (direction[i, 0], direction[i, 1], direction[i, 2]))
+            at, (direction[i, 0], direction[i, 1], direction[i, 2]))

@@ -49,21 +49,22 @@ def profile_rows(code, radius, x, out):
 
 
 @kernel
-def filter_pixels(samples, traced, frame, profile, window, out):
-    """Filtered pixels of ``window`` = (x0, y0, x1, y1) into ``out`` ((x1−x0)·(y1−y0), 3),
-    rows in order.
+def filter_pixels(samples, traced, sampling, profile, window, out):
+    """Filtered pixels of ``window`` (a :class:`raytrace.kernels.records.Window`, x0 … x1 − 1
+    by y0 … y1 − 1) into ``out`` ((x1−x0)·(y1−y0), 3), rows in order.
 
-    ``samples`` (n, 3) are the radiance sums of the samples of the ``traced`` window (x0, y0,
-    x1, y1, a superset of ``window`` by ``reach`` pixels where the frame allows), pixel·spp +
-    cell in its row order; ``frame`` = (width, spp, k (the stratification grid), seed);
-    ``profile`` = (filter code, radius, reach in pixels). Sample (pixel, cell) lies at ``pixel
-    + pixel_offset(…)``, from its global index, as the camera put it. Each pixel's sum runs
-    over its footprint's pixels row by row, then their samples in order: one fixed order,
-    whatever window was traced."""
-    tx0, ty0, tx1, ty1 = traced
-    width, spp, k, seed = frame
-    code, radius, reach = profile
-    x0, y0, x1, y1 = window
+    ``samples`` (n, 3) are the radiance sums of the samples of the ``traced`` window (a
+    ``Window``, a superset of ``window`` by ``reach`` pixels where the frame allows),
+    pixel·spp + cell in its row order; ``sampling``: how the camera numbered and placed them
+    (a :class:`raytrace.kernels.records.Sampling`); ``profile``: the filter (a
+    :class:`raytrace.kernels.records.FilterProfile`: code, radius, reach in pixels). Sample
+    (pixel, cell) lies at ``pixel + pixel_offset(…)``, from its global index, as the camera
+    put it. Each pixel's sum runs over its footprint's pixels row by row, then their samples
+    in order: one fixed order, whatever window was traced."""
+    tx0, ty0, tx1, ty1 = traced.x0, traced.y0, traced.x1, traced.y1
+    width, spp, k, seed = sampling.width, sampling.spp, sampling.k, sampling.seed
+    code, radius, reach = profile.code, profile.radius, profile.reach
+    x0, y0, x1, y1 = window.x0, window.y0, window.x1, window.y1
     j = 0
     for py in range(y0, y1):
         for px in range(x0, x1):

@@ -10,11 +10,13 @@ threading layer (OpenMP or TBB) is never loaded.
 **The cache guard.** numba's on-disk cache checks only the source file of the kernel it
 compiled, not the files of the functions that kernel inlines (numba issue #1833): edit a
 per-ray helper in one module and every kernel of another module that calls it would keep
-running the old machine code. So, on import, :func:`refresh_cache` hashes the source of every
-module of the package that compiles kernels (with numba's version); where that hash differs
-from the one stored beside the cache, the cache files of those modules are deleted and the
-kernels compile afresh (STUMPY's ``cache.py`` does the same by hand). Reading and hashing the
-sources costs about a millisecond.
+running the old machine code; nor does it notice a constant a kernel reads from another module
+(numba freezes a global's value into the machine code: a column of a packed row, a kind's
+code). So, on import, :func:`refresh_cache` hashes the source of every module of the package
+that compiles kernels and of the two whose constants they read (:data:`CONSTANTS`; with
+numba's version); where that hash differs from the one stored beside the cache, the cache
+files of the kernel modules are deleted and the kernels compile afresh (STUMPY's ``cache.py``
+does the same by hand). Reading and hashing the sources costs about a millisecond.
 """
 
 from __future__ import annotations
@@ -50,6 +52,17 @@ def kernel_modules() -> list[Path]:
     one (:data:`kernel`, :data:`inline`; this one excluded), in a fixed order."""
     return sorted(p for p in PACKAGE.rglob("*.py") if p != Path(__file__).resolve()
                   and _DECORATORS.search(p.read_text("utf-8")))
+
+
+#: The modules of this folder that compile no kernel but whose values the kernels read as
+#: constants: the codes and the packed rows' columns.
+CONSTANTS = ("kinds.py", "records.py")
+
+
+def hashed_modules() -> list[Path]:
+    """The sources the cache's machine code depends on: :func:`kernel_modules` and
+    :data:`CONSTANTS`."""
+    return kernel_modules() + [PACKAGE / name for name in CONSTANTS]
 
 
 def source_hash(modules: list[Path]) -> str:
@@ -102,7 +115,7 @@ def refresh_cache() -> bool:
     find their first compile unstamped and delete it. Never raises for a folder it cannot
     read or write (numba then compiles in memory as it would anyway)."""
     modules = kernel_modules()
-    digest = source_hash(modules)
+    digest = source_hash(hashed_modules())
     names = {p.stem for p in modules}
     for module in modules:
         numba_cache_dir(module)

@@ -6,12 +6,13 @@ asks :func:`surface_color1`, :func:`surface_opacity1` or :func:`surface_texcoord
 in numba's IR into the caller (``raytrace.kernels.jit.inline``, so the material's arrays
 cross no call), with
 
-* ``materials``: the :class:`raytrace.kernels.records.Materials` record; ``texcoords``: the
-  triangles' per-corner texture coordinates (T, 3, 2), or None in a kernel variant compiled
-  for a scene without image textures (numba prunes the texture code before typing; a separate
-  argument, not a tuple's element, for that);
-* ``hit`` = (x, y, z, triangle, u, v): the hit's world point (a checker is a function of it),
-  its triangle (−1 off a mesh) and barycentrics (where an image texture is read).
+* ``palette``: a :class:`raytrace.kernels.records.Palette` (constant colours and checkers);
+  ``textures``, ``alphas``: the image and alpha textures' tables (:func:`texture_tables1`,
+  :func:`alpha_tables1`, bound once a kernel), or None in a scene without image textures,
+  whose kernels then compile no texture code;
+* ``hit``: a :class:`raytrace.kernels.records.MaterialHit`, the hit's world point (a checker
+  is a function of it), its triangle (−1 off a mesh) and barycentrics (where an image texture
+  is read).
 
 A colour is its constant, or its checker at the world point (SCENE_FORMAT.md), or, where the
 material's colour has an image texture, the texture's bilinear texel at the hit's texture
@@ -27,44 +28,51 @@ from numba.extending import overload
 
 from .core import ALPHA, bilinear1, checker1, texture1
 from .jit import inline, kernel
+from .records import (
+    CHECKER_COLOR0,
+    CHECKER_COLOR1,
+    CHECKER_SCALE,
+    AlphaTables,
+    TextureTables,
+)
 
 
 def texture_tables1(materials, texcoords):
     """What :func:`surface_color1` reads of image textures, taken once at a kernel's top (each
-    array a per-hit helper is handed costs reference counts on every hit): (textured, texture,
-    texels, tex_info, texcoords); None where ``texcoords`` is None (a scene without image
-    textures), and the lookup's texture code is then not compiled. Chosen by type when a
-    kernel compiles (``numba.extending.overload``), so no kernel sees an optional value; the
-    same in Python (``raytrace explain``)."""
+    array a per-hit helper is handed costs reference counts on every hit), a
+    :class:`raytrace.kernels.records.TextureTables`; None where ``texcoords`` is None (a scene
+    without image textures), and the lookup's texture code is then not compiled. Chosen by type
+    when a kernel compiles (``numba.extending.overload``), so no kernel sees an optional value;
+    the same in Python (``raytrace explain``)."""
     if texcoords is None:
         return None
-    return (materials.textured, materials.texture, materials.texels, materials.tex_info,
-            texcoords)
+    return TextureTables(materials.textured, materials.texture, materials.texels,
+                         materials.tex_info, texcoords)
 
 
 @overload(texture_tables1, inline="always")
 def _texture_tables1(materials, texcoords):
     if isinstance(texcoords, types.NoneType):
         return lambda materials, texcoords: None
-    return lambda materials, texcoords: (materials.textured, materials.texture,
-                                         materials.texels, materials.tex_info, texcoords)
+    return lambda materials, texcoords: TextureTables(
+        materials.textured, materials.texture, materials.texels, materials.tex_info, texcoords)
 
 
 def alpha_tables1(materials, texcoords):
     """What :func:`surface_opacity1` reads of alpha textures, taken once at a kernel's top:
-    (alpha, alpha_cutoff, texels, tex_info, texcoords); None where ``texcoords`` is None."""
+    a :class:`raytrace.kernels.records.AlphaTables`; None where ``texcoords`` is None."""
     if texcoords is None:
         return None
-    return (materials.alpha, materials.alpha_cutoff, materials.texels, materials.tex_info,
-            texcoords)
+    return AlphaTables(materials.alpha, materials.alpha_cutoff, materials.texels,
+                       materials.tex_info, texcoords)
 
 
 @overload(alpha_tables1, inline="always")
 def _alpha_tables1(materials, texcoords):
     if isinstance(texcoords, types.NoneType):
         return lambda materials, texcoords: None
-    return lambda materials, texcoords: (materials.alpha, materials.alpha_cutoff,
-                                         materials.texels, materials.tex_info, texcoords)
+    return lambda materials, texcoords: AlphaTables(
+        materials.alpha, materials.alpha_cutoff, materials.texels, materials.tex_info, texcoords)
 
 
 @inline
@@ -73,7 +81,7 @@ def surface_color1(palette, textures, m, slot, hit):
     ``hit`` (module docstring): its image texture where it has one (``textures``, from
     :func:`texture_tables1`), else its checker or constant (``palette`` = the materials'
     colours, patterns and checkers); a 3-tuple."""
-    x, y, z, _, _, _ = hit
+    x, y, z = hit.world
     return texel1(textures, m, slot, hit, color1(palette, m, slot, x, y, z))
 
 
@@ -81,9 +89,8 @@ def surface_color1(palette, textures, m, slot, hit):
 def surface_texcoords1(texcoords, hit):
     """The texture coordinates (s, t) at ``hit`` where its triangle has them (a mesh whose file
     gives them), else (0, 0): where an image texture, and the ``uv`` AOV, read."""
-    _, _, _, triangle, u, v = hit
-    if 0 <= triangle < texcoords.shape[0]:
-        return texcoord1(texcoords, triangle, u, v)
+    if 0 <= hit.triangle < texcoords.shape[0]:
+        return texcoord1(texcoords, hit.triangle, hit.u, hit.v)
     return 0.0, 0.0
 
 
@@ -106,15 +113,13 @@ def _texel1(textures, m, slot, hit, other):
         return lambda textures, m, slot, hit, other: other
 
     def texel(textures, m, slot, hit, other):
-        textured, texture, texels, tex_info, texcoords = textures
-        if not textured[m]:
+        if not textures.textured[m]:
             return other
-        q = texture[m, slot // 3]
+        q = textures.texture[m, slot // 3]
         if q < 0:
             return other
-        _, _, _, triangle, u, v = hit
-        s, t = texcoord1(texcoords, triangle, u, v)
-        return texture1(texels, tex_info, q, s, t)
+        s, t = texcoord1(textures.texcoords, hit.triangle, hit.u, hit.v)
+        return texture1(textures.texels, textures.tex_info, q, s, t)
     return texel
 
 
@@ -130,25 +135,26 @@ def _alpha1(alphas, m, hit, constant):
         return lambda alphas, m, hit, constant: constant
 
     def alpha(alphas, m, hit, constant):
-        alpha, alpha_cutoff, texels, tex_info, texcoords = alphas
-        if alpha[m] < 0:
+        if alphas.alpha[m] < 0:
             return constant
-        _, _, _, triangle, u, v = hit
-        return opacity1(constant, (alpha[m], alpha_cutoff[m]), (texels, tex_info),
-                        texcoord1(texcoords, triangle, u, v))
+        return opacity1(constant, (alphas.alpha[m], alphas.alpha_cutoff[m]),
+                        (alphas.texels, alphas.tex_info),
+                        texcoord1(alphas.texcoords, hit.triangle, hit.u, hit.v))
     return alpha
 
 
 @kernel
 def color1(palette, m, slot, x, y, z):
     """Colour ``slot`` (KA … KE) of material ``m`` at the world point (x, y, z): its constant
-    or its checker pattern there (``palette`` = the materials' colours, patterns and
-    checkers). A material with an image texture then takes :func:`texel1` instead."""
-    colors, pattern, checkers = palette
+    or its checker pattern there, colour 0 or colour 1 by :func:`checker1`'s parity
+    (``palette``: a :class:`raytrace.kernels.records.Palette`, the materials' colours,
+    patterns and checkers). A material with an image texture then takes :func:`texel1`
+    instead."""
+    colors, pattern, checkers = palette.colors, palette.pattern, palette.checkers
     p = pattern[m, slot // 3]
     if p < 0:
         return colors[m, slot], colors[m, slot + 1], colors[m, slot + 2]
-    c = 3 * checker1(x, y, z, checkers[p, 6])
+    c = CHECKER_COLOR1 if checker1(x, y, z, checkers[p, CHECKER_SCALE]) else CHECKER_COLOR0
     return checkers[p, c], checkers[p, c + 1], checkers[p, c + 2]
 
 

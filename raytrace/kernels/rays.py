@@ -57,14 +57,18 @@ def take_rows(a, rows):
 
 
 @kernel
-def take_hits(rows, rays, hits, out):
-    """The rays ``rows`` of a batch (a :class:`raytrace.kernels.records.Rays`) together with their
-    ``hits`` (a :class:`raytrace.kernels.records.Hits`), in one pass, into ``out`` = (rays, hits) of
-    ``len(rows)`` rows each (the compaction to the rays that hit something; row-wise, so runs
-    of ``rows`` can go to different threads)."""
-    origin, direction, sample, weight, origin_shape, kind = rays
-    t, shape, triangle, uv = hits
-    (o, d, s, w, os_, kd), (tt, sh, tri, b) = out
+def take_hits(rows, rays, hits, rays_out, hits_out):
+    """The rays ``rows`` of a batch (a :class:`raytrace.kernels.records.Rays`) together with
+    their ``hits`` (a :class:`raytrace.kernels.records.Hits`), in one pass, into ``rays_out``
+    and ``hits_out`` (a ``Rays`` and a ``Hits``) of ``len(rows)`` rows each (the compaction to
+    the rays that hit something; row-wise, so runs of ``rows`` can go to different
+    threads)."""
+    origin, direction, sample, weight = rays.origin, rays.direction, rays.sample, rays.weight
+    origin_shape, kind = rays.origin_shape, rays.kind
+    t, shape, triangle, uv = hits.t, hits.shape, hits.triangle, hits.uv
+    o, d, s, w = rays_out.origin, rays_out.direction, rays_out.sample, rays_out.weight
+    os_, kd = rays_out.origin_shape, rays_out.kind
+    tt, sh, tri, b = hits_out.t, hits_out.shape, hits_out.triangle, hits_out.uv
     for j in range(rows.shape[0]):
         i = rows[j]
         for c in range(3):
@@ -83,8 +87,10 @@ def gather_chunks(chunk, count, rays, out):
     the order of ``np.argsort(chunk, kind="stable")``); returns the ``count + 1`` bounds of
     the chunks' rows, so each chunk is a slice of ``out`` (one pass for what was a sort, a
     search and a gather of every column per chunk)."""
-    origin, direction, sample, weight, origin_shape, kind = rays
-    o, d, s, w, os_, kd = out
+    origin, direction, sample, weight = rays.origin, rays.direction, rays.sample, rays.weight
+    origin_shape, kind = rays.origin_shape, rays.kind
+    o, d, s, w = out.origin, out.direction, out.sample, out.weight
+    os_, kd = out.origin_shape, out.kind
     bounds = np.zeros(count + 1, np.int64)
     for r in range(chunk.shape[0]):
         bounds[chunk[r] + 1] += 1

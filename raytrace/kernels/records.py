@@ -1,28 +1,62 @@
-"""The named records that cross into the compiled kernels (pbrt-v4's ``workitems.soa``).
+"""The named records that cross into the compiled kernels (pbrt-v4's ``workitems.soa``), and
+the named layouts of the rows the kernels read packed.
 
-Every structure a kernel reads or writes is one of these typed named tuples of arrays (or,
-for an emitter, of floats): a kernel takes a few records, reads fields by name, and a new
-property is one field in one place. numba compiles named tuples like tuples (fields by
-value, attribute access resolved at compile time), so they cost nothing over positional
-arguments.
+Every structure a kernel reads or writes is one of these typed named tuples, of arrays (a
+batch's columns) or of values (one ray, one hit): a kernel takes a few records, reads fields
+by name, and a new property is one field in one place. numba compiles named tuples like
+tuples (fields by value, attribute access resolved at compile time), so they cost nothing
+over positional arguments. Each record holds what its kernels read, no more.
 
-==================  ==================================================================
-record              what it holds (n rays or hits, M materials, T triangles)
-==================  ==================================================================
-:class:`Rays`       a batch's columns (``raytrace.rays.RayBatch.record``)
-:class:`Hits`       closest hits (``raytrace.accel.Hits`` is this)
-:class:`Surface`    what shading needs at the hits (``raytrace.accel.Surface`` is this)
-:class:`Shapes`     the analytic shapes' tables (``raytrace.tables.SceneArrays.shapes``)
-:class:`Materials`  the material table (``raytrace.tables.MaterialTable.record``)
-:class:`Triangles`  the float64 triangle tables (``raytrace.tables.SceneArrays.triangles``)
-:class:`Scene`      what every shading kernel needs of the scene: camera position,
-                    materials, triangles (and a light pass's fast-Phong table)
-:class:`Emitter`    one point-like light sample, 21 floats (``raytrace.lights.Emitter.record``)
-:class:`Shadows`    the shadow rays a light pass spawns
-:class:`Children`   each hit's reflected, refracted and see-through children
-:class:`Spawned`    the next depth's batch as :func:`raytrace.kernels.shading.spawn_children`
-                    writes it
-==================  ==================================================================
+=======================  ==============================================================
+record                   what it holds (n rays or hits, M materials, T triangles)
+=======================  ==============================================================
+**batches**
+:class:`Rays`            a batch's columns (``raytrace.rays.RayBatch.record``)
+:class:`Hits`            closest hits (``raytrace.accel.Hits`` is this)
+:class:`Surface`         what shading needs at the hits (``raytrace.accel.Surface`` is this)
+:class:`Shapes`          the analytic shapes' tables (``raytrace.tables.SceneArrays.shapes``)
+:class:`Materials`       the material table (``raytrace.tables.MaterialTable.record``)
+:class:`Triangles`       the float64 triangle tables (``raytrace.tables.SceneArrays.triangles``)
+:class:`Scene`           what every shading kernel needs of the scene: camera position,
+                         materials, triangles (and a light pass's fast-Phong table)
+:class:`Emitter`         one point-like light sample, 21 floats
+                         (``raytrace.lights.Emitter.record``)
+:class:`Shadows`         the shadow rays a light pass spawns
+:class:`ShadowWalk`      transparent shadow rays crossing the surfaces they hit
+:class:`SampleSums`      where each hit's term is added: the pass's sums, a row per hit
+:class:`Children`        each hit's reflected, refracted and see-through children
+:class:`Spawned`         the next depth's batch as :func:`raytrace.kernels.shading.spawn_children`
+                         writes it
+:class:`Objects`         which scene object each shape and mesh is (the ``id`` AOV)
+:class:`AOVLayout`       the AOVs' columns
+:class:`FirstHits`       the camera rays' first hits, as the AOVs read them
+**queries** (:mod:`raytrace.accel`)
+:class:`Query`           the rays of a closest-hit query that Embree answers
+:class:`ShadowQuery`     the rays of an occlusion query
+:class:`EmbreeRays`      rays as Embree takes them (float32)
+:class:`EmbreeHits`      Embree's closest hits as it gives them
+:class:`Redo`            rays traced again past a float32 artefact, and from where
+**camera and film**
+:class:`Pinhole`         the frame as a pinhole sees it
+:class:`Sampling`        how a frame's pixel samples are numbered and placed
+:class:`Window`          a window of pixels (a crop, or what is traced)
+:class:`FilterProfile`   a reconstruction filter
+:class:`Cells`           adaptive anti-aliasing's cells of a level, :class:`Level` its rule,
+                         :class:`SlotGrid` its lattice points' table
+**one ray or hit, by value**
+:class:`Ray`             a ray's origin and direction (an analytic shape's intersection)
+:class:`SpawnPoint`      where a spawned ray leaves a surface (``core.leave1``)
+:class:`MaterialHit`     a hit as a material lookup reads it
+:class:`MeshHit`         a hit on a triangle as Gouraud, fast Phong and Hanika's lift read it
+:class:`Finish`          what the local model reads of a material at a hit
+:class:`Palette`         the material table's constant colours and checkers
+:class:`SmoothTriangles` the corners and vertex normals of the triangles
+=======================  ==============================================================
+
+**Packed rows.** Where a table packs several values in a row (a shape's parameters, a
+checker, a texture's size and wrap, a fast-Phong polynomial pair, an AOV's columns), each
+value's column is a named constant here, beside the record whose table it lays out: the code
+that packs the row and the kernel that reads it both use the name.
 """
 
 from __future__ import annotations
@@ -80,6 +114,17 @@ class Shapes(NamedTuple):
     object: np.ndarray    #: (N,) int64 index in ``Scene.objects``
 
 
+# The columns of each kind's row of ``Shapes.rows``: its scene record's ``row`` method writes
+# them (``raytrace.scene.Sphere.row``, …), its intersection and surface functions read them
+# (``raytrace.kernels.accel.sphere_t``, …). A vector takes three columns from its first.
+#: A sphere: centre c (x, y, z), radius r, c's largest absolute coordinate (its rounding scale).
+SPHERE_CENTRE, SPHERE_RADIUS, SPHERE_SCALE = 0, 3, 4
+#: A plane: a point p on it (x, y, z), unit normal n (x, y, z), p's largest absolute coordinate.
+PLANE_POINT, PLANE_NORMAL, PLANE_SCALE = 0, 3, 6
+#: A disk: its plane's row (the centre c as the plane's point) and the radius r.
+DISK_CENTRE, DISK_NORMAL, DISK_SCALE, DISK_RADIUS = PLANE_POINT, PLANE_NORMAL, PLANE_SCALE, 7
+
+
 #: The material table's per-material columns, name → (dtype, what it holds); a Material's
 #: value for each: ``raytrace.material.COLUMNS``.
 MATERIAL_COLUMNS = {
@@ -94,16 +139,27 @@ MATERIAL_COLUMNS = {
     "fresnel": (np.int64, "kinds.NO_FRESNEL, SCHLICK or DIELECTRIC"),
     "alpha_cutoff": (np.float64, "alpha ≥ cutoff: opaque, else clear; −1: blend"),
 }
+#: The columns of a row of ``Materials.checkers`` (packed by ``raytrace.tables.MaterialTable``,
+#: read by ``raytrace.kernels.material.color1``): colour 0 (r, g, b), colour 1 (r, g, b), the
+#: cell size s (``checker1``).
+CHECKER_COLOR0, CHECKER_COLOR1, CHECKER_SCALE = 0, 3, 6
+CHECKER_COLUMNS = 7
+#: The columns of a row of ``Materials.tex_info`` (packed by ``raytrace.tables.MaterialTable``,
+#: read by ``raytrace.kernels.core.bilinear1``): the texture's first element in ``texels``, its
+#: width and height in texels, its wrap modes along s and t (``raytrace.readers.texture.WRAPS``).
+TEX_OFFSET, TEX_WIDTH, TEX_HEIGHT, TEX_WRAP_S, TEX_WRAP_T = range(5)
+TEX_COLUMNS = 5
 #: The material table's arrays besides its per-material columns (:data:`MATERIAL_COLUMNS`).
 MATERIAL_TABLES = {
     "colors": "(M, 3·C) constant colours of material.COLOR_KEYS (ka kd ks kr kt ke), three "
               "columns each",
     "pattern": "(M, C) int64 row of checkers per colour, or −1 (constant)",
-    "checkers": "(P, 7) colour 0, colour 1, scale",
+    "checkers": f"(P, {CHECKER_COLUMNS}) colour 0, colour 1, scale (CHECKER_COLOR0, …)",
     "texture": "(M, C) int64 image texture per colour (row of tex_info), or −1",
     "textured": "(M,) bool: some colour is an image texture, or the alpha is",
     "texels": "(N,) float32 every texture's RGBA rows, one after another",
-    "tex_info": "(K, 5) int64 offset into texels, width, height, wrap s, wrap t",
+    "tex_info": f"(K, {TEX_COLUMNS}) int64 offset into texels, width, height, wrap s, wrap t "
+                "(TEX_OFFSET, …)",
     "alpha": "(M,) int64 texture whose alpha multiplies the opacity, or −1",
 }
 #: The material table, indexed by ``Surface.material``: the fields of
@@ -131,15 +187,24 @@ class Triangles(NamedTuple):
     texcoords: np.ndarray = np.zeros((0, 3, 2))
 
 
+#: The columns of a row of ``Scene.fast``, one triangle's fast-Phong polynomials for one
+#: directional light (packed by ``raytrace.fast_phong.coefficients``, read by
+#: ``raytrace.kernels.shading.fast_phong1``): the diffuse polynomial's coefficients T₀…T₅ of
+#: ``1, du, dv, du², du·dv, dv²`` from FAST_DIFFUSE, the specular one's from FAST_SPECULAR.
+FAST_DIFFUSE, FAST_SPECULAR = 0, 6
+FAST_TERMS, FAST_COLUMNS = 6, 12
+
+
 class Scene(NamedTuple):
     """What the shading kernels need of the scene."""
 
     origin: np.ndarray       #: (3,) the camera position: world = camera-relative + origin
     materials: Materials
     triangles: Triangles
-    #: (T, 12) the fast-Phong polynomials of the light of a light pass (directional, some
-    #: ``fast_phong`` mesh: ``raytrace.fast_phong.tables``); no rows: exact shading
-    fast: np.ndarray = np.zeros((0, 12))
+    #: (T, FAST_COLUMNS) the fast-Phong polynomials of the light of a light pass
+    #: (directional, some ``fast_phong`` mesh: ``raytrace.fast_phong.tables``); no rows:
+    #: exact shading
+    fast: np.ndarray = np.zeros((0, FAST_COLUMNS))
     #: (T, 3, 2) the triangles' texture coordinates where some material has an image texture,
     #: else None: the material lookup's texture code (``kernels.material``) is compiled, and
     #: its tables bound, only where they are an array
@@ -182,6 +247,22 @@ class Shadows(NamedTuple):
     shape: np.ndarray      #: (n,) int64 the analytic shape it starts on, or NO_SHAPE
 
 
+class ShadowWalk(NamedTuple):
+    """Transparent shadow rays that hit a surface before their light, as they cross it
+    (``kernels.shading.cross_surfaces``)."""
+
+    direction: np.ndarray  #: (n, 3) unit, towards the light
+    t: np.ndarray          #: (n,) distance to the surface crossed
+    tmax: np.ndarray       #: (n,) where the ray stops, short of the light
+
+
+class SampleSums(NamedTuple):
+    """Where each hit's term is added (``kernels.shading.hit_terms``)."""
+
+    sums: np.ndarray  #: (S, 3) float64 the pass's per-sample radiance sums
+    row: np.ndarray   #: (n,) int64 each hit's row of ``sums``
+
+
 class Children(NamedTuple):
     """Each hit's children: reflected, refracted (or TIR), see-through."""
 
@@ -213,12 +294,22 @@ class Objects(NamedTuple):
     geom_object: np.ndarray   #: (G,) int64 index in ``Scene.objects`` of each mesh (geomID)
 
 
+#: The columns of a row of ``AOVLayout.table``, one AOV (packed by
+#: ``raytrace.film.aov.layout``, read by ``raytrace.kernels.aov``): its kind
+#: (``kernels.aov.AOV_KINDS``), its first column in the per-sample and per-pixel tables, how
+#: many columns it has, how a pixel combines its samples (``kernels.aov.NEAREST`` or ``MEAN``).
+AOV_KIND, AOV_FIRST, AOV_COUNT, AOV_COMBINE = range(4)
+AOV_COLUMNS = 4
+#: The column of the per-sample and per-pixel AOV tables that holds the distance t of the
+#: camera ray's hit (+inf on a miss), which picks a pixel's nearest sample.
+AOV_DISTANCE = 0
+
+
 class AOVLayout(NamedTuple):
     """The columns of the AOVs asked for in the per-sample and per-pixel tables of
     :mod:`raytrace.kernels.aov` (built by :func:`raytrace.film.aov.layout`)."""
 
-    table: np.ndarray  #: (K, 4) int64 per AOV: kind (kernels.aov.AOV_KINDS), first column,
-                       #: columns, combine (kernels.aov.NEAREST or MEAN)
+    table: np.ndarray  #: (K, AOV_COLUMNS) int64, a row per AOV (AOV_KIND, AOV_FIRST, …)
     miss: np.ndarray   #: (C,) float64 each column where the camera ray missed (0: +inf)
 
 
@@ -228,3 +319,211 @@ class Local(NamedTuple):
 
     ambient: np.ndarray  #: (3,) Ia
     lights: np.ndarray   #: (n, 3) Σ_l S_l·f_l·I_l·[kd·max(N·L, 0) + ks·spec]; no rows: unlit
+
+
+class FirstHits(NamedTuple):
+    """The camera rays' first hits as the AOVs read them (``kernels.aov.aov_value1``); every
+    ray hit something."""
+
+    direction: np.ndarray  #: (n, 3) the rays' unit directions
+    t: np.ndarray          #: (n,) the distances of their hits
+    surface: Surface       #: the hits' surfaces
+
+
+# -- the queries of the intersection stage (raytrace.accel, kernels/accel.py) ------------------
+class Query(NamedTuple):
+    """The rays of a closest-hit query of ``n`` rays, camera-relative, as the Embree side of
+    it reads them (``kernels.accel.embree_rays``, ``refine_hits``, ``retrace_rays``)."""
+
+    origin: np.ndarray     #: (n, 3) float64
+    direction: np.ndarray  #: (n, 3) float64, unit
+    tmax: np.ndarray       #: (n,) float64 far bound of each ray, read only where ``has_tmax``
+    has_tmax: bool         #: whether the rays have a far bound (else only the analytic hit)
+
+
+class ShadowQuery(NamedTuple):
+    """The rays of an occlusion query of ``n`` rays (``kernels.accel.shadow_prepass``)."""
+
+    origin: np.ndarray        #: (n, 3) float64
+    direction: np.ndarray     #: (n, 3) float64, unit
+    origin_shape: np.ndarray  #: (n,) int64 the analytic shape each starts on, or NO_SHAPE
+    tmax: np.ndarray          #: (n,) float64 where each stops, a little short of its light
+
+
+class EmbreeRays(NamedTuple):
+    """``k`` rays as Embree takes them."""
+
+    origin: np.ndarray     #: (k, 3) float32
+    direction: np.ndarray  #: (k, 3) float32
+    far: np.ndarray        #: (k,) float32 tfar, the bound of each (float32 max: none)
+
+
+class EmbreeHits(NamedTuple):
+    """Embree's closest hits of ``k`` rays, as it gives them (``output=1``)."""
+
+    geom_id: np.ndarray  #: (k,) int32 the mesh (attach order), −1 on a miss
+    prim_id: np.ndarray  #: (k,) int32 the triangle within it
+    u: np.ndarray        #: (k,) float32 barycentrics of vertices 1 and 2
+    v: np.ndarray
+
+
+class Redo(NamedTuple):
+    """Rays traced again from beyond a float32 artefact (``kernels.accel.refine_hits``), and
+    a second pass's map back to its batch (``retrace_rays``); no rows: the first pass, ray j
+    at row j from its origin."""
+
+    rows: np.ndarray  #: (k,) int64 the ray's row in its batch
+    adv: np.ndarray   #: (k,) float64 how far along the ray its pass starts
+
+
+# -- camera and film (kernels/camera.py, kernels/filters.py, kernels/adaptive.py) --------------
+class Pinhole(NamedTuple):
+    """The frame as a pinhole camera sees it (``kernels.camera.direction1``): the image plane
+    one unit along ``forward``."""
+
+    width: int         #: the frame's size in pixels
+    height: int
+    tan_half: float    #: tan(fov/2), fov the vertical field of view
+    right: tuple       #: (x, y, z) the camera's unit axes
+    up: tuple
+    forward: tuple
+
+
+class Sampling(NamedTuple):
+    """How a frame's pixel samples are numbered and placed: sample ``cell`` of pixel (col,
+    row) is global sample ``(row·width + col)·spp + cell``, at ``core.pixel_offset`` in its
+    pixel (the camera and the filters both read it)."""
+
+    width: int  #: the frame's width in pixels
+    spp: int    #: samples per pixel
+    k: int      #: the side of the stratification grid (``raytrace.camera.grid``), 0: none
+    seed: int   #: the render's seed of the jitter
+
+
+class Window(NamedTuple):
+    """A window of pixels of the frame, half-open: columns ``x0 … x1 − 1``, rows ``y0 …
+    y1 − 1`` (a crop, or what is traced)."""
+
+    x0: int
+    y0: int
+    x1: int
+    y1: int
+
+
+class FilterProfile(NamedTuple):
+    """A reconstruction filter as ``kernels.filters.filter_pixels`` reads it."""
+
+    code: int      #: kinds.BOX, TENT, GAUSSIAN or MITCHELL
+    radius: float  #: in pixels
+    reach: int     #: the whole pixels its footprint spans each way
+
+
+class Cells(NamedTuple):
+    """The cells of one level of adaptive refinement (``kernels.adaptive.judge_cells``)."""
+
+    ci: np.ndarray     #: (n,) int64 lattice column of each cell's top-left point
+    cj: np.ndarray     #: (n,) int64 lattice row
+    pixel: np.ndarray  #: (n,) int64 its pixel's row of the output
+
+
+class Level(NamedTuple):
+    """How one level of adaptive refinement judges its cells."""
+
+    size: int          #: a cell's side in lattice steps
+    threshold: float   #: the corners' spread from which a cell is cut
+    everywhere: bool   #: cut every cell, whatever its corners
+    last: bool         #: the deepest level: cut none
+    weight: float      #: 4^−level, an uncut cell's share of its pixel
+
+
+class SlotGrid(NamedTuple):
+    """Where a pass's slot table puts lattice point (i, j): ``slot[(j − j0)·stride + (i −
+    i0)]`` (``kernels.adaptive.corners1``)."""
+
+    stride: int  #: lattice points a row of the table
+    i0: int      #: the lattice point of its first entry
+    j0: int
+
+
+# -- one ray or hit, by value (scalars and 3-tuples: no reference counts) -------------------
+class Ray(NamedTuple):
+    """One ray, camera-relative float64, as an analytic shape's intersection reads it
+    (``kernels.accel.sphere_t``, …)."""
+
+    origin: tuple     #: (x, y, z)
+    direction: tuple  #: (x, y, z), unit
+
+
+class SpawnPoint(NamedTuple):
+    """Where a spawned ray leaves a surface (``kernels.core.leave1``)."""
+
+    point: tuple      #: (x, y, z) the hit point, camera-relative
+    geometric: tuple  #: (x, y, z) the unit geometric normal (either side)
+    offset: float     #: how far off the surface it starts (0 on an analytic shape)
+
+
+class MaterialHit(NamedTuple):
+    """A hit as a material's colours and opacity are looked up at it
+    (``kernels.material.surface_color1``)."""
+
+    world: tuple    #: (x, y, z) the world point (a checker is a function of it)
+    triangle: int   #: the triangle hit, −1 off a mesh
+    u: float        #: its barycentrics (where an image texture is read)
+    v: float
+
+
+class MeshHit(NamedTuple):
+    """A hit on a triangle as Gouraud shading, fast Phong and Hanika's lift read it
+    (``kernels.shading.gouraud1``, ``fast_phong1``, ``bulge1``)."""
+
+    triangle: int  #: global triangle index
+    u: float       #: barycentrics of vertices 1 and 2
+    v: float
+    side: float    #: +1 seen from the side of the normals (outward), −1 from the other
+
+
+class Finish(NamedTuple):
+    """What the local model reads of a material at a hit (``kernels.shading.direct1``)."""
+
+    kd: tuple          #: (r, g, b) diffuse colour
+    ks: tuple          #: (r, g, b) specular colour
+    shininess: float   #: the highlight's exponent n
+    highlight: int     #: kinds.PHONG or BLINN
+
+
+class Palette(NamedTuple):
+    """The material table's constant colours and checkers (``kernels.material.color1``)."""
+
+    colors: np.ndarray    #: ``Materials.colors``
+    pattern: np.ndarray   #: ``Materials.pattern``
+    checkers: np.ndarray  #: ``Materials.checkers``
+
+
+class SmoothTriangles(NamedTuple):
+    """The two triangle tables a smooth or Gouraud hit's helpers read (a per-hit helper
+    handed the whole :class:`Triangles` pays reference counts for every array of it)."""
+
+    corners: np.ndarray   #: ``Triangles.corners``
+    vnormals: np.ndarray  #: ``Triangles.vnormals``
+
+
+class TextureTables(NamedTuple):
+    """What the material lookup reads of image textures (``kernels.material.texture_tables1``),
+    bound once a kernel."""
+
+    textured: np.ndarray   #: ``Materials.textured``
+    texture: np.ndarray    #: ``Materials.texture``
+    texels: np.ndarray     #: ``Materials.texels``
+    tex_info: np.ndarray   #: ``Materials.tex_info``
+    texcoords: np.ndarray  #: ``Triangles.texcoords``
+
+
+class AlphaTables(NamedTuple):
+    """What the material lookup reads of alpha textures (``kernels.material.alpha_tables1``),
+    bound once a kernel."""
+
+    alpha: np.ndarray         #: ``Materials.alpha``
+    alpha_cutoff: np.ndarray  #: ``Materials.alpha_cutoff``
+    texels: np.ndarray        #: ``Materials.texels``
+    tex_info: np.ndarray      #: ``Materials.tex_info``
+    texcoords: np.ndarray     #: ``Triangles.texcoords``

@@ -68,6 +68,16 @@ from .kinds import (  # noqa: F401  (the codes, as this module's names)
     SPOT,
 )
 from .material import alpha_tables1, surface_color1, surface_opacity1, texture_tables1
+from .records import (
+    FAST_DIFFUSE,
+    FAST_SPECULAR,
+    Finish,
+    MaterialHit,
+    MeshHit,
+    Palette,
+    SmoothTriangles,
+    SpawnPoint,
+)
 
 
 # -- lights -----------------------------------------------------------------------------------
@@ -183,25 +193,27 @@ def highlight1(model, normal, light, view, n):
 
 
 @kernel
-def direct1(normal, light, view, kd, ks, n, model):
-    """``kd·max(N·L, 0) + ks·spec`` per channel for colours ``kd``, ``ks`` (3-tuples or
-    rows); N, L, V unit 3-tuples; all zero where ``N·L <= 0`` (the highlight too, whatever
-    the exponent)."""
+def direct1(normal, light, view, finish):
+    """``kd·max(N·L, 0) + ks·spec`` per channel for the colours ``kd``, ``ks`` of ``finish``
+    (a :class:`raytrace.kernels.records.Finish`, with the highlight's model and exponent n);
+    N, L, V unit 3-tuples; all zero where ``N·L <= 0`` (the highlight too, whatever the
+    exponent)."""
     nx, ny, nz = normal
     lx, ly, lz = light
+    kd, ks = finish.kd, finish.ks
     ndl = nx * lx + ny * ly + nz * lz
     if not ndl > 0.0:
         return 0.0, 0.0, 0.0
     if ks[0] == 0.0 and ks[1] == 0.0 and ks[2] == 0.0:  # no highlight: skip its exp and log
         return kd[0] * ndl, kd[1] * ndl, kd[2] * ndl
-    spec = highlight1(model, normal, light, view, n)
+    spec = highlight1(finish.highlight, normal, light, view, finish.shininess)
     return kd[0] * ndl + ks[0] * spec, kd[1] * ndl + ks[1] * spec, kd[2] * ndl + ks[2] * spec
 
 
 # -- surfaces ---------------------------------------------------------------------------------
 # -- batch kernels of the integrator ----------------------------------------------------------
 @kernel
-def bulge1(p, tri, u, v, side, smooth):
+def bulge1(p, hit, smooth):
     """Hanika's shading point for a ray leaving a smooth-shaded triangle ("Hacking the Shadow
     Terminator", Ray Tracing Gems II, 2021, ch. 4): ``P' = Σ_k b_k·P_k`` with ``P_k`` the hit
     point ``P`` lifted onto the tangent plane of vertex k where it lies below it, ``P_k = P −
@@ -209,10 +221,11 @@ def bulge1(p, tri, u, v, side, smooth):
     normals turned to ``side`` (+1 outward, −1 inward). On a convex patch P' rises to about
     the smooth surface the normals describe, so a shadow ray near the terminator does not
     start inside the neighbouring facets; where P is above every tangent plane (concave), P'
-    = P. ``p`` is a 3-tuple; ``smooth`` = the triangles' (corners, vertex normals) only: a
-    per-hit helper handed the whole record pays reference counts for every array of it."""
+    = P. ``p`` is a 3-tuple; ``hit`` a :class:`raytrace.kernels.records.MeshHit` (triangle
+    ``tri``, u, v, side); ``smooth`` a :class:`raytrace.kernels.records.SmoothTriangles`."""
     px, py, pz = p
-    corners, vnormals = smooth
+    tri, u, v, side = hit.triangle, hit.u, hit.v, hit.side
+    corners, vnormals = smooth.corners, smooth.vnormals
     w = 1.0 - u - v
     dx = dy = dz = 0.0  # Σ_k b_k·(P_k − P): exactly P where nothing lifts
     for k in range(3):
@@ -228,18 +241,19 @@ def bulge1(p, tri, u, v, side, smooth):
 
 
 @kernel
-def gouraud1(hit, eye, smooth, light, kd, ks, n, model):
+def gouraud1(hit, eye, smooth, em, word, finish):
     """Seed 000's Gouraud shading at a hit on triangle ``tri`` (barycentrics ``1 − (u + v)``,
-    ``u``, ``v``): the unshadowed ``f·[kd·max(N·L, 0) + ks·spec]`` of one emitter evaluated at
-    the three corners, with their vertex normals turned by ``s`` (+1 outward, −1 inward) and V
-    towards the ``eye`` (a 3-tuple), then interpolated; ``hit`` = (tri, u, v, s), ``light`` =
-    (emitter, word). Every corner sees a jittered area light at the one point drawn for
-    this hit (its ``word``, :func:`incidence1`): the point its shadow ray aims at. ``kd``,
-    ``ks`` are the colours at the hit; ``smooth`` = the triangles' (corners, vertex normals)."""
-    tri, u, v, s = hit
-    em, word = light
+    ``u``, ``v``): the unshadowed ``f·[kd·max(N·L, 0) + ks·spec]`` of one emitter ``em``
+    evaluated at the three corners, with their vertex normals turned by ``s`` (+1 outward,
+    −1 inward) and V towards the ``eye`` (a 3-tuple), then interpolated; ``hit`` = a
+    :class:`raytrace.kernels.records.MeshHit` (tri, u, v, side s). Every corner sees a
+    jittered area light at the one point drawn for this hit (its ``word``,
+    :func:`incidence1`): the point its shadow ray aims at. ``finish``: the material at the
+    hit (:class:`raytrace.kernels.records.Finish`); ``smooth``: a
+    :class:`raytrace.kernels.records.SmoothTriangles`."""
+    tri, u, v, s = hit.triangle, hit.u, hit.v, hit.side
     ex, ey, ez = eye
-    corners, vnormals = smooth
+    corners, vnormals = smooth.corners, smooth.vnormals
     r = g = b = 0.0
     for k in range(3):
         w = 1.0 - (u + v) if k == 0 else (u if k == 1 else v)
@@ -249,7 +263,7 @@ def gouraud1(hit, eye, smooth, light, kd, ks, n, model):
         length = max(math.sqrt(vx * vx + vy * vy + vz * vz), 1e-300)
         vx, vy, vz = vx / length, vy / length, vz / length
         lx, ly, lz, _, f = incidence1((px, py, pz), em, word)
-        dr, dg, db = direct1((nx, ny, nz), (lx, ly, lz), (vx, vy, vz), kd, ks, n, model)
+        dr, dg, db = direct1((nx, ny, nz), (lx, ly, lz), (vx, vy, vz), finish)
         r += w * dr * f
         g += w * dg * f
         b += w * db * f
@@ -257,20 +271,23 @@ def gouraud1(hit, eye, smooth, light, kd, ks, n, model):
 
 
 @kernel
-def fast_phong1(table, tri, hit, kd, ks, n, model):
+def fast_phong1(table, hit, finish):
     """Bishop & Weimer's fast Phong shading (1986) at barycentrics (u, v) of triangle ``tri``
-    seen from side ``s`` (``hit`` = (u, v, s)): ``kd·D + ks·max(S, 0)ⁿ`` with D and S the
-    diffuse and specular Taylor polynomials of row ``tri`` of ``table``
-    (:mod:`raytrace.fast_phong`, :func:`raytrace.kernels.core.taylor1`) in place of ``N̂·L`` and
-    ``N̂·H`` (``model`` BLINN) or ``V·R`` (PHONG); all zero where ``D <= 0``, as
-    :func:`direct1`. The side turns N: it negates D and ``N̂·H``, and ``V·R`` is even in N."""
-    u, v, s = hit
-    ndl = s * taylor1(table, tri, 0, u, v)
+    seen from side ``s`` (``hit``: a :class:`raytrace.kernels.records.MeshHit`):
+    ``kd·D + ks·max(S, 0)ⁿ`` with D and S the diffuse and specular Taylor polynomials of row
+    ``tri`` of ``table`` (columns ``FAST_DIFFUSE`` and ``FAST_SPECULAR``;
+    :mod:`raytrace.fast_phong`, :func:`raytrace.kernels.core.taylor1`) in place of ``N̂·L``
+    and ``N̂·H`` (``finish.highlight`` BLINN) or ``V·R`` (PHONG); all zero where ``D <= 0``,
+    as :func:`direct1`. The side turns N: it negates D and ``N̂·H``, and ``V·R`` is even in
+    N. ``finish``: a :class:`raytrace.kernels.records.Finish`."""
+    tri, u, v, s = hit.triangle, hit.u, hit.v, hit.side
+    kd, ks, n, model = finish.kd, finish.ks, finish.shininess, finish.highlight
+    ndl = s * taylor1(table, tri, FAST_DIFFUSE, u, v)
     if not ndl > 0.0:
         return 0.0, 0.0, 0.0
     if ks[0] == 0.0 and ks[1] == 0.0 and ks[2] == 0.0:
         return kd[0] * ndl, kd[1] * ndl, kd[2] * ndl
-    cos = taylor1(table, tri, 6, u, v) * (s if model == BLINN else 1.0)
+    cos = taylor1(table, tri, FAST_SPECULAR, u, v) * (s if model == BLINN else 1.0)
     spec = 0.0
     if cos > 0.0:  # as cosine_power1: 0 where the cosine is not positive, 1 for n = 0
         spec = 1.0 if n == 0.0 else math.exp(n * math.log(min(cos, 1.0)))
@@ -305,11 +322,12 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
     direction, eye = rays.direction, rays.origin
     point, geometric, shading, material = surf.point, surf.geometric, surf.shading, surf.material
     materials, triangles, origin = scene.materials, scene.triangles, scene.origin
-    palette = (materials.colors, materials.pattern, materials.checkers)
+    palette = Palette(materials.colors, materials.pattern, materials.checkers)
     textures = texture_tables1(materials, scene.texcoords)  # None: no texture code compiled
     code = triangles.shading
-    smooth_tables = (triangles.corners, triangles.vnormals)
-    rows, s_origin, s_direction, s_tmax, s_shape = shadow
+    smooth_tables = SmoothTriangles(triangles.corners, triangles.vnormals)
+    rows, s_origin, s_direction = shadow.rows, shadow.origin, shadow.direction
+    s_tmax, s_shape = shadow.tmax, shadow.shape
     jittered = em.stream >= 0.0 and words.shape[0] > 0
     shininess, highlight, lit = materials.shininess, materials.highlight, materials.lit
     keep = 1.0 - SHADOW_SHORTEN
@@ -331,33 +349,34 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
         wx, wy, wz = px + origin[0], py + origin[1], pz + origin[2]
         tri = surf.triangle[i]
         u, v = surf.uv[i, 0], surf.uv[i, 1]
-        hit = (wx, wy, wz, tri, u, v)
-        kd = surface_color1(palette, textures, m, KD, hit)
-        ks = surface_color1(palette, textures, m, KS, hit)
+        at = MaterialHit(world=(wx, wy, wz), triangle=tri, u=u, v=v)
+        finish = Finish(kd=surface_color1(palette, textures, m, KD, at),
+                        ks=surface_color1(palette, textures, m, KS, at),
+                        shininess=shininess[m], highlight=highlight[m])
+        on_mesh = MeshHit(triangle=tri, u=u, v=v, side=s)
         smooth = tri >= 0 and code[tri] != FLAT
         if depth is not None and smooth and code[tri] == GOURAUD:
-            r, g, b = gouraud1((tri, u, v, s), (eye[i, 0], eye[i, 1], eye[i, 2]), smooth_tables,
-                               (em, word), kd, ks, shininess[m], highlight[m])
+            r, g, b = gouraud1(on_mesh, (eye[i, 0], eye[i, 1], eye[i, 2]), smooth_tables, em,
+                               word, finish)
         elif depth is not None and fast and smooth and code[tri] == FAST_PHONG:  # f = 1
-            r, g, b = fast_phong1(scene.fast, tri, (u, v, s), kd, ks, shininess[m],
-                                  highlight[m])
+            r, g, b = fast_phong1(scene.fast, on_mesh, finish)
         else:
             normal = (shading[i, 0] * s, shading[i, 1] * s, shading[i, 2] * s)
-            r, g, b = direct1(normal, (lx, ly, lz), (-dx, -dy, -dz), kd, ks, shininess[m],
-                              highlight[m])
+            r, g, b = direct1(normal, (lx, ly, lz), (-dx, -dy, -dz), finish)
             r, g, b = r * f, g * f, b * f
         term[i, 0], term[i, 1], term[i, 2] = r, g, b
         if not (r > 0.0 or g > 0.0 or b > 0.0):
             continue
         if depth is not None and smooth:  # from Hanika's lifted P′ to the light's same point
-            qx, qy, qz = bulge1((px, py, pz), tri, u, v, s, smooth_tables)
+            qx, qy, qz = bulge1((px, py, pz), on_mesh, smooth_tables)
             if math.isfinite(d) and (qx != px or qy != py or qz != pz):
                 lx, ly, lz = px + d * lx - qx, py + d * ly - qy, pz + d * lz - qz
                 d = math.sqrt(lx * lx + ly * ly + lz * lz)
                 lx, ly, lz = lx / d, ly / d, lz / d
             px, py, pz = qx, qy, qz
         s_origin[k, 0], s_origin[k, 1], s_origin[k, 2] = leave1(
-            (px, py, pz), (gx, gy, gz), surf.offset[i], (lx, ly, lz))
+            SpawnPoint(point=(px, py, pz), geometric=(gx, gy, gz), offset=surf.offset[i]),
+            (lx, ly, lz))
         s_direction[k, 0], s_direction[k, 1], s_direction[k, 2] = lx, ly, lz
         s_tmax[k] = d * keep
         s_shape[k] = surf.shape[i]
@@ -395,7 +414,7 @@ def crossing_rays(hits, origin, direction, tmax, live):
     ``tmax`` and ``live`` (the row of the shadow factor each one multiplies), as a tuple of
     new arrays (one pass for what was eight numpy gathers). ``hits``: a
     :class:`raytrace.kernels.records.Hits`."""
-    t, shape, triangle, uv = hits
+    t, shape, triangle, uv = hits.t, hits.shape, hits.triangle, hits.uv
     n = 0
     for i in range(t.shape[0]):
         if math.isfinite(t[i]):
@@ -418,17 +437,18 @@ def crossing_rays(hits, origin, direction, tmax, live):
 
 @kernel
 def cross_surfaces(factor, live, surf, walk, scene):
-    """Transparent shadow rays ``walk`` = (direction, t, tmax) crossing the surfaces they hit
-    (``surf``, a :class:`raytrace.kernels.records.Surface`):
+    """Transparent shadow rays ``walk`` (a :class:`raytrace.kernels.records.ShadowWalk`)
+    crossing the surfaces they hit (``surf``, a :class:`raytrace.kernels.records.Surface`):
     ``S *= t·kt + (1 − t)`` (seed 003, t the opacity) on row ``live[j]`` of ``factor``. Those
     that still let some channel through go on from the far side (:func:`leave1` along their
     ``direction``) for the rest of their ``tmax`` (minus the hit's ``t``): returns their
     (origin, direction, start shape, tmax, live) as new arrays. A scene without image
     textures (``scene.texcoords`` None) compiles it without the texture lookups."""
-    direction, t, tmax = walk
+    direction, t, tmax = walk.direction, walk.t, walk.tmax
     material, point, geometric = surf.material, surf.point, surf.geometric
     origin, materials = scene.origin, scene.materials
-    palette, opacity = (materials.colors, materials.pattern, materials.checkers), materials.opacity
+    palette = Palette(materials.colors, materials.pattern, materials.checkers)
+    opacity = materials.opacity
     # None without image textures: the lookup's texture code is then not compiled
     textures = texture_tables1(materials, scene.texcoords)
     alphas = alpha_tables1(materials, scene.texcoords)
@@ -436,8 +456,9 @@ def cross_surfaces(factor, live, surf, walk, scene):
     through = np.empty(n, np.bool_)
     for j in range(n):
         mj = material[j]
-        hit = (point[j, 0] + origin[0], point[j, 1] + origin[1], point[j, 2] + origin[2],
-               surf.triangle[j], surf.uv[j, 0], surf.uv[j, 1])
+        hit = MaterialHit(world=(point[j, 0] + origin[0], point[j, 1] + origin[1],
+                                 point[j, 2] + origin[2]),
+                          triangle=surf.triangle[j], u=surf.uv[j, 0], v=surf.uv[j, 1])
         kt = surface_color1(palette, textures, mj, KT, hit)
         op = surface_opacity1(opacity, alphas, mj, hit)
         r = live[j]
@@ -452,9 +473,10 @@ def cross_surfaces(factor, live, surf, walk, scene):
         if not through[j]:
             continue
         dx, dy, dz = direction[j, 0], direction[j, 1], direction[j, 2]
-        origin_out[k, 0], origin_out[k, 1], origin_out[k, 2] = leave1(
-            (point[j, 0], point[j, 1], point[j, 2]),
-            (geometric[j, 0], geometric[j, 1], geometric[j, 2]), surf.offset[j], (dx, dy, dz))
+        at = SpawnPoint(point=(point[j, 0], point[j, 1], point[j, 2]),
+                        geometric=(geometric[j, 0], geometric[j, 1], geometric[j, 2]),
+                        offset=surf.offset[j])
+        origin_out[k, 0], origin_out[k, 1], origin_out[k, 2] = leave1(at, (dx, dy, dz))
         direction_out[k, 0], direction_out[k, 1], direction_out[k, 2] = dx, dy, dz
         shape_out[k], tmax_out[k], live_out[k] = surf.shape[j], tmax[j] - t[j], live[j]
         k += 1
@@ -467,10 +489,10 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children):
     (Whitted 1980; seed 003's opacity blend), with t the opacity and N_s, N_g the shading and
     geometric normals turned to the viewer:
 
-    * ``w·t·(ka·Ia + lights)`` added to row ``rows[i]`` of ``into`` = (samples, rows), one
-      hit after another in batch order (as :func:`accumulate` adds); ``local`` (a
-      :class:`raytrace.kernels.records.Local`) holds Ia and ``lights`` (n, 3),
-      Σ_l S_l·f_l·I_l·[…], which has no rows in a scene without lights;
+    * ``w·t·(ka·Ia + lights)`` added to row ``into.row[i]`` of ``into.sums`` (``into``: a
+      :class:`raytrace.kernels.records.SampleSums`), one hit after another in batch order (as
+      :func:`accumulate` adds); ``local`` (a :class:`raytrace.kernels.records.Local`) holds Ia
+      and ``lights`` (n, 3), Σ_l S_l·f_l·I_l·[…], which has no rows in a scene without lights;
     * reflected: ``reflect(d, N_s)`` with weight ``w·t·kr``; where the interpolated normal
       sends it into the surface (``r·N_g <= 0``) it is mirrored about N_g instead;
     * refracted: ``refract(d, N_s, η)`` with η = 1/ior entering (``d·N_g < 0`` for the outward
@@ -507,22 +529,26 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children):
     direction, weight = rays.direction, rays.weight
     geometric, shading, material, point = surf.geometric, surf.shading, surf.material, surf.point
     origin, materials = scene.origin, scene.materials
-    palette, opacity = (materials.colors, materials.pattern, materials.checkers), materials.opacity
+    palette = Palette(materials.colors, materials.pattern, materials.checkers)
+    opacity = materials.opacity
     # None without image textures: the lookup's texture code is then not compiled
     textures = texture_tables1(materials, scene.texcoords)
     alphas = alpha_tables1(materials, scene.texcoords)
     ambient, lights = local.ambient, local.lights
-    samples, sample = into
+    samples, sample = into.sums, into.row
     if children is not None:
-        r_dir, t_dir, w_r, w_t, w_s, status, tir = children
+        r_dir, t_dir, w_r, w_t, w_s = (children.r_dir, children.t_dir, children.w_r,
+                                       children.w_t, children.w_s)
+        status, tir = children.status, children.tir
     ior = materials.ior
     reflects, transmits = materials.reflects, materials.transmits
     emits, fresnel = materials.emits, materials.fresnel
     lit = lights.shape[0] > 0
     for i in range(direction.shape[0]):
         m = material[i]
-        hit = (point[i, 0] + origin[0], point[i, 1] + origin[1], point[i, 2] + origin[2],
-               surf.triangle[i], surf.uv[i, 0], surf.uv[i, 1])
+        hit = MaterialHit(world=(point[i, 0] + origin[0], point[i, 1] + origin[1],
+                                 point[i, 2] + origin[2]),
+                          triangle=surf.triangle[i], u=surf.uv[i, 0], v=surf.uv[i, 1])
         op = surface_opacity1(opacity, alphas, m, hit)
         ka = surface_color1(palette, textures, m, KA, hit)
         ke = surface_color1(palette, textures, m, KE, hit) if emits[m] else (0.0, 0.0, 0.0)
@@ -625,7 +651,8 @@ def spawn_children(children, parents, surf, first, kinds, out):
                                            children.w_t, children.w_s, children.status)
     s_dir, sample = parents.direction, parents.sample
     point, geometric, offset, shape = surf.point, surf.geometric, surf.offset, surf.shape
-    origin, direction, weight, child_sample, child_shape, kind, parent = out
+    origin, direction, weight = out.origin, out.direction, out.weight
+    child_sample, child_shape, kind, parent = out.sample, out.shape, out.kind, out.parent
     for c in range(3):
         d = r_dir if c == 0 else (t_dir if c == 1 else s_dir)
         w = w_r if c == 0 else (w_t if c == 1 else w_s)
@@ -636,9 +663,10 @@ def spawn_children(children, parents, surf, first, kinds, out):
             dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
             direction[j, 0], direction[j, 1], direction[j, 2] = dx, dy, dz
             weight[j, 0], weight[j, 1], weight[j, 2] = w[i, 0], w[i, 1], w[i, 2]
-            origin[j, 0], origin[j, 1], origin[j, 2] = leave1(
-                (point[i, 0], point[i, 1], point[i, 2]),
-                (geometric[i, 0], geometric[i, 1], geometric[i, 2]), offset[i], (dx, dy, dz))
+            at = SpawnPoint(point=(point[i, 0], point[i, 1], point[i, 2]),
+                            geometric=(geometric[i, 0], geometric[i, 1], geometric[i, 2]),
+                            offset=offset[i])
+            origin[j, 0], origin[j, 1], origin[j, 2] = leave1(at, (dx, dy, dz))
             child_sample[j], child_shape[j], kind[j] = sample[i], shape[i], kinds[c]
             parent[j] = i
             j += 1
@@ -702,7 +730,9 @@ def highlight_rows(model, normal, to_light, to_eye, n, out):
 @kernel
 def direct_rows(normal, to_light, to_eye, kd, ks, n, model, out):
     for i in range(normal.shape[0]):
+        finish = Finish(kd=(kd[i, 0], kd[i, 1], kd[i, 2]), ks=(ks[i, 0], ks[i, 1], ks[i, 2]),
+                        shininess=n[i], highlight=model[i])
         out[i, 0], out[i, 1], out[i, 2] = direct1(
             (normal[i, 0], normal[i, 1], normal[i, 2]),
             (to_light[i, 0], to_light[i, 1], to_light[i, 2]),
-            (to_eye[i, 0], to_eye[i, 1], to_eye[i, 2]), kd[i], ks[i], n[i], model[i])
+            (to_eye[i, 0], to_eye[i, 1], to_eye[i, 2]), finish)
