@@ -40,6 +40,7 @@ import weakref
 import numpy as np
 
 from .accel import Accelerator
+from .kernels.accel import pack_row
 from .material import COLOR_KEYS
 from .readers.texture import Texture
 from .scene import Mesh, Scene
@@ -80,7 +81,7 @@ def fingerprint(scene: Scene, materials: list) -> bytes:
             add(o.vertices, o.faces, o.texcoords, o.face_material, o.degenerate,
                 [index[id(m)] for m in o.materials])
         else:  # an analytic shape: its table row, as the stage makes it (tables.shape_tables)
-            add(o.row(origin), index[id(o.material)])
+            add(pack_row(o.type, o.row(origin)), index[id(o.material)])
     return h.digest()
 
 

@@ -18,18 +18,6 @@ import numpy as np
 
 from . import values
 from .errors import SceneError
-from .kernels.records import (
-    DISK_CENTRE,
-    DISK_NORMAL,
-    DISK_RADIUS,
-    DISK_SCALE,
-    PLANE_NORMAL,
-    PLANE_POINT,
-    PLANE_SCALE,
-    SPHERE_CENTRE,
-    SPHERE_RADIUS,
-    SPHERE_SCALE,
-)
 from .lights import LIGHT_TYPES, AreaLight, DirectionalLight, PointLight, SpotLight  # noqa: F401
 from .material import Material, library, material_from_table
 from .readers.assets import load_with_materials
@@ -140,13 +128,12 @@ class Sphere:
         self.center = values.vector(self.center, "center")
         self.radius = values.number(self.radius, "radius", lo=0, lo_open=True)
 
-    def row(self, origin: np.ndarray) -> np.ndarray:
-        """Its parameters as ``kernels.accel.sphere_t`` reads them, camera-relative, at their
-        columns (``kernels.records.SPHERE_CENTRE``, …): the centre, the radius and the
-        centre's largest absolute coordinate (its rounding scale)."""
+    def row(self, origin: np.ndarray) -> dict:
+        """Its parameters as ``kernels.accel.sphere_t`` reads them, camera-relative, by the
+        names of ``kernels.accel.SHAPE_COLUMNS``: the centre, the radius and the centre's
+        largest absolute coordinate (its rounding scale)."""
         c = self.center - origin
-        return shape_row({SPHERE_CENTRE: c, SPHERE_RADIUS: self.radius,
-                          SPHERE_SCALE: np.abs(c).max()})
+        return {"centre": c, "radius": self.radius, "scale": np.abs(c).max()}
 
 
 @dataclass
@@ -162,13 +149,12 @@ class Plane:
         self.point = values.vector(self.point, "point")
         self.normal = values.unit(self.normal, "normal")
 
-    def row(self, origin: np.ndarray) -> np.ndarray:
-        """Its parameters as ``kernels.accel.plane_t`` reads them, camera-relative, at their
-        columns (``kernels.records.PLANE_POINT``, …): the point, the unit normal and the
-        point's largest absolute coordinate."""
+    def row(self, origin: np.ndarray) -> dict:
+        """Its parameters as ``kernels.accel.plane_t`` reads them, camera-relative, by the
+        names of ``kernels.accel.SHAPE_COLUMNS``: the point, the unit normal and the point's
+        largest absolute coordinate."""
         p = self.point - origin
-        return shape_row({PLANE_POINT: p, PLANE_NORMAL: self.normal,
-                          PLANE_SCALE: np.abs(p).max()})
+        return {"point": p, "normal": self.normal, "scale": np.abs(p).max()}
 
 
 @dataclass
@@ -187,23 +173,13 @@ class Disk:
         self.normal = values.unit(self.normal, "normal")
         self.radius = values.number(self.radius, "radius", lo=0, lo_open=True)
 
-    def row(self, origin: np.ndarray) -> np.ndarray:
-        """Its parameters as ``kernels.accel.disk_t`` reads them, camera-relative, at their
-        columns (``kernels.records.DISK_CENTRE``, …): a plane's row (the centre, the unit
-        normal, the centre's largest absolute coordinate) and the radius."""
+    def row(self, origin: np.ndarray) -> dict:
+        """Its parameters as ``kernels.accel.disk_t`` reads them, camera-relative, by the
+        names of ``kernels.accel.SHAPE_COLUMNS``: a plane's (the centre, the unit normal, the
+        centre's largest absolute coordinate) and the radius."""
         c = self.center - origin
-        return shape_row({DISK_CENTRE: c, DISK_NORMAL: self.normal, DISK_SCALE: np.abs(c).max(),
-                          DISK_RADIUS: self.radius})
-
-
-def shape_row(columns: dict[int, Any]) -> np.ndarray:
-    """A shape's row of parameters (float64), each value (a number, or a vector over three
-    columns) at its column of ``kernels.records`` (``SPHERE_CENTRE``, …)."""
-    values = {c: np.atleast_1d(np.asarray(v, np.float64)) for c, v in columns.items()}
-    row = np.zeros(max(c + len(v) for c, v in values.items()))
-    for c, v in values.items():
-        row[c:c + len(v)] = v
-    return row
+        return {"centre": c, "normal": self.normal, "scale": np.abs(c).max(),
+                "radius": self.radius}
 
 
 #: The analytic shapes by their scene-file ``type``: a shape is one record (its fields are

@@ -132,7 +132,7 @@ def shape_tables(objects: list, origin: np.ndarray, index: dict[int, int]) -> Sh
                    if isinstance(o, kinds))
     rows = np.zeros((len(order), ak.ROW))
     for j, (_, i) in enumerate(order):
-        row = objects[i].row(origin)
+        row = ak.pack_row(objects[i].type, objects[i].row(origin))
         rows[j, :len(row)] = row
     return Shapes(np.array([k for k, _ in order], np.int64), rows,
                   np.array([index[id(objects[i].material)] for _, i in order], np.int64),

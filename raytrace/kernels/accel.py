@@ -25,14 +25,6 @@ from .core import FLAT
 from .jit import inline, kernel
 from .kinds import NO_SHAPE
 from .records import (
-    DISK_CENTRE,
-    DISK_RADIUS,
-    PLANE_NORMAL,
-    PLANE_POINT,
-    PLANE_SCALE,
-    SPHERE_CENTRE,
-    SPHERE_RADIUS,
-    SPHERE_SCALE,
     Ray,
 )
 
@@ -50,10 +42,42 @@ PLANE_TOL = 16.0 * float(np.finfo(np.float64).eps)
 SPAWN_OFFSET = 3.0 * 2.0**-23
 
 
+# The columns of each kind's row of ``Shapes.rows``: its scene record's ``row`` method names
+# the values (``raytrace.scene.Sphere.row``, …), :func:`pack_row` puts them at these columns,
+# its intersection and surface functions read them (``sphere_t``, …). A vector takes three
+# columns from its first.
+#: A sphere: centre c (x, y, z), radius r, c's largest absolute coordinate (its rounding scale).
+SPHERE_CENTRE, SPHERE_RADIUS, SPHERE_SCALE = 0, 3, 4
+#: A plane: a point p on it (x, y, z), unit normal n (x, y, z), p's largest absolute coordinate.
+PLANE_POINT, PLANE_NORMAL, PLANE_SCALE = 0, 3, 6
+#: A disk: its plane's row (the centre c as the plane's point) and the radius r.
+DISK_CENTRE, DISK_NORMAL, DISK_SCALE, DISK_RADIUS = PLANE_POINT, PLANE_NORMAL, PLANE_SCALE, 7
+
+#: Each shape kind's columns by the names its record's ``row`` gives its values.
+SHAPE_COLUMNS = {
+    "sphere": {"centre": SPHERE_CENTRE, "radius": SPHERE_RADIUS, "scale": SPHERE_SCALE},
+    "plane": {"point": PLANE_POINT, "normal": PLANE_NORMAL, "scale": PLANE_SCALE},
+    "disk": {"centre": DISK_CENTRE, "normal": DISK_NORMAL, "scale": DISK_SCALE,
+             "radius": DISK_RADIUS},
+}
+
+
+def pack_row(kind: str, values: dict) -> np.ndarray:
+    """A ``kind`` shape's row of parameters (float64): each named value of its record's ``row``
+    (a number, or a vector over three columns) at its column of :data:`SHAPE_COLUMNS`."""
+    columns = SHAPE_COLUMNS[kind]
+    packed = {columns[name]: np.atleast_1d(np.asarray(v, np.float64))
+              for name, v in values.items()}
+    row = np.zeros(max(c + len(v) for c, v in packed.items()))
+    for c, v in packed.items():
+        row[c:c + len(v)] = v
+    return row
+
+
 # -- analytic shapes ------------------------------------------------------------------------
 # A shape kind is an intersection function and a surface function of one row of its
 # parameters (``row``, an 8-tuple of floats: what the scene record's ``row`` method packs,
-# camera-relative, zero-padded, at the columns named in kernels/records.py: SPHERE_CENTRE, …),
+# camera-relative, zero-padded, at the columns of SHAPE_COLUMNS: SPHERE_CENTRE, …),
 # registered by a kind code in SHAPE_KINDS and named once in
 # each of the two dispatchers, :func:`shape_t` and :func:`shape_surface`. The shape loops
 # number the shapes kind by kind, in SHAPE_KINDS' order (spheres, then planes, …), and in the

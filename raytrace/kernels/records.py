@@ -114,16 +114,6 @@ class Shapes(NamedTuple):
     object: np.ndarray    #: (N,) int64 index in ``Scene.objects``
 
 
-# The columns of each kind's row of ``Shapes.rows``: its scene record's ``row`` method writes
-# them (``raytrace.scene.Sphere.row``, …), its intersection and surface functions read them
-# (``raytrace.kernels.accel.sphere_t``, …). A vector takes three columns from its first.
-#: A sphere: centre c (x, y, z), radius r, c's largest absolute coordinate (its rounding scale).
-SPHERE_CENTRE, SPHERE_RADIUS, SPHERE_SCALE = 0, 3, 4
-#: A plane: a point p on it (x, y, z), unit normal n (x, y, z), p's largest absolute coordinate.
-PLANE_POINT, PLANE_NORMAL, PLANE_SCALE = 0, 3, 6
-#: A disk: its plane's row (the centre c as the plane's point) and the radius r.
-DISK_CENTRE, DISK_NORMAL, DISK_SCALE, DISK_RADIUS = PLANE_POINT, PLANE_NORMAL, PLANE_SCALE, 7
-
 
 #: The material table's per-material columns, name → (dtype, what it holds); a Material's
 #: value for each: ``raytrace.material.COLUMNS``.
