@@ -31,8 +31,7 @@ NO_TMAX = np.empty(0)
 
 class AnalyticShapes:
     """Queries over the analytic shapes of a :class:`raytrace.kernels.records.Shapes`
-    (camera-relative,
-    numbered as :func:`raytrace.tables.shape_tables` numbers them)."""
+    (camera-relative, numbered as :func:`raytrace.tables.shape_tables` numbers them)."""
 
     def __init__(self, shapes: Shapes):
         #: The tables as the kernels take them.

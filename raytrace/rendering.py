@@ -87,10 +87,9 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     ``--pixelbounds``): ``rgb`` is then (y1 − y0, x1 − x0, 3), bit-identical to that window
     of the full render. ``aovs``: names from :data:`raytrace.film.aov.AOVS` (depth, normal,
     albedo, id, uv, position) to render besides the colour, read with ``Image.aov(name)``.
-    ``filter``
-    (:data:`raytrace.sampling.FILTERS`), ``aa`` ("uniform" or "adaptive"), ``aa_threshold``,
-    ``aa_depth`` and ``aa_min_depth`` override the scene's ``[render]`` keys of the same
-    names.
+    ``filter`` (:data:`raytrace.sampling.FILTERS`), ``aa`` ("uniform" or "adaptive"),
+    ``aa_threshold``, ``aa_depth`` and ``aa_min_depth`` override the scene's ``[render]`` keys
+    of the same names.
 
     Every argument is checked before any work (a SceneError, or a TypeError for a
     ``progress`` that is not callable), including the memory the image needs

@@ -1,8 +1,7 @@
 """The scene: camera, lights, objects, materials and render settings.
 
 These are plain, validated dataclasses. A scene file (:mod:`raytrace.readers.scene_file`) and a
-Python
-script build the same objects, so both get the same checks and the same error text. Geometry
+Python script build the same objects, so both get the same checks and the same error text. Geometry
 stays in world coordinates here; :mod:`raytrace.accel` recentres it on the camera.
 """
 

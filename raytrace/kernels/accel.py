@@ -10,8 +10,7 @@ number of threads or on how a batch is split (tests/test_threads.py). All are se
 ``nogil`` kernels (:data:`raytrace.kernels.jit.kernel`): the integrator's threads run them side by
 side on batches of their own, beside Embree. Their arguments are the named records of
 :mod:`raytrace.kernels.records` and C-contiguous arrays of fixed dtypes (Embree's own float32 /
-int32
-outputs among them), so each kernel compiles once, into numba's cache. Where a spawned ray
+int32 outputs among them), so each kernel compiles once, into numba's cache. Where a spawned ray
 starts is :func:`raytrace.kernels.core.leave1`, shared with the shading kernels.
 """
 
@@ -524,8 +523,7 @@ def hit_surfaces(hits, o, d, shapes, tables, out):
     rays ``o``, ``d``, written into the point, geometric, shading, material and offset
     columns of ``out`` (:class:`raytrace.kernels.records.Surface`).
 
-    Analytic hits: the point ``o + t·d`` snapped onto the shape (:func:`shape_surface`), its
-    normal
+    Analytic hits: the point ``o + t·d`` snapped onto the shape (:func:`shape_surface`), its normal
     for both normals, offset 0. Triangle hits: the point at the barycentrics ``uv`` on the
     float64 triangle, its unit face normal, and for smooth and Gouraud triangles the
     interpolated vertex normals, normalised (the face normal where they cancel); the spawn

@@ -236,8 +236,7 @@ def whole_power1(c, n):
     """``cⁿ`` for a whole ``n`` in ``[1, WHOLE_POWER_MAX]`` (:func:`is_whole1`) by binary
     exponentiation (square and multiply; Knuth, TAOCP vol. 2, §4.6.3, Algorithm A): at most
     2·(⌊log₂ n⌋ + 1) multiplications in place of ``exp(n·log c)``'s two library calls (the
-    highlight's
-    ``exp``/``log1p`` were 52 of a Whitted frame's 182 ms of ``light_pass``).
+    highlight's ``exp``/``log1p`` were 52 of a Whitted frame's 182 ms of ``light_pass``).
 
     Error (u = 2⁻⁵³, first order): ``c^(2^j)`` after j squarings carries at most (2ʲ − 1)·u,
     and the product of the factors of n's bits adds one rounding each, so the result is within

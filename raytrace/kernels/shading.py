@@ -1,15 +1,14 @@
 """Compiled per-ray arithmetic of the shading stage, used by :mod:`raytrace.integrator` and
-behind the array functions of :mod:`raytrace.optics`, :mod:`raytrace.lights` and
-:mod:`raytrace.shading`.
+behind the array functions of :mod:`raytrace.optics` and :mod:`raytrace.shading`.
 
 Two layers, in pipeline order:
 
 * **one ray at a time**, a function per formula, on scalars: ``incidence1`` (a light's L,
   distance and ``f_radial·f_angular``, seed 000), ``cosine_power1`` / ``phong1`` /
-  ``blinn1`` / ``direct1`` (the seeds' local model, Phong 1975, Blinn 1977), ``color1`` (a
-  material's colour at a point), ``bulge1``, ``gouraud1`` and ``fast_phong1`` (Bishop &
-  Weimer 1986); the primitives they share with the other kernel modules (reflection,
-  refraction, the spawn rule, the checker, the hashes) are :mod:`raytrace.kernels.core`'s;
+  ``blinn1`` / ``direct1`` (the seeds' local model, Phong 1975, Blinn 1977), ``bulge1``,
+  ``gouraud1`` and ``fast_phong1`` (Bishop & Weimer 1986); the primitives they share with the
+  other kernel modules (reflection, refraction, the spawn rule, the checker, the hashes) are
+  :mod:`raytrace.kernels.core`'s, a hit's material :mod:`raytrace.kernels.material`'s;
 * **one batch at a time**, the passes the integrator makes over its hits, each composed of the
   functions above: ``light_pass`` (one emitter's unshadowed term at every hit, Gouraud's
   included, and the shadow rays of the hits it lights), ``add_unblocked`` (opaque shadows),
@@ -19,9 +18,8 @@ Two layers, in pipeline order:
   ``spawn_children`` (the next depth's batch from those); plus ``accumulate``, the
   fixed-order sum of the background into the pixel samples of the rays that miss.
 
-All are serial ``nogil`` kernels (``raytrace.kernels.jit.kernel``): the integrator's threads run
-them
-side by side, each on the batches of its own pass, and ``hit_terms`` and ``accumulate`` add
+All are serial ``nogil`` kernels (``raytrace.kernels.jit.kernel``): the integrator's threads
+run them side by side, each on the batches of its own pass, and ``hit_terms`` and ``accumulate`` add
 into a pixel sample in batch order, one fixed order, so no result depends on the number of
 threads. Arguments are the named records of :mod:`raytrace.kernels.records` and C-contiguous
 arrays of fixed dtypes, so each kernel compiles once, into numba's cache (which
@@ -96,8 +94,7 @@ def incidence1(p, em, word):
     whole rectangle (n-rooks), each point uniform in its cell; points of their own for each
     shading point (the word hashes its camera sample, for a secondary ray hashed with its
     path, :func:`raytrace.kernels.core.path_key1`, and depth); with ``word`` < 0, at the cell
-    centre.
-    Seed 000:
+    centre. Seed 000:
     ``f_radial = 1/(a0 + a1·d + a2·d²)`` (0 where that is not finite, and at the light itself,
     where L is undefined; L stays a unit vector however near or far the light); a spot
     multiplies ``(cos α)^a`` inside its cone (``cos α >= cos θ``, edge included) and 0
