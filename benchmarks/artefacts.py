@@ -21,7 +21,11 @@ import bench  # noqa: E402
 
 import raytrace  # noqa: E402
 import raytrace.kernels.accel as K
+from raytrace.integrator import WhittedIntegrator
 
+#: The kernels are wrapped from Python, so the renders run the Python loop (the same kernels
+#: in the same order as the compiled loop, tests/test_loop.py).
+WhittedIntegrator.compiled = False
 counts = {"embree": 0, "artefacts": 0, "rechecks": 0}
 _refine, _occlusion = K.refine_hits, K.occlusion
 

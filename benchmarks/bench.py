@@ -80,6 +80,7 @@ import sys
 import tempfile
 import time
 from collections import defaultdict
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -221,13 +222,17 @@ class Recorder:
 
 def record_rays(scene_path: Path, width: int, height: int, threads: int, spp: int = 1
                 ) -> tuple[raytrace.Scene, Recorder, dict]:
-    """Render in this process with the recorder on; returns the scene, the batches, stats."""
+    """Render in this process with the recorder on; returns the scene, the batches, stats.
+    The recorder sees the queries of the Python loop (:func:`python_loop`), which traces the
+    same rays as the compiled one."""
     scene = raytrace.load_scene(scene_path)
     rec = Recorder()
     accel.Accelerator.recorder = rec
+    python_loop()
     try:
         image = raytrace.render(scene, width=width, height=height, spp=spp, threads=threads)
     finally:
+        python_loop(False)
         accel.Accelerator.recorder = None
     return scene, rec, image.stats
 
@@ -418,11 +423,26 @@ class Timers:
         return timed
 
 
-class TimedEmbree:
-    """Stands in for an embreex scene and times its ``run`` calls."""
+def python_loop(on: bool = True) -> None:
+    """Run renders through the integrator's Python loop (``on``) or the compiled one: the
+    per-stage and per-kernel breakdowns time the steps from Python, which the compiled loop
+    (``raytrace.kernels.loop.trace_paths``) runs inside one call. Both call the same kernels
+    in the same order (tests/test_loop.py); the Python loop adds its own overhead between
+    them, reported as ``python_seconds``."""
+    from raytrace import integrator
 
-    def __init__(self, inner, timers: Timers):
-        self.run = timers.wrap("embree", inner.run)
+    integrator.WhittedIntegrator.compiled = not on
+
+
+def time_embree(timers: Timers) -> Callable[[], None]:
+    """Time Embree's traversal kernels (:mod:`raytrace.kernels.embree`'s ``closest_hits`` and
+    ``any_hits``, the packet calls and their packing) as ``embree``; returns the undo."""
+    from raytrace.kernels import embree as embree_kernels
+
+    saved = {name: getattr(embree_kernels, name) for name in ("closest_hits", "any_hits")}
+    for name, fn in saved.items():
+        setattr(embree_kernels, name, timers.wrap("embree", fn))
+    return lambda: [setattr(embree_kernels, name, fn) for name, fn in saved.items()]
 
 
 #: (module or class, attribute, category) timed by :func:`profile_breakdown`.
@@ -466,10 +486,10 @@ def profile_breakdown(path: Path, width: int, height: int) -> dict:
         t0 = time.perf_counter()
         build(self, *args, **kwargs)
         timers.seconds["build"] += time.perf_counter() - t0
-        if self.embree is not None:
-            self.embree = TimedEmbree(self.embree, timers)
 
     accel.Accelerator._build_meshes = timed_build
+    untime = time_embree(timers)
+    python_loop()
     try:
         t0 = time.perf_counter()
         scene = raytrace.load_scene(path)
@@ -481,6 +501,8 @@ def profile_breakdown(path: Path, width: int, height: int) -> dict:
         write_exr(Path(tempfile.gettempdir()) / f"raytrace-profile-{os.getpid()}.exr", image.rgb)
         write = time.perf_counter() - t0
     finally:
+        python_loop(False)
+        untime()
         accel.Accelerator._build_meshes = build
         for owner, name, raw in saved:
             setattr(owner, name, raw)
@@ -496,15 +518,20 @@ def profile_breakdown(path: Path, width: int, height: int) -> dict:
 
 
 def kernel_breakdown(path: Path, width: int, height: int) -> dict:
-    """Seconds and calls of every compiled kernel and of Embree's ``run`` in one
-    single-threaded render, after a first render that loads every kernel from numba's cache.
-    Kernels run during the BVH build are reported apart (``build_kernels``)."""
+    """Seconds and calls of every compiled kernel and of Embree's traversal kernels in one
+    single-threaded render through the Python loop (:func:`python_loop`), after a first
+    render that loads every kernel from numba's cache. Kernels run during the BVH build are
+    reported apart (``build_kernels``)."""
     from raytrace import analytic, camera, integrator, rays
     from raytrace.kernels import accel as accel_kernels
     from raytrace.kernels import shading as shading_kernels
 
     scene = raytrace.load_scene(path)
-    raytrace.render(scene, width=width, height=height, threads=1)
+    python_loop()
+    try:
+        raytrace.render(scene, width=width, height=height, threads=1)
+    finally:
+        python_loop(False)
     timers = Timers()
     saved = []
     owners = (accel_kernels, shading_kernels, camera, rays, integrator, accel, analytic)
@@ -527,15 +554,17 @@ def kernel_breakdown(path: Path, width: int, height: int) -> dict:
         during_build["seconds"] = time.perf_counter() - t0
         during_build.update({k: v - before.get(k, 0.0) for k, v in timers.seconds.items()
                              if v != before.get(k, 0.0)})
-        if self.embree is not None:
-            self.embree = TimedEmbree(self.embree, timers)
 
     accel.Accelerator._build_meshes = timed_build
+    untime = time_embree(timers)
+    python_loop()
     try:
         t0 = time.perf_counter()
         image = render_built(scene, width=width, height=height, threads=1)
         render = time.perf_counter() - t0
     finally:
+        python_loop(False)
+        untime()
         accel.Accelerator._build_meshes = build
         for owner, name, fn in saved:
             setattr(owner, name, fn)

@@ -25,6 +25,7 @@ def main(argv: list[str] | None = None) -> int:
     from raytrace.kernels import accel as accel_kernels
     from raytrace.kernels import shading as shading_kernels
 
+    integrator.WhittedIntegrator.compiled = False  # kernels wrapped from Python: its loop
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("scene")
     p.add_argument("--width", type=int, default=1000)

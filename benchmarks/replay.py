@@ -35,6 +35,9 @@ from raytrace.kernels import accel as accel_kernels  # noqa: E402
 from raytrace.kernels import records
 from raytrace.kernels import shading as shading_kernels
 
+#: Kernels are wrapped from Python: the renders run the Python loop (the same kernels in the
+#: same order as the compiled loop, tests/test_loop.py).
+integrator.WhittedIntegrator.compiled = False
 #: The scene's records, read-only once built: shared by the copies, not copied.
 SHARED = (records.Scene, records.Shapes, records.Triangles, records.Materials)
 

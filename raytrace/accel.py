@@ -1,7 +1,8 @@
 """Ray queries: Embree's BVH for triangle meshes, float64 kernels for analytic shapes.
 
-This is the only module that imports ``embreex``. Embree works in float32 with ``tnear = 0``
-(EMBREEX_NOTES.md), so:
+Embree is the library the embreex wheel ships, called directly (:mod:`raytrace.embree` builds
+the scene over shared arrays; :mod:`raytrace.kernels.embree` traverses it in packets). Embree
+works in float32 with ``tnear = 0`` (EMBREEX_NOTES.md), so:
 
 * the scene arrives recentred on the camera in float64 (:mod:`raytrace.tables`), before
   anything is rounded to float32;
@@ -15,7 +16,8 @@ This is the only module that imports ``embreex``. Embree works in float32 with `
 * a hit that the float64 solve puts behind the ray's origin (a ray leaving a large triangle
   whose float32 rounding exceeds that offset) is discarded and the ray traced on from beyond
   the triangle's error band, in a second pass over those few rays (embreex has no filter
-  callbacks). docs/robustness.md gives the scheme and its measured bound.
+  callbacks are not used: the re-trace measured cheaper). docs/robustness.md gives the scheme
+  and its measured bound.
 
 A query runs on the calling thread. Embree and the kernels of :mod:`raytrace.kernels.accel`
 release the GIL and the accelerator is read-only after construction, so the integrator's
@@ -27,7 +29,9 @@ from __future__ import annotations
 import numpy as np
 
 from .analytic import NO_TMAX, AnalyticShapes, f64, i64
+from .embree import Meshes
 from .kernels import accel as ak  # the compiled passes of this stage
+from .kernels import embree as ek
 from .kernels.core import SHADOW_SHORTEN, leave_rows
 from .kernels.records import EmbreeHits, EmbreeRays, Hits, Query, Redo, ShadowQuery, Surface
 from .rays import NO_SHAPE
@@ -50,41 +54,29 @@ class Accelerator:
     arrays : SceneArrays
         The scene as arrays (:func:`raytrace.tables.scene_arrays`): its analytic shapes, its
         triangle tables and the camera-relative meshes Embree builds its BVH of.
+    threads : int
+        Threads Embree builds the BVH on.
     """
 
     #: Benchmark hook (off by default): when set, ``recorder(query, origins, directions, tfar)``
     #: is called for every :meth:`intersect` ("INTERSECT") and :meth:`occluded` ("OCCLUDED")
-    #: batch with fresh float32 arrays (n, 3), (n, 3), (n,), tfar = tmax or float32 max.
+    #: batch of the integrator's Python loop (the compiled loop's queries are the same) with fresh float32 arrays (n, 3), (n, 3), (n,), tfar = tmax or float32 max.
     #: ``benchmarks/bench.py`` replays them through embreex alone. None costs one test a batch.
     recorder = None
 
-    def __init__(self, arrays: SceneArrays):
+    def __init__(self, arrays: SceneArrays, threads: int = 1):
         self.shapes = AnalyticShapes(arrays.shapes)
         self._none_columns = (np.zeros(0, np.int64), np.zeros((0, 2)))
-        self._build_meshes(arrays)
+        self._build_meshes(arrays, threads)
 
     # -- construction --------------------------------------------------------------------
-    def _build_meshes(self, arrays: SceneArrays) -> None:
+    def _build_meshes(self, arrays: SceneArrays, threads: int) -> None:
         """Embree's scene of the camera-relative meshes (vertices, faces), rounded to float32,
         attached in order (their geomIDs), and the triangle tables its hits index."""
         #: The triangle tables, as every kernel takes them.
         self.triangles = arrays.triangles
-        meshes = arrays.meshes
-        self.embree = None
-        if not meshes:
-            return
-        from embreex import rtcore_scene
-        from embreex.mesh_construction import TriangleMesh
-
-        self.embree = rtcore_scene.EmbreeScene()
-        for v, faces in meshes:  # geomID: attach order
-            # embreex copies element by element through Python indexing (EMBREEX_NOTES.md):
-            # float64 (numpy's float64 scalars are Python floats) copies a few per cent faster
-            # than float32, and its C cast rounds to the same float32 values as astype.
-            TriangleMesh(self.embree, v, faces)
-        # The first run() commits the scene and is not thread-safe: do it once here.
-        one = np.zeros((1, 3), np.float32)
-        self.embree.run(one, np.array([[0, 0, 1]], np.float32), output=0)
+        #: Embree's scene (:class:`raytrace.embree.Meshes`), or None without meshes.
+        self.embree = Meshes(arrays.meshes, threads) if arrays.meshes else None
 
     # -- queries -------------------------------------------------------------------------
     def intersect(self, origin: np.ndarray, direction: np.ndarray, origin_shape: np.ndarray,
@@ -92,7 +84,10 @@ class Accelerator:
         """Closest hit of each ray with ``0 < t < tmax`` (mesh and analytic).
 
         The analytic shapes first; then Embree, bounded by the closest analytic hit, and the
-        float64 refinement of Embree's hits.
+        float64 refinement of Embree's hits. Embree traces the rays in packets without the
+        COHERENT flag, which answers each ray as its single-ray call would; with it, a ray
+        through a shared edge takes whichever triangle the packet's traversal meets first
+        (docs/decisions.md, "Embree's packets").
         """
         origin, direction, origin_shape = f64(origin), f64(direction), i64(origin_shape)
         tmax = None if tmax is None else f64(tmax)
@@ -138,9 +133,9 @@ class Accelerator:
         redo = Redo(np.empty(len(o), np.int64), np.empty(len(o)))
         traced = _FIRST_PASS
         for _ in range(MAX_RETRACES + 1):
-            out = self.embree.run(rays.origin, rays.direction, dists=rays.far, output=1)
-            k = ak.refine_hits(EmbreeHits(out["geomID"], out["primID"], out["u"], out["v"]),
-                               traced, self.triangles, query, hits, redo)
+            out = _embree_hits(len(rays.far))
+            ek.closest_hits(self.embree.record, rays, False, out)
+            k = ak.refine_hits(out, traced, self.triangles, query, hits, redo)
             if not k:
                 return
             traced, rays = Redo(np.empty(k, np.int64), np.empty(k)), _embree_rays(k)
@@ -151,8 +146,11 @@ class Accelerator:
             rays = EmbreeRays(rays.origin[:k], rays.direction[:k], rays.far[:k])
 
     def occluded(self, origin: np.ndarray, direction: np.ndarray, origin_shape: np.ndarray,
-                 tmax: np.ndarray) -> np.ndarray:
-        """True where something opaque or not lies in ``(0, tmax)`` (any-hit query).
+                 tmax: np.ndarray, coherent: bool = False) -> np.ndarray:
+        """True where something opaque or not lies in ``(0, tmax)`` (any-hit query);
+        ``coherent``: neighbouring rays travel together (shadow rays of neighbouring hits to
+        one point), so Embree traverses their packets as frusta (an any-hit answer does not
+        depend on the order it meets the triangles in).
 
         The analytic shapes first (any hit, :func:`raytrace.kernels.accel.shadow_prepass`);
         Embree only sees the rays they do not block. Embree's any-hit answer does not say
@@ -174,8 +172,9 @@ class Accelerator:
         k = ak.shadow_prepass(ShadowQuery(origin, direction, origin_shape, tmax),
                               self.shapes.table, meshes, blocked, idx, rays)
         if k:
-            res = self.embree.run(rays.origin[:k], rays.direction[:k], dists=rays.far[:k],
-                                  query="OCCLUDED")
+            res = np.empty(k, np.int32)
+            ek.any_hits(self.embree.record, EmbreeRays(rays.origin[:k], rays.direction[:k],
+                                                       rays.far[:k]), coherent, res)
             recheck = np.empty(k, np.int64)
             j = ak.occlusion(idx[:k], res, origin_shape, blocked, recheck)
             if j:
@@ -211,6 +210,12 @@ class Accelerator:
         ak.hit_surfaces(hits, f64(origin), f64(direction), self.shapes.table, self.triangles,
                         surface)
         return surface
+
+
+def _embree_hits(n: int) -> EmbreeHits:
+    """Room for Embree's closest hits of ``n`` rays."""
+    return EmbreeHits(np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.float32),
+                      np.empty(n, np.float32))
 
 
 def _embree_rays(n: int) -> EmbreeRays:

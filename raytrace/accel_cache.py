@@ -85,11 +85,11 @@ def fingerprint(scene: Scene, materials: list) -> bytes:
     return h.digest()
 
 
-def accelerator(scene: Scene, arrays: SceneArrays) -> Accelerator:
+def accelerator(scene: Scene, arrays: SceneArrays, threads: int = 1) -> Accelerator:
     """The accelerator of ``arrays`` (``scene``'s, :func:`raytrace.tables.scene_arrays`): the
     one built for the scene before if its :func:`fingerprint` is unchanged, whose triangle
     tables ``arrays`` then takes instead of building them again; else a new one (kept in place
-    of the old)."""
+    of the old), its BVH built on ``threads`` threads."""
     global builds
     key = fingerprint(scene, arrays.materials)
     with _lock:
@@ -97,7 +97,7 @@ def accelerator(scene: Scene, arrays: SceneArrays) -> Accelerator:
     if hit is not None and hit[0] == key:
         arrays.share_geometry(hit[2])
         return hit[1]
-    accel = Accelerator(arrays)
+    accel = Accelerator(arrays, threads)
     with _lock:
         builds += 1
         if id(scene) not in _cache:

@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .errors import ClusterError, RenderWarning, SceneError
+from .errors import ClusterError, EngineError, RenderWarning, SceneError
 from .film.outputs import Outputs
 
 if TYPE_CHECKING:
@@ -51,6 +51,8 @@ if TYPE_CHECKING:
 
 EXIT_BAD_INPUT = 2
 EXIT_OVER_THRESHOLD = 1
+#: The engine cannot run on this install (raytrace.errors.EngineError): not the input's fault.
+EXIT_ENGINE = 3
 
 
 class _Parser(argparse.ArgumentParser):
@@ -747,6 +749,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         except (SceneError, ClusterError) as e:
             print(f"raytrace: error: {e}", file=sys.stderr)
             return EXIT_BAD_INPUT
+        except EngineError as e:  # the install, not the input: Embree missing or unchecked
+            print(f"raytrace: error: {e}", file=sys.stderr)
+            return EXIT_ENGINE
         except BrokenPipeError:  # e.g. `raytrace materials | head`
             sys.stderr.close()
             return 0

@@ -50,3 +50,9 @@ class ClusterError(RuntimeError):
     """A Dask cluster could not do the work (no scheduler at an address, a task that killed
     its workers each time it ran): the command line prints it as one line, like a
     :class:`SceneError`."""
+
+
+class EngineError(RuntimeError):
+    """The rendering engine cannot run here: the Embree library is missing, not a version
+    whose layouts raytrace checked, or reported an error (out of memory included). The
+    command line prints it as one line naming what to install or change."""

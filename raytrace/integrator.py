@@ -16,8 +16,12 @@ What a scene does not need is left out: no shadow rays without lights or for unl
 an occlusion query unless something is transparent, no reflection or refraction wavefront
 unless some material reflects or transmits.
 
-This module is the loop; the per-ray arithmetic of each step is a compiled pass over the batch
-in :mod:`raytrace.kernels.shading`. With ``threads`` > 1 the passes run side by side, one
+This module describes the loop and runs it two ways, step for step the same: compiled, every
+depth of a pass in one ``nogil`` call (:func:`raytrace.kernels.loop.trace_paths`: how every
+render runs), and here in Python, batch by batch (what ``raytrace explain``'s observer watches,
+and the debug checks), each step a compiled pass over the batch (:mod:`raytrace.kernels.shading`,
+:mod:`raytrace.accel`). Both call the same kernels in the same order, so they give the same
+images bit for bit (tests/test_loop.py). With ``threads`` > 1 the passes run side by side, one
 thread a pass (the kernels and Embree release the GIL), like the image tiles of pbrt or
 Mitsuba: a pass touches only its own samples, each thread has its own scratch arrays and
 counters, and every sample's contributions are summed in a fixed order (depth by depth, in
@@ -28,6 +32,7 @@ rendered which pass.
 from __future__ import annotations
 
 import copy
+import ctypes
 import dataclasses
 import os
 import threading
@@ -45,21 +50,29 @@ from .camera import camera_columns, camera_rays, directions_at, global_samples, 
 from .film import aov as aov_images
 from .film import filters
 from .film.image import Image
+from .kernels import loop
 from .kernels import shading as sk  # the compiled passes of this stage
 from .kernels.aov import aov_hits, aov_pixels
 from .kernels.kinds import KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH
 from .kernels.rays import count_kinds, gather_chunks, sample_chunks, split_hits, take_hits
 from .kernels.records import (
+    FAST_COLUMNS,
     AOVLayout,
     Children,
+    EmbreeScene,
+    LightTable,
     Local,
     Objects,
+    PassIO,
+    PassSettings,
     Rays,
     SampleSums,
     Sampling,
     Shadows,
     ShadowWalk,
     Spawned,
+    Tally,
+    Tracer,
 )
 from .lights import Emitter, emitters
 from .rays import RayBatch
@@ -86,6 +99,21 @@ NO_LIGHT = np.zeros((0, 3))
 ONE = np.ones((1, 3))
 #: The per-pixel AOV table of a render without AOVs (:func:`raytrace.film.aov.layout`).
 NO_AOV_PIXELS = np.zeros((0, 1))
+#: The Embree record of a scene without meshes (never called).
+NO_EMBREE = EmbreeScene(0, 0, 0, 4, 0, 0)
+
+
+def monotonic_clock() -> tuple[int, int]:
+    """The address of the C library's ``clock_gettime`` and its monotonic clock's id, for the
+    compiled loop's trace and shade seconds ((0, 0) where there is none: those read 0)."""
+    try:
+        return ctypes.cast(ctypes.CDLL(None).clock_gettime, ctypes.c_void_p).value, \
+            time.CLOCK_MONOTONIC
+    except (AttributeError, OSError, TypeError):
+        return 0, 0
+
+
+CLOCK = monotonic_clock()
 
 
 @dataclass(kw_only=True)
@@ -170,6 +198,9 @@ class WhittedIntegrator:
     #: rendered; with it, a hit's contribution goes through a per-ray row first (the same
     #: additions in the same order, so the same sums).
     observer = None
+    #: Whether passes run the compiled loop (the Python loop runs where this is False, where
+    #: an observer watches, or under ``RAYTRACE_DEBUG``): tests compare the two.
+    compiled = True
 
     def __init__(self, scene: Scene, options: RenderOptions):
         self.scene = scene
@@ -178,7 +209,7 @@ class WhittedIntegrator:
         t0 = time.perf_counter()
         #: The scene as arrays, camera-relative (:func:`raytrace.tables.scene_arrays`).
         self.arrays = scene_arrays(scene)
-        self.accel = accelerator(scene, self.arrays)  # built once per geometry
+        self.accel = accelerator(scene, self.arrays, options.threads)  # once per geometry
         self.build_seconds = time.perf_counter() - t0
         self.materials, self.table = self.arrays.materials, self.arrays.table
         self.origin = self.arrays.origin
@@ -201,6 +232,7 @@ class WhittedIntegrator:
         self._renders = 0  # renders started: each counts its rays afresh
         self._stats_per_thread: list[Stats] = []
         self._worker = Worker()
+        self._compiled: tuple[Tracer, LightTable, PassSettings] | None = None
 
     def _set_options(self, options: RenderOptions) -> None:
         """The options and the windows they give: the window of the image (the crop or the
@@ -240,6 +272,7 @@ class WhittedIntegrator:
         other._renders = 0
         other._stats_per_thread = []
         other._worker = Worker()
+        other._compiled = None
         return other
 
     @property
@@ -291,6 +324,7 @@ class WhittedIntegrator:
         pixels = np.empty((total if filtered else cols * rows, 3),
                           dtype=np.float64 if filtered else np.float32)
         self._aov_out = NO_AOV_PIXELS
+        self._compiled = self._loop_records()
         if opt.aovs:  # one table, a row per pixel (raytrace.film.aov.layout's columns)
             self._aov_out = np.empty((cols * rows, len(self.aov_layout.miss)))
             self._aov_out[:] = self.aov_layout.miss
@@ -315,6 +349,26 @@ class WhittedIntegrator:
         seconds = time.perf_counter() - t_start + self.build_seconds
         return Image(rgb, self._stats(nonfinite, first, seconds, t_passes),
                      self._metadata(nonfinite), aovs, opt.crop, (opt.width, opt.height))
+
+    def _loop_records(self) -> tuple[Tracer, LightTable, PassSettings]:
+        """What the compiled loop (:func:`raytrace.kernels.loop.trace_paths`) reads of this
+        render: the scene, the lights and the settings, as records."""
+        opt, embree = self.opt, self.accel.embree
+        tracer = Tracer(self.arrays.shapes, self.tables,
+                        NO_EMBREE if embree is None else embree.record, embree is not None,
+                        self.objects, self.aov_layout, self.lit, self.any_transparent,
+                        True if "children" in self.features else None,
+                        True if "meshes" in self.features else None)
+        fast = [np.zeros((0, FAST_COLUMNS)), *(f.reshape(-1, FAST_COLUMNS) for f in self.fast)]
+        lights = LightTable(
+            np.array([tuple(em.record) for em in self.emitters], np.float64).reshape(-1, 21),
+            np.array([em.color for em in self.emitters], np.float64).reshape(-1, 3),
+            np.ascontiguousarray(np.concatenate(fast)),
+            np.cumsum([0, *(len(f) for f in fast[1:])]).astype(np.int64))
+        per_pass = self.opt.pass_samples if self.opt.aa == "adaptive" else self.pass_size
+        settings = PassSettings(per_pass, opt.max_depth, float(opt.min_weight),
+                                self.any_background, self.background, self.ambient, *CLOCK)
+        return tracer, lights, settings
 
     def _adaptive_rows(self, cols: int, rows: int) -> int:
         """Rows per pass of adaptive anti-aliasing: the fewest passes of at most
@@ -454,6 +508,9 @@ class WhittedIntegrator:
     def _trace_batch(self, rays: RayBatch, n: int, samples: np.ndarray) -> None:
         """Trace camera ``rays`` of ``n`` samples and their descendants, depth by depth, into
         ``samples`` (n, 3), in chunks of at most a pass (:meth:`trace_samples`)."""
+        if self.compiled and self.observer is None and not DEBUG:
+            self._trace_compiled(rays, n, samples)
+            return
         # an adaptive level's points are single samples: batches of the whole pass size
         per_pass = self.opt.pass_samples if self.opt.aa == "adaptive" else self.pass_size
         pending = [rays]
@@ -465,6 +522,33 @@ class WhittedIntegrator:
             children = self.trace(rays, samples)
             if len(children):
                 pending.append(children)
+
+    def _trace_compiled(self, rays: RayBatch, n: int, samples: np.ndarray) -> None:
+        """:meth:`_trace_batch` in one compiled call (:func:`raytrace.kernels.loop.trace_paths`):
+        the same kernels in the same order, its counters added to this thread's."""
+        opt, w = self.opt, self._worker
+        if self._compiled is None:  # a caller that did not go through render
+            self._compiled = self._loop_records()
+        tracer, lights, settings = self._compiled
+        keys = NO_KEY
+        if self.jittered:  # each sample's key (raytrace.camera.global_samples, or the points')
+            keys = w.keys if w.keys is not None else global_samples(
+                np.arange(w.first_sample, w.first_sample + n), opt.width, opt.spp,
+                self.trace_crop)
+        tally = Tally(np.zeros(loop.COUNTERS, np.int64), np.zeros(loop.SECONDS),
+                      np.zeros(2, np.int64))
+        loop.trace_paths(tracer, lights, settings, rays.record,
+                         PassIO(samples, np.ascontiguousarray(keys, np.int64),
+                                w.aov if opt.aovs else NO_AOV_PIXELS), tally)
+        st, counters = self.stats, tally.counters.tolist()
+        for name, count in zip(KIND_NAMES, counters, strict=False):
+            st.rays[name] += count
+        st.rays["shadow"] += counters[loop.SHADOW_RAYS]
+        st.pruned_depth += counters[loop.PRUNED_DEPTH]
+        st.pruned_weight += counters[loop.PRUNED_WEIGHT]
+        st.total_internal_reflections += counters[loop.TIR]
+        st.trace_seconds += float(tally.seconds[loop.TRACE_SECONDS])
+        st.shade_seconds += float(tally.seconds[loop.SHADE_SECONDS])
 
     def trace(self, rays: RayBatch, samples: np.ndarray) -> RayBatch:
         """One depth: intersect, add background and local shading, return the next depth."""
@@ -616,14 +700,15 @@ class WhittedIntegrator:
                               term, shadow)
             if self.observer is not None:
                 self.observer.light(e, term, rows[:k])
-            if k:
+            if k:  # the camera rays' hits send coherent shadow rays to a point
                 self.shadow(out, term, np.asarray(em.color, np.float64),
-                            *(column[:k] for column in shadow))
+                            *(column[:k] for column in shadow),
+                            coherent=rays.depth == 0 and not em.jittered)
         return out
 
     def shadow(self, out: np.ndarray, term: np.ndarray, color: np.ndarray, rows: np.ndarray,
                origin: np.ndarray, direction: np.ndarray, tmax: np.ndarray,
-               shape: np.ndarray) -> None:
+               shape: np.ndarray, coherent: bool = False) -> None:
         """``out[rows] += term[rows]·S·I_l``, with S (k, 3) the shadow factor of the shadow
         rays (``origin``, ``direction``, ``tmax``, starting on ``shape``) of the hits ``rows``.
 
@@ -634,7 +719,7 @@ class WhittedIntegrator:
         self.stats.rays["shadow"] += len(rows)
         t0 = time.perf_counter()
         if not self.any_transparent:
-            blocked = self.accel.occluded(origin, direction, shape, tmax)
+            blocked = self.accel.occluded(origin, direction, shape, tmax, coherent)
             self.stats.trace_seconds += time.perf_counter() - t0
             sk.add_unblocked(out, rows, term, blocked, color)
             if self.observer is not None:

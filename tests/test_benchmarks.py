@@ -179,9 +179,11 @@ def test_recorder_sees_every_ray_and_changes_nothing(mesh_scene_file):
         plain = raytrace.render(scene, width=40, height=30)
         rec = bench.Recorder()
         accel.Accelerator.recorder = rec
+        bench.python_loop()  # the recorder sees the Python loop's queries
         try:
             recorded = raytrace.render(scene, width=40, height=30)
         finally:
+            bench.python_loop(False)
             accel.Accelerator.recorder = None
         assert np.array_equal(recorded.rgb, plain.rgb)
         assert rec.count() == plain.stats["rays"]["total"] > 0

@@ -24,8 +24,9 @@ PACKAGE = Path(raytrace.__file__).resolve().parent
 #: the package's modules at its head.
 LAZY_BOUNDARIES = {"raytrace", "raytrace.cli"}
 #: What a compiled kernel module may import besides its own folder.
-KERNEL_IMPORTS = {"__future__", "math", "numpy", "numba", "hashlib", "os", "re", "sys",
-                  "tempfile", "threading", "collections", "contextlib", "pathlib", "typing"}
+KERNEL_IMPORTS = {"__future__", "math", "numpy", "numba", "llvmlite", "hashlib", "importlib",
+                  "os", "re", "sys", "tempfile", "threading", "collections", "contextlib",
+                  "pathlib", "typing"}
 
 
 def module_name(path: Path) -> str:

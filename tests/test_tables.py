@@ -95,11 +95,13 @@ def test_material_columns_come_from_one_declaration():
 
 def test_the_integrator_reads_the_stage_not_the_accelerator():
     # The integrator's scene record is the stage's, and of the accelerator it uses only the
-    # queries (intersect, occluded, surface), never its tables.
+    # queries (intersect, occluded, surface) and the Embree scene the compiled loop's queries
+    # traverse, never its tables.
     from raytrace import integrator
 
     src = Path(integrator.__file__).read_text("utf-8")
-    assert set(re.findall(r"\baccel\.(\w+)", src)) <= {"intersect", "occluded", "surface"}
+    assert set(re.findall(r"\baccel\.(\w+)", src)) <= {"intersect", "occluded", "surface",
+                                                       "embree"}
     integ = integrator.WhittedIntegrator(mixed_scene(), integrator.RenderOptions(
         width=8, height=6))
     assert integ.tables is integ.arrays.record

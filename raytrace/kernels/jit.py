@@ -16,12 +16,16 @@ code). So, on import, :func:`refresh_cache` hashes the source of every module of
 that compiles kernels and of the two whose constants they read (:data:`CONSTANTS`; with
 numba's version); where that hash differs from the one stored beside the cache, the cache
 files of the kernel modules are deleted and the kernels compile afresh (STUMPY's ``cache.py``
-does the same by hand). Reading and hashing the sources costs about a millisecond.
+does the same by hand). The hash also covers the installed embreex and the Embree library it
+ships (:func:`engine_stamp`): the traversal kernels are compiled against Embree's struct
+layouts, so code compiled beside another Embree never loads. Reading and hashing the sources
+costs about a millisecond.
 """
 
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import os
 import re
 import tempfile
@@ -65,9 +69,24 @@ def hashed_modules() -> list[Path]:
     return kernel_modules() + [PACKAGE / name for name in CONSTANTS]
 
 
+def engine_stamp() -> str:
+    """The installed embreex's distribution folder (its version) and the names of the
+    libraries its wheel ships (auditwheel hashes each build into the name): found on disk,
+    without importing embreex."""
+    spec = importlib.util.find_spec("embreex")
+    if spec is None or not spec.submodule_search_locations:
+        return "no embreex"
+    site = Path(next(iter(spec.submodule_search_locations))).parent
+    names = [p.name for pattern in ("embreex-*.dist-info", "embreex.libs/*embree*",
+                                    "embreex/.dylibs/*embree*", "embreex/*embree4*")
+             for p in site.glob(pattern)]
+    return "\0".join(sorted(names))
+
+
 def source_hash(modules: list[Path]) -> str:
-    """SHA-256 of numba's version and every module's path and source."""
-    h = hashlib.sha256(numba.__version__.encode())
+    """SHA-256 of numba's version, the Embree this install calls (:func:`engine_stamp`) and
+    every module's path and source."""
+    h = hashlib.sha256(numba.__version__.encode() + b"\0" + engine_stamp().encode())
     for path in modules:
         h.update(str(path.relative_to(PACKAGE)).encode() + b"\0" + path.read_bytes() + b"\0")
     return h.hexdigest()

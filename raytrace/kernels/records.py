@@ -35,7 +35,14 @@ record                   what it holds (n rays or hits, M materials, T triangles
 :class:`ShadowQuery`     the rays of an occlusion query
 :class:`EmbreeRays`      rays as Embree takes them (float32)
 :class:`EmbreeHits`      Embree's closest hits as it gives them
+:class:`EmbreeScene`     an Embree scene and its traversal calls, by address
 :class:`Redo`            rays traced again past a float32 artefact, and from where
+**the compiled loop** (:mod:`raytrace.kernels.loop`)
+:class:`Tracer`          the scene as the loop reads it
+:class:`LightTable`      the emitters, their colours and fast-Phong tables
+:class:`PassSettings`    the render's settings
+:class:`PassIO`          a pass's sums, jitter keys and AOV table
+:class:`Tally`           a pass's counters
 **camera and film**
 :class:`Pinhole`         the frame as a pinhole sees it
 :class:`Sampling`        how a frame's pixel samples are numbered and placed
@@ -355,6 +362,77 @@ class EmbreeHits(NamedTuple):
     prim_id: np.ndarray  #: (k,) int32 the triangle within it
     u: np.ndarray        #: (k,) float32 barycentrics of vertices 1 and 2
     v: np.ndarray
+
+
+class EmbreeScene(NamedTuple):
+    """An Embree scene as the traversal kernels call it (``raytrace.embree.Meshes.record``):
+    handles and addresses as integers, so no address is compiled into cached code."""
+
+    scene: int       #: the RTCScene
+    intersect: int   #: the address of rtcIntersectN (N = ``width``)
+    occluded: int    #: the address of rtcOccludedN
+    width: int       #: N, the packet width: 4, 8 or 16
+    coherent: int    #: the address of an RTCIntersectArguments with the COHERENT flag
+    incoherent: int  #: the address of one without it
+
+
+# -- the compiled loop (kernels/loop.py) ------------------------------------------------------
+class Tracer(NamedTuple):
+    """What the compiled loop needs of the scene, built once per render
+    (``raytrace.integrator.WhittedIntegrator``)."""
+
+    shapes: Shapes          #: the analytic shapes
+    scene: Scene            #: what the shading kernels read (``fast`` empty: each light's own
+                            #: table is in :class:`LightTable`)
+    embree: EmbreeScene     #: Embree's scene (all zeros where there are no meshes)
+    meshes: bool            #: whether there are meshes (Embree is called)
+    objects: Objects        #: the id AOV's objects
+    aov_layout: AOVLayout   #: the AOVs' columns
+    lit: bool               #: some light and some lit material: light passes run
+    any_transparent: bool   #: shadow rays walk through surfaces (else an occlusion query)
+    #: True, or None where nothing reflects or transmits (no child code is compiled)
+    children: bool | None
+    #: True, or None without triangles and image textures (light_pass's ``depth`` None)
+    shaded: bool | None
+
+
+class LightTable(NamedTuple):
+    """The emitters, a row each (:class:`Emitter`'s fields in order), their colours and their
+    fast-Phong tables (rows ``fast_first[e]`` to ``fast_first[e + 1]`` of ``fast``)."""
+
+    rows: np.ndarray        #: (E, 21) float64
+    color: np.ndarray       #: (E, 3) float64 I_l
+    fast: np.ndarray        #: (R, FAST_COLUMNS) float64
+    fast_first: np.ndarray  #: (E + 1,) int64
+
+
+class PassSettings(NamedTuple):
+    """A render's settings as the compiled loop reads them."""
+
+    per_pass: int            #: most rays a batch holds before it is cut into chunks
+    max_depth: int
+    min_weight: float
+    any_background: bool     #: missed rays add the background
+    background: np.ndarray   #: (1, 3) float64
+    ambient: np.ndarray      #: (3,) float64 Ia
+    clock: int               #: the address of ``clock_gettime`` (0: no timing)
+    clock_id: int            #: its monotonic clock's id
+
+
+class PassIO(NamedTuple):
+    """What one pass writes and the keys it reads, a row per pass sample."""
+
+    samples: np.ndarray  #: (S, 3) float64 radiance sums
+    keys: np.ndarray     #: (S,) int64 jitter keys of a jittered area light; no rows: none
+    aov: np.ndarray      #: (S, C) float64 the per-sample AOV table; no rows: no AOVs
+
+
+class Tally(NamedTuple):
+    """A pass's counters (kernels/loop.py's ``COUNTERS`` and ``SECONDS`` columns)."""
+
+    counters: np.ndarray  #: (COUNTERS,) int64
+    seconds: np.ndarray   #: (SECONDS,) float64
+    timespec: np.ndarray  #: (2,) int64, the clock's scratch
 
 
 class Redo(NamedTuple):

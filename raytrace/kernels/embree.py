@@ -1,0 +1,153 @@
+"""Embree's traversal called from compiled code: rays packed into Embree's SoA packets and
+``rtcIntersectN`` / ``rtcOccludedN`` called by address (:mod:`raytrace.embree` loads the
+library, checks it and hands the addresses over in a
+:class:`raytrace.kernels.records.EmbreeScene`).
+
+A function address is an ordinary integer argument, so the machine code holds no address and
+numba's cache stays valid from process to process; the call goes through a small intrinsic
+(:func:`call4`) that casts the integer to a C function pointer. Traversal calls do no checks
+in Embree: the packet layout below is Embree 4.4's (EMBREEX_NOTES.md, last section), and
+:func:`raytrace.embree.probe` traces a known ray through these kernels before any render uses
+them.
+
+**Packets.** Consecutive rays of a batch fill the lanes of one packet of the library's native
+width (16 with AVX-512, 8 with AVX2); a last, partial packet masks its empty lanes off. The
+caller says whether the batch is coherent (camera rays of neighbouring pixels, their shadow
+rays to one point light): Embree's COHERENT flag then lets it traverse the packet as a
+frustum (3.0–3.7× embreex's single rays, EMBREEX_NOTES.md), which is 2× slower than the default
+on unrelated rays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
+
+from .jit import kernel
+
+# RTCRayHit's fields in 4-byte words (one ray; an N-wide packet holds field k of lane j at
+# word k·N + j): the ray, then the hit (Embree 4.4, RTC_MAX_INSTANCE_LEVEL_COUNT = 1).
+ORG, TNEAR, DIR, TIME, TFAR, MASK, ID, FLAGS = 0, 3, 4, 7, 8, 9, 10, 11
+NG, U, V, PRIM_ID, GEOM_ID, INST_ID, INST_PRIM_ID = 12, 15, 16, 17, 18, 19, 20
+#: Words of an RTCRayHit (an RTCRay is the first :data:`RAY_WORDS`).
+RAYHIT1_WORDS, RAY_WORDS = 21, 12
+#: Embree's "no geometry" (RTC_INVALID_GEOMETRY_ID as int32), and how :func:`any_hits`
+#: marks a ray that something blocks (the other rays get ``FREE``), as embreex's OCCLUDED.
+INVALID, BLOCKED, FREE = -1, 0, -1
+#: Packets are aligned to 64 bytes (16 words): what a 16-wide packet needs.
+ALIGN_WORDS = 16
+
+
+@intrinsic
+def call4(typingctx, function, a, b, c, d):
+    """Call the C function at address ``function`` (an integer) with four pointer-sized
+    arguments (integers or pointers), returning nothing."""
+    sig = types.void(function, a, b, c, d)
+
+    def codegen(context, builder, signature, args):
+        pointer = ir.IntType(8).as_pointer()
+        fnty = ir.FunctionType(ir.VoidType(), [pointer] * 4)
+        f = builder.inttoptr(args[0], fnty.as_pointer())
+        builder.call(f, [builder.inttoptr(x, pointer) for x in args[1:]])
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@intrinsic
+def address(typingctx, array):
+    """The address of an array's first element, as an integer."""
+    sig = types.int64(array)
+
+    def codegen(context, builder, signature, args):
+        a = context.make_array(signature.args[0])(context, builder, args[0])
+        return builder.ptrtoint(a.data, ir.IntType(64))
+
+    return sig, codegen
+
+
+@kernel
+def aligned(words):
+    """A float32 array of ``words`` words whose first lies on a 64-byte boundary."""
+    buffer = np.empty(words + ALIGN_WORDS, np.float32)
+    skip = (-(address(buffer) // 4)) % ALIGN_WORDS
+    return buffer[skip:skip + words]
+
+
+@kernel
+def packet_room(embree, coherent):
+    """An aligned packet (RTCRayHitN words, N = ``embree.width``), its valid mask, and the
+    address of the query arguments: with the COHERENT flag or without."""
+    packet = aligned(RAYHIT1_WORDS * embree.width)
+    valid = aligned(ALIGN_WORDS).view(np.int32)
+    return packet, valid, embree.coherent if coherent else embree.incoherent
+
+
+@kernel
+def pack(rays, first, count, width, packet, valid):
+    """Rays ``first`` to ``first + count`` of ``rays`` (a
+    :class:`raytrace.kernels.records.EmbreeRays`) into the lanes of ``packet`` (an
+    RTCRayHitN, float32 words, ``width`` lanes), as embreex set up each ray: tnear 0, time 0,
+    every mask bit, no geometry yet; lanes past ``count`` are masked off in ``valid``."""
+    words = packet.view(np.int32)
+    o, d, far = rays.origin, rays.direction, rays.far
+    for j in range(width):
+        if j >= count:
+            valid[j] = 0
+            continue
+        i = first + j
+        valid[j] = -1
+        for k in range(3):
+            packet[(ORG + k) * width + j] = o[i, k]
+            packet[(DIR + k) * width + j] = d[i, k]
+        packet[TNEAR * width + j] = 0.0
+        packet[TIME * width + j] = 0.0
+        packet[TFAR * width + j] = far[i]
+        words[MASK * width + j] = -1
+        words[ID * width + j] = 0
+        words[FLAGS * width + j] = 0
+        words[GEOM_ID * width + j] = INVALID
+        words[INST_ID * width + j] = INVALID
+
+
+@kernel
+def trace_packet(function, embree, rays, first, packet, valid, args):
+    """Pack the rays of ``rays`` from ``first`` on (a packet's worth at most) and call Embree's
+    ``function`` (the address of rtcIntersectN or rtcOccludedN) on them; returns how many."""
+    count = min(embree.width, rays.far.shape[0] - first)
+    pack(rays, first, count, embree.width, packet, valid)
+    call4(function, address(valid), embree.scene, address(packet), args)
+    return count
+
+
+@kernel
+def closest_hits(embree, rays, coherent, out):
+    """Embree's closest hit of every ray of ``rays`` (a
+    :class:`raytrace.kernels.records.EmbreeRays`) in ``embree`` (a
+    :class:`raytrace.kernels.records.EmbreeScene`), in packets: geomID (−1 on a miss),
+    primID and the barycentrics u, v into ``out`` (a
+    :class:`raytrace.kernels.records.EmbreeHits`), as embreex's ``run(..., output=1)``."""
+    width, (packet, valid, args) = embree.width, packet_room(embree, coherent)
+    words = packet.view(np.int32)
+    for first in range(0, rays.far.shape[0], width):
+        count = trace_packet(embree.intersect, embree, rays, first, packet, valid, args)
+        for j in range(count):
+            i = first + j
+            out.geom_id[i] = words[GEOM_ID * width + j]
+            out.prim_id[i] = words[PRIM_ID * width + j]
+            out.u[i] = packet[U * width + j]
+            out.v[i] = packet[V * width + j]
+
+
+@kernel
+def any_hits(embree, rays, coherent, out):
+    """Whether anything lies on each ray of ``rays`` before its ``far`` (Embree's occlusion
+    query, in packets): ``out[i]`` is :data:`BLOCKED` or :data:`FREE` (int32, as embreex's
+    OCCLUDED answer). Embree marks an occluded ray by setting its tfar to −inf."""
+    width, (packet, valid, args) = embree.width, packet_room(embree, coherent)
+    for first in range(0, rays.far.shape[0], width):
+        count = trace_packet(embree.occluded, embree, rays, first, packet, valid, args)
+        for j in range(count):
+            out[first + j] = BLOCKED if packet[TFAR * width + j] == -np.inf else FREE

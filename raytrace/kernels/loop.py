@@ -1,0 +1,459 @@
+"""The render loop, compiled: every depth of a pass's rays in one ``nogil`` call.
+
+:func:`trace_paths` takes a pass's camera rays and does, depth after depth and without
+returning to Python, what :class:`raytrace.integrator.WhittedIntegrator`'s loop describes
+(Whitted 1980; seed 003's trace/shade pseudocode): the closest hits (analytic shapes in
+float64, Embree's packets, the float64 re-solve of mesh hits and the re-trace past float32
+artefacts), the background of the misses, the surfaces, each light's term and its shadow rays
+(occlusion packets, or the walk through transparent surfaces), the hits' own terms and their
+reflected, refracted and see-through children, the next depth. It calls the same per-batch
+kernels as that loop, in the same order and on the same rows, so each sample adds up the same
+numbers in the same order: the images are bit-identical to it (tests/test_loop.py), for any
+number of threads. Python hands each thread its passes (:meth:`WhittedIntegrator._run`) and
+takes no part between depths; the GIL is held only to start a pass.
+
+A scene compiles only what it uses: the kernels' feature arguments (``meshes``, ``children``,
+textures in the scene record) are None where a scene lacks the feature, as in the Python
+loop, and numba prunes the branches that test them before typing.
+
+Every record it takes is built once per render by :mod:`raytrace.integrator`
+(:class:`raytrace.kernels.records.Tracer`, :class:`raytrace.kernels.records.LightTable`,
+:class:`raytrace.kernels.records.PassSettings`); its counters are the ``--stats`` of the
+pass (:data:`COUNTERS`, :data:`SECONDS`). Timing uses the C library's ``clock_gettime`` by
+address, like Embree's calls (:func:`raytrace.kernels.embree.call4`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic, overload
+
+from . import accel as ak
+from . import aov as aovk
+from . import core
+from . import embree as ek
+from . import rays as rk
+from . import shading as sk
+from .jit import kernel
+from .kinds import NO_SHAPE, PRUNED, REFLECTION, REFRACTION, SEE_THROUGH
+from .records import (
+    Children,
+    EmbreeHits,
+    EmbreeRays,
+    Emitter,
+    Hits,
+    Local,
+    Query,
+    Rays,
+    Redo,
+    SampleSums,
+    Scene,
+    ShadowQuery,
+    Shadows,
+    ShadowWalk,
+    Spawned,
+    Surface,
+)
+
+#: Most second passes of a query over the rays whose hits were float32 artefacts.
+MAX_RETRACES = 4
+#: Most surfaces a transparent shadow ray passes through before it counts as blocked.
+MAX_SHADOW_CROSSINGS = 64
+#: The counters a pass adds to, by column of its int64 ``counters`` array: rays of each kind
+#: (kinds.CAMERA … SEE_THROUGH: columns 0–3), then these.
+SHADOW_RAYS, PRUNED_DEPTH, PRUNED_WEIGHT, TIR = 4, 5, 6, 7
+COUNTERS = 8
+#: Its float64 ``seconds``: time spent tracing (Embree and the analytic shapes), and shading.
+TRACE_SECONDS, SHADE_SECONDS = 0, 1
+SECONDS = 2
+#: Where a ray has no bound (an empty column).
+NO_TMAX = np.empty(0)
+F32_MAX = float(np.finfo(np.float32).max)
+
+
+@intrinsic
+def _clock(typingctx, function, clock_id, timespec):
+    """Call ``clock_gettime(clock_id, timespec)`` at address ``function``."""
+    sig = types.int32(function, clock_id, timespec)
+
+    def codegen(context, builder, signature, args):
+        i32, pointer = ir.IntType(32), ir.IntType(8).as_pointer()
+        fnty = ir.FunctionType(i32, [i32, pointer])
+        f = builder.inttoptr(args[0], fnty.as_pointer())
+        return builder.call(f, [builder.trunc(args[1], i32), builder.inttoptr(args[2], pointer)])
+
+    return sig, codegen
+
+
+@kernel
+def now(settings, timespec):
+    """Seconds of the monotonic clock (0 where no ``clock_gettime`` was found)."""
+    if settings.clock == 0:
+        return 0.0
+    _clock(settings.clock, settings.clock_id, ek.address(timespec))
+    return timespec[0] + 1e-9 * timespec[1]
+
+
+@kernel
+def emitter_at(table, e):
+    """Emitter ``e`` of ``table.rows`` (a :class:`raytrace.kernels.records.LightTable`) as
+    the light pass takes it (:class:`raytrace.kernels.records.Emitter`, field by field)."""
+    r = table.rows[e]
+    return Emitter(r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10], r[11],
+                   r[12], r[13], r[14], r[15], r[16], r[17], r[18], r[19], r[20])
+
+
+# -- queries ---------------------------------------------------------------------------------
+@kernel
+def closest_triangles(tracer, query, hits):
+    """Embree's closest hits of ``query``'s rays written into ``hits`` where a triangle comes
+    before the analytic hit (and ``tmax``), with the float64 re-solve and up to
+    :data:`MAX_RETRACES` second passes past float32 artefacts
+    (``raytrace.accel.Accelerator._closest_triangles``, the same steps)."""
+    n = query.origin.shape[0]
+    rays = EmbreeRays(np.empty((n, 3), np.float32), np.empty((n, 3), np.float32),
+                      np.empty(n, np.float32))
+    ak.embree_rays(query, hits.t, rays)
+    redo = Redo(np.empty(n, np.int64), np.empty(n))
+    traced = Redo(np.empty(0, np.int64), np.empty(0))
+    for _ in range(MAX_RETRACES + 1):
+        m = rays.far.shape[0]
+        out = EmbreeHits(np.empty(m, np.int32), np.empty(m, np.int32), np.empty(m, np.float32),
+                         np.empty(m, np.float32))
+        ek.closest_hits(tracer.embree, rays, False, out)  # answers as single rays would
+        k = ak.refine_hits(out, traced, tracer.scene.triangles, query, hits, redo)
+        if k == 0:
+            return
+        kept = Redo(np.empty(k, np.int64), np.empty(k))
+        again = EmbreeRays(np.empty((k, 3), np.float32), np.empty((k, 3), np.float32),
+                           np.empty(k, np.float32))
+        k = ak.retrace_rays(Redo(redo.rows[:k], redo.adv[:k]), query, hits.t,
+                            again, kept)
+        if k == 0:
+            return
+        traced = Redo(kept.rows[:k], kept.adv[:k])
+        rays = EmbreeRays(again.origin[:k], again.direction[:k], again.far[:k])
+
+
+@kernel
+def intersect(tracer, origin, direction, origin_shape, tmax):
+    """Closest hit of each ray with ``0 < t < tmax`` (``tmax`` empty: unbounded), analytic
+    shapes first, then Embree (``raytrace.accel.Accelerator.intersect``)."""
+    n = origin.shape[0]
+    t, shape = np.empty(n), np.empty(n, np.int64)
+    has_tmax = tmax.shape[0] > 0
+    if tracer.shapes.kind.shape[0] == 0:
+        t[:] = np.inf
+        shape[:] = NO_SHAPE
+    else:
+        ak.closest_analytic(origin, direction, origin_shape, tmax, has_tmax,
+                            tracer.shapes, t, shape)
+    triangle = np.full(n, -1, np.int64)
+    uv = np.zeros((n, 2))
+    hits = Hits(t, shape, triangle, uv)
+    if tracer.meshes and n:
+        closest_triangles(tracer, Query(origin, direction, tmax, has_tmax), hits)
+    return hits
+
+
+@kernel
+def occluded(tracer, origin, direction, origin_shape, tmax, coherent):
+    """True where something lies in ``(0, tmax)`` (``raytrace.accel.Accelerator.occluded``:
+    the analytic shapes' any-hit pass, Embree's occlusion packets, and closest-hit queries
+    for the blocked rays that start on a triangle)."""
+    n = origin.shape[0]
+    blocked = np.empty(n, np.bool_)
+    m = n if tracer.meshes else 0
+    idx = np.empty(m, np.int64)
+    rays = EmbreeRays(np.empty((m, 3), np.float32), np.empty((m, 3), np.float32),
+                      np.empty(m, np.float32))
+    k = ak.shadow_prepass(ShadowQuery(origin, direction, origin_shape, tmax), tracer.shapes,
+                          tracer.meshes, blocked, idx, rays)
+    if k:
+        result = np.empty(k, np.int32)
+        ek.any_hits(tracer.embree, EmbreeRays(rays.origin[:k], rays.direction[:k],
+                                              rays.far[:k]), coherent, result)
+        recheck = np.empty(k, np.int64)
+        j = ak.occlusion(idx[:k], result, origin_shape, blocked, recheck)
+        if j:
+            o, d, lim = np.empty((j, 3)), np.empty((j, 3)), np.empty(j)
+            for r in range(j):
+                i = recheck[r]
+                for c in range(3):
+                    o[r, c], d[r, c] = origin[i, c], direction[i, c]
+                lim[r] = tmax[i]
+            t = np.full(j, np.inf)
+            closest_triangles(tracer, Query(o, d, lim, True),
+                              Hits(t, np.full(j, NO_SHAPE, np.int64), np.empty(j, np.int64),
+                                   np.empty((j, 2))))
+            for r in range(j):
+                blocked[recheck[r]] = math.isfinite(t[r])
+    return blocked
+
+
+@kernel
+def surfaces(tracer, hits, origin, direction):
+    """Points, normals and materials at the hits (every row a hit): ``hit_surfaces``."""
+    n = hits.t.shape[0]
+    surface = Surface(np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)),
+                      np.empty(n, np.int64), np.empty(n), hits.shape, hits.triangle, hits.uv)
+    ak.hit_surfaces(hits, origin, direction, tracer.shapes, tracer.scene.triangles, surface)
+    return surface
+
+
+# -- one depth -------------------------------------------------------------------------------
+@kernel
+def shadow(tracer, settings, shadows, k, coherent, tally):
+    """The shadow factors of the first ``k`` rays of ``shadows`` (a
+    :class:`raytrace.kernels.records.Shadows`), (k, 3): 0 or 1 from the occlusion query in an
+    opaque scene, else the product of ``t·kt + (1 − t)`` over the surfaces each walks
+    through (seed 003; ``WhittedIntegrator.shadow``): returns the rows, the factors and, in
+    an opaque scene, the occlusion flags instead (no factor rows). ``coherent``: the rays go
+    from neighbouring hits to one point (Embree's packets as frusta)."""
+    counters, seconds, timespec = tally.counters, tally.seconds, tally.timespec
+    rows, origin, direction = shadows.rows[:k], shadows.origin[:k], shadows.direction[:k]
+    tmax, shape = shadows.tmax[:k], shadows.shape[:k]
+    counters[SHADOW_RAYS] += k
+    t0 = now(settings, timespec)
+    if not tracer.any_transparent:
+        blocked = occluded(tracer, origin, direction, shape, tmax, coherent)
+        seconds[TRACE_SECONDS] += now(settings, timespec) - t0
+        return rows, np.empty((0, 3)), blocked
+    factor = np.ones((k, 3))
+    live = np.arange(k)
+    walked = False
+    for _ in range(MAX_SHADOW_CROSSINGS):
+        hits = intersect(tracer, origin, direction, shape, tmax)
+        t, hit_shape, triangle, uv, origin, direction, tmax, live = sk.crossing_rays(
+            hits, origin, direction, tmax, live)
+        if live.shape[0] == 0:
+            walked = True
+            break
+        s2 = surfaces(tracer, Hits(t, hit_shape, triangle, uv), origin, direction)
+        origin, direction, shape, tmax, live = sk.cross_surfaces(
+            factor, live, s2, ShadowWalk(direction, t, tmax), tracer.scene)
+        if live.shape[0] == 0:
+            walked = True
+            break
+        counters[SHADOW_RAYS] += live.shape[0]
+    if not walked:
+        for r in range(live.shape[0]):
+            factor[live[r], 0] = factor[live[r], 1] = factor[live[r], 2] = 0.0
+    seconds[TRACE_SECONDS] += now(settings, timespec) - t0
+    return rows, factor, np.empty(0, np.bool_)
+
+
+@kernel
+def direct_lighting(tracer, lights, settings, rays, depth, keys, surf, tally):
+    """Σ_l S_l · f_l · I_l · [kd·max(N·L, 0) + ks·spec] at every hit, (n, 3): per emitter,
+    the light pass and its shadow rays (``WhittedIntegrator.direct_lighting``). ``keys``: each
+    pass sample's jitter key (no rows: no jittered light); ``tally``: the pass's
+    :class:`raytrace.kernels.records.Tally`."""
+    n = rays.origin.shape[0]
+    out = np.zeros((n, 3))
+    term = np.empty((n, 3))
+    shadows = Shadows(np.empty(n, np.int64), np.empty((n, 3)), np.empty((n, 3)), np.empty(n),
+                      np.empty(n, np.int64))
+    key = np.empty(0, np.int64)
+    if keys.shape[0]:
+        key = np.empty(n, np.int64)
+        for i in range(n):
+            key[i] = keys[rays.sample[i]]
+        if depth > 0:  # each path of a sample its own points
+            path = np.empty(n, np.int64)
+            core.path_keys(key, rays.origin.view(np.uint64), rays.direction.view(np.uint64),
+                           path)
+            key = path
+    scene = tracer.scene
+    for e in range(lights.rows.shape[0]):
+        em = emitter_at(lights, e)
+        words = np.empty(0, np.int64)
+        if em.stream >= 0 and key.shape[0]:
+            words = np.empty(n, np.int64)
+            core.light_words(key, np.int64(em.stream), np.int64(depth), words)
+        fast = lights.fast[lights.fast_first[e]:lights.fast_first[e + 1]]
+        tables = Scene(scene.origin, scene.materials, scene.triangles, fast, scene.texcoords)
+        k = sk.light_pass(rays, surf, tables, em, words, light_depth(tracer.shaded, depth),
+                          term, shadows)
+        if k:  # the camera rays' hits send coherent shadow rays to a point
+            rows, factor, blocked = shadow(tracer, settings, shadows, k,
+                                           depth == 0 and em.stream < 0, tally)
+            if factor.shape[0]:
+                sk.add_light(out, rows, term, factor, lights.color[e])
+            else:
+                sk.add_unblocked(out, rows, term, blocked, lights.color[e])
+    return out
+
+
+@kernel
+def spawn(rays, surf, children):
+    """The children whose status is KEEP, reflected then refracted then see-through, each in
+    hit order (``WhittedIntegrator._spawn``): a new batch of rays."""
+    per_kind = sk.count_keep(children.status)
+    first = np.zeros(3, np.int64)
+    first[1] = per_kind[0]
+    first[2] = per_kind[0] + per_kind[1]
+    k = per_kind[0] + per_kind[1] + per_kind[2]
+    out = Spawned(np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3)), np.empty(k, np.int64),
+                  np.empty(k, np.int64), np.empty(k, np.int8), np.empty(k, np.int64))
+    kinds = np.array([REFLECTION, REFRACTION, SEE_THROUGH], np.int8)
+    sk.spawn_children(children, rays, surf, first, kinds, out)
+    return Rays(out.origin, out.direction, out.sample, out.weight, out.shape, out.kind)
+
+
+@kernel
+def trace_depth(tracer, lights, settings, rays, depth, pass_io, tally):
+    """One depth of a batch: intersect, add the background of the misses and the local terms
+    of the hits into ``pass_io``'s sums, return the next depth's rays
+    (``WhittedIntegrator.trace`` and ``shade``). ``pass_io``: a
+    :class:`raytrace.kernels.records.PassIO`; ``tally``: a
+    :class:`raytrace.kernels.records.Tally`."""
+    samples, keys, aov = pass_io.samples, pass_io.keys, pass_io.aov
+    counters, seconds, timespec = tally.counters, tally.seconds, tally.timespec
+    n = rays.origin.shape[0]
+    rk.count_kinds(rays.kind, counters)
+    t0 = now(settings, timespec)
+    hits = intersect(tracer, rays.origin, rays.direction, rays.origin_shape, NO_TMAX)
+    seconds[TRACE_SECONDS] += now(settings, timespec) - t0
+    found, missed = np.empty(n, np.int64), np.empty(n, np.int64)
+    k = rk.split_hits(hits.t, found, missed)
+    if n - k and settings.any_background:
+        sk.accumulate(samples, rays.sample, rays.weight, settings.background,
+                      missed[:n - k])
+    if k == 0:
+        return no_rays()
+    t1 = now(settings, timespec)
+    trace_before = seconds[TRACE_SECONDS]
+    if k < n:  # compaction: only the hits go on
+        taken = Rays(np.empty((k, 3)), np.empty((k, 3)), np.empty(k, np.int64),
+                     np.empty((k, 3)), np.empty(k, np.int64), np.empty(k, np.int8))
+        kept = Hits(np.empty(k), np.empty(k, np.int64), np.empty(k, np.int64),
+                    np.empty((k, 2)))
+        rk.take_hits(found[:k], rays, hits, taken, kept)
+        rays, hits = taken, kept
+    surf = surfaces(tracer, hits, rays.origin, rays.direction)
+    if depth == 0 and aov.shape[0]:
+        aovk.aov_hits(rays, hits.t, surf, tracer.scene, tracer.objects, tracer.aov_layout, aov)
+    lit = np.empty((0, 3))
+    if tracer.lit:
+        lit = direct_lighting(tracer, lights, settings, rays, depth, keys, surf, tally)
+    m = rays.origin.shape[0]
+    children = room_for_children(tracer.children, m)
+    sk.hit_terms(rays, surf, tracer.scene, Local(settings.ambient, lit), settings.min_weight,
+                 SampleSums(samples, rays.sample), children)
+    result = next_depth(children, rays, surf, depth, settings, counters)
+    seconds[SHADE_SECONDS] += now(settings, timespec) - t1 - (
+        seconds[TRACE_SECONDS] - trace_before)
+    return result
+
+
+def no_rays():
+    """An empty batch."""
+    return Rays(np.empty((0, 3)), np.empty((0, 3)), np.empty(0, np.int64), np.empty((0, 3)),
+                np.empty(0, np.int64), np.empty(0, np.int8))
+
+
+@overload(no_rays, inline="always")
+def _no_rays():
+    return no_rays
+
+
+# -- what a scene leaves out, chosen by type (numba.extending.overload) -----------------------
+# A feature field of the Tracer record is None where the scene lacks the feature; each helper
+# below has one implementation per type, so only the one the scene needs is compiled (as the
+# Python loop passes None to the same kernels).
+def light_depth(shaded, depth):
+    """The light pass's ``depth``: None in a scene without triangles and image textures (its
+    mesh and texture code is then not compiled), else the rays' depth."""
+    return None if shaded is None else depth
+
+
+@overload(light_depth, inline="always")
+def _light_depth(shaded, depth):
+    if isinstance(shaded, types.NoneType):
+        return lambda shaded, depth: None
+    return lambda shaded, depth: depth
+
+
+def room_for_children(children, m):
+    """Room for the children of ``m`` hits (a :class:`raytrace.kernels.records.Children`),
+    or None in a scene where nothing reflects or transmits."""
+    if children is None:
+        return None
+    return Children(np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3)),
+                    np.empty((m, 3)), np.empty((m, 3), np.int8), np.empty(m, np.bool_))
+
+
+@overload(room_for_children, inline="always")
+def _room_for_children(children, m):
+    if isinstance(children, types.NoneType):
+        return lambda children, m: None
+    return lambda children, m: Children(
+        np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3)),
+        np.empty((m, 3)), np.empty((m, 3), np.int8), np.empty(m, np.bool_))
+
+
+def next_depth(children, rays, surf, depth, settings, counters):
+    """The next depth's rays: none without children; else the KEEP children, the ones past
+    ``max_depth`` counted as pruned by depth, those under ``min_weight`` by weight (Hall &
+    Greenberg 1983), and the total internal reflections of the depths that go on."""
+    if children is None:
+        return no_rays()
+    status = children.status
+    if depth + 1 > settings.max_depth:
+        counters[PRUNED_DEPTH] += np.count_nonzero(status)
+        return no_rays()
+    counters[TIR] += np.count_nonzero(children.tir)
+    pruned = 0
+    for i in range(status.shape[0]):
+        for c in range(3):
+            pruned += status[i, c] == PRUNED
+    counters[PRUNED_WEIGHT] += pruned
+    return spawn(rays, surf, children)
+
+
+@overload(next_depth, inline="always")
+def _next_depth(children, rays, surf, depth, settings, counters):
+    if isinstance(children, types.NoneType):
+        return lambda children, rays, surf, depth, settings, counters: no_rays()
+    return next_depth
+
+
+@kernel
+def trace_paths(tracer, lights, settings, camera, pass_io, tally):
+    """Add into ``pass_io``'s sums everything the pass's ``camera`` rays (a
+    :class:`raytrace.kernels.records.Rays`, one per sample, sample = row) see, depth by
+    depth (``WhittedIntegrator._trace_batch``): a batch grown past ``settings.per_pass`` rays
+    is cut into chunks that keep each sample's rays together (``rays.sample_chunks``),
+    finished one after another, so memory stays bounded by the pass size × max depth and each
+    sample's sum is added up in the same order whatever the pass size, the crop or the
+    threads. ``pass_io``: the pass's sums, jitter keys and AOV table (a
+    :class:`raytrace.kernels.records.PassIO`); ``tally``: its counters (a
+    :class:`raytrace.kernels.records.Tally`)."""
+    n = camera.origin.shape[0]
+    pending = [camera]
+    depths = [0]
+    while len(pending):
+        rays = pending.pop()
+        depth = depths.pop()
+        m = rays.origin.shape[0]
+        if m > settings.per_pass:
+            chunk = np.empty(m, np.int64)
+            count = rk.sample_chunks(rays.sample, n, settings.per_pass, chunk)
+            out = Rays(np.empty((m, 3)), np.empty((m, 3)), np.empty(m, np.int64),
+                       np.empty((m, 3)), np.empty(m, np.int64), np.empty(m, np.int8))
+            bounds = rk.gather_chunks(chunk, count, rays, out)
+            for c in range(count - 1, -1, -1):
+                a, b = bounds[c], bounds[c + 1]
+                pending.append(Rays(out.origin[a:b], out.direction[a:b], out.sample[a:b],
+                                    out.weight[a:b], out.origin_shape[a:b], out.kind[a:b]))
+                depths.append(depth)
+            continue
+        children = trace_depth(tracer, lights, settings, rays, depth, pass_io, tally)
+        if children.origin.shape[0]:
+            pending.append(children)
+            depths.append(depth + 1)

@@ -1,0 +1,163 @@
+"""Embree called directly (raytrace/embree.py, raytrace/kernels/embree.py): the same hits as
+embreex's own ``run`` on the same scene and rays, arrays owned by the scene, and every check
+that keeps a wrong library from crashing a user's process ends in one line."""
+
+from __future__ import annotations
+
+import gc
+
+import numpy as np
+import pytest
+import trimesh
+
+import raytrace
+from raytrace import cli, embree
+from raytrace.errors import EngineError
+from raytrace.kernels import embree as ek
+from raytrace.kernels.records import EmbreeHits, EmbreeRays
+
+
+def mesh_arrays(seed: int = 0) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Two meshes: a sphere of 1280 triangles and a bumpy plane, float64 vertices."""
+    sphere = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    rng = np.random.default_rng(seed)
+    xs = np.linspace(-3, 3, 9)
+    grid = np.array([[x, -1.2 + 0.1 * rng.standard_normal(), z] for z in xs for x in xs])
+    faces = [[i * 9 + j, i * 9 + j + 1, (i + 1) * 9 + j] for i in range(8) for j in range(8)]
+    faces += [[i * 9 + j + 1, (i + 1) * 9 + j + 1, (i + 1) * 9 + j]
+              for i in range(8) for j in range(8)]
+    return [(np.asarray(sphere.vertices, np.float64), np.asarray(sphere.faces, np.int64)),
+            (grid, np.asarray(faces, np.int64))]
+
+
+def random_rays(n: int, seed: int = 1) -> EmbreeRays:
+    rng = np.random.default_rng(seed)
+    origin = rng.uniform(-4, 4, (n, 3)).astype(np.float32)
+    target = rng.uniform(-1.5, 1.5, (n, 3))
+    d = target - origin
+    direction = (d / np.linalg.norm(d, axis=1)[:, None]).astype(np.float32)
+    far = np.where(rng.random(n) < 0.2, rng.uniform(0.5, 5, n),
+                   np.finfo(np.float32).max).astype(np.float32)
+    return EmbreeRays(origin, direction, far)
+
+
+def embreex_answers(meshes, rays: EmbreeRays):
+    """embreex's own closest hits and occlusion flags of the same rays."""
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh
+
+    scene = rtcore_scene.EmbreeScene(robust=True)
+    for v, f in meshes:
+        TriangleMesh(scene, v, f)
+    closest = scene.run(rays.origin, rays.direction, dists=rays.far.copy(), output=1)
+    blocked = scene.run(rays.origin, rays.direction, dists=rays.far.copy(), query="OCCLUDED")
+    return closest, blocked
+
+
+@pytest.mark.parametrize("coherent", [False, True])
+def test_hits_are_embreexs(coherent):
+    """Closest hits (geomID, primID, u, v) and occlusion of 4000 random rays, some bounded,
+    match embreex's single rays; ties on shared edges aside, the packet form may only differ
+    where two triangles are hit at the same distance."""
+    meshes = mesh_arrays()
+    rays = random_rays(4000)
+    scene = embree.Meshes(meshes, threads=2)
+    n = len(rays.far)
+    hits = EmbreeHits(np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.float32),
+                      np.empty(n, np.float32))
+    ek.closest_hits(scene.record, rays, coherent, hits)
+    blocked = np.empty(n, np.int32)
+    ek.any_hits(scene.record, rays, coherent, blocked)
+    closest, occluded = embreex_answers(meshes, rays)
+    assert 1000 < (closest["geomID"] >= 0).sum() < n - 100  # both hits and misses
+    assert np.array_equal(hits.geom_id, closest["geomID"])
+    hit = closest["geomID"] >= 0  # primID, u and v are only an answer where a ray hits
+    assert np.array_equal(hits.prim_id[hit], closest["primID"][hit])
+    assert np.array_equal(hits.u[hit], closest["u"][hit])
+    assert np.array_equal(hits.v[hit], closest["v"][hit])
+    assert np.array_equal(blocked == ek.BLOCKED, occluded == 0)
+
+
+def test_scene_owns_its_arrays():
+    """Embree reads the vertex and index arrays in place: the scene keeps its own copies, so
+    the caller's arrays may go (and be overwritten) without changing a hit."""
+    meshes = mesh_arrays()
+    rays = random_rays(500)
+    scene = embree.Meshes([(v.copy(), f.copy()) for v, f in meshes])
+    gc.collect()
+    junk = [np.full((len(v), 3), np.nan) for v, _ in meshes]  # reuse the freed memory
+    n = len(rays.far)
+    hits = EmbreeHits(np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.float32),
+                      np.empty(n, np.float32))
+    ek.closest_hits(scene.record, rays, False, hits)
+    closest, _ = embreex_answers(meshes, rays)
+    assert np.array_equal(hits.geom_id, closest["geomID"]) and len(junk) == 2
+    hit = closest["geomID"] >= 0
+    assert np.array_equal(hits.prim_id[hit], closest["primID"][hit])
+
+
+@pytest.fixture
+def fresh_library(monkeypatch):
+    """The library is loaded and checked again by the test (and again after it)."""
+    monkeypatch.setattr(embree, "_library", None)
+    yield
+    embree._library = None
+
+
+def mesh_scene() -> raytrace.Scene:
+    v, f = mesh_arrays()[0]
+    return raytrace.Scene(objects=[raytrace.Mesh(vertices=v, faces=f)],
+                          camera=raytrace.Camera(position=[0, 0, 5], look_at=[0, 0, 0]))
+
+
+def test_unchecked_version_is_one_line(fresh_library, monkeypatch):
+    """An Embree whose layouts were not checked is refused before any traversal, naming the
+    embreex release that works."""
+    monkeypatch.setattr(embree, "CHECKED_VERSIONS", range(40500, 40600))
+    with pytest.raises(EngineError) as e:
+        raytrace.render(mesh_scene(), width=8, height=6, threads=1)
+    message = str(e.value)
+    assert "ships Embree 4.4.0" in message and "checked against that only" in message
+    assert "install embreex 4.4.0.post1 (pip install 'embreex>=4.4,<4.5')" in message
+    assert "\n" not in message
+
+
+def test_cli_says_it_in_one_line(fresh_library, monkeypatch, tmp_path, capsys):
+    monkeypatch.setattr(embree, "CHECKED_VERSIONS", range(30000, 30100))
+    scene = tmp_path / "s.toml"
+    scene.write_text('[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n'
+                     '[[objects]]\ntype = "mesh"\nfile = "m.obj"\n')
+    trimesh.creation.box().export(tmp_path / "m.obj")
+    status = cli.main(["render", str(scene), "-o", str(tmp_path / "out.exr"),
+                       "--width", "8", "--height", "6", "-q"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == cli.EXIT_ENGINE == 3
+    assert len(err) == 1 and err[0].startswith("raytrace: error: embreex ")
+    assert "install embreex 4.4.0.post1" in err[0]
+    assert not (tmp_path / "out.exr").exists()
+
+
+def test_layout_probe_catches_another_layout(fresh_library, monkeypatch):
+    """Where Embree writes u is not where the probe reads it: refused in one line."""
+    monkeypatch.setattr(ek, "U", ek.V)
+    with pytest.raises(EngineError, match="did not answer a known ray as raytrace reads"):
+        embree.library()
+
+
+def test_out_of_memory_is_one_line(monkeypatch):
+    """Embree's memory monitor refuses a build beyond the memory available; the build ends
+    with one line, and a build within it reports its bytes."""
+    monkeypatch.setattr(embree, "available_bytes", lambda: 1000)
+    with pytest.raises(EngineError, match=r"failed building the BVH: out of memory"):
+        embree.Meshes(mesh_arrays())
+    monkeypatch.undo()
+    scene = embree.Meshes(mesh_arrays())
+    assert scene.bytes > 1000
+
+
+def test_device_per_thread_count():
+    """Each --threads gets its own device (Embree builds on that many threads)."""
+    lib = embree.library()
+    assert embree.Meshes(mesh_arrays(), threads=1).device.threads == 1
+    assert embree.Meshes(mesh_arrays(), threads=3).device is lib.device(3)
+    assert lib.device(3) is not lib.device(1)
