@@ -424,14 +424,13 @@ class Timers:
 
 
 def python_loop(on: bool = True) -> None:
-    """Run renders through the integrator's Python loop (``on``) or the compiled one: the
-    per-stage and per-kernel breakdowns time the steps from Python, which the compiled loop
-    (``raytrace.kernels.loop.trace_paths``) runs inside one call. Both call the same kernels
-    in the same order (tests/test_loop.py); the Python loop adds its own overhead between
-    them, reported as ``python_seconds``."""
+    """Run renders through the integrator's Python loop (``on``), or as configured again
+    (``RAYTRACE_LOOP``): the per-stage and per-kernel breakdowns and the recorder time and see
+    the steps from Python, which the compiled loop (``raytrace.kernels.loop.trace_paths``)
+    runs inside one call. Both call the same kernels in the same order (tests/test_loop.py)."""
     from raytrace import integrator
 
-    integrator.WhittedIntegrator.compiled = not on
+    integrator.WhittedIntegrator.compiled = False if on else integrator.COMPILED_LOOP
 
 
 def time_embree(timers: Timers) -> Callable[[], None]:

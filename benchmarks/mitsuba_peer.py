@@ -15,10 +15,12 @@ traces the frame's rays as wavefronts of packets through Embree (/work/shared/EM
 embreex calls Embree one ray at a time), in kernels Dr.Jit compiles to LLVM on the first
 render and keeps in memory.
 
-Reported, all in one process and one run: Mitsuba's load (BVH build included), its first
-render (kernel compilation included) and its best warm render out of ``repeat``; raytrace's
-best warm render of the same scene (kernels loaded, BVH rebuilt in each render) and the part
-of it without the build (the ``--stats`` ``build`` seconds taken out).
+Reported, in one run: Mitsuba's load (BVH build included), its first render (kernel
+compilation included) and its best warm render out of ``repeat``, in a process of its own
+(:func:`in_child`: Mitsuba's Embree and LLVM never share a process with raytrace's Embree and
+numba's LLVM; the two in one process aborted); raytrace's best warm render of the same scene
+in this process (kernels loaded, BVH kept) and the part of it without the build (the
+``--stats`` ``build`` seconds taken out).
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import json
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -84,7 +87,7 @@ def mitsuba_frame(ply: Path, width: int, height: int, threads: int, repeat: int 
     mi.set_variant(VARIANT)
     dr.set_thread_count(threads)
     t0 = time.perf_counter()
-    scene = mi.load_dict(scene_dict(ply, width, height))
+    scene = mi.load_dict(scene_dict(Path(ply), width, height))
     load = time.perf_counter() - t0
 
     def frame() -> float:
@@ -101,6 +104,32 @@ def mitsuba_frame(ply: Path, width: int, height: int, threads: int, repeat: int 
         mi.util.write_bitmap(str(png), frame.image)
     return {"variant": VARIANT, "version": mi.__version__, "threads": threads,
             "load_seconds": load, "first_render_seconds": first, "warm_seconds": warm}
+
+
+def in_child(function: str, *args) -> dict:
+    """``function(*args)`` of this module run in a fresh Python process (arguments and result
+    through JSON; paths as strings)."""
+    code = (f"import json, sys; sys.path.insert(0, {str(HERE)!r}); import mitsuba_peer; "
+            f"print(json.dumps(mitsuba_peer.{function}(*json.loads(sys.argv[1]))))")
+    out = subprocess.run([sys.executable, "-c", code, json.dumps([str(a) if isinstance(a, Path)
+                                                                  else a for a in args])],
+                         capture_output=True, text=True, check=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def mitsuba_images(ply: str, width: int, height: int, out: str) -> dict:
+    """Mitsuba's 16-spp image and depth AOV of the mesh scene, saved to ``out`` (.npz):
+    for :func:`in_child`."""
+    import mitsuba as mi
+    import numpy as np
+
+    mi.set_variant(VARIANT)
+    spec = scene_dict(Path(ply), width, height)
+    image = np.array(mi.render(mi.load_dict(spec), spp=16), dtype=np.float64)
+    spec["integrator"] = {"type": "aov", "aovs": "d:depth"}
+    depth = np.array(mi.render(mi.load_dict(spec), spp=16), dtype=np.float64)[..., 0]
+    np.savez(out, image=image, depth=depth)
+    return {"out": out}
 
 
 def raytrace_frame(scene_path: Path, width: int, height: int, threads: int,
@@ -129,7 +158,7 @@ def compare(workdir: Path, threads: int, quick: bool = False, repeat: int = 3) -
         return {"missing": missing}
     workdir.mkdir(parents=True, exist_ok=True)
     scene_path = write_mesh_scene(workdir)
-    mit = mitsuba_frame(workdir / "sphere.ply", w, h, threads, repeat)
+    mit = in_child("mitsuba_frame", workdir / "sphere.ply", w, h, threads, repeat)
     rt = raytrace_frame(scene_path, w, h, threads, repeat)
     return {"scene": "mesh", "width": w, "height": h, "threads": threads, "mitsuba": mit,
             "raytrace": rt, "ratio": rt["warm_seconds"] / mit["warm_seconds"],

@@ -60,7 +60,8 @@ class Accelerator:
 
     #: Benchmark hook (off by default): when set, ``recorder(query, origins, directions, tfar)``
     #: is called for every :meth:`intersect` ("INTERSECT") and :meth:`occluded` ("OCCLUDED")
-    #: batch of the integrator's Python loop (the compiled loop's queries are the same) with fresh float32 arrays (n, 3), (n, 3), (n,), tfar = tmax or float32 max.
+    #: batch of the integrator's Python loop (the compiled loop's queries are the same) with
+    #: fresh float32 arrays (n, 3), (n, 3), (n,), tfar = tmax or float32 max.
     #: ``benchmarks/bench.py`` replays them through embreex alone. None costs one test a batch.
     recorder = None
 

@@ -16,11 +16,12 @@ What a scene does not need is left out: no shadow rays without lights or for unl
 an occlusion query unless something is transparent, no reflection or refraction wavefront
 unless some material reflects or transmits.
 
-This module describes the loop and runs it two ways, step for step the same: compiled, every
-depth of a pass in one ``nogil`` call (:func:`raytrace.kernels.loop.trace_paths`: how every
-render runs), and here in Python, batch by batch (what ``raytrace explain``'s observer watches,
-and the debug checks), each step a compiled pass over the batch (:mod:`raytrace.kernels.shading`,
-:mod:`raytrace.accel`). Both call the same kernels in the same order, so they give the same
+This module describes the loop and runs it two ways, step for step the same: here in Python,
+batch by batch, each step a compiled pass over the batch (:mod:`raytrace.kernels.shading`,
+:mod:`raytrace.accel`: how renders run by default, what ``raytrace explain``'s observer
+watches), and compiled, every depth of a pass in one ``nogil`` call
+(:func:`raytrace.kernels.loop.trace_paths`, with ``RAYTRACE_LOOP=compiled``:
+:data:`COMPILED_LOOP`). Both call the same kernels in the same order, so they give the same
 images bit for bit (tests/test_loop.py). With ``threads`` > 1 the passes run side by side, one
 thread a pass (the kernels and Embree release the GIL), like the image tiles of pbrt or
 Mitsuba: a pass touches only its own samples, each thread has its own scratch arrays and
@@ -59,7 +60,6 @@ from .kernels.records import (
     FAST_COLUMNS,
     AOVLayout,
     Children,
-    EmbreeScene,
     LightTable,
     Local,
     Objects,
@@ -94,13 +94,17 @@ CHILD_KINDS = np.array([REFLECTION, REFRACTION, SEE_THROUGH], np.int8)
 #: Check invariants of every spawned batch (unit directions, finite origins): set
 #: ``RAYTRACE_DEBUG=1`` in the environment. Off by default (it costs a pass over each batch).
 DEBUG = os.environ.get("RAYTRACE_DEBUG", "") not in ("", "0")
+#: Run every pass through the compiled loop (:mod:`raytrace.kernels.loop`): set
+#: ``RAYTRACE_LOOP=compiled``. Off by default: it renders the same images bit for bit, but a
+#: first render compiles for 2.5× as long (40 s for a matte scene against 15 s; numba links
+#: and optimizes every kernel again into each variant of the loop: docs/performance.md,
+#: "The compiled loop").
+COMPILED_LOOP = os.environ.get("RAYTRACE_LOOP", "") == "compiled"
 NO_LIGHT = np.zeros((0, 3))
 #: :func:`add`'s factor for contributions that are already weighted.
 ONE = np.ones((1, 3))
 #: The per-pixel AOV table of a render without AOVs (:func:`raytrace.film.aov.layout`).
 NO_AOV_PIXELS = np.zeros((0, 1))
-#: The Embree record of a scene without meshes (never called).
-NO_EMBREE = EmbreeScene(0, 0, 0, 4, 0, 0)
 
 
 def monotonic_clock() -> tuple[int, int]:
@@ -198,9 +202,10 @@ class WhittedIntegrator:
     #: rendered; with it, a hit's contribution goes through a per-ray row first (the same
     #: additions in the same order, so the same sums).
     observer = None
-    #: Whether passes run the compiled loop (the Python loop runs where this is False, where
-    #: an observer watches, or under ``RAYTRACE_DEBUG``): tests compare the two.
-    compiled = True
+    #: Whether passes run the compiled loop (:data:`COMPILED_LOOP`; the Python loop runs
+    #: where this is False, where an observer watches, or under ``RAYTRACE_DEBUG``): tests
+    #: compare the two.
+    compiled = COMPILED_LOOP
 
     def __init__(self, scene: Scene, options: RenderOptions):
         self.scene = scene
@@ -354,11 +359,13 @@ class WhittedIntegrator:
         """What the compiled loop (:func:`raytrace.kernels.loop.trace_paths`) reads of this
         render: the scene, the lights and the settings, as records."""
         opt, embree = self.opt, self.accel.embree
-        tracer = Tracer(self.arrays.shapes, self.tables,
-                        NO_EMBREE if embree is None else embree.record, embree is not None,
-                        self.objects, self.aov_layout, self.lit, self.any_transparent,
-                        True if "children" in self.features else None,
-                        True if "meshes" in self.features else None)
+        def flag(on: bool) -> bool | None:  # a feature the loop's code is chosen by: None: off
+            return True if on else None
+
+        tracer = Tracer(self.arrays.shapes, self.tables, None if embree is None else embree.record,
+                        embree is not None, self.objects, self.aov_layout, flag(self.lit),
+                        flag(self.any_transparent), flag("children" in self.features),
+                        flag("meshes" in self.features))
         fast = [np.zeros((0, FAST_COLUMNS)), *(f.reshape(-1, FAST_COLUMNS) for f in self.fast)]
         lights = LightTable(
             np.array([tuple(em.record) for em in self.emitters], np.float64).reshape(-1, 21),
@@ -530,7 +537,7 @@ class WhittedIntegrator:
         if self._compiled is None:  # a caller that did not go through render
             self._compiled = self._loop_records()
         tracer, lights, settings = self._compiled
-        keys = NO_KEY
+        keys = None
         if self.jittered:  # each sample's key (raytrace.camera.global_samples, or the points')
             keys = w.keys if w.keys is not None else global_samples(
                 np.arange(w.first_sample, w.first_sample + n), opt.width, opt.spp,
@@ -538,8 +545,8 @@ class WhittedIntegrator:
         tally = Tally(np.zeros(loop.COUNTERS, np.int64), np.zeros(loop.SECONDS),
                       np.zeros(2, np.int64))
         loop.trace_paths(tracer, lights, settings, rays.record,
-                         PassIO(samples, np.ascontiguousarray(keys, np.int64),
-                                w.aov if opt.aovs else NO_AOV_PIXELS), tally)
+                         PassIO(samples, None if keys is None else np.ascontiguousarray(
+                             keys, np.int64), w.aov if opt.aovs else None), tally)
         st, counters = self.stats, tally.counters.tolist()
         for name, count in zip(KIND_NAMES, counters, strict=False):
             st.rays[name] += count

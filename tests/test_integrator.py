@@ -841,18 +841,12 @@ LOADED = """
 import json, sys
 import raytrace
 from raytrace.integrator import WhittedIntegrator
-from raytrace.kernels import loop
 from raytrace.kernels import shading as sk
-scene = raytrace.load_scene(sys.argv[1])
-raytrace.render(scene, width=8, height=6, threads=1)  # the compiled loop
-tracer = loop.trace_paths.signatures[0][0]
-WhittedIntegrator.compiled = False  # the Python loop, kernel by kernel
-raytrace.render(scene, width=8, height=6, threads=1)
-print(json.dumps({**{name: [str(t) for sig in getattr(sk, name).signatures for t in sig]
-                     for name in ("light_pass", "hit_terms", "count_keep", "spawn_children",
-                                  "cross_surfaces", "add_light")},
-                  "tracer": dict(zip(tracer.instance_class._fields,
-                                     (str(t) for t in tracer.types)))}))
+WhittedIntegrator.compiled = False  # the Python loop, kernel by kernel (tests/test_loop.py
+raytrace.render(raytrace.load_scene(sys.argv[1]), width=8, height=6, threads=1)  # : the other)
+print(json.dumps({name: [str(t) for sig in getattr(sk, name).signatures for t in sig]
+                  for name in ("light_pass", "hit_terms", "count_keep", "spawn_children",
+                               "cross_surfaces", "add_light")}))
 """
 
 
@@ -860,9 +854,7 @@ def test_a_diffuse_scene_loads_no_reflection_refraction_or_mesh_kernels():
     # scenes/spotlights.toml: spheres and planes of matte and plastic materials, spot lights,
     # max_depth 2. Its render (loading from numba's cache or compiling) must leave the spawn
     # and transparent-shadow kernels untouched, and take the variants of light_pass without
-    # the triangle/texture code (depth None) and of hit_terms without children (None): in the
-    # compiled loop, whose Tracer record types those features None (kernels/loop.py picks the
-    # code by type), and in the Python loop, kernel by kernel.
+    # the triangle/texture code (depth None) and of hit_terms without children (None).
     out = subprocess.run([sys.executable, "-c", LOADED, str(SCENES / "spotlights.toml")],
                          capture_output=True, text=True, check=True).stdout
     loaded = json.loads(out)
@@ -871,6 +863,3 @@ def test_a_diffuse_scene_loads_no_reflection_refraction_or_mesh_kernels():
     assert loaded["light_pass"][5] == "none"  # depth
     assert loaded["hit_terms"][6] == "none"  # children
     assert len(loaded["light_pass"]) == 8 and len(loaded["hit_terms"]) == 7
-    tracer = loaded["tracer"]
-    assert tracer["children"] == tracer["shaded"] == "none"
-    assert tracer["any_transparent"] == "bool" and tracer["meshes"] == "bool"

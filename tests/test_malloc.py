@@ -51,10 +51,10 @@ def test_tune_sets_both_thresholds_on_glibc():
 
 @pytest.mark.skipif(not GLIBC, reason="mallopt's thresholds are glibc's")
 def test_a_second_render_reuses_the_blocks_of_the_first():
-    # Measured: about 90 minor page faults tuned (first touches of numpy's and numba's small
-    # pools), about 1 400 untuned (every pass's large arrays mmap-ed and unmapped afresh; the
-    # compiled loop allocates fewer of them than the Python loop's 3 000-3 300): the library
-    # alone leaves the allocator as it found it.
+    # Measured: about 90-300 minor page faults tuned (first touches of numpy's and numba's
+    # small pools), 3 000-3 300 untuned (every pass's arrays mmap-ed and unmapped afresh; about
+    # 1 400 with the compiled loop, which allocates fewer): the library alone leaves the
+    # allocator as it found it.
     tuned, untuned = second_render_faults("tuned"), second_render_faults("untuned")
     assert tuned < 1000 and untuned > 5 * tuned, (tuned, untuned)
 

@@ -25,7 +25,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-from .jit import kernel
+from .jit import inline, kernel
 
 # RTCRayHit's fields in 4-byte words (one ray; an N-wide packet holds field k of lane j at
 # word k·N + j): the ray, then the hit (Embree 4.4, RTC_MAX_INSTANCE_LEVEL_COUNT = 1).
@@ -68,7 +68,7 @@ def address(typingctx, array):
     return sig, codegen
 
 
-@kernel
+@inline
 def aligned(words):
     """A float32 array of ``words`` words whose first lies on a 64-byte boundary."""
     buffer = np.empty(words + ALIGN_WORDS, np.float32)
@@ -76,7 +76,7 @@ def aligned(words):
     return buffer[skip:skip + words]
 
 
-@kernel
+@inline
 def packet_room(embree, coherent):
     """An aligned packet (RTCRayHitN words, N = ``embree.width``), its valid mask, and the
     address of the query arguments: with the COHERENT flag or without."""
@@ -85,7 +85,7 @@ def packet_room(embree, coherent):
     return packet, valid, embree.coherent if coherent else embree.incoherent
 
 
-@kernel
+@inline
 def pack(rays, first, count, width, packet, valid):
     """Rays ``first`` to ``first + count`` of ``rays`` (a
     :class:`raytrace.kernels.records.EmbreeRays`) into the lanes of ``packet`` (an
@@ -112,7 +112,7 @@ def pack(rays, first, count, width, packet, valid):
         words[INST_ID * width + j] = INVALID
 
 
-@kernel
+@inline
 def trace_packet(function, embree, rays, first, packet, valid, args):
     """Pack the rays of ``rays`` from ``first`` on (a packet's worth at most) and call Embree's
     ``function`` (the address of rtcIntersectN or rtcOccludedN) on them; returns how many."""

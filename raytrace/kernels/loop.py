@@ -108,8 +108,19 @@ def emitter_at(table, e):
 
 
 # -- queries ---------------------------------------------------------------------------------
-@kernel
 def closest_triangles(tracer, query, hits):
+    """Embree's closest hits of ``query``'s rays into ``hits``: :func:`_closest_triangles`,
+    nothing in a scene without meshes (``tracer.embree`` None: no Embree code compiled)."""
+
+
+@overload(closest_triangles)
+def _closest_triangles_by_type(tracer, query, hits):
+    if field_is_none(tracer, "embree"):
+        return lambda tracer, query, hits: None
+    return _closest_triangles
+
+
+def _closest_triangles(tracer, query, hits):
     """Embree's closest hits of ``query``'s rays written into ``hits`` where a triangle comes
     before the analytic hit (and ``tmax``), with the float64 re-solve and up to
     :data:`MAX_RETRACES` second passes past float32 artefacts
@@ -155,7 +166,7 @@ def intersect(tracer, origin, direction, origin_shape, tmax):
     triangle = np.full(n, -1, np.int64)
     uv = np.zeros((n, 2))
     hits = Hits(t, shape, triangle, uv)
-    if tracer.meshes and n:
+    if n:
         closest_triangles(tracer, Query(origin, direction, tmax, has_tmax), hits)
     return hits
 
@@ -174,25 +185,46 @@ def occluded(tracer, origin, direction, origin_shape, tmax, coherent):
     k = ak.shadow_prepass(ShadowQuery(origin, direction, origin_shape, tmax), tracer.shapes,
                           tracer.meshes, blocked, idx, rays)
     if k:
-        result = np.empty(k, np.int32)
-        ek.any_hits(tracer.embree, EmbreeRays(rays.origin[:k], rays.direction[:k],
-                                              rays.far[:k]), coherent, result)
-        recheck = np.empty(k, np.int64)
-        j = ak.occlusion(idx[:k], result, origin_shape, blocked, recheck)
-        if j:
-            o, d, lim = np.empty((j, 3)), np.empty((j, 3)), np.empty(j)
-            for r in range(j):
-                i = recheck[r]
-                for c in range(3):
-                    o[r, c], d[r, c] = origin[i, c], direction[i, c]
-                lim[r] = tmax[i]
-            t = np.full(j, np.inf)
-            closest_triangles(tracer, Query(o, d, lim, True),
-                              Hits(t, np.full(j, NO_SHAPE, np.int64), np.empty(j, np.int64),
-                                   np.empty((j, 2))))
-            for r in range(j):
-                blocked[recheck[r]] = math.isfinite(t[r])
+        embree_occlusion(tracer, ShadowQuery(origin, direction, origin_shape, tmax), coherent,
+                         blocked, idx[:k], EmbreeRays(rays.origin[:k], rays.direction[:k],
+                                                      rays.far[:k]))
     return blocked
+
+
+def embree_occlusion(tracer, query, coherent, blocked, idx, rays):
+    """``blocked[idx[j]]`` for the rays ``rays`` the analytic shapes left to Embree (ray
+    ``idx[j]`` of ``query``): :func:`_embree_occlusion`, compiled only with meshes."""
+
+
+@overload(embree_occlusion)
+def _embree_occlusion_by_type(tracer, query, coherent, blocked, idx, rays):
+    if field_is_none(tracer, "embree"):
+        return lambda tracer, query, coherent, blocked, idx, rays: None
+    return _embree_occlusion
+
+
+def _embree_occlusion(tracer, query, coherent, blocked, idx, rays):
+    """Embree's occlusion packets, then closest-hit queries for the blocked rays that start
+    on a triangle, whose blocker may be a float32 artefact (``Accelerator.occluded``)."""
+    k = idx.shape[0]
+    origin, direction, tmax = query.origin, query.direction, query.tmax
+    result = np.empty(k, np.int32)
+    ek.any_hits(tracer.embree, rays, coherent, result)
+    recheck = np.empty(k, np.int64)
+    j = ak.occlusion(idx, result, query.origin_shape, blocked, recheck)
+    if j:
+        o, d, lim = np.empty((j, 3)), np.empty((j, 3)), np.empty(j)
+        for r in range(j):
+            i = recheck[r]
+            for c in range(3):
+                o[r, c], d[r, c] = origin[i, c], direction[i, c]
+            lim[r] = tmax[i]
+        t = np.full(j, np.inf)
+        closest_triangles(tracer, Query(o, d, lim, True),
+                          Hits(t, np.full(j, NO_SHAPE, np.int64), np.empty(j, np.int64),
+                               np.empty((j, 2))))
+        for r in range(j):
+            blocked[recheck[r]] = math.isfinite(t[r])
 
 
 @kernel
@@ -206,8 +238,28 @@ def surfaces(tracer, hits, origin, direction):
 
 
 # -- one depth -------------------------------------------------------------------------------
-@kernel
 def shadow(tracer, settings, shadows, k, coherent, tally):
+    """The shadow rays' answer: :func:`_opaque_shadow` or, where something is transparent
+    (``tracer.transparent`` True), :func:`_transparent_shadow`; only that one is compiled."""
+
+
+@overload(shadow)
+def _shadow_by_type(tracer, settings, shadows, k, coherent, tally):
+    return _opaque_shadow if field_is_none(tracer, "transparent") else _transparent_shadow
+
+
+def _opaque_shadow(tracer, settings, shadows, k, coherent, tally):
+    """The occlusion flags of the first ``k`` rays of ``shadows``: (rows, no factors, flags)."""
+    counters, seconds, timespec = tally.counters, tally.seconds, tally.timespec
+    counters[SHADOW_RAYS] += k
+    t0 = now(settings, timespec)
+    blocked = occluded(tracer, shadows.origin[:k], shadows.direction[:k], shadows.shape[:k],
+                       shadows.tmax[:k], coherent)
+    seconds[TRACE_SECONDS] += now(settings, timespec) - t0
+    return shadows.rows[:k], np.empty((0, 3)), blocked
+
+
+def _transparent_shadow(tracer, settings, shadows, k, coherent, tally):
     """The shadow factors of the first ``k`` rays of ``shadows`` (a
     :class:`raytrace.kernels.records.Shadows`), (k, 3): 0 or 1 from the occlusion query in an
     opaque scene, else the product of ``t·kt + (1 − t)`` over the surfaces each walks
@@ -219,10 +271,6 @@ def shadow(tracer, settings, shadows, k, coherent, tally):
     tmax, shape = shadows.tmax[:k], shadows.shape[:k]
     counters[SHADOW_RAYS] += k
     t0 = now(settings, timespec)
-    if not tracer.any_transparent:
-        blocked = occluded(tracer, origin, direction, shape, tmax, coherent)
-        seconds[TRACE_SECONDS] += now(settings, timespec) - t0
-        return rows, np.empty((0, 3)), blocked
     factor = np.ones((k, 3))
     live = np.arange(k)
     walked = False
@@ -247,8 +295,45 @@ def shadow(tracer, settings, shadows, k, coherent, tally):
     return rows, factor, np.empty(0, np.bool_)
 
 
-@kernel
 def direct_lighting(tracer, lights, settings, rays, depth, keys, surf, tally):
+    """Σ_l S_l·f_l·I_l·[…] at every hit: :func:`_direct_lighting`, or no rows in a scene
+    without lights or lit materials (``tracer.lit`` None: no light pass compiled)."""
+
+
+@overload(direct_lighting)
+def _direct_lighting_by_type(tracer, lights, settings, rays, depth, keys, surf, tally):
+    if field_is_none(tracer, "lit"):
+        return lambda tracer, lights, settings, rays, depth, keys, surf, tally: \
+            np.empty((0, 3))
+    return _direct_lighting
+
+
+def hit_keys(keys, rays, depth):
+    """Each hit's jitter key: its sample's (``keys``) below the camera rays hashed with its
+    ray (``core.path_key1``: each path of a sample its own points); no rows where no light
+    is jittered (``keys`` None: no key code compiled)."""
+
+
+@overload(hit_keys)
+def _hit_keys_by_type(keys, rays, depth):
+    if isinstance(keys, types.NoneType):
+        return lambda keys, rays, depth: np.empty(0, np.int64)
+    return _hit_keys
+
+
+def _hit_keys(keys, rays, depth):
+    n = rays.origin.shape[0]
+    key = np.empty(n, np.int64)
+    for i in range(n):
+        key[i] = keys[rays.sample[i]]
+    if depth == 0:
+        return key
+    path = np.empty(n, np.int64)
+    core.path_keys(key, rays.origin.view(np.uint64), rays.direction.view(np.uint64), path)
+    return path
+
+
+def _direct_lighting(tracer, lights, settings, rays, depth, keys, surf, tally):
     """Σ_l S_l · f_l · I_l · [kd·max(N·L, 0) + ks·spec] at every hit, (n, 3): per emitter,
     the light pass and its shadow rays (``WhittedIntegrator.direct_lighting``). ``keys``: each
     pass sample's jitter key (no rows: no jittered light); ``tally``: the pass's
@@ -258,16 +343,7 @@ def direct_lighting(tracer, lights, settings, rays, depth, keys, surf, tally):
     term = np.empty((n, 3))
     shadows = Shadows(np.empty(n, np.int64), np.empty((n, 3)), np.empty((n, 3)), np.empty(n),
                       np.empty(n, np.int64))
-    key = np.empty(0, np.int64)
-    if keys.shape[0]:
-        key = np.empty(n, np.int64)
-        for i in range(n):
-            key[i] = keys[rays.sample[i]]
-        if depth > 0:  # each path of a sample its own points
-            path = np.empty(n, np.int64)
-            core.path_keys(key, rays.origin.view(np.uint64), rays.direction.view(np.uint64),
-                           path)
-            key = path
+    key = hit_keys(keys, rays, depth)
     scene = tracer.scene
     for e in range(lights.rows.shape[0]):
         em = emitter_at(lights, e)
@@ -336,11 +412,9 @@ def trace_depth(tracer, lights, settings, rays, depth, pass_io, tally):
         rk.take_hits(found[:k], rays, hits, taken, kept)
         rays, hits = taken, kept
     surf = surfaces(tracer, hits, rays.origin, rays.direction)
-    if depth == 0 and aov.shape[0]:
-        aovk.aov_hits(rays, hits.t, surf, tracer.scene, tracer.objects, tracer.aov_layout, aov)
-    lit = np.empty((0, 3))
-    if tracer.lit:
-        lit = direct_lighting(tracer, lights, settings, rays, depth, keys, surf, tally)
+    if depth == 0:
+        first_hit_aovs(tracer, rays, hits, surf, aov)
+    lit = direct_lighting(tracer, lights, settings, rays, depth, keys, surf, tally)
     m = rays.origin.shape[0]
     children = room_for_children(tracer.children, m)
     sk.hit_terms(rays, surf, tracer.scene, Local(settings.ambient, lit), settings.min_weight,
@@ -349,6 +423,25 @@ def trace_depth(tracer, lights, settings, rays, depth, pass_io, tally):
     seconds[SHADE_SECONDS] += now(settings, timespec) - t1 - (
         seconds[TRACE_SECONDS] - trace_before)
     return result
+
+
+def first_hit_aovs(tracer, rays, hits, surf, aov):
+    """The AOVs of the camera rays' hits into ``aov``: nothing (and no AOV code compiled)
+    where ``aov`` is None."""
+
+
+@overload(first_hit_aovs, inline="always")
+def _first_hit_aovs_by_type(tracer, rays, hits, surf, aov):
+    if isinstance(aov, types.NoneType):
+        return lambda tracer, rays, hits, surf, aov: None
+    return lambda tracer, rays, hits, surf, aov: aovk.aov_hits(
+        rays, hits.t, surf, tracer.scene, tracer.objects, tracer.aov_layout, aov)
+
+
+def field_is_none(record, name: str) -> bool:
+    """Whether field ``name`` of a named-tuple type (as numba types a record) is None: what
+    the overloads above choose their code by."""
+    return isinstance(record.types[record.instance_class._fields.index(name)], types.NoneType)
 
 
 def no_rays():

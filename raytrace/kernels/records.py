@@ -384,12 +384,14 @@ class Tracer(NamedTuple):
     shapes: Shapes          #: the analytic shapes
     scene: Scene            #: what the shading kernels read (``fast`` empty: each light's own
                             #: table is in :class:`LightTable`)
-    embree: EmbreeScene     #: Embree's scene (all zeros where there are no meshes)
+    embree: EmbreeScene | None  #: Embree's scene; None without meshes (no Embree code)
     meshes: bool            #: whether there are meshes (Embree is called)
     objects: Objects        #: the id AOV's objects
     aov_layout: AOVLayout   #: the AOVs' columns
-    lit: bool               #: some light and some lit material: light passes run
-    any_transparent: bool   #: shadow rays walk through surfaces (else an occlusion query)
+    #: True where some light and some lit material make light passes run, else None
+    lit: bool | None
+    #: True where shadow rays walk through transparent surfaces, else None (occlusion)
+    transparent: bool | None
     #: True, or None where nothing reflects or transmits (no child code is compiled)
     children: bool | None
     #: True, or None without triangles and image textures (light_pass's ``depth`` None)
@@ -422,9 +424,9 @@ class PassSettings(NamedTuple):
 class PassIO(NamedTuple):
     """What one pass writes and the keys it reads, a row per pass sample."""
 
-    samples: np.ndarray  #: (S, 3) float64 radiance sums
-    keys: np.ndarray     #: (S,) int64 jitter keys of a jittered area light; no rows: none
-    aov: np.ndarray      #: (S, C) float64 the per-sample AOV table; no rows: no AOVs
+    samples: np.ndarray       #: (S, 3) float64 radiance sums
+    keys: np.ndarray | None   #: (S,) int64 jitter keys of a jittered area light, or None
+    aov: np.ndarray | None    #: (S, C) float64 the per-sample AOV table, or None
 
 
 class Tally(NamedTuple):
