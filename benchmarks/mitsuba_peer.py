@@ -17,8 +17,9 @@ render and keeps in memory.
 
 Reported, in one run: Mitsuba's load (BVH build included), its first render (kernel
 compilation included) and its best warm render out of ``repeat``, in a process of its own
-(:func:`in_child`: Mitsuba's Embree and LLVM never share a process with raytrace's Embree and
-numba's LLVM; the two in one process aborted); raytrace's best warm render of the same scene
+(:func:`in_child`: where libLLVM is missing, Mitsuba's ``llvm`` variant aborts the whole
+process, seen here before ``apt-get install libllvm19``; a child's abort ends the peer
+measurement, not the caller's run); raytrace's best warm render of the same scene
 in this process (kernels loaded, BVH kept) and the part of it without the build (the
 ``--stats`` ``build`` seconds taken out).
 """
@@ -158,7 +159,11 @@ def compare(workdir: Path, threads: int, quick: bool = False, repeat: int = 3) -
         return {"missing": missing}
     workdir.mkdir(parents=True, exist_ok=True)
     scene_path = write_mesh_scene(workdir)
-    mit = in_child("mitsuba_frame", workdir / "sphere.ply", w, h, threads, repeat)
+    try:
+        mit = in_child("mitsuba_frame", workdir / "sphere.ply", w, h, threads, repeat)
+    except subprocess.CalledProcessError as e:  # e.g. its llvm variant without libLLVM
+        return {"missing": f"Mitsuba's process failed (status {e.returncode}): "
+                           f"{(e.stderr or '').strip().splitlines()[-1:]}"}
     rt = raytrace_frame(scene_path, w, h, threads, repeat)
     return {"scene": "mesh", "width": w, "height": h, "threads": threads, "mitsuba": mit,
             "raytrace": rt, "ratio": rt["warm_seconds"] / mit["warm_seconds"],
