@@ -15,9 +15,9 @@ works in float32 with ``tnear = 0`` (EMBREEX_NOTES.md), so:
   the rays' closest analytic hits, then the float64 refinement of Embree's hits;
 * a hit that the float64 solve puts behind the ray's origin (a ray leaving a large triangle
   whose float32 rounding exceeds that offset) is discarded and the ray traced on from beyond
-  the triangle's error band, in a second pass over those few rays (embreex has no filter
-  callbacks are not used: the re-trace measured cheaper). docs/robustness.md gives the scheme
-  and its measured bound.
+  the triangle's error band, in a second pass over those few rays (an Embree filter
+  callback could do it inside traversal: not tried, docs/decisions.md). docs/robustness.md
+  gives the scheme and its measured bound.
 
 A query runs on the calling thread. Embree and the kernels of :mod:`raytrace.kernels.accel`
 release the GIL and the accelerator is read-only after construction, so the integrator's

@@ -139,7 +139,8 @@ class Library:
         for name, result, arguments in _SIGNATURES:
             f = getattr(self.lib, name)
             f.restype, f.argtypes = result, arguments
-        self._devices: dict[int, Device] = {}
+        self._devices: dict[int, Device] = {}  # by thread count
+        self._handles: dict[int, Device] = {}  # by handle, for the callbacks
         self._lock = threading.Lock()
         # ctypes callbacks must outlive every device that may call them
         self._on_error = _ErrorFunction(self._error)
@@ -165,7 +166,7 @@ class Library:
                 if not handle:
                     raise EngineError(f"Embree could not start a device ({self.path.name})")
                 device = Device(handle, threads)
-                self._devices[handle] = device
+                self._handles[handle] = device
                 self._devices[threads] = device
                 self.lib.rtcSetDeviceErrorFunction(handle, ctypes.cast(self._on_error, _void),
                                                    _void(handle))
@@ -174,14 +175,14 @@ class Library:
             return device
 
     def _error(self, handle: int | None, code: int, message: bytes | None) -> None:
-        device = self._devices.get(handle or 0)
+        device = self._handles.get(handle or 0)
         if device is not None and device.error is None:
             text = message.decode("utf-8", "replace") if message else ""
             device.error = f"{ERROR_NAMES.get(code, f'error {code}')}" + (
                 f" ({text})" if text else "")
 
     def _memory(self, handle: int | None, change: int, post: bool) -> bool:
-        device = self._devices.get(handle or 0)
+        device = self._handles.get(handle or 0)
         if device is None:
             return True
         if change > 0 and device.limit is not None and device.bytes + change > device.limit:
