@@ -32,13 +32,15 @@ from .analytic import NO_TMAX, AnalyticShapes, f64, i64
 from .embree import Meshes
 from .kernels import accel as ak  # the compiled passes of this stage
 from .kernels import embree as ek
+from .kernels import loop
 from .kernels.core import SHADOW_SHORTEN, leave_rows
 from .kernels.records import EmbreeHits, EmbreeRays, Hits, Query, Redo, ShadowQuery, Surface
 from .rays import NO_SHAPE
 from .tables import SceneArrays
 
-#: Most second passes of a query over the rays whose hits were float32 artefacts.
-MAX_RETRACES = 4
+#: Most second passes of a query over the rays whose hits were float32 artefacts (one value
+#: for both loops).
+MAX_RETRACES = loop.MAX_RETRACES
 
 __all__ = ["SHADOW_SHORTEN", "Accelerator", "Hits", "Surface", "spawn_origins",
            "vertex_normals"]

@@ -9,8 +9,9 @@ used: it copies meshes element by element under the GIL and traces one ray at a 
 * **geometry is shared**: each mesh's float32 vertices and uint32 faces are numpy arrays that
   Embree reads in place (``rtcSetSharedGeometryBuffer``); the :class:`Meshes` object that
   made the scene owns them for as long as Embree can read them;
-* **the device honours the thread count** (``rtcNewDevice("threads=N")``, BVH builds
-  included), one device per count;
+* **the device follows the thread count** (``rtcNewDevice("threads=N")``, BVH builds
+  included), one device per count, kept for the process; Embree's TBB sizes its pool to the
+  largest count of the live devices, so after a render on more threads a build may use those;
 * **errors and memory reach the user**: Embree's error function and memory monitor are set on
   every device; an error or an allocation beyond the memory available ends the build with one
   :class:`raytrace.errors.EngineError` line, and the BVH's bytes are counted
@@ -29,9 +30,10 @@ from __future__ import annotations
 import ctypes
 import importlib.metadata
 import importlib.util
+import os
 import sys
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -121,8 +123,11 @@ class Device:
     handle: int
     threads: int
     error: str | None = None  # the first error Embree reported since it was last read
-    bytes: int = 0            # what Embree holds now
-    limit: int | None = None  # refuse allocations beyond this total (the memory available)
+    bytes: int = 0            # what Embree holds now, every scene of this device together
+    limit: int | None = None  # refuse a build's allocations beyond this (the memory available)
+    build_start: int = 0      # ``bytes`` when the current build started
+    #: One build at a time on a device: its error, limit and byte count are the build's.
+    lock: threading.Lock = field(default_factory=threading.Lock)
 
     def take_error(self) -> str | None:
         error, self.error = self.error, None
@@ -135,10 +140,16 @@ class Library:
 
     def __init__(self, path: Path):
         self.path = path
-        self.lib = ctypes.CDLL(str(path))
-        for name, result, arguments in _SIGNATURES:
-            f = getattr(self.lib, name)
-            f.restype, f.argtypes = result, arguments
+        try:
+            if sys.platform == "win32":  # the wheel's DLLs (Embree's TBB) beside it
+                os.add_dll_directory(str(path.parent))
+            self.lib = ctypes.CDLL(str(path))
+            for name, result, arguments in _SIGNATURES:
+                f = getattr(self.lib, name)
+                f.restype, f.argtypes = result, arguments
+        except (OSError, AttributeError) as e:  # not loadable, or not the calls we make
+            raise EngineError(f"the Embree library of embreex {embreex_version()} cannot be "
+                              f"used ({e}): install {WORKING_EMBREEX}") from None
         self._devices: dict[int, Device] = {}  # by thread count
         self._handles: dict[int, Device] = {}  # by handle, for the callbacks
         self._lock = threading.Lock()
@@ -185,7 +196,8 @@ class Library:
         device = self._handles.get(handle or 0)
         if device is None:
             return True
-        if change > 0 and device.limit is not None and device.bytes + change > device.limit:
+        if (change > 0 and device.limit is not None
+                and device.bytes - device.build_start + change > device.limit):
             return False  # Embree reports RTC_ERROR_OUT_OF_MEMORY and ends the build
         device.bytes += change
         return True
@@ -250,10 +262,30 @@ class Meshes:
     def __init__(self, meshes: list[tuple[np.ndarray, np.ndarray]], threads: int = 1):
         lib = self.library = library()
         self.device = lib.device(max(1, int(threads)))
+        self.handle = None
         self._arrays: list[np.ndarray] = []
-        api = lib.lib
-        before = self.device.bytes
-        self.device.limit = available_bytes()
+        with self.device.lock:  # one build at a time on a device
+            device = self.device
+            device.take_error()  # an earlier operation's error is not this build's
+            lib.lib.rtcGetDeviceError(device.handle)
+            device.build_start, device.limit = device.bytes, available_bytes()
+            try:
+                self._build(meshes)
+            except BaseException:
+                self.close()
+                raise
+            finally:
+                device.limit = None
+            #: What the BVH and Embree's copies of the scene hold, bytes (its memory monitor).
+            self.bytes = device.bytes - device.build_start
+        intersect, occluded = lib.traversal()
+        self._coherent, self._incoherent = arguments(True), arguments(False)
+        self.record = EmbreeScene(self.handle, intersect, occluded, lib.width,
+                                  self._coherent.ctypes.data, self._incoherent.ctypes.data)
+
+    def _build(self, meshes: list[tuple[np.ndarray, np.ndarray]]) -> None:
+        """Make the scene, attach the meshes over arrays of their own, commit (the BVH)."""
+        lib, api = self.library, self.library.lib
         self.handle = api.rtcNewScene(self.device.handle)
         lib.check(self.device, "making a scene")
         api.rtcSetSceneFlags(self.handle, SCENE_FLAG_ROBUST)
@@ -274,24 +306,14 @@ class Meshes:
             api.rtcReleaseGeometry(geometry)
             lib.check(self.device, "attaching a mesh")
         api.rtcCommitScene(self.handle)  # the BVH build, on the device's threads
-        self.device.limit = None
-        try:
-            lib.check(self.device, "building the BVH")
-        except EngineError:
-            self.close()
-            raise
-        #: What the BVH and Embree's copies of the scene hold, bytes (its memory monitor).
-        self.bytes = self.device.bytes - before
-        intersect, occluded = lib.traversal()
-        self._coherent, self._incoherent = arguments(True), arguments(False)
-        self.record = EmbreeScene(self.handle, intersect, occluded, lib.width,
-                                  self._coherent.ctypes.data, self._incoherent.ctypes.data)
+        lib.check(self.device, "building the BVH")
 
     def close(self) -> None:
-        """Release Embree's scene (idempotent)."""
+        """Release Embree's scene (idempotent); the record is no more."""
         if getattr(self, "handle", None):
             self.library.lib.rtcReleaseScene(self.handle)
             self.handle = None
+            self.record = None
 
     def __del__(self):
         self.close()
@@ -318,7 +340,7 @@ def probe(lib: Library) -> None:
     single = np.zeros(ek.RAYHIT1_WORDS, np.float32)
     words = single.view(np.int32)
     single[ek.ORG:ek.ORG + 3], single[ek.DIR:ek.DIR + 3] = origin[0], direction[0]
-    single[ek.TFAR], words[ek.MASK], words[ek.GEOM_ID] = np.inf, -1, -1
+    single[ek.TFAR], words[ek.MASK], words[ek.GEOM_ID], words[ek.INST_ID] = np.inf, -1, -1, -1
     lib.lib.rtcIntersect1(scene.handle, single.ctypes.data, None)
     ok = (near(single[ek.TFAR], 1.0) and near(single[ek.U], 0.25) and near(single[ek.V], 0.5)
           and words[ek.PRIM_ID] == 0 and words[ek.GEOM_ID] == 0 and single[ek.NG + 2] > 0)

@@ -54,7 +54,7 @@ from .film.image import Image
 from .kernels import loop
 from .kernels import shading as sk  # the compiled passes of this stage
 from .kernels.aov import aov_hits, aov_pixels
-from .kernels.kinds import KIND_NAMES, REFLECTION, REFRACTION, SEE_THROUGH
+from .kernels.kinds import KIND_NAMES
 from .kernels.rays import count_kinds, gather_chunks, sample_chunks, split_hits, take_hits
 from .kernels.records import (
     FAST_COLUMNS,
@@ -87,10 +87,11 @@ PASS_SAMPLES = 1 << 16
 MIN_PASSES = 16
 #: …but no pass is smaller than this (per-batch Python work would dominate).
 MIN_PASS_SAMPLES = 4096
-#: Most surfaces a transparent shadow ray passes through before it counts as blocked.
-MAX_SHADOW_CROSSINGS = 64
+#: Most surfaces a transparent shadow ray passes through before it counts as blocked
+#: (:data:`raytrace.kernels.loop.MAX_SHADOW_CROSSINGS`, one value for both loops).
+MAX_SHADOW_CROSSINGS = loop.MAX_SHADOW_CROSSINGS
 #: Kinds of the children, in the order of :meth:`WhittedIntegrator._spawn`'s columns.
-CHILD_KINDS = np.array([REFLECTION, REFRACTION, SEE_THROUGH], np.int8)
+CHILD_KINDS = loop.CHILD_KINDS
 #: Check invariants of every spawned batch (unit directions, finite origins): set
 #: ``RAYTRACE_DEBUG=1`` in the environment. Off by default (it costs a pass over each batch).
 DEBUG = os.environ.get("RAYTRACE_DEBUG", "") not in ("", "0")
@@ -329,7 +330,7 @@ class WhittedIntegrator:
         pixels = np.empty((total if filtered else cols * rows, 3),
                           dtype=np.float64 if filtered else np.float32)
         self._aov_out = NO_AOV_PIXELS
-        self._compiled = self._loop_records()
+        self._compiled = self._loop_records() if self.compiled else None
         if opt.aovs:  # one table, a row per pixel (raytrace.film.aov.layout's columns)
             self._aov_out = np.empty((cols * rows, len(self.aov_layout.miss)))
             self._aov_out[:] = self.aov_layout.miss

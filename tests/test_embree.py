@@ -138,8 +138,10 @@ def test_cli_says_it_in_one_line(fresh_library, monkeypatch, tmp_path, capsys):
 
 
 def test_layout_probe_catches_another_layout(fresh_library, monkeypatch):
-    """Where Embree writes u is not where the probe reads it: refused in one line."""
-    monkeypatch.setattr(ek, "U", ek.V)
+    """A known ray whose answer is not read back as expected (here: every comparison fails,
+    as where Embree writes elsewhere) is refused in one line. The kernels' layout constants
+    are not patched: numba would compile them into its cache."""
+    monkeypatch.setattr(embree, "near", lambda value, expected: False)
     with pytest.raises(EngineError, match="did not answer a known ray as raytrace reads"):
         embree.library()
 
@@ -161,3 +163,23 @@ def test_device_per_thread_count():
     assert embree.Meshes(mesh_arrays(), threads=1).device.threads == 1
     assert embree.Meshes(mesh_arrays(), threads=3).device is lib.device(3)
     assert lib.device(3) is not lib.device(1)
+
+
+def test_a_library_that_does_not_load_is_one_line(fresh_library, monkeypatch, tmp_path):
+    """A file that is no loadable library (a broken or foreign wheel) is an EngineError
+    naming the embreex that works, not an OSError (the command line's exit 2)."""
+    fake = tmp_path / "libembree4.so.4"
+    fake.write_text("not a library")
+    monkeypatch.setattr(embree, "library_path", lambda: fake)
+    with pytest.raises(EngineError, match=r"cannot be used .*install embreex 4\.4\.0\.post1"):
+        embree.library()
+
+
+def test_the_memory_limit_is_each_build_s_own(monkeypatch):
+    """A build is measured against the memory available by what it allocates itself, not by
+    what the device's earlier scenes hold (those are already out of the available memory)."""
+    first = embree.Meshes(mesh_arrays(), threads=2)
+    assert first.device.bytes >= first.bytes > 0
+    monkeypatch.setattr(embree, "available_bytes", lambda: first.bytes * 2)
+    second = embree.Meshes(mesh_arrays(), threads=2)  # the device holds first's bytes too
+    assert second.bytes > 0 and second.device.bytes >= first.bytes + second.bytes

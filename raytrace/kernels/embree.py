@@ -12,10 +12,11 @@ them.
 
 **Packets.** Consecutive rays of a batch fill the lanes of one packet of the library's native
 width (16 with AVX-512, 8 with AVX2); a last, partial packet masks its empty lanes off. The
-caller says whether the batch is coherent (camera rays of neighbouring pixels, their shadow
-rays to one point light): Embree's COHERENT flag then lets it traverse the packet as a
-frustum (3.0–3.7× embreex's single rays, EMBREEX_NOTES.md), which is 2× slower than the default
-on unrelated rays.
+caller says whether the batch is coherent: the raytracer says so only for the shadow rays of
+camera-ray hits to one point (an occlusion answer does not depend on traversal order, a
+closest hit on a shared edge does). Embree's COHERENT flag then lets it traverse the packet
+as a frustum (1.5× embreex's single rays here, docs/decisions.md), which EMBREEX_NOTES.md
+measured 2× slower than the default on unrelated rays.
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ reflected, refracted and see-through children, the next depth. It calls the same
 kernels as that loop, in the same order and on the same rows, so each sample adds up the same
 numbers in the same order: the images are bit-identical to it (tests/test_loop.py), for any
 number of threads. Python hands each thread its passes (:meth:`WhittedIntegrator._run`) and
-takes no part between depths; the GIL is held only to start a pass.
+takes no part between depths; the GIL is held only to start a pass and to average its pixels.
 
 A scene compiles only what it uses: the kernels' feature arguments (``meshes``, ``children``,
 textures in the scene record) are None where a scene lacks the feature, as in the Python
@@ -67,12 +67,13 @@ MAX_SHADOW_CROSSINGS = 64
 #: (kinds.CAMERA … SEE_THROUGH: columns 0–3), then these.
 SHADOW_RAYS, PRUNED_DEPTH, PRUNED_WEIGHT, TIR = 4, 5, 6, 7
 COUNTERS = 8
+#: Kinds of the children, in the order of their columns (reflected, refracted, see-through).
+CHILD_KINDS = np.array([REFLECTION, REFRACTION, SEE_THROUGH], np.int8)
 #: Its float64 ``seconds``: time spent tracing (Embree and the analytic shapes), and shading.
 TRACE_SECONDS, SHADE_SECONDS = 0, 1
 SECONDS = 2
 #: Where a ray has no bound (an empty column).
 NO_TMAX = np.empty(0)
-F32_MAX = float(np.finfo(np.float32).max)
 
 
 @intrinsic
@@ -261,11 +262,11 @@ def _opaque_shadow(tracer, settings, shadows, k, coherent, tally):
 
 def _transparent_shadow(tracer, settings, shadows, k, coherent, tally):
     """The shadow factors of the first ``k`` rays of ``shadows`` (a
-    :class:`raytrace.kernels.records.Shadows`), (k, 3): 0 or 1 from the occlusion query in an
-    opaque scene, else the product of ``t·kt + (1 − t)`` over the surfaces each walks
-    through (seed 003; ``WhittedIntegrator.shadow``): returns the rows, the factors and, in
-    an opaque scene, the occlusion flags instead (no factor rows). ``coherent``: the rays go
-    from neighbouring hits to one point (Embree's packets as frusta)."""
+    :class:`raytrace.kernels.records.Shadows`), (k, 3), in a scene where something is
+    transparent: the product of ``t·kt + (1 − t)`` over the surfaces each ray walks through
+    to its light (seed 003; ``WhittedIntegrator.shadow``), 0 past
+    :data:`MAX_SHADOW_CROSSINGS`. Returns the rows, the factors and no occlusion flags. Its
+    closest-hit queries use plain packets, so ``coherent`` (the opaque form's) is not read."""
     counters, seconds, timespec = tally.counters, tally.seconds, tally.timespec
     rows, origin, direction = shadows.rows[:k], shadows.origin[:k], shadows.direction[:k]
     tmax, shape = shadows.tmax[:k], shadows.shape[:k]
@@ -376,8 +377,7 @@ def spawn(rays, surf, children):
     k = per_kind[0] + per_kind[1] + per_kind[2]
     out = Spawned(np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3)), np.empty(k, np.int64),
                   np.empty(k, np.int64), np.empty(k, np.int8), np.empty(k, np.int64))
-    kinds = np.array([REFLECTION, REFRACTION, SEE_THROUGH], np.int8)
-    sk.spawn_children(children, rays, surf, first, kinds, out)
+    sk.spawn_children(children, rays, surf, first, CHILD_KINDS, out)
     return Rays(out.origin, out.direction, out.sample, out.weight, out.shape, out.kind)
 
 
