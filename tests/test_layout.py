@@ -166,13 +166,21 @@ MOST_INPUTS = 8
 
 
 def kernel_functions() -> list[tuple[str, ast.FunctionDef]]:
-    """Every function decorated ``@kernel`` or ``@inline`` in ``kernels/*.py``, as
-    ``("module.py:name", node)``."""
+    """Every function decorated ``@kernel`` or ``@inline`` in ``kernels/*.py``, and every
+    module function an ``@overload`` returns as its implementation (numba compiles it as a
+    kernel), as ``("module.py:name", node)``."""
     found = []
     for path in sorted(KERNELS.glob("*.py")):
-        for node in ast.parse(path.read_text("utf-8")).body:
-            if isinstance(node, ast.FunctionDef) and any(
-                    getattr(d, "id", "") in ("kernel", "inline") for d in node.decorator_list):
+        body = ast.parse(path.read_text("utf-8")).body
+        functions = {n.name: n for n in body if isinstance(n, ast.FunctionDef)}
+        returned = {name.id for n in functions.values()
+                    if any(isinstance(d, ast.Call) and getattr(d.func, "id", "") == "overload"
+                           for d in n.decorator_list)
+                    for r in ast.walk(n) if isinstance(r, ast.Return) and r.value is not None
+                    for name in ast.walk(r.value) if isinstance(name, ast.Name)}
+        for node in functions.values():
+            if any(getattr(d, "id", "") in ("kernel", "inline") for d in node.decorator_list) \
+                    or node.name in returned:
                 found.append((f"{path.name}:{node.name}", node))
     return found
 
