@@ -57,6 +57,7 @@ from .kernels.aov import aov_hits, aov_pixels
 from .kernels.kinds import KIND_NAMES
 from .kernels.rays import count_kinds, gather_chunks, sample_chunks, split_hits, take_hits
 from .kernels.records import (
+    EMITTER_FIELDS,
     FAST_COLUMNS,
     AOVLayout,
     Children,
@@ -369,7 +370,8 @@ class WhittedIntegrator:
                         flag("meshes" in self.features))
         fast = [np.zeros((0, FAST_COLUMNS)), *(f.reshape(-1, FAST_COLUMNS) for f in self.fast)]
         lights = LightTable(
-            np.array([tuple(em.record) for em in self.emitters], np.float64).reshape(-1, 21),
+            np.array([tuple(em.record) for em in self.emitters],
+                     np.float64).reshape(-1, EMITTER_FIELDS),
             np.array([em.color for em in self.emitters], np.float64).reshape(-1, 3),
             np.ascontiguousarray(np.concatenate(fast)),
             np.cumsum([0, *(len(f) for f in fast[1:])]).astype(np.int64))

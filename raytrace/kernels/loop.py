@@ -31,6 +31,7 @@ import numpy as np
 from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic, overload
+from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from . import accel as ak
 from . import aov as aovk
@@ -41,6 +42,7 @@ from . import shading as sk
 from .jit import kernel
 from .kinds import NO_SHAPE, PRUNED, REFLECTION, REFRACTION, SEE_THROUGH
 from .records import (
+    EMITTER_FIELDS,
     Children,
     EmbreeHits,
     EmbreeRays,
@@ -102,10 +104,9 @@ def now(settings, timespec):
 @kernel
 def emitter_at(table, e):
     """Emitter ``e`` of ``table.rows`` (a :class:`raytrace.kernels.records.LightTable`) as
-    the light pass takes it (:class:`raytrace.kernels.records.Emitter`, field by field)."""
-    r = table.rows[e]
-    return Emitter(r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10], r[11],
-                   r[12], r[13], r[14], r[15], r[16], r[17], r[18], r[19], r[20])
+    the light pass takes it (:class:`raytrace.kernels.records.Emitter`: its row is the record's
+    fields in order)."""
+    return Emitter(*to_fixed_tuple(table.rows[e], EMITTER_FIELDS))
 
 
 # -- queries ---------------------------------------------------------------------------------

@@ -234,6 +234,10 @@ class Emitter(NamedTuple):
     ov: float        #: (shading_kernels.incidence1)
 
 
+#: Floats in an :class:`Emitter`: the width of a row of ``LightTable.rows``.
+EMITTER_FIELDS = len(Emitter._fields)
+
+
 class Shadows(NamedTuple):
     """Shadow rays of the hits a light pass lights, in hit order (the first k rows)."""
 
@@ -402,7 +406,7 @@ class LightTable(NamedTuple):
     """The emitters, a row each (:class:`Emitter`'s fields in order), their colours and their
     fast-Phong tables (rows ``fast_first[e]`` to ``fast_first[e + 1]`` of ``fast``)."""
 
-    rows: np.ndarray        #: (E, 21) float64
+    rows: np.ndarray        #: (E, EMITTER_FIELDS) float64
     color: np.ndarray       #: (E, 3) float64 I_l
     fast: np.ndarray        #: (R, FAST_COLUMNS) float64
     fast_first: np.ndarray  #: (E + 1,) int64
