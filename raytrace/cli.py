@@ -551,17 +551,19 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
 def _warnings_as_lines():
     """Print the :class:`RenderWarning` s raised in the block as one line each
     (``raytrace: warning: FILE: problem``), terminal or not, once it ends; other warnings as
-    Python would."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", RenderWarning)
-        try:
+    Python would. They are shown after the recording ends: shown inside it, a warning would be
+    recorded again, and the loop over the record would never end."""
+    caught: list[warnings.WarningMessage] = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", RenderWarning)
             yield
-        finally:
-            for w in caught:
-                if issubclass(w.category, RenderWarning):
-                    print(f"raytrace: warning: {w.message}", file=sys.stderr)
-                else:
-                    warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    finally:
+        for w in caught:
+            if issubclass(w.category, RenderWarning):
+                print(f"raytrace: warning: {w.message}", file=sys.stderr)
+            else:
+                warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
 
 def _render_frames(args: argparse.Namespace, cluster) -> int:

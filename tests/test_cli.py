@@ -604,3 +604,19 @@ def test_the_command_line_loads_neither_scipy_linalg_nor_cffi_for_its_kernels(tm
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
                          check=True, cwd=ROOT).stdout.split("\n")
     assert out[:2] == ["[] False", "later imports work"]
+
+
+@pytest.mark.timeout(20)
+def test_a_python_warning_in_a_block_is_shown_once_and_the_block_ends(capsys):
+    """A warning that is not a RenderWarning (numpy's overflow while a scene loads) is shown as
+    Python shows it, once: shown inside the recording, it was recorded again for ever (a render
+    of a scene whose camera sat at 1e200 grew without end)."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as shown:
+        warnings.simplefilter("always")
+        with cli._warnings_as_lines():
+            warnings.warn("overflow encountered in dot", RuntimeWarning, stacklevel=1)
+            warnings.warn("a model note", raytrace.RenderWarning, stacklevel=1)
+    assert [str(w.message) for w in shown] == ["overflow encountered in dot"]
+    assert capsys.readouterr().err == "raytrace: warning: a model note\n"
