@@ -231,6 +231,9 @@ class Mesh(values.Checked):
     face_material: Any = field(default=None, init=False, repr=False)
     texcoords: Any = field(default=None, init=False, repr=False)
     sources: tuple = field(default=(), init=False, repr=False)
+    #: What the vertices were made from (file, mesh, and translate, rotate, scale as a 3×3
+    #: array), for :meth:`check` to refuse a change of them that would not be seen.
+    _made_from: tuple = field(default=(), init=False, repr=False, compare=False)
     type = "mesh"
 
     def __post_init__(self) -> None:
@@ -247,6 +250,7 @@ class Mesh(values.Checked):
         if not np.all(scale != 0):
             raise SceneError(f"must be non-zero, got {np.asarray(self.scale).tolist()}", "scale")
         self.translate, self.rotate, self.scale = translate, rotate, scale
+        self._made_from = (self.file, self.mesh, np.stack([translate, rotate, scale]))
 
         from_file = isinstance(self.material, str) and self.material == FROM_FILE
         if from_file and self.file is None:
@@ -296,8 +300,24 @@ class Mesh(values.Checked):
         ``vertices``, a face index past the end) is refused like one at construction:
         ``shading``, the world-space ``vertices`` and ``faces`` (:func:`_check_arrays`,
         vectorised: 34 ms for a million vertices and two million faces, docs/api.md) and a
-        model file's per-face arrays, one row a face. ``translate``, ``rotate`` and ``scale``
-        were applied when it was made."""
+        model file's per-face arrays, one row a face. ``file``, ``mesh``, ``translate``,
+        ``rotate`` and ``scale`` made the vertices when the mesh was made: a change of them
+        since, which the render would not see, is refused."""
+        file, mesh, transform = self._made_from
+        if self.file != file or self.mesh is not mesh:
+            raise SceneError("was read when the mesh was made; make a new Mesh to change it",
+                             "file" if self.file != file else "mesh")
+        for name, made in zip(("translate", "rotate", "scale"), transform, strict=True):
+            now = getattr(self, name)
+            try:
+                same = np.array_equal(np.broadcast_to(np.asarray(now, np.float64), 3), made)
+            except (TypeError, ValueError):
+                same = False
+            if not same:
+                shown = now.tolist() if isinstance(now, np.ndarray) else now
+                raise SceneError(f"was applied to the vertices when the mesh was made (then "
+                                 f"{made.tolist()}, now {shown!r}); transform the vertices, "
+                                 "or make a new Mesh", name)
         self.shading = values.string(self.shading, "shading", SHADINGS)
         self.vertices, self.faces = _check_arrays(self.vertices, self.faces)
         rows = len(self.faces)

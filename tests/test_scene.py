@@ -83,6 +83,11 @@ def _face_past_the_end(scene):
     (_nan_vertex, "objects[2].vertices: vertex 1 is not finite ([1.0, 0.0, nan]); Embree "
                   "would silently drop its triangles"),
     (_face_past_the_end, "objects[2].faces: index out of range 0..2"),
+    (_set("objects.2.scale", 2), "objects[2].scale: was applied to the vertices when the mesh "
+                                 "was made (then [1.0, 1.0, 1.0], now 2); transform the "
+                                 "vertices, or make a new Mesh"),
+    (_set("objects.2.file", "bunny.obj"), "objects[2].file: was read when the mesh was made; "
+                                          "make a new Mesh to change it"),
     (_set("objects.2.shading", "phong"), "objects[2].shading: must be one of 'flat', 'smooth', "
                                          "'gouraud', 'fast_phong', got 'phong'"),
     (_set("objects.0.material", "emerlad"), "objects[0].material: unknown material 'emerlad' "
