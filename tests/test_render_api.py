@@ -102,8 +102,10 @@ def test_render_checks_edits_made_after_construction():
     # rendered silently: an in-place radius, NaN in a mesh's vertices.
     scene = _one_sphere()
     scene.objects[0].radius = -1
-    with pytest.raises(raytrace.SceneError, match=r"^objects\[0\]\.radius: must be > 0, got -1$"):
-        raytrace.render(scene, width=4, height=3)
+    for call in (raytrace.render, lambda s, **kw: raytrace.explain(s, (0, 0), **kw)):
+        with pytest.raises(raytrace.SceneError,
+                           match=r"^objects\[0\]\.radius: must be > 0, got -1$"):
+            call(scene, width=4, height=3)
     scene = _one_sphere()
     scene.objects.append(raytrace.Mesh(vertices=[[0, 0, 0], [1, 0, 0], [0, 1, 0]],
                                        faces=[[0, 1, 2]], material="brass"))
@@ -111,6 +113,18 @@ def test_render_checks_edits_made_after_construction():
     with pytest.raises(raytrace.SceneError, match=r"^objects\[1\]\.vertices: vertex 0 is not "
                                                   r"finite"):
         raytrace.render(scene, width=4, height=3)
+
+
+def test_render_frames_checks_each_frame_s_scene_as_render_does(tmp_path):
+    def frame(i: int) -> raytrace.Scene:
+        scene = _one_sphere()
+        scene.objects[0].center[1] = float("nan")  # in place, after construction
+        return scene
+
+    with pytest.raises(raytrace.SceneError, match=r"^objects\[0\]\.center\[1\]: must be "
+                                                  r"finite, got nan$"):
+        raytrace.render_frames(frame, tmp_path / "f.####.exr", [0], width=4, height=3)
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_a_material_name_set_after_construction_renders_as_one_given_at_construction():
