@@ -299,7 +299,7 @@ class Mesh(values.Checked):
         before every render (:meth:`Scene.check`), so that an edit in place (NaN written into
         ``vertices``, a face index past the end) is refused like one at construction:
         ``shading``, the world-space ``vertices`` and ``faces`` (:func:`_check_arrays`,
-        vectorised: 34 ms for a million vertices and two million faces, docs/api.md) and a
+        vectorised: 50 ms for a million vertices and two million faces, docs/api.md) and a
         model file's per-face arrays, one row a face. ``file``, ``mesh``, ``translate``,
         ``rotate`` and ``scale`` made the vertices when the mesh was made: a change of them
         since, which the render would not see, is refused."""
@@ -460,7 +460,8 @@ class Scene(values.Checked):
     """Everything a render needs. ``materials`` are the scene-local named materials.
 
     Object and light ``material`` fields may be a :class:`Material`, a name (scene-local first,
-    then the library) or an inline table; :meth:`resolve_materials` turns them into Materials.
+    then the library) or an inline table; :meth:`resolve_materials` turns them into Materials,
+    when the scene is made and again before every render (:meth:`check`).
     """
 
     camera: Camera = field(default_factory=Camera)
