@@ -104,7 +104,7 @@ def _attenuation(value: Any, key: str) -> np.ndarray:
 
 
 @dataclass
-class PointLight:
+class PointLight(values.Checked):
     """An isotropic point source with radial attenuation 1/(a0 + a1·d + a2·d²)."""
 
     position: Any
@@ -112,7 +112,7 @@ class PointLight:
     attenuation: Any = (1.0, 0.0, 0.0)
     type = "point"
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
         self.position = values.vector(self.position, "position")
         self.color = values.color(self.color, "color")
         self.attenuation = _attenuation(self.attenuation, "attenuation")
@@ -123,14 +123,14 @@ class PointLight:
 
 
 @dataclass
-class DirectionalLight:
+class DirectionalLight(values.Checked):
     """A source at infinity; ``direction`` is the way the light travels. No attenuation."""
 
     direction: Any
     color: Any = 1.0
     type = "directional"
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
         self.direction = values.unit(self.direction, "direction")
         self.color = values.color(self.color, "color")
 
@@ -140,7 +140,7 @@ class DirectionalLight:
 
 
 @dataclass
-class SpotLight:
+class SpotLight(values.Checked):
     """A point source limited to a cone: f_angular = (cos α)^exponent inside, 0 outside."""
 
     position: Any
@@ -151,7 +151,7 @@ class SpotLight:
     attenuation: Any = (1.0, 0.0, 0.0)
     type = "spot"
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
         self.position = values.vector(self.position, "position")
         self.direction = values.unit(self.direction, "direction")
         self.cutoff = values.number(self.cutoff, "cutoff", lo=0, hi=90, lo_open=True)
@@ -166,7 +166,7 @@ class SpotLight:
 
 
 @dataclass
-class AreaLight:
+class AreaLight(values.Checked):
     """A two-sided rectangle ``position ± edge_u/2 ± edge_v/2``, sampled by k×k point lights.
 
     ``color`` is the total over all samples; ``jitter`` places each sample at a random spot
@@ -183,7 +183,7 @@ class AreaLight:
     attenuation: Any = (1.0, 0.0, 0.0)
     type = "area"
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
         self.position = values.vector(self.position, "position")
         self.edge_u = values.vector(self.edge_u, "edge_u", nonzero=True)
         self.edge_v = values.vector(self.edge_v, "edge_v", nonzero=True)

@@ -92,9 +92,11 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     of the same names.
 
     Every argument is checked before any work (a SceneError, or a TypeError for a
-    ``progress`` that is not callable), including the memory the image needs
-    (:func:`check_memory`). A scene without objects, and pixels that overflowed float32
-    (written as 0, counted in ``stats["nonfinite_pixels"]``), give a
+    ``progress`` that is not callable or a ``client`` that is no Client), including the
+    memory the image needs (:func:`check_memory`), and so is the scene, as at its
+    construction: fields set and arrays edited since, objects appended, material names
+    (:meth:`~raytrace.scene.Scene.check`). A scene without objects, and pixels that
+    overflowed float32 (written as 0, counted in ``stats["nonfinite_pixels"]``), give a
     :class:`~raytrace.errors.RenderWarning`.
 
     ``client``: a ``dask.distributed.Client``; the image (or the crop) is then rendered as
@@ -111,6 +113,9 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be a callable progress(done, total) or None, got "
                         f"{type(progress).__name__}")
+    if client is not None and not callable(getattr(client, "submit", None)):
+        raise TypeError(f"client must be a dask.distributed.Client or None, got "
+                        f"{type(client).__name__}")
     options = render_options(scene, width=width, height=height, spp=spp, max_depth=max_depth,
                              min_weight=min_weight, seed=seed, threads=threads,
                              pass_samples=pass_samples, crop=crop, aovs=aovs, filter=filter,
@@ -152,9 +157,12 @@ def render_options(scene: Scene, *, width: int | None = None, height: int | None
                    aa_depth: int | None = None,
                    aa_min_depth: int | None = None) -> RenderOptions:
     """The integrator's options: the scene's ``[render]`` settings with the overrides that
-    are not None, checked (a :class:`SceneError` locating a bad one in the scene's file)."""
+    are not None, checked (a :class:`SceneError` locating a bad one in the scene's file),
+    after the scene itself (:meth:`~raytrace.scene.Scene.check`): every render, ``explain``
+    and command passes here."""
     if not isinstance(scene, Scene):
         raise TypeError(f"render() needs a raytrace.Scene, got {type(scene).__name__}")
+    scene.check()  # edits since it was made: checked as at construction, materials resolved
     r = scene.render
     try:
         settings = RenderSettings(
@@ -171,6 +179,10 @@ def render_options(scene: Scene, *, width: int | None = None, height: int | None
         if threads is None:
             threads = os.cpu_count() or 1
         threads = values.number(threads, "threads", lo=1, hi=256, integer=True)
+        if pass_samples is None:
+            pass_samples = PASS_SAMPLES
+        # (no upper bound: a pass never holds more samples than the image has)
+        pass_samples = values.number(pass_samples, "pass_samples", lo=1, integer=True)
         window = None if crop is None else check_crop(crop, settings.width, settings.height)
         names = check_aovs(aovs)
         if names and settings.aa == "adaptive":
@@ -179,7 +191,7 @@ def render_options(scene: Scene, *, width: int | None = None, height: int | None
     except SceneError as e:
         raise SceneError(e.problem, e.key, scene.path) from None
     return RenderOptions(**vars(settings), threads=threads,
-                         pass_samples=PASS_SAMPLES if pass_samples is None else pass_samples,
+                         pass_samples=pass_samples,
                          crop=window, aovs=names)
 
 

@@ -162,7 +162,7 @@ def test_a_tree_larger_than_a_batch_is_refused_in_one_line(whitted, glass_pixel)
 
 
 @dataclass
-class LineLight:
+class LineLight(values.Checked):
     """A segment from ``start`` to ``end`` sampled by ``samples`` point lights at the centres
     of equal pieces, sharing ``color``: a light by docs/architecture.md's recipe (one record
     and its ``LIGHT_TYPES`` line), whose emitters name their parts."""
@@ -173,7 +173,7 @@ class LineLight:
     color: Any = 1.0
     type = "line"
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
         self.start = values.vector(self.start, "start")
         self.end = values.vector(self.end, "end")
         self.samples = values.number(self.samples, "samples", lo=1, hi=4096, integer=True)

@@ -56,6 +56,27 @@ def test_reading_a_missing_exr_is_file_not_found_and_silent(tmp_path, capfd):
     assert capfd.readouterr() == ("", "")
 
 
+def test_a_damaged_exr_is_one_scene_error_naming_the_file(tmp_path):
+    # The binding raised a bare RuntimeError (or, truncated, a ValueError about "0 parts").
+    good = tmp_path / "good.exr"
+    write_exr(good, np.ones((32, 32, 3), np.float32))
+    data = good.read_bytes()
+    damaged = {"garbage.exr": np.random.default_rng(28).bytes(500), "empty.exr": b"",
+               "header-only.exr": data[:40], "truncated.exr": data[:len(data) // 2]}
+    for name, content in damaged.items():
+        (tmp_path / name).write_bytes(content)
+        for read in (raytrace.Image.from_exr, raytrace.read_exr):
+            with pytest.raises(raytrace.SceneError) as e:
+                read(tmp_path / name)
+            assert str(e.value).startswith(f"{tmp_path / name}: not a readable OpenEXR file: "
+                                           "damaged, truncated or another format (OpenEXR: ")
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    OpenEXR.File(header, {"Y": np.ones((4, 4), np.float32)}).write(str(tmp_path / "grey.exr"))
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.Image.from_exr(tmp_path / "grey.exr")
+    assert str(e.value) == f"{tmp_path / 'grey.exr'}: no channel(s) R, G, B (has Y)"
+
+
 def test_exr_header_has_srgb_chromaticities_and_render_settings(tmp_path):
     scene = make_scene([raytrace.Sphere([0, 0, 0], 1.0)], [raytrace.PointLight([2, 2, 2])],
                        camera=aimed_camera([0, 0, 4], [0, 0, 0]))

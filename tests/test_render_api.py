@@ -6,9 +6,12 @@ meant (no objects, pixels beyond float32) say so: a RenderWarning, one line from
 
 from __future__ import annotations
 
+import importlib
+import inspect
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 import raytrace
@@ -16,7 +19,7 @@ from raytrace import cli
 from raytrace.film import read_exr
 from raytrace.film.writers import WRITERS
 
-RENDER = sys.modules["raytrace.rendering"]  # the module (raytrace.render is the function)
+RENDER = importlib.import_module("raytrace.rendering")  # (raytrace.render: the function)
 
 # Camera at y = 1 looking level with an even height: exactly the lower half of the rows look
 # down and hit the floor (test_cli.py's FLOOR_SCENE). A 1e39 light (beyond float32's 3.4e38)
@@ -46,6 +49,94 @@ def test_progress_that_is_not_callable_is_a_type_error_before_the_render():
     with pytest.raises(TypeError, match=r"progress must be a callable progress\(done, total\)"
                                         r" or None, got int"):
         raytrace.render(scene, width=4, height=4, progress=5)
+
+
+# One bad value for every keyword of raytrace.render, and what its error says: each is
+# refused before any work, in one line naming the keyword (a TypeError where the type is
+# what is wrong). test_every_keyword_of_render_has_a_bad_value_here keeps the table whole.
+BAD_KEYWORDS = {
+    "width": (0, raytrace.SceneError, "render.width: must be >= 1"),
+    "height": ("x", raytrace.SceneError, "render.height: must be a number, got a string"),
+    "spp": (0, raytrace.SceneError, "render.spp: must be >= 1"),
+    "max_depth": (-1, raytrace.SceneError, "render.max_depth: must be >= 0"),
+    "min_weight": (-1, raytrace.SceneError, "render.min_weight: must be >= 0, got -1"),
+    "seed": (0.5, raytrace.SceneError, "render.seed: must be a whole number, got 0.5"),
+    "threads": (0, raytrace.SceneError, "threads: must be >= 1"),
+    "progress": (5, TypeError, "progress must be a callable progress(done, total) or None, "
+                               "got int"),
+    "pass_samples": (0, raytrace.SceneError, "pass_samples: must be >= 1, got 0"),
+    "crop": ((0, 0, 0, 0), raytrace.SceneError, "crop: x bounds 0..0 must satisfy"),
+    "aovs": ("colour", raytrace.SceneError, "aovs: unknown AOV 'colour'"),
+    "filter": ("gauss", raytrace.SceneError, "render.filter: unknown filter 'gauss'"),
+    "aa": ("x", raytrace.SceneError, "render.aa: unknown anti-aliasing 'x'"),
+    "aa_threshold": (-1, raytrace.SceneError, "render.aa_threshold: must be >= 0, got -1"),
+    "aa_depth": (9, raytrace.SceneError, "render.aa_depth: must be <= 8"),
+    "aa_min_depth": (3, raytrace.SceneError, "render.aa_min_depth: must be <= 2"),
+    "client": (3, TypeError, "client must be a dask.distributed.Client or None, got int"),
+    "tile": (16, raytrace.SceneError, "tile: tiles need a client"),
+}
+
+
+@pytest.mark.parametrize("keyword", BAD_KEYWORDS)
+def test_a_bad_value_of_any_keyword_is_one_error_naming_it_before_the_render(keyword):
+    value, error, message = BAD_KEYWORDS[keyword]
+    scene = raytrace.Scene(objects=[raytrace.Sphere([0, 0, -3], 1)])
+    with pytest.raises(error) as e:
+        raytrace.render(scene, **{"width": 4, "height": 4, keyword: value})
+    assert str(e.value).startswith(message)
+
+
+def test_every_keyword_of_render_has_a_bad_value_here():
+    keywords = set(inspect.signature(raytrace.render).parameters) - {"scene"}
+    assert keywords == set(BAD_KEYWORDS)
+
+
+def _one_sphere() -> raytrace.Scene:
+    return raytrace.Scene(camera=raytrace.Camera(position=[0, 0, 5], look_at=[0, 0, 0]),
+                          objects=[raytrace.Sphere([0, 0, 0], 1.0, material="brass")],
+                          lights=[raytrace.PointLight([5, 5, 5])])
+
+
+def test_render_checks_edits_made_after_construction():
+    # Scene.check at render entry (tests/test_scene.py has every kind of edit); on main these
+    # rendered silently: an in-place radius, NaN in a mesh's vertices.
+    scene = _one_sphere()
+    scene.objects[0].radius = -1
+    for call in (raytrace.render, lambda s, **kw: raytrace.explain(s, (0, 0), **kw)):
+        with pytest.raises(raytrace.SceneError,
+                           match=r"^objects\[0\]\.radius: must be > 0, got -1$"):
+            call(scene, width=4, height=3)
+    scene = _one_sphere()
+    scene.objects.append(raytrace.Mesh(vertices=[[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+                                       faces=[[0, 1, 2]], material="brass"))
+    scene.objects[1].vertices[0, 0] = np.nan
+    with pytest.raises(raytrace.SceneError, match=r"^objects\[1\]\.vertices: vertex 0 is not "
+                                                  r"finite"):
+        raytrace.render(scene, width=4, height=3)
+
+
+def test_render_frames_checks_each_frame_s_scene_as_render_does(tmp_path):
+    def frame(i: int) -> raytrace.Scene:
+        scene = _one_sphere()
+        scene.objects[0].center[1] = float("nan")  # in place, after construction
+        return scene
+
+    with pytest.raises(raytrace.SceneError, match=r"^objects\[0\]\.center\[1\]: must be "
+                                                  r"finite, got nan$"):
+        raytrace.render_frames(frame, tmp_path / "f.####.exr", [0], width=4, height=3)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_material_name_set_after_construction_renders_as_one_given_at_construction():
+    # was AttributeError: 'str' object has no attribute 'ambient', deep in the render
+    edited = _one_sphere()
+    edited.objects.append(raytrace.Sphere([1.5, 0, 0], 0.5, material="emerald"))
+    built = _one_sphere()
+    built.objects = [*built.objects, raytrace.Sphere([1.5, 0, 0], 0.5,
+                                                     material=raytrace.materials["emerald"])]
+    a = raytrace.render(edited, width=16, height=12).rgb
+    np.testing.assert_array_equal(a, raytrace.render(built, width=16, height=12).rgb)
+    assert a.max() > 0
 
 
 def test_pixels_beyond_float32_warn_with_count_and_first_pixel(tmp_path, capsys):

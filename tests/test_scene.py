@@ -38,6 +38,101 @@ def test_a_tuple_of_objects_is_a_list_and_a_list_is_kept():
     assert raytrace.Scene(objects=objects).objects is objects
 
 
+def _edited_scene() -> raytrace.Scene:
+    """A scene of one of each record, for the edits below."""
+    return raytrace.Scene(
+        camera=raytrace.Camera(position=[0, 0, 5], look_at=[0, 0, 0]),
+        objects=[raytrace.Sphere([0, 0, 0], 1.0, material="brass"),
+                 raytrace.Plane([0, -1, 0], [0, 1, 0]),
+                 raytrace.Mesh(vertices=[[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces=[[0, 1, 2]])],
+        lights=[raytrace.PointLight([5, 5, 5]),
+                raytrace.AreaLight([0, 4, 0], [1, 0, 0], [0, 0, 1], samples=4)],
+        path="edited.toml")
+
+
+def _set(path: str, value):
+    """An edit: ``path`` is ``attribute.attribute…`` from the scene, an index as a number."""
+    def edit(scene):
+        *parents, last = path.split(".")
+        target = scene
+        for p in parents:
+            target = target[int(p)] if p.isdigit() else getattr(target, p)
+        setattr(target, last, value)
+    return edit
+
+
+def _nan_vertex(scene):
+    scene.objects[2].vertices[1, 2] = np.nan  # in place: no setter sees it
+
+
+def _face_past_the_end(scene):
+    scene.objects[2].faces[0, 1] = 3
+
+
+# Each edit made after construction, as issue 28 tried them: before Scene.check every one
+# rendered silently or failed deep in the render (AttributeError, TypeError, UFuncTypeError).
+@pytest.mark.parametrize("edit,message", [
+    (lambda s: s.objects.append(3),
+     "objects[3]: must be a Sphere, Plane, Disk or Mesh, got int"),
+    (lambda s: s.lights.append("sun"), "lights[2]: must be a light, got str"),
+    (_set("lights", None), "lights: must be a list, got NoneType (a single one goes in a list: "
+                           "lights=[...])"),
+    (_set("objects.0.center", "x"), "objects[0].center: must be a list of 3 numbers, got 'x'"),
+    (_set("objects.0.radius", -1), "objects[0].radius: must be > 0, got -1"),
+    (_set("objects.1.normal", [0, 0, 0]), "objects[1].normal: must not be the zero vector"),
+    (_nan_vertex, "objects[2].vertices: vertex 1 is not finite ([1.0, 0.0, nan]); Embree "
+                  "would silently drop its triangles"),
+    (_face_past_the_end, "objects[2].faces: index out of range 0..2"),
+    (_set("objects.2.scale", 2), "objects[2].scale: was applied to the vertices when the mesh "
+                                 "was made (then [1.0, 1.0, 1.0], now 2); transform the "
+                                 "vertices, or make a new Mesh"),
+    (_set("objects.2.file", "bunny.obj"), "objects[2].file: was read when the mesh was made; "
+                                          "make a new Mesh to change it"),
+    (_set("objects.2.shading", "phong"), "objects[2].shading: must be one of 'flat', 'smooth', "
+                                         "'gouraud', 'fast_phong', got 'phong'"),
+    (_set("objects.0.material", "emerlad"), "objects[0].material: unknown material 'emerlad' "
+                                            "(did you mean 'emerald'?)"),
+    (_set("lights.0.attenuation", [0, 0, 0]), "lights[0].attenuation: needs a0, a1, a2 >= 0, not "
+                                              "all zero (1/(a0 + a1·d + a2·d²)), got "
+                                              "[0.0, 0.0, 0.0]"),
+    (_set("lights.1.samples", 5), "lights[1].samples: must be a perfect square k² (a k×k grid), "
+                                  "got 5; try 4 or 9"),
+    (_set("camera.fov", 180), "camera.fov: must be < 180 (the range is (0, 180)), got 180"),
+    (_set("ambient", -1), "ambient.color: must be >= 0, got -1"),
+])
+def test_an_edit_after_construction_is_refused_by_check_as_at_construction(edit, message):
+    scene = _edited_scene()
+    edit(scene)
+    with pytest.raises(raytrace.SceneError) as e:
+        scene.check()
+    assert str(e.value).startswith(f"edited.toml: {message}")
+
+
+def test_check_resolves_a_material_name_set_after_construction_and_keeps_what_is_checked():
+    scene = _edited_scene()
+    scene.objects.append(raytrace.Sphere([2, 0, 0], 0.5, material="emerald"))
+    plane, mesh = scene.objects[1], scene.objects[2]
+    plane.normal = [0, 2, 0]
+    vertices, faces = mesh.vertices, mesh.faces
+    scene.check()
+    assert scene.objects[3].material is raytrace.materials["emerald"]
+    assert plane.normal.tolist() == [0.0, 1.0, 0.0]
+    # checked arrays stay the same objects: nothing is copied at every render
+    assert mesh.vertices is vertices and mesh.faces is faces
+
+
+def test_check_moves_no_direction_a_construction_normalised():
+    # v/|v| has a length of 1 ± an ulp for a third of directions; normalising it again at
+    # every check would move it (and the picture) by an ulp.
+    rng = np.random.default_rng(28)
+    planes = [raytrace.Plane([0, 0, 0], d) for d in rng.normal(size=(200, 3))]
+    lights = [raytrace.DirectionalLight(d) for d in rng.normal(size=(200, 3))]
+    before = [p.normal.copy() for p in planes] + [light.direction.copy() for light in lights]
+    raytrace.Scene(objects=planes, lights=lights).check()
+    after = [p.normal for p in planes] + [light.direction for light in lights]
+    assert all(np.array_equal(a, b) for a, b in zip(after, before, strict=True))
+
+
 def test_a_mesh_path_that_is_a_folder_says_so(tmp_path):
     (tmp_path / "models").mkdir()
     with pytest.raises(raytrace.SceneError) as e:

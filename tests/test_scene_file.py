@@ -188,6 +188,33 @@ def test_invalid_json(tmp_path, capsys):
     assert str(scene) in line and "invalid JSON" in line and "line 1" in line
 
 
+@pytest.mark.parametrize("name,text", [
+    ("deep.json", '{"objects": ' + "[" * 100_000 + "]" * 100_000 + "}"),
+    ("deep.toml", "objects = " + "[" * 100_000 + "]" * 100_000 + "\n"),
+])
+def test_a_scene_nested_deeper_than_the_parser_can_go_is_one_line(tmp_path, capsys, name, text):
+    # was a RecursionError traceback from json/tomllib
+    scene = write_text(tmp_path / name, text)
+    line = _run_bad(tmp_path, scene, capsys)
+    assert line == (f"raytrace: error: {scene}: nested too deep to read (a scene is at most "
+                    "32 levels deep)")
+
+
+def test_a_scene_nested_deeper_than_a_scene_needs_names_the_entry(tmp_path, capsys):
+    deep = {"type": "sphere", "center": [0, 0, 0], "radius": 1.0}
+    for _ in range(40):
+        deep = {"a": deep}
+    scene = write_text(tmp_path / "s.json", json.dumps({"objects": [{"material": deep}]}))
+    line = _run_bad(tmp_path, scene, capsys)
+    assert line == f"raytrace: error: {scene}: objects[0]: nested more than 32 levels deep"
+    # Python dicts too, one that contains itself included (was a RecursionError)
+    looped: dict = {"kd": 0.5}
+    looped["base"] = looped
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.scene_from_dict({"materials": {"loop": looped}})
+    assert str(e.value) == "materials.loop: nested more than 32 levels deep"
+
+
 def test_json_scene_renders_the_same_pixels_as_its_toml_twin(tmp_path):
     text = BASE + """
 [materials.floor]

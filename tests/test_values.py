@@ -3,6 +3,7 @@ as they were written."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 import raytrace
@@ -42,3 +43,16 @@ def test_integer_ranges_print_as_integers(tmp_path, capsys):
                                        "[0, 9223372036854775807]), got -1\n")
     with pytest.raises(raytrace.SceneError, match=r"\(the range is \(0, 90\]\), got 0\.0"):
         raytrace.SpotLight([0, 1, 0], [0, -1, 0], cutoff=0.0)  # float bounds: %g, as before
+
+
+def test_unit_normalises_once_and_then_keeps_the_direction_bit_for_bit():
+    # A record's check runs again before every render: normalising an already normalised
+    # direction again would move a third of them by an ulp (and the picture with them).
+    rng = np.random.default_rng(28)
+    for v in rng.normal(size=(2000, 3)) * 10.0 ** rng.uniform(-3, 3, size=(2000, 1)):
+        u = values.unit(v, "normal")
+        assert abs(np.linalg.norm(u) - 1) <= values.UNIT_TOLERANCE
+        assert values.unit(u, "normal").tobytes() == u.tobytes()
+    assert values.unit([0, 0, 2], "normal").tolist() == [0.0, 0.0, 1.0]
+    with pytest.raises(raytrace.SceneError, match="^normal: must not be the zero vector$"):
+        values.unit([0, 0, 0], "normal")

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import SceneError
 from .files import atomic_path
 
 #: Rec. 709 / sRGB primaries and D65 white: (red xy, green xy, blue xy, white xy).
@@ -105,19 +106,26 @@ def read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict]:
 def read_exr_channels(path: str | os.PathLike) -> tuple[np.ndarray, dict, dict]:
     """RGB as :func:`read_exr` reads it, every other channel by name (H, W), the header. A
     missing file is a :class:`FileNotFoundError` (checked first: the binding would print to
-    stderr)."""
+    stderr); a file the binding cannot read (damaged, truncated, another format) or without
+    R, G and B is a :class:`~raytrace.errors.SceneError` naming it, in one line: the binding
+    itself raises a bare RuntimeError, or for a truncated file a ValueError about "0
+    parts", or a UnicodeDecodeError for a damaged header."""
     import OpenEXR
 
     if Path(path).is_dir():
         raise IsADirectoryError(errno.EISDIR, "is a folder, not an EXR file", os.fspath(path))
     if not Path(path).is_file():
         raise FileNotFoundError(errno.ENOENT, "no such EXR file", os.fspath(path))
-    with OpenEXR.File(str(path), separate_channels=True) as f:
-        ch = {name: c.pixels for name, c in f.channels().items()}
-        header = dict(f.header())
+    try:
+        with OpenEXR.File(str(path), separate_channels=True) as f:
+            ch = {name: c.pixels for name, c in f.channels().items()}
+            header = dict(f.header())
+    except (RuntimeError, ValueError) as e:
+        raise SceneError(f"not a readable OpenEXR file: damaged, truncated or another format "
+                         f"(OpenEXR: {e})", file=os.fspath(path)) from None
     missing = [c for c in "RGB" if c not in ch]
     if missing:
-        raise ValueError(f"{path}: no channel(s) {', '.join(missing)} "
-                         f"(has {', '.join(sorted(ch))})")
+        raise SceneError(f"no channel(s) {', '.join(missing)} (has {', '.join(sorted(ch))})",
+                         file=os.fspath(path))
     rgb = np.stack([np.asarray(ch.pop(c), dtype=np.float32) for c in "RGB"], axis=-1)
     return rgb, ch, header

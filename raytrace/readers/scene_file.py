@@ -74,6 +74,9 @@ def load_scene(path: str | Path) -> Scene:
     except (tomllib.TOMLDecodeError, json.JSONDecodeError) as e:
         kind = "JSON" if path.suffix.lower() == ".json" else "TOML"
         raise SceneError(f"invalid {kind}: {e}", file=name) from None
+    except RecursionError:  # both parsers recurse once a level: ~1000 levels is their end
+        raise SceneError(f"nested too deep to read (a scene is at most {MAX_NESTING} levels "
+                         "deep)", file=name) from None
     try:
         return scene_from_dict(data, path.parent, name)
     except SceneError as e:
@@ -83,6 +86,7 @@ def load_scene(path: str | Path) -> Scene:
 def scene_from_dict(data: Mapping, folder: str | Path = ".", name: str | None = None) -> Scene:
     """A :class:`Scene` from the parsed structure of a scene file (also for Python dicts)."""
     folder = Path(folder)
+    _check_nesting(data)
     values.check_keys(data, TOP_KEYS, "")
     render_table = _table(data, "render")
     values.check_keys(render_table, RENDER_KEYS, "render")
@@ -97,6 +101,31 @@ def scene_from_dict(data: Mapping, folder: str | Path = ".", name: str | None = 
     objects = [_object(t, f"objects[{i}]", folder) for i, t in enumerate(_array(data, "objects"))]
     return Scene(camera=camera, objects=objects, lights=lights, materials=materials,
                  ambient=amb.get("color", 0.0), render=render, path=name)
+
+
+#: The most levels of tables and arrays a scene may nest: a checker colour of an object's
+#: inline material is 7 (the file, objects, the object, material, kd, colors, a colour).
+MAX_NESTING = 32
+
+
+def _check_nesting(data: Any) -> None:
+    """Refuse tables and arrays nested more than :data:`MAX_NESTING` deep (or a Python dict
+    that contains itself), naming the top-level entry that holds them (``objects[3]``),
+    before anything recursive (reading, copying, printing a value) meets them. A walk with a
+    stack of its own, not recursion."""
+    stack = [(data, "", 1)]
+    while stack:
+        value, key, depth = stack.pop()
+        if isinstance(value, Mapping):
+            items = [(f"{key}.{k}" if key else str(k), v) for k, v in value.items()]
+        elif isinstance(value, (list, tuple)):
+            items = [(f"{key}[{i}]", v) for i, v in enumerate(value)]
+        else:
+            continue
+        if depth > MAX_NESTING:
+            raise SceneError(f"nested more than {MAX_NESTING} levels deep", key)
+        # (keys below an entry such as objects[3] stay its key: a deep one is no help)
+        stack.extend((v, k if depth < 3 else key, depth + 1) for k, v in items)
 
 
 def _table(data: Mapping, key: str) -> Mapping:
