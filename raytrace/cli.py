@@ -611,6 +611,8 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
     if args.stats and source.files and any(
             Path(args.stats).resolve() == frame_path(source.files, f).resolve() for f in frames):
         raise SceneError(f"would overwrite the input {args.stats}", "--stats")
+    stats_file = args.outputs.add(args.stats, "--stats") if args.stats else None
+    args.outputs.preflight()  # (all or nothing, as a single render's --stats: outputs.py)
     aovs = check_aovs(args.aov, "--aov")
     overrides = {"width": args.width, "height": args.height, "spp": args.spp,
                  "max_depth": args.max_depth, "min_weight": args.min_weight, "seed": args.seed,
@@ -637,14 +639,13 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
         except SceneError as e:
             raise (_flag_error(e) if e.key == "crop" else e) from None
     rays = sum(st["rays"]["total"] for st in result.stats.values())
-    if args.stats:
-        from .film.files import atomic_path
-
+    if stats_file:
         summary = {"frames": {str(f): st for f, st in sorted(result.stats.items())},
                    "rendered": sorted(result.rendered), "skipped": result.skipped,
                    "rays": {"total": rays}, "seconds": {"total": result.seconds}}
-        with atomic_path(args.stats, ".json") as tmp:
+        with args.outputs.stage(stats_file) as tmp:
             tmp.write_text(json.dumps(summary, indent=2) + "\n")
+        args.outputs.commit()
     if progress.enabled:
         done = sorted(result.rendered)
         span = f"{result.outputs[done[0]][0]} … {result.outputs[done[-1]][0]}" if done else ""

@@ -262,3 +262,29 @@ def test_frame_lists_are_written_back_as_parse_frames_reads_them():
 
     assert format_frames([7, 1, 2, 3, 5]) == "1-3,5,7"
     assert parse_frames(format_frames([4, 9, 10, 11])) == [4, 9, 10, 11]
+
+
+def test_a_full_disk_writing_the_sequence_stats_names_the_file_and_what_was_written(
+        tmp_path, capsys, monkeypatch):
+    import errno
+    from pathlib import Path
+
+    real = Path.write_text
+
+    def full(self, data, *a, **kw):
+        if self.name.startswith(".s.json."):
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(self, data, *a, **kw)
+
+    write_text(tmp_path / "anim.py", ANIM)
+    write_text(tmp_path / "s.json", "old\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(Path, "write_text", full)
+    rc = cli.main(["render", "anim.py:scene_at", "--frames", "1", "-o", "a.#.exr",
+                   "--stats", "s.json"])
+    assert (rc, capsys.readouterr().err) == (
+        2, "raytrace: error: s.json: --stats: cannot write: No space left on device; no output "
+           "written (s.json left as it was) (written before it: frame 1, complete; a rerun "
+           "without --overwrite skips it)\n")
+    assert (tmp_path / "s.json").read_text() == "old\n"
+    assert sorted(os.listdir(tmp_path)) == ["a.1.exr", "anim.py", "s.json"]
