@@ -19,9 +19,16 @@
     raytrace materials
     raytrace --version
 
-Bad input prints one line ``raytrace: error: FILE: KEY: problem`` and exits with status 2;
-``compare`` exits 1 when the difference is worse than the threshold (over it; under it for
-PSNR). The metrics are :data:`raytrace.film.metrics.METRICS`. ``render`` writes all of its outputs
+Exit status (docs/scene_format.md, "Exit status", has the same table)::
+
+    0    done (compare: within the threshold)                       EXIT_DONE
+    1    compare: over the threshold (under it for PSNR)            EXIT_OVER_THRESHOLD
+    1    any other command: an internal error, with its traceback   EXIT_INTERNAL
+    2    bad input: one line raytrace: error: FILE: KEY: problem    EXIT_BAD_INPUT
+    3    the engine cannot run here (Embree missing or failing)     EXIT_ENGINE
+    130  interrupted (Ctrl-C)                                       EXIT_INTERRUPTED
+
+The metrics are :data:`raytrace.film.metrics.METRICS`. ``render`` writes all of its outputs
 or none (:mod:`raytrace.film.outputs`); a render that completes but is probably not what was meant
 adds a line ``raytrace: warning: FILE: problem``. With ``--out-dir`` each scene's outputs are
 all or nothing on their own; a scene that fails is one error line naming its file, the next
@@ -49,10 +56,16 @@ from .film.outputs import Outputs
 if TYPE_CHECKING:
     from .scene import Scene
 
-EXIT_BAD_INPUT = 2
+EXIT_DONE = 0
+#: ``compare`` only: the difference is worse than the threshold.
 EXIT_OVER_THRESHOLD = 1
+#: An exception raytrace did not expect: Python prints its traceback and exits 1 (a bug).
+EXIT_INTERNAL = 1
+EXIT_BAD_INPUT = 2
 #: The engine cannot run on this install (raytrace.errors.EngineError): not the input's fault.
 EXIT_ENGINE = 3
+#: Ctrl-C (128 + SIGINT, as a shell reports a process the signal ended).
+EXIT_INTERRUPTED = 130
 
 
 class _Parser(argparse.ArgumentParser):
@@ -217,14 +230,15 @@ FLAGS = {"width": "--width", "height": "--height", "spp": "--spp", "max_depth": 
          "min_weight": "--min-weight", "seed": "--seed", "threads": "--threads",
          "crop": "--crop", "aovs": "--aov", "filter": "--filter", "aa": "--aa",
          "aa_threshold": "--aa-threshold", "aa_depth": "--aa-depth",
-         "aa_min_depth": "--aa-min-depth", "tile": "--tile"}
+         "aa_min_depth": "--aa-min-depth", "tile": "--tile", "pixel": "--pixel",
+         "sample": "--sample"}
 
 
 def _flag_error(e: SceneError) -> SceneError:
     """A SceneError about a setting's value, naming the flag instead of the scene key (and
     the scene file where the value is checked against the scene's frame)."""
     key = (e.key or "").removeprefix("render.")
-    in_frame = key in ("crop", "--pixel", "--sample")
+    in_frame = key in ("crop", "pixel", "sample")
     return SceneError(e.problem, FLAGS.get(key, e.key), e.file if in_frame else None)
 
 
@@ -360,7 +374,7 @@ def _render(args: argparse.Namespace) -> int:
             loaded.append((paths, _load(paths[0])))
         except (SceneError, OSError) as e:
             failed += 1
-            print(f"raytrace: error: {_one_line(e, paths[0], Outputs())}", file=sys.stderr)
+            print(f"raytrace: error: {_one_line(e, paths[0])}", file=sys.stderr)
             continue
         inputs += [(f, f"{what} of {paths[0]}") for f, what in loaded[-1][1][0].input_files()]
     with _Started(cluster) as client:  # one cluster for the batch
@@ -371,7 +385,7 @@ def _render(args: argparse.Namespace) -> int:
                                 scene=scene)
                 except (SceneError, OSError) as e:
                     failed += 1
-                    print(f"raytrace: error: {_one_line(e, paths[0], outputs)}",
+                    print(f"raytrace: error: {_one_line(e, paths[0])}",
                           file=sys.stderr)
                 finally:
                     args.written.extend(outputs.written)
@@ -475,13 +489,13 @@ def _batch_outputs(args: argparse.Namespace
     return batch
 
 
-def _one_line(e: SceneError | OSError, scene: str, outputs: Outputs) -> str:
-    """A batch scene's failure as one line naming its file (and what it left unwritten)."""
+def _one_line(e: SceneError | OSError, scene: str) -> str:
+    """A batch scene's failure as one line naming its file (a failed write says what it left
+    unwritten: :meth:`Outputs.summary`)."""
     if isinstance(e, SceneError):
         return str(e) if e.file else f"{scene}: {e}"
     where = ": ".join(str(p) for p in (e.filename, getattr(e, "key", None)) if p)
-    return (f"{scene}: {where + ': ' if where else ''}{e.strerror or e} "
-            f"({_what_was_written(outputs)})")
+    return f"{scene}: {where + ': ' if where else ''}{e.strerror or e}"
 
 
 def _render_one(args: argparse.Namespace, outputs: Outputs,
@@ -599,6 +613,8 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
     if args.stats and source.files and any(
             Path(args.stats).resolve() == frame_path(source.files, f).resolve() for f in frames):
         raise SceneError(f"would overwrite the input {args.stats}", "--stats")
+    stats_file = args.outputs.add(args.stats, "--stats") if args.stats else None
+    args.outputs.preflight()  # (all or nothing, as a single render's --stats: outputs.py)
     aovs = check_aovs(args.aov, "--aov")
     overrides = {"width": args.width, "height": args.height, "spp": args.spp,
                  "max_depth": args.max_depth, "min_weight": args.min_weight, "seed": args.seed,
@@ -613,6 +629,7 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
 
     def written(frame: int, paths: list[str]) -> None:
         args.written.extend(paths)
+        args.frames_written.append(frame)
 
     with _warnings_as_lines(), cluster as client:
         try:
@@ -624,14 +641,13 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
         except SceneError as e:
             raise (_flag_error(e) if e.key == "crop" else e) from None
     rays = sum(st["rays"]["total"] for st in result.stats.values())
-    if args.stats:
-        from .film.files import atomic_path
-
+    if stats_file:
         summary = {"frames": {str(f): st for f, st in sorted(result.stats.items())},
                    "rendered": sorted(result.rendered), "skipped": result.skipped,
                    "rays": {"total": rays}, "seconds": {"total": result.seconds}}
-        with atomic_path(args.stats, ".json") as tmp:
+        with args.outputs.stage(stats_file) as tmp:
             tmp.write_text(json.dumps(summary, indent=2) + "\n")
+        args.outputs.commit()
     if progress.enabled:
         done = sorted(result.rendered)
         span = f"{result.outputs[done[0]][0]} … {result.outputs[done[-1]][0]}" if done else ""
@@ -660,6 +676,7 @@ def _compare(args: argparse.Namespace) -> int:
     from .film import metrics
     from .film.compare import compare_images, write_diff
     from .film.exr import read_exr
+    from .readers.inputs import input_file
 
     try:
         metric = metrics.get(args.metric)
@@ -683,8 +700,7 @@ def _compare(args: argparse.Namespace) -> int:
             raise SceneError(f"would overwrite the input {args.diff}", "--diff")
     images = []
     for path in inputs:
-        if not Path(path).is_file():
-            raise SceneError("file not found", file=path)
+        input_file(path, "EXR file", file=path, a="an")
         try:
             images.append(read_exr(path)[0].astype(np.float64))
         except Exception as e:  # the binding raises plain exceptions for bad files
@@ -730,44 +746,47 @@ def _materials(args: argparse.Namespace) -> int:
     return 0
 
 
-def _what_was_written(outputs: Outputs) -> str:
-    """Exactly which outputs were replaced and which were left as they were."""
-    done, left = outputs.written, outputs.not_written
-    if not done:
-        return "no output written" + (f" ({', '.join(left)} left as they were)" if left else "")
-    if not left:
-        return f"wrote {', '.join(done)} (every output)"
-    return f"wrote {', '.join(done)}; not written: {', '.join(left)} (left as they were)"
+def _frames_written(args: argparse.Namespace) -> str:
+    """With ``--frames``, the frames written before a failure (each complete, and skipped
+    by a rerun): `` (written before it: frames 1-3, ...)``, or ``""`` when none was."""
+    if not args.frames_written:
+        return ""
+    from .frames import format_frames
+
+    many = len(args.frames_written) > 1
+    return (f" (written before it: frame{'s' * many} {format_frames(args.frames_written)}, "
+            f"complete; a rerun without --overwrite skips {'them' if many else 'it'})")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     args.written = []  # frames of a sequence written so far (each is written atomically)
+    args.frames_written = []  # and their numbers
     handler = {"render": _render, "explain": _explain, "compare": _compare,
                "materials": _materials}[args.command]
     with Outputs() as args.outputs:  # all or nothing (outputs.py); temporary files removed
         try:
             return handler(args)
         except (SceneError, ClusterError) as e:
-            print(f"raytrace: error: {e}", file=sys.stderr)
+            print(f"raytrace: error: {e}{_frames_written(args)}", file=sys.stderr)
             return EXIT_BAD_INPUT
         except EngineError as e:  # the install, not the input: Embree missing or unchecked
-            print(f"raytrace: error: {e}", file=sys.stderr)
+            print(f"raytrace: error: {e}{_frames_written(args)}", file=sys.stderr)
             return EXIT_ENGINE
         except BrokenPipeError:  # e.g. `raytrace materials | head`
             sys.stderr.close()
-            return 0
+            return EXIT_DONE
         except KeyboardInterrupt:
             end_bar = "\n" if sys.stderr.isatty() else ""  # leave the progress bar's line
             done = (f"wrote {', '.join(args.written)} only" if args.written  # frames
-                    else _what_was_written(args.outputs))
+                    else args.outputs.summary())
             print(f"{end_bar}raytrace: interrupted; {done}", file=sys.stderr)
-            return 130
+            return EXIT_INTERRUPTED
         except OSError as e:  # e.g. no permission or no space left writing an output
+            # (a failed write says what was written: Outputs.summary)
             where = ": ".join(str(p) for p in (e.filename, getattr(e, "key", None)) if p)
-            partial = f" ({_what_was_written(args.outputs)})" if args.outputs.written else ""
-            print(f"raytrace: error: {where + ': ' if where else ''}{e.strerror or e}{partial}",
-                  file=sys.stderr)
+            print(f"raytrace: error: {where + ': ' if where else ''}{e.strerror or e}"
+                  f"{_frames_written(args)}", file=sys.stderr)
             return EXIT_BAD_INPUT
 
 

@@ -36,6 +36,7 @@ from .film import writers
 from .film.exr import exr_compression
 from .film.image import Image
 from .film.tonemap import check_exposure, check_tonemap
+from .readers.inputs import input_file
 from .readers.scene_file import load_scene
 from .rendering import render
 from .scene import Scene
@@ -78,6 +79,21 @@ def parse_frames(spec: str | Sequence[int], key: str = "frames") -> list[int]:
     if len(frames) > MAX_FRAMES:
         raise SceneError(f"{len(frames):,} frames is over the limit of {MAX_FRAMES:,}", key)
     return frames
+
+
+def format_frames(frames: Sequence[int]) -> str:
+    """Frame numbers as :func:`parse_frames` reads them back, runs joined, in order.
+
+    >>> format_frames([1, 2, 3, 10, 5, 6])
+    '1-3,5-6,10'
+    """
+    runs: list[list[int]] = []
+    for f in sorted(frames):
+        if runs and f == runs[-1][1] + 1:
+            runs[-1][1] = f
+        else:
+            runs.append([f, f])
+    return ",".join(str(a) if a == b else f"{a}-{b}" for a, b in runs)
 
 
 def check_pattern(pattern: str | os.PathLike, key: str) -> str:
@@ -134,8 +150,9 @@ class SceneSource:
     function: Callable[[int], Scene] | None = None
 
     def scene(self, frame: int) -> Scene:
-        """The scene of ``frame``; a :class:`SceneError` naming the frame when the function
-        fails on bad input or returns something else than a Scene."""
+        """The scene of ``frame``; a :class:`SceneError` naming the function and the frame
+        when the function raises (the user's exception named in the one line, and chained)
+        or returns something else than a Scene."""
         if self.files is not None:
             return load_scene(frame_path(self.files, frame))
         where = f"{self.name}({frame})"
@@ -143,6 +160,8 @@ class SceneSource:
             scene = self.function(frame)
         except SceneError as e:
             raise SceneError(e.problem, e.key, e.file or where) from None
+        except Exception as e:  # the user's code: one line, not its traceback
+            raise SceneError(f"raised {type(e).__name__}: {e}", file=where) from e
         if not isinstance(scene, Scene):
             raise SceneError(f"returned {type(scene).__name__}, not a raytrace.Scene",
                              file=where)
@@ -169,8 +188,7 @@ def load_function(path: str, name: str, key: str) -> Callable[[int], Scene]:
     cluster it is pickled by value (cloudpickle), so the workers need not have the file."""
     import importlib.util
 
-    if not Path(path).is_file():
-        raise SceneError(f"file not found: {path}", key)
+    input_file(path, "Python file", key)
     name_here = f"raytrace_frames_{Path(path).stem}"
     spec = importlib.util.spec_from_file_location(name_here, path)
     module = importlib.util.module_from_spec(spec)
@@ -256,6 +274,10 @@ def render_frames(scenes: str | os.PathLike | Callable[[int], Scene] | SceneSour
             result.skipped.append(frame)
         else:
             todo.append(frame)
+    if source.files is not None:  # a gap in the sequence: found before any frame is written
+        for frame in todo:
+            name = str(frame_path(source.files, frame))
+            input_file(name, "scene file", file=name)
 
     def write(frame: int, image: Image) -> None:
         threads = overrides.get("threads") or os.cpu_count() or 1

@@ -77,7 +77,7 @@ class Recorder:
             self._next = [self._new(rays, i, None) for i in range(len(rays))]
         if len(self._next) != len(rays):
             raise TooManyRays(f"more rays at depth {rays.depth} than one batch holds: too many "
-                              "to explain ray by ray (lower --max-depth)", "--pixel")
+                              "to explain ray by ray (use a lower max depth)", "pixel")
         ids = self._next
         for i in missed:
             rec = self.rays[ids[i]]
@@ -226,24 +226,24 @@ def explain(scene: Scene, pixel: tuple[int, int], sample: int = 0, **overrides: 
 def _pixel(pixel: Any, width: int, height: int, path: str | None) -> tuple[int, int]:
     try:
         if isinstance(pixel, str) or len(pixel) != 2:
-            raise SceneError(f"must be two numbers X Y, got {pixel!r}", "--pixel")
-        x, y = (values.number(v, "--pixel", integer=True) for v in pixel)
+            raise SceneError(f"must be two numbers (x, y), got {pixel!r}", "pixel")
+        x, y = (values.number(v, "pixel", integer=True) for v in pixel)
     except TypeError:
-        raise SceneError(f"must be two numbers X Y, got {pixel!r}", "--pixel", path) from None
+        raise SceneError(f"must be two numbers (x, y), got {pixel!r}", "pixel", path) from None
     except SceneError as e:
         raise SceneError(e.problem, e.key, path) from None
     if not (0 <= x < width and 0 <= y < height):
         raise SceneError(f"({x}, {y}) is outside the {width}x{height} image (0 <= X < "
-                         f"{width}, 0 <= Y < {height})", "--pixel", path)
+                         f"{width}, 0 <= Y < {height})", "pixel", path)
     return x, y
 
 
 def _sample(sample: Any, spp: int, path: str | None) -> int:
     try:
-        return values.number(sample, "--sample", lo=0, hi=spp - 1, integer=True)
+        return values.number(sample, "sample", lo=0, hi=spp - 1, integer=True)
     except SceneError as e:
         raise SceneError(f"{e.problem} (the pixel has {spp} sample{'s' * (spp > 1)})",
-                         "--sample", path) from None
+                         "sample", path) from None
 
 
 def _fmt(v: list[float]) -> str:

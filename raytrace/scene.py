@@ -20,6 +20,7 @@ from .errors import SceneError
 from .lights import LIGHT_TYPES, AreaLight, DirectionalLight, PointLight, SpotLight  # noqa: F401
 from .material import Material, library, material_from_table
 from .readers.assets import load_with_materials
+from .readers.inputs import input_file
 from .readers.meshio import read_mesh
 from .sampling import check_aa, check_filter
 
@@ -329,9 +330,7 @@ class Mesh(values.Checked):
     def _load_with_materials(self, path: Path) -> tuple[np.ndarray, np.ndarray]:
         """The file's triangles; its materials, faces' materials and texture coordinates
         kept on the mesh (:func:`raytrace.readers.assets.load_with_materials`)."""
-        if not path.is_file():
-            raise SceneError(f"mesh file not found: {path}", "file")
-        asset = load_with_materials(path)
+        asset = load_with_materials(input_file(path, "mesh file", "file"))
         self.file_materials, self.face_material = asset.materials, asset.face_material
         self.texcoords, self.sources = asset.texcoords, asset.sources
         self.material = asset.materials[0]
@@ -404,11 +403,7 @@ def _from_trimesh(mesh: Any, key: str) -> tuple[np.ndarray, np.ndarray]:
 def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Vertices, faces and, for a single textured mesh, texture coordinates (F, 3, 2): from
     :func:`raytrace.readers.meshio.read_mesh` where it reads the file, else from trimesh."""
-    if path.is_dir():
-        raise SceneError(f"is a folder, not a mesh file: {path}", "file")
-    if not path.is_file():
-        what = "not a regular file" if path.exists() else "mesh file not found"
-        raise SceneError(f"{what}: {path}", "file")
+    input_file(path, "mesh file", "file")
     fast = read_mesh(path)  # binary PLY and OBJ triangles: as trimesh reads and merges them
     if fast is not None:
         return fast
@@ -435,8 +430,9 @@ def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | No
                 texcoords = np.asarray(uv, np.float64)[np.asarray(loaded.faces)] * [1, -1] + [
                     0, 1]
         if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-            raise SceneError(f"{path} holds no triangle mesh (got {type(loaded).__name__})",
-                             "file")
+            kind = ("" if isinstance(loaded, trimesh.Trimesh) else
+                    f" (trimesh reads it as a {type(loaded).__name__}: points or lines only)")
+            raise SceneError(f"{path} holds no triangles{kind}", "file")
         bad = ~np.isfinite(np.asarray(loaded.vertices, dtype=np.float64)).all(axis=1)
         if bad.any():
             raise SceneError(f"{path}: vertex {int(np.argmax(bad)) + 1} is not finite "
@@ -559,9 +555,12 @@ class Scene(values.Checked):
                   for i, o in enumerate(self.objects) if isinstance(o, Mesh) and o.file]
         files += [(p, f"a file read by the mesh of objects[{i}]")
                   for i, o in enumerate(self.objects) if isinstance(o, Mesh) for p in o.sources]
-        used = [m for o in self.objects for m in getattr(o, "materials", [o.material])]
-        for m in [*self.materials.values(), *used]:
-            files += [(p, f"the file of material {m.name!r}") for p in m.files]
+        owned = [(m, f"material {m.name!r}") for m in self.materials.values()]
+        owned += [(m, f"material {m.name!r}" if m.name else f"the material of objects[{i}]")
+                  for i, o in enumerate(self.objects)
+                  for m in getattr(o, "materials", [o.material])]  # inline ones have no name
+        for m, owner in owned:
+            files += [(p, f"the file of {owner}") for p in m.files]
         return files
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -544,7 +545,8 @@ def test_out_dir_never_overwrites_a_file_another_scene_of_the_batch_reads(tmp_pa
     rc, cap = _render([c, a, b, "--out-dir", out, "--png"], capsys)
     lines = cap.err.splitlines()
     assert rc == 2 and len(lines) == 1, cap.err
-    assert f"{out / 'a.png'} is the file of material" in lines[0] and str(c) in lines[0]
+    # (the inline material has no name: the line names the object whose material it is)
+    assert f"{out / 'a.png'} is the file of the material of objects[0] of {c} (" in lines[0]
     assert (out / "a.png").read_bytes() == texture
     assert sorted(os.listdir(out)) == ["a.png", "b.exr", "b.png", "c.exr", "c.png"]
 
@@ -620,3 +622,17 @@ def test_a_python_warning_in_a_block_is_shown_once_and_the_block_ends(capsys):
             warnings.warn("a model note", raytrace.RenderWarning, stacklevel=1)
     assert [str(w.message) for w in shown] == ["overflow encountered in dot"]
     assert capsys.readouterr().err == "raytrace: warning: a model note\n"
+
+
+def test_the_documented_exit_statuses_are_the_cli_constants():
+    # docs/scene_format.md's table and the cli module docstring against raytrace.cli's EXIT_*
+    text = (Path(cli.__file__).resolve().parents[1] / "docs" / "scene_format.md").read_text()
+    section = text.split("### Exit status", 1)[1].split("\n### ", 1)[0]
+    rows = re.findall(r"^\| (\d+) \| .+ \| (`EXIT_\w+`(?:, `EXIT_\w+`)*) \|$", section, re.M)
+    documented = {name.strip("` "): int(status) for status, names in rows
+                  for name in names.split(",")}
+    constants = {name: value for name, value in vars(cli).items() if name.startswith("EXIT_")}
+    assert documented == constants
+    assert sorted({int(s) for s, _ in rows}) == [0, 1, 2, 3, 130]
+    for name, value in constants.items():
+        assert re.search(rf"^    {value} .* {name}$", cli.__doc__, re.M), name

@@ -205,3 +205,15 @@ def test_each_light_names_its_own_emitters(monkeypatch):
         [lt["contribution"] for lt in lights], axis=0) + report["rays"][0]["ambient"],
         rtol=1e-12)
     assert "lights[0] (line, sample 2)  term" in format_tree(report)
+
+
+@pytest.mark.parametrize(("pixel", "sample", "line"), [
+    ("a", 0, "pixel: must be two numbers (x, y), got 'a'"),
+    ((1.5, 2), 0, "pixel: must be a whole number, got 1.5"),
+    ((0, 999), 0, "pixel: (0, 999) is outside the 160x120 image (0 <= X < 160, 0 <= Y < 120)"),
+    ((0, 0), 3, "sample: must be <= 0 (the range is [0, 0]), got 3 (the pixel has 1 sample)"),
+])
+def test_the_api_names_its_own_arguments_not_the_cli_flags(whitted, pixel, sample, line):
+    with pytest.raises(raytrace.SceneError) as e:
+        explain(whitted, pixel, sample, width=W, height=H, spp=1)
+    assert str(e.value) == f"{WHITTED}: {line}"

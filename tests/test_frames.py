@@ -174,7 +174,8 @@ def test_a_bad_scene_file_of_one_frame_names_its_file(tmp_path, capsys):
                    str(tmp_path / "o.#.exr")])
     err = capsys.readouterr().err
     assert rc == 2 and err == (f"raytrace: error: {tmp_path / 'shot_2.toml'}: objects[0].radius:"
-                               " must be > 0, got -1\n")
+                               " must be > 0, got -1 (written before it: frame 1, complete; a "
+                               "rerun without --overwrite skips it)\n")
     assert sorted(os.listdir(tmp_path)) == ["o.1.exr", "shot_1.toml", "shot_2.toml"]
 
 
@@ -201,3 +202,89 @@ def test_bad_frame_output_patterns_are_one_line(tmp_path, monkeypatch, capsys, f
     err = capsys.readouterr().err
     assert err.startswith(f"raytrace: error: {says}") and len(err.splitlines()) == 1, err
     assert os.listdir(tmp_path) == ["shot_1.toml"]
+
+
+ANIM = ("import raytrace\n\n"
+        "def scene_at(frame):\n"
+        "    if frame == 3:\n"
+        "        return {}['camera']\n"
+        "    return raytrace.Scene(\n"
+        "        camera=raytrace.Camera(position=[0.1 * frame, 1, 4]),\n"
+        "        objects=[raytrace.Sphere([0, 0, 0], 1, material='brass')],\n"
+        "        render=raytrace.RenderSettings(width=6, height=4))\n")
+
+
+def test_a_frames_function_that_raises_is_one_line_naming_it_and_the_frames_written(
+        tmp_path, capsys, monkeypatch):
+    write_text(tmp_path / "anim.py", ANIM)
+    monkeypatch.chdir(tmp_path)
+    rc = cli.main(["render", "anim.py:scene_at", "--frames", "1-4", "-o", "a.#.exr"])
+    assert (rc, capsys.readouterr().err) == (
+        2, "raytrace: error: anim.py:scene_at(3): raised KeyError: 'camera' (written before "
+           "it: frames 1-2, complete; a rerun without --overwrite skips them)\n")
+    assert sorted(os.listdir(tmp_path)) == ["a.1.exr", "a.2.exr", "anim.py"]
+
+
+def test_an_engine_error_on_a_later_frame_says_which_frames_were_written(tmp_path, capsys,
+                                                                       monkeypatch):
+    import raytrace.frames
+    from raytrace.errors import EngineError
+
+    real = raytrace.frames.render
+
+    def render(scene, **kwargs):
+        if scene.camera.position[0] > 0.15:  # frame 2
+            raise EngineError("Embree: out of memory building the BVH")
+        return real(scene, **kwargs)
+
+    monkeypatch.setattr(raytrace.frames, "render", render)
+    write_text(tmp_path / "anim.py", ANIM)
+    monkeypatch.chdir(tmp_path)
+    rc = cli.main(["render", "anim.py:scene_at", "--frames", "1-2", "-o", "a.#.exr"])
+    assert (rc, capsys.readouterr().err) == (
+        cli.EXIT_ENGINE, "raytrace: error: Embree: out of memory building the BVH (written "
+                         "before it: frame 1, complete; a rerun without --overwrite skips it)\n")
+
+
+def test_a_missing_scene_file_of_a_sequence_is_found_before_any_frame_is_written(tmp_path,
+                                                                                capsys):
+    for frame in (1, 3):
+        write_text(tmp_path / f"shot_{frame}.toml", SHOT.format(x=0.0, radius=0.5))
+    rc = cli.main(["render", str(tmp_path / "shot_#.toml"), "--frames", "1-3", "-o",
+                   str(tmp_path / "o.#.exr")])
+    assert (rc, capsys.readouterr().err) == (
+        2, f"raytrace: error: {tmp_path / 'shot_2.toml'}: scene file not found\n")
+    assert sorted(os.listdir(tmp_path)) == ["shot_1.toml", "shot_3.toml"]
+
+
+def test_frame_lists_are_written_back_as_parse_frames_reads_them():
+    from raytrace.frames import format_frames
+
+    assert format_frames([7, 1, 2, 3, 5]) == "1-3,5,7"
+    assert parse_frames(format_frames([4, 9, 10, 11])) == [4, 9, 10, 11]
+
+
+def test_a_full_disk_writing_the_sequence_stats_names_the_file_and_what_was_written(
+        tmp_path, capsys, monkeypatch):
+    import errno
+    from pathlib import Path
+
+    real = Path.write_text
+
+    def full(self, data, *a, **kw):
+        if self.name.startswith(".s.json."):
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(self, data, *a, **kw)
+
+    write_text(tmp_path / "anim.py", ANIM)
+    write_text(tmp_path / "s.json", "old\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(Path, "write_text", full)
+    rc = cli.main(["render", "anim.py:scene_at", "--frames", "1", "-o", "a.#.exr",
+                   "--stats", "s.json"])
+    assert (rc, capsys.readouterr().err) == (
+        2, "raytrace: error: s.json: --stats: cannot write: No space left on device; no output "
+           "written (s.json left as it was) (written before it: frame 1, complete; a rerun "
+           "without --overwrite skips it)\n")
+    assert (tmp_path / "s.json").read_text() == "old\n"
+    assert sorted(os.listdir(tmp_path)) == ["a.1.exr", "anim.py", "s.json"]

@@ -158,6 +158,34 @@ def test_a_malformed_obj_is_one_line_naming_file_and_line(tmp_path, text, messag
     assert line.startswith("file: ")
 
 
+TRIANGLES = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\n"
+
+
+@pytest.mark.parametrize(("text", "line"), [
+    (TRIANGLES + "f 2 4", 6),                    # the fast reader's file, cut in a face
+    (TRIANGLES + "f 2 4 ", 6),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2", 4),     # its only face cut short
+    ("mtllib m.mtl\n" + TRIANGLES + "f 2", 7),   # a file trimesh reads: it drops the face
+], ids=["last face", "last face and a blank", "only face", "trimesh's file"])
+def test_an_obj_cut_short_in_a_face_says_so(tmp_path, text, line):
+    path = tmp_path / "cut.obj"
+    path.write_text(text)
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.Mesh(file=path)
+    got = len(text.rsplit("f ", 1)[1].split())
+    assert str(e.value) == (f"file: cannot read mesh {path}: line {line}: f needs at least 3 "
+                            f"vertices, got {got} (is the file cut short?)")
+
+
+def test_a_mesh_file_of_points_only_says_it_holds_no_triangles(tmp_path):
+    path = tmp_path / "points.ply"
+    path.write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                    "property float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n")
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.Mesh(file=path)
+    assert str(e.value) == (f"file: {path} holds no triangles (trimesh reads it as a "
+                            "PointCloud: points or lines only)")
+
 def test_a_truncated_or_out_of_range_ply_is_one_line(tmp_path):
     m = knot()
     good = trimesh.exchange.ply.export_ply(m, encoding="binary")

@@ -209,3 +209,37 @@ def test_from_file_needs_a_file_and_a_format_with_materials(tmp_path):
     (tmp_path / "t.stl").write_text("solid t\nendsolid t\n")
     with pytest.raises(SceneError, match="OBJ .* or a glTF/GLB"):
         raytrace.Mesh(file=tmp_path / "t.stl", material="from_file")
+
+
+@pytest.mark.parametrize(("statement", "problem"), [
+    ("Kd nan 1 1", "Kd: must be finite, got nan"),
+    ("Ns -3", "Ns: must be >= 0, got -3.0"),
+    ("d 1.5", "d: must be <= 1 (the range is [0, 1]), got 1.5"),
+    ("Ni x", "Ni: must be a number, got 'x'"),
+])
+def test_an_mtl_value_out_of_range_reads_as_a_scene_value_does(tmp_path, statement, problem):
+    with pytest.raises(SceneError) as e:
+        quad(tmp_path, f"newmtl m\n{statement}\n")
+    assert str(e.value) == f"{tmp_path / 'quad.mtl'}: line 2: {problem}"
+
+
+def test_an_mtl_error_names_the_mtl_file_not_the_scene_object(tmp_path, monkeypatch, capsys):
+    from raytrace import cli
+
+    (tmp_path / "quad.obj").write_text(QUAD)
+    (tmp_path / "quad.mtl").write_text("newmtl m\nKd nan 1 1\n")
+    (tmp_path / "s.toml").write_text('[[objects]]\ntype = "mesh"\nfile = "quad.obj"\n'
+                                     'material = "from_file"\n')
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["render", "s.toml"]) == 2
+    assert capsys.readouterr().err == ("raytrace: error: quad.mtl: line 2: Kd: must be finite, "
+                                       "got nan\n")
+
+
+def test_an_mtl_of_binary_bytes_is_named_not_text_without_echoing_them(tmp_path):
+    (tmp_path / "quad.obj").write_text(QUAD)
+    (tmp_path / "quad.mtl").write_bytes(b"V\xc3\x1e\x00\xff garbage\n")
+    with pytest.raises(SceneError) as e:
+        raytrace.Mesh(file=tmp_path / "quad.obj", material="from_file")
+    assert str(e.value) == (f"{tmp_path / 'quad.mtl'}: mtllib: byte 0x1e on line 1 is not "
+                            "text: an MTL file must be text")

@@ -160,6 +160,23 @@ def test_a_library_material_file_the_scene_reads_is_an_input(tmp_path, capsys, n
     assert snapshot(tmp_path) == before
 
 
+def test_an_inline_material_s_texture_is_named_by_its_object(tmp_path, capsys):
+    # An inline material has no name: the line names the object whose material reads the file.
+    from PIL import Image as PILImage
+
+    folder(tmp_path)
+    PILImage.new("RGB", (2, 2), (200, 30, 30)).save(tmp_path / "tex.png")
+    scene = (tmp_path / "scene.toml").read_text()
+    (tmp_path / "scene.toml").write_text(scene.replace('material = "brass"',
+                                                       'material = { kd = { texture = '
+                                                       '"tex.png" } }'))
+    before = snapshot(tmp_path)
+    rc, err = run(tmp_path, ["render", "scene.toml", "--png", "tex.png", "-q"], capsys)
+    assert (rc, err) == (2, "raytrace: error: --png: tex.png is the file of the material of "
+                            "objects[0], which this command reads: an output never overwrites "
+                            "an input\n")
+    assert snapshot(tmp_path) == before
+
 ROLES = ("scene", "mesh", "-o", "--png", "--stats")
 NAMES = {"scene": "scene.toml", "mesh": "m.obj", "-o": "out.exr", "--png": "out.png",
          "--stats": "stats.json"}
@@ -280,7 +297,8 @@ def test_a_failing_png_or_stats_write_leaves_the_old_exr(tmp_path, capsys, monke
                              "--stats", "stats.json", "-q"], capsys)
     assert rc == 2 and len(err.splitlines()) == 1, err
     assert err == ("raytrace: error: stats.json: --stats: cannot write: No space left on "
-                   "device\n")
+                   "device; no output written (out.exr, out.png, stats.json left as they "
+                   "were)\n")
     assert snapshot(tmp_path) == before  # the EXR and PNG, complete, were not renamed
 
 
@@ -313,7 +331,8 @@ def test_a_full_disk_in_the_exr_writer_is_one_line_naming_the_output(tmp_path, c
     rc, err = run(tmp_path, ["render", "scene.toml", "-o", "out.exr", "-q"], capsys)
     assert rc == 2 and len(err.splitlines()) == 1 and "Traceback" not in err, err
     assert err == ("raytrace: error: out.exr: -o: cannot write: Failed to write pixel data to "
-                   "image file out.exr. No space left on device\n")
+                   "image file out.exr. No space left on device; no output written (out.exr "
+                   "left as it was)\n")
     assert snapshot(tmp_path) == before
 
 
@@ -341,7 +360,8 @@ def test_a_real_full_disk_is_one_line_and_the_old_file_stays(tiny_tmpfs, capsys)
                                "--width", "640", "--height", "480", "-q"], capsys)
     assert rc == 2 and len(err.splitlines()) == 1 and "Traceback" not in err, err
     assert err.startswith(f"raytrace: error: {old}: -o: cannot write: ")
-    assert err.rstrip().endswith("No space left on device") and ".tmp" not in err
+    assert err.rstrip().endswith(f"No space left on device; no output written ({old} left as "
+                                 "it was)") and ".tmp" not in err
     assert snapshot(tiny_tmpfs) == before
 
 

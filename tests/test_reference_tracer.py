@@ -73,8 +73,9 @@ ALLOWED = {"raytrace", "raytrace.scene", "raytrace.material", "raytrace.values",
            # the readers a Mesh loads its file with, and the film's tone maps a texture
            # decodes sRGB with (their libraries load with a file that needs them)
            "raytrace.readers", "raytrace.readers.asset", "raytrace.readers.assets",
-           "raytrace.readers.gltf", "raytrace.readers.meshio", "raytrace.readers.mtl",
-           "raytrace.readers.obj", "raytrace.readers.texture", "raytrace.film",
+           "raytrace.readers.gltf", "raytrace.readers.inputs", "raytrace.readers.meshio",
+           "raytrace.readers.mtl", "raytrace.readers.obj", "raytrace.readers.texture",
+           "raytrace.film",
            "raytrace.film.tonemap",
            # the codes and records every stage shares with the kernels (no numba)
            "raytrace.kernels", "raytrace.kernels.kinds", "raytrace.kernels.records"}

@@ -33,7 +33,9 @@ file of :meth:`raytrace.Image.save`)::
 On any failure before the commit the temporary files are removed and no target changes.
 Errors are :class:`OSError` (or :class:`~raytrace.errors.SceneError` for a bad path) whose
 ``filename`` is the path the user gave, never a temporary name; the flag or argument that named
-the output is in their ``key`` attribute. :attr:`Outputs.written` and
+the output is in their ``key`` attribute. A failure to write or rename says in its message what
+was written (:meth:`Outputs.summary`): ``No space left on device; no output written (out.exr
+left as it was)``. :attr:`Outputs.written` and
 :attr:`Outputs.not_written` say exactly which targets were replaced, whatever happened.
 """
 
@@ -240,16 +242,16 @@ class Outputs:
             raise
         out.tmp = tmp
 
-    @staticmethod
-    def _write_error(e: BaseException, out: Output, tmp: Path | None) -> OSError:
-        """``e`` as one OSError naming the user's path (temporary names replaced by it)."""
+    def _write_error(self, e: BaseException, out: Output, tmp: Path | None) -> OSError:
+        """``e`` as one OSError naming the user's path (temporary names replaced by it) and
+        saying what was written: nothing, every old file as it was (:meth:`summary`)."""
         text = e.strerror if isinstance(e, OSError) and e.strerror else str(e)
         if tmp is not None:  # any token holding the temporary name (or one derived from it)
             text = re.sub(r"['\"]?[^\s'\"]*" + re.escape(tmp.name) + r"[^\s'\"]*['\"]?",
                           lambda m: out.path, text)
         code = e.errno if isinstance(e, OSError) and e.errno else next(
             (c for c in _TEXT_ERRNOS if os.strerror(c) in text), errno.EIO)
-        return _error(code, f"cannot write: {text.rstrip('.')}", out)
+        return _error(code, f"cannot write: {text.rstrip('.')}; {self.summary()}", out)
 
     def commit(self) -> None:
         """Rename every staged file over its target (all must be staged), Ctrl-C held off."""
@@ -261,8 +263,8 @@ class Outputs:
                 try:
                     os.replace(out.tmp, out.target)
                 except OSError as e:
-                    raise _error(e.errno or errno.EIO,
-                                 f"cannot move into place: {e.strerror or e}", out) from None
+                    raise _error(e.errno or errno.EIO, f"cannot move into place: "
+                                 f"{e.strerror or e}; {self.summary()}", out) from None
                 out.tmp, out.written = None, True
 
     def discard(self) -> None:
@@ -282,3 +284,14 @@ class Outputs:
     def not_written(self) -> list[str]:
         """The outputs whose targets were left as they were."""
         return [out.path for out in self.items if not out.written]
+
+    def summary(self) -> str:
+        """Exactly which outputs were replaced and which were left as they were, for the
+        one line that reports a failure or an interrupt."""
+        done, left = self.written, self.not_written
+        kept = f"left as {'they were' if len(left) > 1 else 'it was'}"
+        if not done:
+            return "no output written" + (f" ({', '.join(left)} {kept})" if left else "")
+        if not left:
+            return f"wrote {', '.join(done)} (every output)"
+        return f"wrote {', '.join(done)}; not written: {', '.join(left)} ({kept})"

@@ -33,6 +33,7 @@ from ..errors import RenderWarning, SceneError
 from ..lights import DirectionalLight, PointLight, SpotLight
 from ..material import Material
 from .asset import Asset
+from .inputs import input_file
 from .texture import GLTF_WRAPS, Texture
 
 COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32,
@@ -70,10 +71,7 @@ def _buffers(gltf: Any, path: Path) -> list[bytes]:
         elif uri.startswith("data:"):
             out.append(base64.b64decode(uri.split(",", 1)[1]))
         else:
-            file = path.parent / uri
-            if not file.is_file():
-                raise SceneError(f"buffer file not found: {file}", f"buffers[{i}].uri",
-                                 str(path))
+            file = input_file(path.parent / uri, "buffer file", f"buffers[{i}].uri", str(path))
             out.append(file.read_bytes())
     return out
 
@@ -305,8 +303,7 @@ def _load_cached(path: str, stamp: tuple) -> GltfScene:
 def load_gltf(path: Path) -> GltfScene:
     """The meshes, materials, first camera and lights of a .gltf or .glb file."""
     path = Path(path)
-    if not path.is_file():
-        raise SceneError("glTF file not found", file=str(path))
+    input_file(path, "glTF file", file=str(path))
     st = path.stat()
     return _load_cached(str(path.resolve()), (st.st_mtime_ns, st.st_size))
 

@@ -166,17 +166,19 @@ def read_obj(path: Path) -> Mesh3 | None:
     starts = starts[starts < len(buf)]
     ends = np.append(starts[1:], len(buf))
     lines = Lines(data, buf, starts, ends)
-    kinds = _statements(lines)
-    if kinds is None or data.count(b"#") != int((buf[starts] == ord("#")).sum()):
+    kinds, plain = _statements(lines)
+    # (checked for every file: trimesh would drop a face cut short without a word)
+    words = _face_words(lines, kinds[b"f"], path) if kinds[b"f"].any() else None
+    if not plain or data.count(b"#") != int((buf[starts] == ord("#")).sum()):
         # (a comment after a statement, or one of the statements trimesh reads)
         return None  # usemtl, mtllib, l, p, curves, indented lines: trimesh's reading stands
-    if not kinds[b"f"].any():
+    if words is None:
         raise SceneError(f"{path} holds no faces", "file")
     v = _numbers(lines, kinds[b"v"], b"v", 3, path)
     vt = _numbers(lines, kinds[b"vt"], b"vt", 2, path)
     if v is None or vt is None:
         return None
-    corners = _face_corners(lines, kinds[b"f"], path, len(v), len(vt))
+    corners = _face_corners(words, kinds[b"f"], path, len(v), len(vt))
     if corners is None:
         return None
     faces, face_vt = corners
@@ -188,9 +190,9 @@ def read_obj(path: Path) -> Mesh3 | None:
     return vertices, merged, texcoords
 
 
-def _statements(lines: Lines) -> dict[bytes, np.ndarray] | None:
-    """Which lines are ``v``, ``vt`` and ``f`` statements, from their first three bytes; None
-    where a line is none of :data:`OBJ_STATEMENTS` nor blank."""
+def _statements(lines: Lines) -> tuple[dict[bytes, np.ndarray], bool]:
+    """Which lines are ``v``, ``vt`` and ``f`` statements, from their first three bytes, and
+    whether every line is one of :data:`OBJ_STATEMENTS` or blank."""
     _, buf, starts, ends = lines
 
     def at(k: int) -> np.ndarray:
@@ -206,7 +208,7 @@ def _statements(lines: Lines) -> dict[bytes, np.ndarray] | None:
     known = np.isin(c0, tuple(map(ord, "ogs"))) & blank1 | (c0 == 10) | (c0 == ord("#"))
     for mask in kinds.values():
         known |= mask
-    return kinds if known.all() else None
+    return kinds, bool(known.all())
 
 
 def _blank(chars: np.ndarray) -> np.ndarray:
@@ -273,18 +275,33 @@ def _gather(lines: Lines, mask: np.ndarray, word: bytes) -> bytes:
     return text.replace(b"\n" + word, b"\n" + b" " * len(word))
 
 
-def _face_corners(lines: Lines, mask: np.ndarray, path: Path, n_v: int, n_vt: int
-                  ) -> tuple[np.ndarray, np.ndarray | None] | None:
-    """(F, 3) vertex indices and (F, 3) texture-vertex indices (or None) of triangle-only
-    ``f`` lines written all in one corner form; None for polygons or mixed forms."""
+def _face_words(lines: Lines, mask: np.ndarray, path: Path
+                ) -> tuple[bytes, np.ndarray, np.ndarray]:
+    """The ``f`` lines' text (:func:`_gather`), where each corner starts in it, and how many
+    corners each line has; a :class:`SceneError` naming the first line with fewer than 3 (a
+    face is a polygon: a file cut short in a face, say)."""
     text = _gather(lines, mask, b"f")
-    n = int(mask.sum())
     chars = np.frombuffer(text, np.uint8)
     blank = _blank(chars)
     word_starts = np.flatnonzero(~blank[1:] & blank[:-1]) + 1
     line = np.searchsorted(np.flatnonzero(chars == 10), word_starts) - 1  # its f line
-    if np.any(np.bincount(line, minlength=n) != 3):
-        return None  # polygons (or a malformed line): trimesh triangulates or reports
+    counts = np.bincount(line, minlength=int(mask.sum()))
+    if np.any(counts < 3):
+        k = int(np.argmax(counts < 3))
+        raise SceneError(f"cannot read mesh {path}: line {_line_of(mask, k)}: f needs at least "
+                         f"3 vertices, got {int(counts[k])} (is the file cut short?)", "file")
+    return text, word_starts, counts
+
+
+def _face_corners(words: tuple[bytes, np.ndarray, np.ndarray], mask: np.ndarray, path: Path,
+                  n_v: int, n_vt: int) -> tuple[np.ndarray, np.ndarray | None] | None:
+    """(F, 3) vertex indices and (F, 3) texture-vertex indices (or None) of triangle-only
+    ``f`` lines (their :func:`_face_words`) written all in one corner form; None for polygons
+    or mixed forms."""
+    text, word_starts, counts = words
+    n = len(counts)
+    if np.any(counts != 3):
+        return None  # polygons: trimesh triangulates them
     sample = text[word_starts[0]:].split(maxsplit=1)[0]
     slashes = sample.count(b"/")
     double = b"//" in sample

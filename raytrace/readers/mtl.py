@@ -23,8 +23,10 @@ from typing import Any
 
 import numpy as np
 
+from .. import values
 from ..errors import RenderWarning, SceneError
 from ..material import Material
+from .inputs import read_text
 
 #: Statements read as colours: ``Ka r [g b]``.
 COLOR_STATEMENTS = ("Ka", "Kd", "Ks", "Ke", "Tf")
@@ -85,14 +87,12 @@ ILLUM: dict[int, Callable[[dict], dict]] = {
 
 
 def _number(word: str, where: str, stmt: str, lo: float | None, hi: float | None) -> float:
+    """A statement's number, checked as every scene value is (:func:`raytrace.values.number`)."""
     try:
-        x = float(word)
-    except ValueError:
-        raise SceneError(f"must be a number, got {word!r}", stmt, where) from None
-    if not np.isfinite(x) or (lo is not None and x < lo) or (hi is not None and x > hi):
-        rng = f"[{lo:g}, {hi:g}]" if hi is not None else f">= {lo:g}"
-        raise SceneError(f"must be a finite number in {rng}, got {word!r}", stmt, where)
-    return x
+        return values.number(float(word), stmt, lo=lo, hi=hi)
+    except ValueError as e:  # (a SceneError is one)
+        problem = e.problem if isinstance(e, SceneError) else f"must be a number, got {word!r}"
+        raise SceneError(problem, stmt, where) from None
 
 
 def _color(words: list[str], where: str, stmt: str) -> np.ndarray:
@@ -120,12 +120,8 @@ def read_mtl(path: Path, texture: Callable[[Path, dict, str, str], Any] | None =
     """The materials of an MTL file by name. ``texture(file, options, key, where)`` builds a
     ``map_Kd`` texture (none given: the map is an error)."""
     path = Path(path)
-    if not path.is_file():
-        raise SceneError("MTL file not found", "mtllib", str(path))
-    try:
-        lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
-    except OSError as e:
-        raise SceneError(f"cannot read MTL file: {e}", "mtllib", str(path)) from None
+    lines = read_text(path, "MTL file", "mtllib", str(path), a="an",
+                      strict=False).splitlines()
     tables: dict[str, dict] = {}
     unsupported: set[str] = set()
     current: dict | None = None

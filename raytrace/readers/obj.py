@@ -11,6 +11,7 @@ import numpy as np
 from ..errors import SceneError
 from ..material import Material
 from .asset import Asset
+from .inputs import read_text
 from .mtl import read_mtl, statements
 from .texture import mtl_texture
 
@@ -35,36 +36,36 @@ def read_obj(path: Path) -> dict:
     names: list[str] = []
     libs: list[Path] = []
     current = -1
-    with open(path, encoding="utf-8", errors="replace") as f:
-        for _, stmt, args, where in statements(f, path):
-            try:
-                if stmt == "v":
-                    v.append([float(x) for x in args[:3]])
-                    if len(v[-1]) != 3:
-                        raise ValueError("needs x y z")
-                elif stmt == "vt":
-                    vt.append([float(x) for x in (args[:2] + ["0"])[:2]])
-                elif stmt == "f":
-                    corners = [_corner(w, len(v), len(vt)) for w in args]
-                    if len(corners) < 3:
-                        raise ValueError("needs at least 3 vertices")
-                    if current < 0:
-                        names.append("")
-                        current = 0
-                    for k in range(1, len(corners) - 1):  # a fan from the first corner
-                        tri = (corners[0], corners[k], corners[k + 1])
-                        faces.append([c[0] for c in tri])
-                        fuv.append([c[1] for c in tri])
-                        fname.append(current)
-                elif stmt == "usemtl":
-                    name = " ".join(args)
-                    if name not in names:
-                        names.append(name)
-                    current = names.index(name)
-                elif stmt == "mtllib":
-                    libs += [path.parent / n for n in args]
-            except (ValueError, IndexError) as e:
-                raise SceneError(f"{e}: {' '.join([stmt, *args])!r}", stmt, where) from None
+    text = read_text(path, "OBJ file", file=str(path), a="an", strict=False)
+    for _, stmt, args, where in statements(text.splitlines(), path):
+        try:
+            if stmt == "v":
+                v.append([float(x) for x in args[:3]])
+                if len(v[-1]) != 3:
+                    raise ValueError("needs x y z")
+            elif stmt == "vt":
+                vt.append([float(x) for x in (args[:2] + ["0"])[:2]])
+            elif stmt == "f":
+                corners = [_corner(w, len(v), len(vt)) for w in args]
+                if len(corners) < 3:
+                    raise ValueError(f"needs at least 3 vertices, got {len(corners)}")
+                if current < 0:
+                    names.append("")
+                    current = 0
+                for k in range(1, len(corners) - 1):  # a fan from the first corner
+                    tri = (corners[0], corners[k], corners[k + 1])
+                    faces.append([c[0] for c in tri])
+                    fuv.append([c[1] for c in tri])
+                    fname.append(current)
+            elif stmt == "usemtl":
+                name = " ".join(args)
+                if name not in names:
+                    names.append(name)
+                current = names.index(name)
+            elif stmt == "mtllib":
+                libs += [path.parent / n for n in args]
+        except (ValueError, IndexError) as e:
+            raise SceneError(f"{e}: {' '.join([stmt, *args])!r}", stmt, where) from None
     if not faces:
         raise SceneError(f"{path} holds no faces", "file")
     return {"vertices": np.array(v, np.float64).reshape(-1, 3),

@@ -23,6 +23,7 @@ from ..material import Material, library, material_from_table
 from ..scene import FROM_FILE, LIGHT_TYPES, OBJECT_TYPES, Camera, Mesh, RenderSettings, Scene
 from .asset import GLTF_SUFFIXES, OBJ_SUFFIXES
 from .gltf import load_gltf
+from .inputs import input_file, read_text
 
 TOP_KEYS = ("render", "camera", "ambient", "materials", "lights", "objects")
 RENDER_KEYS = ("width", "height", "spp", "max_depth", "min_weight", "background", "seed",
@@ -58,12 +59,7 @@ def load_scene(path: str | Path) -> Scene:
     name = str(path)
     if path.suffix.lower() in GLTF_SUFFIXES + OBJ_SUFFIXES:  # a model alone: no TOML
         return scene_from_model(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SceneError("scene file not found", file=name) from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise SceneError(f"cannot read scene file: {e}", file=name) from None
+    text = read_text(path, "scene file", file=name)
     if not text.strip():  # (a file of only comments is a scene of defaults: no objects)
         raise SceneError("the scene file is empty", file=name)
     try:
@@ -200,8 +196,8 @@ def _construct(cls: type, table: Mapping, key: str, **extra: Any):
     kwargs.update(extra)
     try:
         return cls(**kwargs)
-    except SceneError as e:
-        raise e.at(key_prefix=key) from None
+    except SceneError as e:  # an error located in another file (an MTL, a glTF) keeps its key
+        raise (e if e.file else e.at(key_prefix=key)) from None
 
 
 def _light(table: Mapping, key: str):
@@ -238,8 +234,7 @@ def scene_from_model(path: Path) -> Any:
     camera framing the bounding box (:func:`framing_camera`) and a light over the camera's
     shoulder, both reported as a :class:`~raytrace.errors.RenderWarning` line."""
     path = Path(path)
-    if not path.is_file():
-        raise SceneError("model file not found", file=str(path))
+    input_file(path, "model file", file=str(path))
     found = None
     if path.suffix.lower() in GLTF_SUFFIXES:
         found = load_gltf(path)

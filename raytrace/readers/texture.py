@@ -21,6 +21,7 @@ import numpy as np
 from .. import values
 from ..errors import SceneError
 from ..film.tonemap import colour as quiet_colour
+from .inputs import input_file
 
 #: Wrap modes by name → the code :func:`raytrace.kernels.core.wrap1` reads.
 WRAPS = {"repeat": 0, "clamp": 1, "mirror": 2}
@@ -49,8 +50,8 @@ class Texture:
 
         from PIL import Image, UnidentifiedImageError
 
-        if data is None and not Path(file).is_file():
-            raise SceneError(f"texture file not found: {file}", key, where)
+        if data is None:
+            input_file(file, "texture file", key, where)
         try:
             with Image.open(io.BytesIO(data) if data is not None else file) as im:
                 im.load()
