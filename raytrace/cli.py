@@ -232,8 +232,19 @@ class Progress:
     """A one-line progress bar on a terminal; silent when stderr is not a TTY."""
 
     def __init__(self, enabled: bool):
+        self.quiet = not enabled
         self.enabled = enabled and sys.stderr.isatty()
         self.start = time.perf_counter()
+
+    def noticing_compiles(self) -> contextlib.AbstractContextManager:
+        """A context whose value is the render's ``progress`` callback: this bar, with numba's
+        compiles in the block said on stderr while they run, terminal or not, unless quiet
+        (:class:`raytrace.kernels.compile.CompileNotice`)."""
+        if self.quiet:
+            return contextlib.nullcontext(self)
+        from .kernels.compile import CompileNotice
+
+        return CompileNotice(sys.stderr).listening(self)
 
     def __call__(self, done: int, total: int) -> None:
         if not self.enabled:
@@ -497,7 +508,7 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
     scenes read); ``scene``: the scene already loaded, and its load seconds (:func:`_load`),
     or None to load it here."""
     from .film.writers import WRITERS, Settings, main_writer
-    from .kernels.compile import CompileNotice, cache_is_warm, load_registries
+    from .kernels.compile import load_registries
     from .rendering import check_memory, render, render_options
 
     scene_path, files, stats_path = paths
@@ -517,14 +528,9 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
         o = render_options(scene, **overrides)
         x0, y0, x1, y1 = o.crop or (0, 0, o.width, o.height)
         check_memory(x1 - x0, y1 - y0, tuple(w.name for w, _ in images))
-        notice = args.__dict__.setdefault("compile_notice", CompileNotice(
-            lambda line: sys.stderr.write(line)))  # once a process, batch or not
-        if progress.enabled and not cache_is_warm():
-            notice.say()
         load_registries(lean=True)  # this process runs no numba code but ours (jit.py)
-        with _warnings_as_lines(), (notice.listening() if progress.enabled
-                                    else contextlib.nullcontext()):
-            image = render(scene, progress=progress, client=client(), tile=args.tile,
+        with _warnings_as_lines(), progress.noticing_compiles() as report:
+            image = render(scene, progress=report, client=client(), tile=args.tile,
                            **overrides)
     except SceneError as e:  # a flag's value: name the flag, not the scene key
         raise _flag_error(e) from None
