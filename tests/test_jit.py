@@ -198,6 +198,24 @@ def test_a_compile_mid_render_holds_the_bar_until_the_pass_that_waited_is_done()
     assert len(lines) == 2 and lines[0] == COMPILING and COMPILED.fullmatch(lines[1])
 
 
+@pytest.mark.parametrize("stream", [io.StringIO, _Terminal])
+def test_a_compile_cut_short_is_not_said_to_be_over(monkeypatch, stream):
+    # Ctrl-C while kernels compile: the line says what was going on, never "compiled".
+    from numba.core import event
+
+    err = stream()
+    monkeypatch.setattr(CompileNotice, "tick", 0.01)
+    with pytest.raises(KeyboardInterrupt), CompileNotice(err).listening(print):
+        with event.trigger_event("numba:compile", data={}):
+            time.sleep(0.05)
+            raise KeyboardInterrupt
+    said = err.getvalue()
+    time.sleep(0.05)
+    assert err.getvalue() == said  # the terminal's counter stopped with the block
+    assert said.lstrip("\r").startswith(COMPILING) and "compiled" not in said
+    assert not event._registered["numba:compile"]
+
+
 def test_each_scene_of_a_batch_says_its_own_compile(tmp_path, monkeypatch, compiling):
     # A cache warm for one scene may lack another's kernel variants: each compile is said.
     from numba.core import event

@@ -107,15 +107,22 @@ class CompileNotice(event.Listener):
     def listening(self, progress: Callable[[int, int], None]
                   ) -> Iterator[Callable[[int, int], None]]:
         """Say the compiles inside the block; yields the callback to report progress to in
-        place of ``progress`` (a render's ``progress(done, total)``)."""
+        place of ``progress`` (a render's ``progress(done, total)``). A block that raises
+        (Ctrl-C) leaves a spell unfinished: no :data:`COMPILED` for a compile cut short."""
         event.register("numba:compile", self)
         try:
             yield lambda done, total: self._report(progress, done, total)
-        finally:
-            event.unregister("numba:compile", self)
+        except BaseException:
+            with self._lock:
+                self._stop.set()
+                self._began = None
+            raise
+        else:
             with self._lock:
                 if self._began is not None:
                     self._finish()
+        finally:
+            event.unregister("numba:compile", self)
 
 
 #: Optional packages that numba imports while it loads its typing and lowering registries,
