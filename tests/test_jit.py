@@ -168,7 +168,7 @@ def test_on_a_terminal_the_notice_counts_the_seconds_then_the_bar_follows(tmp_pa
     assert all(draw.startswith(COMPILING) for draw in out.split("\n")[0].split("\r")[1:-1])
     notice, bar, summary = out.split("\n")[:3]
     assert COMPILED.fullmatch(notice.split("\r")[-1].rstrip())  # the line ends said
-    assert bar.startswith("\r[") and "100.0%" in bar and summary.startswith("wrote ")
+    assert "100%|" in bar and "camera rays/s]" in bar and summary.startswith("wrote ")
 
 
 def test_a_compile_mid_render_holds_the_bar_until_the_pass_that_waited_is_done():
@@ -196,6 +196,20 @@ def test_a_compile_mid_render_holds_the_bar_until_the_pass_that_waited_is_done()
     assert shown == [1, 3, 4]
     lines = err.getvalue().splitlines()
     assert len(lines) == 2 and lines[0] == COMPILING and COMPILED.fullmatch(lines[1])
+
+
+def test_on_a_terminal_a_compile_mid_render_leaves_the_bar_where_it_stopped():
+    err = _Terminal()
+    with CompileNotice(err).listening(lambda done, total: err.write(f"\rbar {done}/{total}")
+                                      ) as report:
+        report(1, 4)
+        _compile()
+        report(2, 4)
+    bar, notice, after = err.getvalue().split("\n")
+    assert bar == "\rbar 1/4"               # left as it was: what the render waited at
+    assert notice.startswith(f"\r{COMPILING}: ") and COMPILED.fullmatch(
+        notice.split("\r")[-1].rstrip())
+    assert after == "\rbar 2/4"             # and the bar goes on below
 
 
 @pytest.mark.parametrize("stream", [io.StringIO, _Terminal])

@@ -14,7 +14,6 @@ from typing import TextIO
 from numba.core import event
 from numba.core.registry import cpu_target
 
-
 #: What the command line says while kernels compile (:class:`CompileNotice`), and when they are.
 COMPILING = "raytrace: compiling kernels (kept for later runs)"
 COMPILED = "raytrace: compiled kernels in {:.1f} s"
@@ -29,8 +28,9 @@ class CompileNotice(event.Listener):
     A *spell* of compiling starts with a compile and ends at the first progress report
     (:meth:`listening`'s callback) from a thread that compiled in it once no compile is in
     flight, that is when the pass that waited for those kernels is done, or when the block
-    ends. On a terminal one line counts the spell's seconds, redrawn every :attr:`tick` s in place
-    of the progress bar (whose reports wait meanwhile), and ends as :data:`COMPILED`;
+    ends. On a terminal one line counts the spell's seconds, redrawn every :attr:`tick` s
+    below the progress bar where one is drawn (whose reports wait meanwhile, so it goes on
+    on the next line), and ends as :data:`COMPILED`;
     elsewhere :data:`COMPILING` is one line when a spell starts and :data:`COMPILED` one when
     it ends. The seconds run from the spell's first compile's start to its last one's end.
     """
@@ -46,7 +46,8 @@ class CompileNotice(event.Listener):
         self._threads: set[int] = set()  # the threads that compiled in this spell
         self._began: float | None = None  # the spell's first compile's start; None: no spell
         self._ended = 0.0               # its latest compile's end
-        self._width = 0                 # of the line drawn last on a terminal
+        self._width = 0                 # of the notice's line as drawn last
+        self._bar_drawn = False         # the line holds the progress bar, unfinished
         self._stop = threading.Event()  # the spell's ticker's
 
     def on_start(self, event: event.Event) -> None:
@@ -56,6 +57,8 @@ class CompileNotice(event.Listener):
             if self._began is None:
                 self._began = self._ended = time.perf_counter()
                 if self._live:
+                    if self._bar_drawn:  # the bar keeps its line, where it stopped
+                        self._write("\n")
                     self._stop = threading.Event()
                     threading.Thread(target=self._tick_until, args=(self._stop,), daemon=True,
                                      name="raytrace-compile-notice").start()
@@ -76,7 +79,7 @@ class CompileNotice(event.Listener):
                 self._draw(f"{COMPILING}: {time.perf_counter() - self._began:.1f} s")
 
     def _draw(self, line: str, end: str = "") -> None:
-        """``line`` over the terminal's current line (the bar's, or this notice's)."""
+        """``line`` over the notice's line as drawn last."""
         self._write(f"\r{line:<{self._width}}{end}")
         self._width = 0 if end else len(line)
 
@@ -102,6 +105,7 @@ class CompileNotice(event.Listener):
                     return
                 self._finish()
             progress(done, total)
+            self._bar_drawn = done < total
 
     @contextmanager
     def listening(self, progress: Callable[[int, int], None]
