@@ -488,6 +488,26 @@ def test_an_adaptive_render_s_bar_counts_rows(tmp_path, monkeypatch):
     assert bar.startswith("100%|") and " 6/6 [" in bar and " rows/s]" in bar, bar
 
 
+def test_an_interrupted_render_s_bar_is_not_drawn_again_after_the_message(tmp_path,
+                                                                          monkeypatch):
+    import gc
+    import importlib
+
+    module = importlib.import_module("raytrace.rendering")
+
+    def interrupted(*args, progress, **kwargs):
+        progress(1, 4)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(module, "render", interrupted)
+    monkeypatch.setattr(sys, "stderr", _Terminal())
+    scene = Path(__file__).resolve().parents[1] / "scenes" / "spotlights.toml"
+    assert cli.main(["render", str(scene), "-o", str(tmp_path / "a.exr")]) == 130
+    gc.collect()
+    bar, message = sys.stderr.getvalue().split("\n")[-3:-1]
+    assert "%|" in bar and message.startswith("raytrace: interrupted; ")
+
+
 # -- many scenes, one start-up (--out-dir) -------------------------------------------------------
 def _scenes(tmp_path, names=("a", "b")):
     """Two floor scenes of different sizes, so each output can be told by its shape."""
