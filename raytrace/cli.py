@@ -280,7 +280,7 @@ class Progress:
 
 def _progress_unit(aa: str, distributed: bool) -> str:
     """What a render's ``progress(done, total)`` counts: camera samples, a camera ray each,
-    with uniform anti-aliasing; rows with adaptive (:class:`raytrace.integrator`), whose
+    with uniform anti-aliasing; rows with adaptive (:mod:`raytrace.integrator`), whose
     distributed tiles count the samples a uniform render takes (:mod:`raytrace.distributed`)."""
     if aa != "adaptive":
         return "camera rays"
