@@ -44,7 +44,7 @@ import os
 import sys
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -243,22 +243,42 @@ def _flag_error(e: SceneError) -> SceneError:
 
 
 class Progress:
-    """A one-line progress bar on a terminal; silent when stderr is not a TTY."""
+    """What a render shows on stderr while it runs: on a terminal, tqdm's bar with the time
+    left and the rate (:class:`raytrace.progress.ProgressBar`, imported only then), and,
+    terminal or not, numba's compiles while they run (:meth:`showing`); nothing with
+    ``-q``. ``unit``: what the render's ``progress(done, total)`` counts."""
 
-    def __init__(self, enabled: bool):
+    def __init__(self, enabled: bool, unit: str = "camera rays"):
+        self.quiet = not enabled
         self.enabled = enabled and sys.stderr.isatty()
-        self.start = time.perf_counter()
+        self._bar = None
+        if self.enabled:
+            from .progress import ProgressBar
+
+            self._bar = ProgressBar(unit, file=sys.stderr)
+
+    @contextlib.contextmanager
+    def showing(self, compiles: bool = True) -> Iterator[Callable[[int, int], None]]:
+        """The block's ``progress`` callback: this bar, and with ``compiles`` numba's
+        compiles in the block said while they run, unless quiet
+        (:class:`raytrace.kernels.compile.CompileNotice`). A block that raises leaves the
+        bar's line as it is, for the line that says why."""
+        try:
+            if self.quiet or not compiles:
+                yield self
+            else:
+                from .kernels.compile import CompileNotice
+
+                with CompileNotice(sys.stderr).listening(self) as report:
+                    yield report
+        except BaseException:
+            if self._bar is not None:
+                self._bar.abandon()
+            raise
 
     def __call__(self, done: int, total: int) -> None:
-        if not self.enabled:
-            return
-        frac = done / total
-        bar = "#" * int(30 * frac)
-        elapsed = time.perf_counter() - self.start
-        sys.stderr.write(f"\r[{bar:<30}] {100 * frac:5.1f}%  {elapsed:6.1f}s")
-        if done >= total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
+        if self._bar is not None:
+            self._bar(done, total)
 
     def summary(self, written: list[str], stats: dict) -> None:
         """One line after the bar: what was written, the size, the rays and the seconds
@@ -270,6 +290,15 @@ class Progress:
                          f"{stats['spp']} spp, {stats['rays']['total'] / 1e6:.2f} M rays, "
                          f"{stats['seconds']['total']:.2f} s\n")
         sys.stderr.flush()
+
+
+def _progress_unit(aa: str, distributed: bool) -> str:
+    """What a render's ``progress(done, total)`` counts: camera samples, a camera ray each,
+    with uniform anti-aliasing; rows with adaptive (:mod:`raytrace.integrator`), whose
+    distributed tiles count the samples a uniform render takes (:mod:`raytrace.distributed`)."""
+    if aa != "adaptive":
+        return "camera rays"
+    return "samples" if distributed else "rows"
 
 
 def _cluster(args: argparse.Namespace):
@@ -511,7 +540,7 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
     scenes read); ``scene``: the scene already loaded, and its load seconds (:func:`_load`),
     or None to load it here."""
     from .film.writers import WRITERS, Settings, main_writer
-    from .kernels.compile import CompileNotice, cache_is_warm, load_registries
+    from .kernels.compile import load_registries
     from .rendering import check_memory, render, render_options
 
     scene_path, files, stats_path = paths
@@ -526,19 +555,15 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
     scene, load_seconds = scene or _load(scene_path)
     outputs.refuse_inputs(scene.input_files())
     outputs.preflight()
-    progress = Progress(not args.quiet)
     try:
         o = render_options(scene, **overrides)
+        progress = Progress(not args.quiet, _progress_unit(
+            o.aa, distributed=args.workers is not None or args.scheduler is not None))
         x0, y0, x1, y1 = o.crop or (0, 0, o.width, o.height)
         check_memory(x1 - x0, y1 - y0, tuple(w.name for w, _ in images))
-        notice = args.__dict__.setdefault("compile_notice", CompileNotice(
-            lambda line: sys.stderr.write(line)))  # once a process, batch or not
-        if progress.enabled and not cache_is_warm():
-            notice.say()
         load_registries(lean=True)  # this process runs no numba code but ours (jit.py)
-        with _warnings_as_lines(), (notice.listening() if progress.enabled
-                                    else contextlib.nullcontext()):
-            image = render(scene, progress=progress, client=client(), tile=args.tile,
+        with _warnings_as_lines(), progress.showing() as report:
+            image = render(scene, progress=report, client=client(), tile=args.tile,
                            **overrides)
     except SceneError as e:  # a flag's value: name the flag, not the scene key
         raise _flag_error(e) from None
@@ -625,16 +650,16 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
         render_options(Scene(), **_scene_independent(overrides))
     except SceneError as e:
         raise _flag_error(e) from None
-    progress = Progress(not args.quiet)
+    progress = Progress(not args.quiet, "frames")
 
     def written(frame: int, paths: list[str]) -> None:
         args.written.extend(paths)
         args.frames_written.append(frame)
 
-    with _warnings_as_lines(), cluster as client:
+    with _warnings_as_lines(), cluster as client, progress.showing(compiles=False) as report:
         try:
             result = render_frames(source, out, frames, extras=patterns, client=client,
-                                   overwrite=args.overwrite, progress=progress,
+                                   overwrite=args.overwrite, progress=report,
                                    compression=args.compression, exposure=args.exposure,
                                    tonemap=args.tonemap, on_frame=written, crop=args.crop,
                                    **overrides)

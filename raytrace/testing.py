@@ -8,7 +8,8 @@
 * :func:`compare_images` - the same measurements without asserting, as a :class:`Comparison`
   (``raytrace compare --json`` prints its :meth:`Comparison.to_dict`).
 * :func:`artefact_dir` - where a failing comparison writes: ``$RAYTRACE_ARTEFACTS`` or
-  ``./raytrace-artefacts``, then a folder named after the running pytest test.
+  ``./raytrace-artefacts``, then a folder named after the running pytest test;
+  :func:`clear_artefacts` deletes them once that comparison passes.
 
 The pytest plugin (``raytrace_pytest``: the ``raytrace_golden`` fixture and
 ``--raytrace-update-goldens``) is built on these. docs/testing.md shows the whole workflow.
@@ -23,6 +24,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from PIL import Image as PILImage
+from PIL import ImageDraw, ImageFont
 
 from .film import metrics as _metrics
 from .film.compare import Comparison, ImageLike, compare_images, load_image, write_diff
@@ -38,12 +41,14 @@ ARTEFACTS_ENV = "RAYTRACE_ARTEFACTS"
 DEFAULT_ARTEFACTS = "raytrace-artefacts"
 #: The files a failing comparison writes into its artefact folder.
 ARTEFACT_FILES = ("actual.exr", "expected.exr", "diff.png", "side_by_side.png")
+#: Pixels around a caption of ``side_by_side.png``.
+CAPTION_MARGIN = 2
 
 def artefact_dir(name: str | None = None, root: str | os.PathLike | None = None) -> Path:
     """The artefact folder of a comparison: ``root`` (default ``$RAYTRACE_ARTEFACTS``, else
     ``./raytrace-artefacts``) / the running pytest test (module.test, from
     ``PYTEST_CURRENT_TEST``; ``assert_image_close`` outside pytest) [/ ``name``]."""
-    root = Path(root or os.environ.get(ARTEFACTS_ENV) or DEFAULT_ARTEFACTS)
+    root = _artefact_root(root)
     current = os.environ.get("PYTEST_CURRENT_TEST")
     if current:
         nodeid = current.rsplit(" (", 1)[0]
@@ -55,14 +60,33 @@ def artefact_dir(name: str | None = None, root: str | os.PathLike | None = None)
     return root.joinpath(*(re.sub(r"[^\w.\-\[\]]+", "_", p) for p in parts))
 
 
+def _artefact_root(root: str | os.PathLike | None) -> Path:
+    return Path(root or os.environ.get(ARTEFACTS_ENV) or DEFAULT_ARTEFACTS)
+
+
+def clear_artefacts(name: str | None = None, root: str | os.PathLike | None = None) -> None:
+    """Delete what an earlier failure of this comparison left (:data:`ARTEFACT_FILES` in
+    :func:`artefact_dir` with ``name`` and ``root``), then its folders that this empties, up
+    to the root (kept): for a comparison that passes now, whose artefacts are stale."""
+    folder, top = artefact_dir(name, root), _artefact_root(root)
+    for f in ARTEFACT_FILES:
+        (folder / f).unlink(missing_ok=True)
+    while folder != top and folder.is_relative_to(top):
+        try:
+            folder.rmdir()
+        except OSError:  # not empty (another comparison's, or the user's files), or gone
+            break
+        folder = folder.parent
+
+
 def write_artefacts(folder: str | os.PathLike, actual: ImageLike, expected: ImageLike | None,
                     metadata: dict | None = None,
                     inputs: Sequence[str | os.PathLike] = ()) -> Path:
     """Write :data:`ARTEFACT_FILES` into ``folder`` (created): the actual and expected images
     as float EXR (``expected`` may be None: a missing golden), the diff heatmap
-    (:func:`raytrace.film.metrics.heatmap`) and expected | actual | diff side by side as sRGB
-    previews (clip tone map), replacing those of an earlier failure. Refuses to write over
-    any of ``inputs``."""
+    (:func:`raytrace.film.metrics.heatmap`) and expected | actual | difference side by side as
+    sRGB previews (clip tone map), each under its caption (:func:`_captioned`), replacing those
+    of an earlier failure. Refuses to write over any of ``inputs``."""
     folder = Path(folder)
     targets = [folder / f for f in ARTEFACT_FILES]
     for p in inputs:
@@ -73,15 +97,15 @@ def write_artefacts(folder: str | os.PathLike, actual: ImageLike, expected: Imag
         t.unlink(missing_ok=True)
     a = load_image(actual, "actual")
     write_exr(targets[0], _rgb(a), metadata)
-    panels = [_rgb(a)]
+    panels = {"actual": _rgb(a)}
     if expected is not None:
         e = load_image(expected, "expected")
         write_exr(targets[1], _rgb(e))
+        panels = {"expected": _rgb(e), "actual": _rgb(a)}
         if e.shape == a.shape:
-            panels = [_rgb(e), _rgb(a), write_diff(targets[2], a, e)[0]]
-        else:
-            panels = [_rgb(e), _rgb(a)]
-    pngs = [p if p.dtype == np.uint8 else preview(p) for p in panels]
+            panels["difference"] = write_diff(targets[2], a, e)[0]
+    pngs = [_captioned(p if p.dtype == np.uint8 else preview(p), caption)
+            for caption, p in panels.items()]
     height = max(p.shape[0] for p in pngs)
     gap = np.full((height, 2, 3), 64, np.uint8)
     row = []
@@ -158,6 +182,21 @@ def format_report(c: Comparison) -> str:
             lines.append(f"  ({w['x']}, {w['y']}): {_vec(w['actual'])} vs "
                          f"{_vec(w['expected'])}")
     return "\n".join(lines)
+
+
+def _captioned(pixels: np.ndarray, caption: str) -> np.ndarray:
+    """An (H, W, 3) uint8 panel under a strip naming it (Pillow's default font, white on
+    black), widened with black to the caption where the panel is narrower."""
+    font = ImageFont.load_default()
+    right = font.getbbox(caption)[2]
+    rows, cols = pixels.shape[:2]
+    strip = font.getbbox("Ag|")[3] + 2 * CAPTION_MARGIN  # one height for every caption
+    canvas = PILImage.new("RGB", (max(cols, right + 2 * CAPTION_MARGIN), strip + rows))
+    ImageDraw.Draw(canvas).text((CAPTION_MARGIN, CAPTION_MARGIN), caption, font=font,
+                                fill=(255, 255, 255))
+    out = np.array(canvas)
+    out[strip:, :cols] = pixels
+    return out
 
 
 def _vec(values: Sequence[float]) -> str:

@@ -10,7 +10,8 @@ Registered through the ``pytest11`` entry point. It adds
 * ``--raytrace-update-goldens``: write the goldens from this run's renders instead of comparing
   (only those whose pixels changed are rewritten) and list them at the end of the run;
 * ``--raytrace-artefacts DIR``: where failing comparisons write their artefacts (default
-  ``$RAYTRACE_ARTEFACTS``, else ``./raytrace-artefacts``).
+  ``$RAYTRACE_ARTEFACTS``, else ``./raytrace-artefacts``); a comparison that passes (or
+  updates its golden) deletes those an earlier failure of it left.
 
 This module imports only pytest and the standard library, so it costs nothing at pytest
 start-up in projects that never use it; raytrace (numpy, the renderer) is imported by the
@@ -125,6 +126,7 @@ class Golden:
                 golden.parent.mkdir(parents=True, exist_ok=True)
                 image.save(golden)
             self.request.node.user_properties.append((_PROPERTY, entry))
+            testing.clear_artefacts(name)  # the golden is this render now
             return image
         if not golden.is_file():
             folder = testing.write_artefacts(testing.artefact_dir(name), image, None,
@@ -139,6 +141,7 @@ class Golden:
         except AssertionError as e:
             failure = str(e)
         else:
+            testing.clear_artefacts(name)  # those of an earlier failure are stale
             return image
         pytest.fail(f"render differs from the golden {_shown(config, golden)}: {failure}\n"
                     f"If the change is intended, look at the artefacts, then run pytest "

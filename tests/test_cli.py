@@ -461,18 +461,51 @@ def test_a_terminal_gets_the_bar_and_one_summary_line_and_a_pipe_gets_nothing(
         tmp_path, monkeypatch):
     scene = Path(__file__).resolve().parents[1] / "scenes" / "whitted.toml"
     out, png = tmp_path / "w.exr", tmp_path / "w.png"
+    args = ["render", str(scene), "-o", str(out), "--png", str(png), "--width", "8",
+            "--height", "6"]
+    assert cli.main([*args, "-q"]) == 0  # kernels compiled (and said so) before the runs
     for stream, quiet in ((_Terminal(), []), (io.StringIO(), []), (_Terminal(), ["-q"])):
         monkeypatch.setattr(sys, "stderr", stream)
-        assert cli.main(["render", str(scene), "-o", str(out), "--png", str(png), "--width", "8",
-                     "--height", "6", *quiet]) == 0
+        assert cli.main([*args, *quiet]) == 0
         text = stream.getvalue()
         if stream.isatty() and not quiet:
             lines = text.replace("\r", "\n").strip().splitlines()
-            assert lines[-2].startswith("[") and "100.0%" in lines[-2]  # the finished bar
+            bar = lines[-2]  # the finished bar: tqdm's, with the time left and the rate
+            assert bar.startswith("100%|") and re.search(r"48/48 \[\d\d:\d\d<00:00, "
+                                                         r"[\d.]+k? camera rays/s\]", bar), bar
             assert lines[-1].startswith(f"wrote {out}, {png}: 8×6, 1 spp, ")
             assert lines[-1].endswith(" s")
         else:
             assert text == ""
+
+
+def test_an_adaptive_render_s_bar_counts_rows(tmp_path, monkeypatch):
+    scene = Path(__file__).resolve().parents[1] / "scenes" / "spotlights.toml"
+    monkeypatch.setattr(sys, "stderr", _Terminal())
+    assert cli.main(["render", str(scene), "-o", str(tmp_path / "a.exr"), "--width", "8",
+                     "--height", "6", "--aa", "adaptive"]) == 0
+    bar = sys.stderr.getvalue().split("\n")[-3].split("\r")[-1]
+    assert bar.startswith("100%|") and " 6/6 [" in bar and " rows/s]" in bar, bar
+
+
+def test_an_interrupted_render_s_bar_is_not_drawn_again_after_the_message(tmp_path,
+                                                                          monkeypatch):
+    import gc
+    import importlib
+
+    module = importlib.import_module("raytrace.rendering")
+
+    def interrupted(*args, progress, **kwargs):
+        progress(1, 4)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(module, "render", interrupted)
+    monkeypatch.setattr(sys, "stderr", _Terminal())
+    scene = Path(__file__).resolve().parents[1] / "scenes" / "spotlights.toml"
+    assert cli.main(["render", str(scene), "-o", str(tmp_path / "a.exr")]) == 130
+    gc.collect()
+    bar, message = sys.stderr.getvalue().split("\n")[-3:-1]
+    assert "%|" in bar and message.startswith("raytrace: interrupted; ")
 
 
 # -- many scenes, one start-up (--out-dir) -------------------------------------------------------

@@ -117,6 +117,22 @@ def test_every_page_opens_with_a_short_summary(page):
     assert len(set(own)) >= 3, f"{page.name}: the summary links to {own}"
 
 
+#: An output file named on a command line of the docs (``-o whitted.exr``, ``--png x.png``).
+COMMAND_OUTPUT = re.compile(r"(?<![\w-])(?:-o|--output|--png|--hdr|--stats|--diff)\s+"
+                            r"([\w./{}#%-]+\.[a-z]+)\b")
+#: A file a Python example writes (``image.save("x.png")``).
+SAVED = re.compile(r"""\.save\(\s*["']([^"']+)["']""")
+
+
+def test_api_examples_write_no_file_a_documented_command_writes():
+    # Both run from a checkout's root: an example that wrote the README's whitted.exr at
+    # another size made the next `raytrace compare` of the README's render fail on sizes.
+    commands = {f for page in PAGES for f in COMMAND_OUTPUT.findall(page.read_text("utf-8"))}
+    saved = set(SAVED.findall((ROOT / "docs" / "api.md").read_text("utf-8")))
+    assert "whitted.exr" in commands and len(saved) > 5
+    assert not saved & commands
+
+
 def test_github_anchor_rules():
     """Anchors as GitHub makes them, worked out by hand from headings used in docs/."""
     page = ROOT / "docs" / "shading.md"

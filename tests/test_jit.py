@@ -1,23 +1,27 @@
 """The numba set-up (raytrace/kernels/jit.py, raytrace/kernels/compile.py): the cache guard that
 drops machine code compiled from
 other sources, so an edited helper in one module reaches the kernels of another (numba's own
-cache only checks the kernel's file: numba issue #1833); and telling a cold kernel cache from
-a warm one, cheaply, so the command line can say why the first render after installing sits
-still (15–20 s on 2 cores)."""
+cache only checks the kernel's file: numba issue #1833); and the command line's notice while
+kernels compile, driven by numba's compile events (here fake ones), which says what the
+first render after installing waits for and for how long."""
 
 from __future__ import annotations
 
 import io
 import os
+import re
 import shutil
 import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 
 import pytest
 
 import raytrace
 from raytrace import cli
+from raytrace.kernels.compile import COMPILING, CompileNotice
 
 PACKAGE = Path(raytrace.__file__).resolve().parent
 
@@ -85,42 +89,8 @@ def test_the_guard_leaves_a_current_cache_alone(tmp_path):
     assert stamp.read_text() == jit.source_hash(jit.hashed_modules())
 
 
-# -- cold or warm: the compile notice ---------------------------------------------------------
-ROOT = Path(__file__).resolve().parents[1]
-CHECK = "from raytrace.kernels.compile import cache_is_warm; print(cache_is_warm())"
-
-
-def test_an_empty_cache_is_cold(tmp_path):
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}  # a cache folder with nothing in it
-    out = subprocess.run([sys.executable, "-c", CHECK], env=env, capture_output=True,
-                         text=True, check=True).stdout
-    assert out == "False\n"
-    from raytrace.kernels.jit import STAMP  # asking compiled nothing (the guard's stamps aside)
-
-    assert not [p for p in tmp_path.rglob("*") if p.is_file() and p.name != STAMP]
-
-
-def test_a_first_compile_into_a_cache_folder_is_kept_by_the_next_process(tmp_path):
-    # numba creates NUMBA_CACHE_DIR's folders when it decorates a module's kernels, after the
-    # guard ran: unstamped, the next process took the first compile for a stale one.
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
-    guard = "import raytrace.kernels.jit"
-    subprocess.run([sys.executable, "-c", guard], env=env, check=True)
-    folders = {p.parent for p in tmp_path.rglob("raytrace-kernels.sha256")}
-    assert folders  # the folders numba will write are stamped before it writes them
-    compiled = [folder / "accel.kernel-1.py311.nbi" for folder in folders]
-    for f in compiled:  # stands for what a first render's compile leaves there
-        f.write_bytes(b"index")
-    subprocess.run([sys.executable, "-c", guard], env=env, check=True)
-    assert all(f.exists() for f in compiled)
-
-
-def test_a_cache_a_render_has_filled_is_warm():
-    code = ("import raytrace; raytrace.render(raytrace.Scene(objects=[raytrace.Sphere([0, 0, -3]"
-            ", 1)]), width=2, height=2, threads=1); " + CHECK)
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True, cwd=ROOT).stdout
-    assert out == "True\n"
+# -- the compile notice: numba's compile events, said while they run ------------------------
+COMPILED = re.compile(r"raytrace: compiled kernels in \d+\.\d s")
 
 
 class _Terminal(io.StringIO):
@@ -128,60 +98,149 @@ class _Terminal(io.StringIO):
         return True
 
 
-@pytest.mark.parametrize("warm,stream,quiet,said", [
-    (False, _Terminal, [], True),        # the only case that says it
-    (True, _Terminal, [], False),
-    (False, io.StringIO, [], False),     # not a terminal
-    (False, _Terminal, ["-q"], False),
-])
-def test_the_command_line_says_it_is_compiling_on_a_terminal(tmp_path, monkeypatch, warm,
-                                                              stream, quiet, said):
-    monkeypatch.setattr("raytrace.kernels.compile.cache_is_warm", lambda: warm)
-    err = stream()
-    monkeypatch.setattr(sys, "stderr", err)
-    scene = tmp_path / "s.toml"
-    scene.write_text('[render]\nwidth = 4\nheight = 2\n[[objects]]\ntype = "sphere"\n'
-                     'center = [0, 0, -3]\nradius = 1\n')
-    assert cli.main(["render", str(scene), "-o", str(tmp_path / "o.exr"), *quiet]) == 0
-    lines = err.getvalue().splitlines()
-    assert ("raytrace: compiling kernels, first run only (about 10 s)" in lines) == said
-    if said:
-        assert lines[0] == "raytrace: compiling kernels, first run only (about 10 s)"
-
-
-@pytest.mark.parametrize("quiet,said", [([], True), (["-q"], False)])
-def test_the_command_line_says_so_when_a_warm_cache_still_compiles(tmp_path, monkeypatch,
-                                                                   quiet, said):
-    # A cache warm for one scene may lack another's kernel variants: numba's compile event,
-    # not the guess, is what the notice answers to; it is said once for a whole batch.
-    import importlib
-
+def _compile(seconds: float = 0.0, until=lambda: True) -> None:
+    """What numba does on a cache miss: a compile, with a helper compiled inside it, that
+    lasts ``seconds`` and until ``until()``."""
     from numba.core import event
 
+    with event.trigger_event("numba:compile", data={}):
+        with event.trigger_event("numba:compile", data={}):
+            pass
+        time.sleep(seconds)
+        deadline = time.monotonic() + 30
+        while not until() and time.monotonic() < deadline:
+            time.sleep(0.01)
+
+
+def _scene(folder: Path, name: str = "s") -> Path:
+    path = folder / f"{name}.toml"
+    path.write_text('[render]\nwidth = 4\nheight = 2\n[[objects]]\ntype = "sphere"\n'
+                    'center = [0, 0, -3]\nradius = 1\n')
+    return path
+
+
+@pytest.fixture
+def compiling(monkeypatch):
+    """raytrace.render compiles (fake events, see :func:`_compile`) before it renders; set
+    ``compiling.until`` to make the compile last until a condition holds."""
+    import importlib
+
     module = importlib.import_module("raytrace.rendering")
-    monkeypatch.setattr("raytrace.kernels.compile.cache_is_warm", lambda: True)
-    err = _Terminal()
-    monkeypatch.setattr(sys, "stderr", err)
     real = module.render
 
-    def compiling(*args, **kwargs):  # what numba does on a cache miss, twice
-        for _ in range(2):
-            with event.trigger_event("numba:compile", data={}):
-                pass
+    def render(*args, **kwargs):
+        _compile(0.2, state.until)
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(module, "render", compiling)
-    scenes = []
-    for name in ("a", "b"):
-        scenes.append(tmp_path / f"{name}.toml")
-        scenes[-1].write_text('[render]\nwidth = 4\nheight = 2\n[[objects]]\ntype = "sphere"\n'
-                              'center = [0, 0, -3]\nradius = 1\n')
-    (tmp_path / "out").mkdir()
-    assert cli.main(["render", *map(str, scenes), "--out-dir", str(tmp_path / "out"),
-                     *quiet]) == 0
+    state = type("State", (), {"until": staticmethod(lambda: True)})()
+    monkeypatch.setattr(module, "render", render)
+    return state
+
+
+@pytest.mark.parametrize("quiet", [[], ["-q"]])
+def test_the_command_line_says_when_kernels_compile_and_for_how_long_when_piped(
+        tmp_path, monkeypatch, compiling, quiet):
+    err = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", err)
+    assert cli.main(["render", str(_scene(tmp_path)), "-o", str(tmp_path / "o.exr"),
+                     "--threads", "1", *quiet]) == 0
     lines = err.getvalue().splitlines()
-    notice = "raytrace: compiling kernels, first run only (about 10 s)"
-    assert lines.count(notice) == (1 if said else 0), lines
+    if quiet:
+        assert lines == []
+    else:  # a line when it starts and one when it ends, and nothing else (no bar: not a tty)
+        assert len(lines) == 2 and lines[0] == COMPILING and COMPILED.fullmatch(lines[1]), lines
+        assert float(lines[1].split()[-2]) >= 0.2  # the compile's seconds
+
+
+def test_on_a_terminal_the_notice_counts_the_seconds_then_the_bar_follows(tmp_path,
+                                                                          monkeypatch,
+                                                                          compiling):
+    err = _Terminal()
+    monkeypatch.setattr(sys, "stderr", err)
+    monkeypatch.setattr(CompileNotice, "tick", 0.01)
+    drawn = re.compile(re.escape(COMPILING) + r": (\d+\.\d) s")
+    compiling.until = lambda: len(set(drawn.findall(err.getvalue()))) >= 3  # still counting
+    assert cli.main(["render", str(_scene(tmp_path)), "-o", str(tmp_path / "o.exr"),
+                     "--threads", "1"]) == 0
+    out = err.getvalue()
+    seconds = [float(s) for s in drawn.findall(out)]
+    assert len(set(seconds)) >= 3 and seconds == sorted(seconds)  # redrawn as time passes
+    assert all(draw.startswith(COMPILING) for draw in out.split("\n")[0].split("\r")[1:-1])
+    notice, bar, summary = out.split("\n")[:3]
+    assert COMPILED.fullmatch(notice.split("\r")[-1].rstrip())  # the line ends said
+    assert "100%|" in bar and "camera rays/s]" in bar and summary.startswith("wrote ")
+
+
+def test_a_compile_mid_render_holds_the_bar_until_the_pass_that_waited_is_done():
+    # Two render threads: one compiles a kernel variant the earlier passes did not need; the
+    # other's passes go on meanwhile, but the line is the notice's until the compile is over
+    # and the compiling thread's pass is reported.
+    err, shown = io.StringIO(), []
+    notice = CompileNotice(err)
+    started, finish = threading.Event(), threading.Event()
+
+    def compiling_pass(report) -> None:
+        _compile(until=lambda: started.set() or finish.is_set())
+        report(3, 4)
+
+    with notice.listening(lambda done, total: shown.append(done)) as report:
+        report(1, 4)                                  # no compile yet: the bar
+        other = threading.Thread(target=compiling_pass, args=(report,))
+        other.start()
+        started.wait(30)
+        report(2, 4)                                  # compiling: held
+        finish.set()
+        other.join(30)
+        assert shown == [1, 3] and not other.is_alive()
+        report(4, 4)
+    assert shown == [1, 3, 4]
+    lines = err.getvalue().splitlines()
+    assert len(lines) == 2 and lines[0] == COMPILING and COMPILED.fullmatch(lines[1])
+
+
+def test_on_a_terminal_a_compile_mid_render_leaves_the_bar_where_it_stopped():
+    err = _Terminal()
+    with CompileNotice(err).listening(lambda done, total: err.write(f"\rbar {done}/{total}")
+                                      ) as report:
+        report(1, 4)
+        _compile()
+        report(2, 4)
+    bar, notice, after = err.getvalue().split("\n")
+    assert bar == "\rbar 1/4"               # left as it was: what the render waited at
+    assert notice.startswith(f"\r{COMPILING}: ") and COMPILED.fullmatch(
+        notice.split("\r")[-1].rstrip())
+    assert after == "\rbar 2/4"             # and the bar goes on below
+
+
+@pytest.mark.parametrize("stream", [io.StringIO, _Terminal])
+def test_a_compile_cut_short_is_not_said_to_be_over(monkeypatch, stream):
+    # Ctrl-C while kernels compile: the line says what was going on, never "compiled".
+    from numba.core import event
+
+    err = stream()
+    monkeypatch.setattr(CompileNotice, "tick", 0.01)
+    with pytest.raises(KeyboardInterrupt), CompileNotice(err).listening(print):
+        with event.trigger_event("numba:compile", data={}):
+            time.sleep(0.05)
+            raise KeyboardInterrupt
+    said = err.getvalue()
+    time.sleep(0.05)
+    assert err.getvalue() == said  # the terminal's counter stopped with the block
+    assert said.lstrip("\r").startswith(COMPILING) and "compiled" not in said
+    assert not event._registered["numba:compile"]
+
+
+def test_each_scene_of_a_batch_says_its_own_compile(tmp_path, monkeypatch, compiling):
+    # A cache warm for one scene may lack another's kernel variants: each compile is said.
+    from numba.core import event
+
+    err = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", err)
+    (tmp_path / "out").mkdir()
+    scenes = [str(_scene(tmp_path, name)) for name in ("a", "b")]
+    assert cli.main(["render", *scenes, "--out-dir", str(tmp_path / "out")]) == 0
+    lines = err.getvalue().splitlines()
+    assert lines[::2] == [COMPILING] * 2 and all(COMPILED.fullmatch(x) for x in lines[1::2])
     assert not event._registered["numba:compile"]  # the listener left with the render
 
 

@@ -130,6 +130,24 @@ def test_a_changed_render_fails_with_artefacts_and_update_reports_it(project):
     assert project.runpytest("-p", "no:cacheprovider", "-k", "test_ball").ret == 0
 
 
+def test_a_comparison_that_passes_again_leaves_no_artefacts_of_its_earlier_failure(project):
+    root = project.path / "raytrace-artefacts"
+    assert project.runpytest("-p", "no:cacheprovider").ret == 1      # no goldens: artefacts
+    assert sorted(p.name for p in root.iterdir()) == ["test_render.test_ball",
+                                                     "test_render.test_two_sizes"]
+    assert project.runpytest("--raytrace-update-goldens", "-p", "no:cacheprovider").ret == 0
+    assert list(root.iterdir()) == []                 # the goldens are those renders now
+    project.makefile(".toml", ball=SCENE.format(light=1.5))
+    assert project.runpytest("-p", "no:cacheprovider").ret == 1
+    folder = root / "test_render.test_two_sizes" / "small"  # the first to fail
+    assert (folder / "diff.png").is_file()
+    (root / "test_render.test_two_sizes" / "notes.txt").write_text("mine")  # not an artefact
+    project.makefile(".toml", ball=SCENE.format(light=1.0))          # the change undone
+    assert project.runpytest("-p", "no:cacheprovider").ret == 0
+    assert sorted(p.relative_to(root).as_posix() for p in root.rglob("*")) == [
+        "test_render.test_two_sizes", "test_render.test_two_sizes/notes.txt"]
+
+
 def test_the_same_golden_twice_in_a_test_is_an_error(pytester: pytest.Pytester):
     pytester.makefile(".toml", ball=SCENE.format(light=1.0))
     pytester.makepyfile("""

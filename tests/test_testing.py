@@ -54,9 +54,37 @@ def test_one_pixel_above_tolerance_fails_with_where_and_how_much(tmp_path):
     diff = read_png(files["diff.png"])
     assert diff.shape == (6, 8, 3) and diff[2, 5].tolist() == [255, 255, 255]
     assert int(diff.sum()) == 3 * 255                  # only that pixel is lit
-    side = read_png(files["side_by_side.png"])
-    assert side.shape == (6, 3 * 8 + 2 * 2, 3)          # expected | actual | diff, 2 px gaps
-    assert side[2, 8 + 2 + 5].tolist() != side[2, 5].tolist()   # the actual panel differs there
+    panels = _panels(read_png(files["side_by_side.png"]), 6)   # expected | actual | diff
+    assert [image.shape for _, image in panels] == [(6, 8, 3)] * 3
+    (_, expected_png), (_, actual_png), (_, diff_png) = panels
+    assert actual_png[2, 5].tolist() != expected_png[2, 5].tolist()  # the actual differs there
+    np.testing.assert_array_equal(diff_png, diff)
+
+
+def _panels(side: np.ndarray, rows: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The panels of a ``side_by_side.png`` of images ``rows`` high, left to right, as
+    (caption strip, the image's first ``rows`` x 8 pixels): the panels are cut at the grey
+    gap columns, each caption strip is the rows above the image."""
+    gap = (side == 64).all(axis=(0, 2))
+    edges = np.flatnonzero(np.diff(np.concatenate([[True], gap, [True]]).astype(int)))
+    spans = edges.reshape(-1, 2)  # [start, end) of each run of non-gap columns
+    strip = side.shape[0] - rows
+    return [(side[:strip, a:b], side[strip:, a:a + 8]) for a, b in spans]
+
+
+def test_side_by_side_names_each_panel(tmp_path):
+    actual, expected = _one_pixel(0.25)
+    with pytest.raises(AssertionError):
+        testing.assert_image_close(actual, expected, rtol=0, atol=0, artefacts=tmp_path)
+    side = read_png(testing.artefact_dir(None, tmp_path) / "side_by_side.png")
+    assert side.shape[0] > 6  # a caption strip above the images
+    strips = [strip for strip, _ in _panels(side, 6)]
+    assert len(strips) == 3
+    for strip in strips:  # white text on black, wider than the 8-pixel images
+        assert strip.max() > 200 and (strip == 0).mean() > 0.5 and strip.shape[1] > 8
+    # three different words: expected, actual, difference (the longest)
+    assert strips[2].shape[1] > max(strips[0].shape[1], strips[1].shape[1])
+    assert not np.array_equal(strips[0][:, :strips[1].shape[1]], strips[1])
 
 
 def test_a_change_within_tolerance_passes(tmp_path):

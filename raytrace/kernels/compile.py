@@ -1,82 +1,130 @@
-"""What the command line needs to know and say about compiling: whether numba's cache is warm
-for this package's kernels (:func:`cache_is_warm`), the notice it prints before a compile
-(:class:`CompileNotice`), and numba's registries loaded up front without the packages no
-kernel uses (:func:`load_registries`)."""
+"""What the command line needs to know and say about compiling: the notice it prints while
+kernels compile (:class:`CompileNotice`, from numba's compile events), and numba's registries
+loaded up front without the packages no kernel uses (:func:`load_registries`)."""
 
 from __future__ import annotations
 
 import sys
 import threading
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from typing import TextIO
 
 from numba.core import event
-from numba.core.dispatcher import Dispatcher
 from numba.core.registry import cpu_target
 
-from . import accel, shading
-
-
-def cache_is_warm() -> bool:
-    """Whether numba's on-disk cache holds machine code for the kernels of this numba and these
-    sources, i.e. whether the next render starts without compiling (the first one after
-    installing or editing a kernel module compiles for 8–11 s on 2 cores).
-
-    Cheap (a few small index files are read, nothing is compiled): for each kernel module, at
-    least one kernel must have a current cache index, which is numba's own test at load time
-    (the index records the source file's stamp and numba's version;
-    ``numba.core.caching.IndexDataCacheFile._load_index`` returns nothing when either
-    differs; :func:`refresh_cache` has deleted the files of other sources by then). Every
-    render calls kernels of these two modules, so a module without one will compile. These
-    are numba internals: if they change, the answer is True (say nothing rather than something
-    wrong).
-    """
-
-
-    try:
-        for module in (accel, shading):
-            kernels = [v for v in vars(module).values()
-                       if isinstance(v, Dispatcher) and v.py_func.__module__ == module.__name__]
-            if kernels and not any(k._cache._cache_file._load_index() for k in kernels):
-                return False
-    except Exception:
-        return True
-    return True
-
-
-#: What the command line says before kernels compile.
-COMPILE_NOTICE = "raytrace: compiling kernels, first run only (about 10 s)"
+#: What the command line says while kernels compile (:class:`CompileNotice`), and when they are.
+COMPILING = "raytrace: compiling kernels (kept for later runs)"
+COMPILED = "raytrace: compiled kernels in {:.1f} s"
 
 
 class CompileNotice(event.Listener):
-    """:data:`COMPILE_NOTICE`, said at most once: up front where :func:`cache_is_warm` finds the
-    cache cold (:meth:`say`), else on the first compile numba starts while it listens
-    (:meth:`listening`: numba's ``numba:compile`` event, which fires only on a cache miss),
-    such as a scene that needs kernel variants an earlier scene did not compile."""
+    """Says on ``stream`` (stderr) what numba's compiler does while a render waits on it,
+    from numba's ``numba:compile`` events (:mod:`numba.core.event`: one per kernel or helper
+    compiled, the ones it calls nested inside; fired only on a cache miss, so a warm cache
+    says nothing).
 
-    def __init__(self, write: Callable[[str], object]):
-        self._write = write
-        self._said = False
-        self._lock = threading.Lock()  # a render's threads may each start a compile
+    A *spell* of compiling starts with a compile and ends at the first progress report
+    (:meth:`listening`'s callback) from a thread that compiled in it once no compile is in
+    flight, that is when the pass that waited for those kernels is done, or when the block
+    ends. On a terminal one line counts the spell's seconds, redrawn every :attr:`tick` s
+    below the progress bar where one is drawn (whose reports wait meanwhile, so it goes on
+    on the next line), and ends as :data:`COMPILED`;
+    elsewhere :data:`COMPILING` is one line when a spell starts and :data:`COMPILED` one when
+    it ends. The seconds run from the spell's first compile's start to its last one's end.
+    """
 
-    def say(self) -> None:
-        with self._lock:
-            if not self._said:
-                self._said = True
-                self._write(COMPILE_NOTICE + "\n")
+    #: Seconds between redraws on a terminal.
+    tick = 0.25
+
+    def __init__(self, stream: TextIO):
+        self._stream = stream
+        self._live = stream.isatty()
+        self._lock = threading.RLock()  # a render's threads compile and report side by side
+        self._running = 0               # compiles in flight, nested ones included
+        self._threads: set[int] = set()  # the threads that compiled in this spell
+        self._began: float | None = None  # the spell's first compile's start; None: no spell
+        self._ended = 0.0               # its latest compile's end
+        self._width = 0                 # of the notice's line as drawn last
+        self._bar_drawn = False         # the line holds the progress bar, unfinished
+        self._stop = threading.Event()  # the spell's ticker's
 
     def on_start(self, event: event.Event) -> None:
-        self.say()
+        with self._lock:
+            self._running += 1
+            self._threads.add(threading.get_ident())
+            if self._began is None:
+                self._began = self._ended = time.perf_counter()
+                if self._live:
+                    if self._bar_drawn:  # the bar keeps its line, where it stopped
+                        self._write("\n")
+                    self._stop = threading.Event()
+                    threading.Thread(target=self._tick_until, args=(self._stop,), daemon=True,
+                                     name="raytrace-compile-notice").start()
+                    self._draw(f"{COMPILING}: 0.0 s")
+                else:
+                    self._write(COMPILING + "\n")
 
     def on_end(self, event: event.Event) -> None:
-        pass
+        with self._lock:
+            self._running -= 1
+            self._ended = time.perf_counter()
+
+    def _tick_until(self, stop: threading.Event) -> None:
+        while not stop.wait(self.tick):
+            with self._lock:
+                if stop.is_set():
+                    return
+                self._draw(f"{COMPILING}: {time.perf_counter() - self._began:.1f} s")
+
+    def _draw(self, line: str, end: str = "") -> None:
+        """``line`` over the notice's line as drawn last."""
+        self._write(f"\r{line:<{self._width}}{end}")
+        self._width = 0 if end else len(line)
+
+    def _write(self, text: str) -> None:
+        self._stream.write(text)
+        self._stream.flush()
+
+    def _finish(self) -> None:
+        """End the spell: :data:`COMPILED` with its seconds."""
+        self._stop.set()
+        done = COMPILED.format(self._ended - self._began)
+        if self._live:
+            self._draw(done, "\n")
+        else:
+            self._write(done + "\n")
+        self._began, self._threads = None, set()
+
+    def _report(self, progress: Callable[[int, int], None], done: int, total: int) -> None:
+        """``progress(done, total)`` unless a spell is on (which this report may end)."""
+        with self._lock:
+            if self._began is not None:
+                if self._running or threading.get_ident() not in self._threads:
+                    return
+                self._finish()
+            progress(done, total)
+            self._bar_drawn = done < total
 
     @contextmanager
-    def listening(self) -> Iterator[None]:
-        """Say it on the first compile inside the block."""
+    def listening(self, progress: Callable[[int, int], None]
+                  ) -> Iterator[Callable[[int, int], None]]:
+        """Say the compiles inside the block; yields the callback to report progress to in
+        place of ``progress`` (a render's ``progress(done, total)``). A block that raises
+        (Ctrl-C) leaves a spell unfinished: no :data:`COMPILED` for a compile cut short."""
         event.register("numba:compile", self)
         try:
-            yield
+            yield lambda done, total: self._report(progress, done, total)
+        except BaseException:
+            with self._lock:
+                self._stop.set()
+                self._began = None
+            raise
+        else:
+            with self._lock:
+                if self._began is not None:
+                    self._finish()
         finally:
             event.unregister("numba:compile", self)
 
