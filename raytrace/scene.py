@@ -276,7 +276,8 @@ class Mesh(values.Checked):
             if self.mesh is not None:
                 raise SceneError(e.problem, "mesh") from None
             raise
-        world = (verts * scale) @ rotation_matrix(rotate).T + translate
+        with np.errstate(over="ignore", invalid="ignore"):  # refused just below
+            world = (verts * scale) @ rotation_matrix(rotate).T + translate
         if not np.all(np.isfinite(world)) or np.abs(world).max() > MAX_COORDINATE:
             raise SceneError(f"transformed vertices exceed ±{MAX_COORDINATE:g}, beyond "
                              "float32's useful range for Embree", "scale")

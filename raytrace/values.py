@@ -83,9 +83,13 @@ def number(value: Any, key: str, *, lo: float | None = None, hi: float | None = 
     reason for the bounds) follows the range in the message."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise SceneError(f"must be a number, got {type_name(value)}", key)
-    if integer and not float(value).is_integer():
+    try:
+        v = float(value)
+    except OverflowError:  # a Python int (a JSON integer) of more than 309 digits
+        raise SceneError("must be within float64's range (±1.8e308), got an integer of "
+                         f"{value.bit_length()} bits", key) from None
+    if integer and not v.is_integer():
         raise SceneError(f"must be a whole number, got {value!r}", key)
-    v = float(value)
     if not math.isfinite(v):
         raise SceneError(f"must be finite, got {value!r}", key)
     shown = v if isinstance(value, (np.integer, np.floating)) else value  # not np.float64(…)

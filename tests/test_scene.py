@@ -371,18 +371,37 @@ def _limit_memory() -> None:
     resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
 
 
+def render_command(scene) -> subprocess.CompletedProcess:
+    """``raytrace render SCENE -o SCENE.exr`` in a child process with 4 GiB of address space
+    that must end within 60 s (a runaway fails the test, never the machine)."""
+    return subprocess.run([sys.executable, "-m", "raytrace", "render", str(scene), "-o",
+                           str(scene.with_suffix(".exr"))], capture_output=True, text=True,
+                          timeout=60, preexec_fn=_limit_memory, cwd=scene.parent)
+
+
 def test_a_camera_at_1e200_is_refused_in_one_line_by_the_command(tmp_path):
     """It used to render without end, growing ~140 MB/s (issue #28)."""
     scene = tmp_path / "far.toml"
     scene.write_text(RUNAWAY_SCENE)
-    run = subprocess.run([sys.executable, "-m", "raytrace", "render", str(scene), "-o",
-                          str(tmp_path / "far.exr")], capture_output=True, text=True,
-                         timeout=60, preexec_fn=_limit_memory, cwd=tmp_path)
+    run = render_command(scene)
     assert run.returncode == 2
     assert run.stderr.splitlines() == [
         f"raytrace: error: {scene}: camera.position[0]: must be within ±1e+12 (where every ray "
         "meets every mesh in Embree's float32), got 1e+200"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["far.toml"]
+
+
+def test_a_mesh_transform_that_overflows_is_refused_in_one_line_by_the_command(tmp_path):
+    """The overflow's RuntimeWarning, raised while the scene was read, sent the command into
+    an endless loop that grew its memory; the transform is now checked without warnings."""
+    scene = tmp_path / "huge.toml"
+    scene.write_text('[[objects]]\ntype = "mesh"\nvertices = [[0, 0, 0], [1e10, 0, 0], '
+                     '[0, 1, 0]]\nfaces = [[0, 1, 2]]\nscale = 1e300\n')
+    run = render_command(scene)
+    assert run.returncode == 2
+    assert run.stderr.splitlines() == [
+        f"raytrace: error: {scene}: objects[0].scale: transformed vertices exceed ±1e+12, "
+        "beyond float32's useful range for Embree"]
 
 
 @pytest.mark.parametrize("radius", [1e155, 1e308])

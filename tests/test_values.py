@@ -111,3 +111,14 @@ def test_the_doctests():
     import doctest
 
     assert doctest.testmod(values).failed == 0
+
+
+@pytest.mark.parametrize("key,value", [("radius", 10**400), ("render.width", -(10**309))],
+                         ids=["10**400", "-10**309"])
+def test_an_integer_beyond_float64_is_refused_in_one_line(key, value):
+    """A JSON integer of 400 digits is a Python int that float() cannot convert: it was an
+    OverflowError traceback."""
+    with pytest.raises(raytrace.SceneError) as e:
+        values.number(value, key)
+    assert str(e.value) == (f"{key}: must be within float64's range (±1.8e308), got an integer "
+                            f"of {value.bit_length()} bits")
