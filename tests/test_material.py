@@ -234,4 +234,4 @@ def test_a_checker_cell_outside_the_length_bounds_is_refused(scale):
             "pattern": "checker", "colors": [0.2, 0.8], "scale": scale}}}})
     assert str(e.value) == (f"materials.floor.kd.scale: must be within [1e-12, 1e+12] (the "
                             f"lengths at which a scene renders as it does at unit size), "
-                            f"got {scale:g}")
+                            f"got {scale!r}")

@@ -413,7 +413,7 @@ def test_a_sphere_too_large_for_float64_squares_is_refused(radius):
                                   "objects": [{"type": "sphere", "center": [0, 0, 0],
                                                "radius": radius}]})
     assert str(e.value) == (f"objects[0].radius: must be within [1e-12, 1e+12] (the lengths at "
-                            f"which a scene renders as it does at unit size), got {radius:g}")
+                            f"which a scene renders as it does at unit size), got {radius!r}")
 
 
 @pytest.mark.parametrize("make,key", [
