@@ -327,6 +327,8 @@ class Mesh(values.Checked):
                                  "or make a new Mesh", name)
         self.shading = values.string(self.shading, "shading", SHADINGS)
         self.vertices, self.faces = _check_arrays(self.vertices, self.faces)
+        values.check_length(float(np.ptp(self.vertices, axis=0).max()), "vertices",
+                            "the mesh's size (its bounding box's longest side)", longest=False)
         rows = len(self.faces)
         for name, shape in (("face_material", (rows,)), ("texcoords", (rows, 3, 2))):
             if getattr(self, name) is not None and np.shape(getattr(self, name)) != shape:
@@ -387,11 +389,12 @@ def _check_arrays(verts: Any, faces: Any) -> tuple[np.ndarray, np.ndarray]:
         raise SceneError(f"must be an (n >= 1, 3) array of vertex indices (triangles only), "
                          f"got shape {f.shape}", "faces")
     if not np.issubdtype(f.dtype, np.integer):
-        if not np.issubdtype(f.dtype, np.floating) or not np.all(np.mod(f, 1) == 0):
+        if (not np.issubdtype(f.dtype, np.floating) or not np.isfinite(f).all()
+                or not np.all(np.mod(f, 1) == 0)):
             raise SceneError("must hold whole vertex indices", "faces")
-    f = f.astype(np.int64, copy=False)  # (an int64 array checked again stays the same one)
-    if f.min() < 0 or f.max() >= len(v):
+    if f.min() < 0 or f.max() >= len(v):  # before the cast: 1e308 has no int64
         raise SceneError(f"index out of range 0..{len(v) - 1}", "faces")
+    f = f.astype(np.int64, copy=False)  # (an int64 array checked again stays the same one)
     return v, f
 
 

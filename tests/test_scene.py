@@ -5,10 +5,12 @@ docs/architecture.md, against closed forms and rendered from TOML and Python."""
 
 from __future__ import annotations
 
+import math
 import resource
 import subprocess
 import sys
 import tomllib
+import warnings
 
 import numpy as np
 import pytest
@@ -451,3 +453,28 @@ def test_a_mesh_scaled_where_embree_loses_it_is_refused(scale, vanished):
                       scale=scale)
     assert e.value.key == "scale"
     assert vanished in e.value.problem
+
+
+@pytest.mark.parametrize("index,says", [(1e308, "index out of range 0..2"),
+                                        (-1e308, "index out of range 0..2"),
+                                        (math.inf, "must hold whole vertex indices"),
+                                        (math.nan, "must hold whole vertex indices")])
+def test_a_face_index_beyond_int64_is_refused_without_a_warning(index, says):
+    """Cast to int64 first, 1e308 raised numpy's 'invalid value encountered in cast' (and inf
+    an 'invalid value in remainder') before the error: two lines from the command."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(raytrace.SceneError) as e:
+            raytrace.Mesh(vertices=[[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces=[[index, 1, 2]])
+    assert str(e.value) == f"faces: {says}"
+
+
+def test_a_mesh_shrunk_in_place_below_the_smallest_length_is_refused_at_render():
+    scene = raytrace.Scene(objects=[raytrace.Mesh(vertices=[[0, 0, -3], [1, 0, -3], [0, 1, -3]],
+                                                  faces=[[0, 1, 2]])])
+    scene.objects[0].vertices *= 1e-20
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.render(scene, width=4, height=3)
+    assert str(e.value) == ("objects[0].vertices: the mesh's size (its bounding box's longest "
+                            "side) must be at least 1e-12 (the lengths at which a scene renders "
+                            "as it does at unit size), got 1e-20")
