@@ -113,7 +113,7 @@ class PointLight(values.Checked):
     type = "point"
 
     def check(self) -> None:
-        self.position = values.vector(self.position, "position")
+        self.position = values.position(self.position, "position")
         self.color = values.color(self.color, "color")
         self.attenuation = _attenuation(self.attenuation, "attenuation")
 
@@ -152,7 +152,7 @@ class SpotLight(values.Checked):
     type = "spot"
 
     def check(self) -> None:
-        self.position = values.vector(self.position, "position")
+        self.position = values.position(self.position, "position")
         self.direction = values.unit(self.direction, "direction")
         self.cutoff = values.number(self.cutoff, "cutoff", lo=0, hi=90, lo_open=True)
         self.exponent = values.number(self.exponent, "exponent", lo=0)
@@ -184,9 +184,9 @@ class AreaLight(values.Checked):
     type = "area"
 
     def check(self) -> None:
-        self.position = values.vector(self.position, "position")
-        self.edge_u = values.vector(self.edge_u, "edge_u", nonzero=True)
-        self.edge_v = values.vector(self.edge_v, "edge_v", nonzero=True)
+        self.position = values.position(self.position, "position")
+        self.edge_u = values.edge(self.edge_u, "edge_u")
+        self.edge_v = values.edge(self.edge_v, "edge_v")
         cross = np.linalg.norm(np.cross(self.edge_u, self.edge_v))
         if cross <= 1e-12 * np.linalg.norm(self.edge_u) * np.linalg.norm(self.edge_v):
             raise SceneError("must not be parallel to edge_u", "edge_v")

@@ -94,12 +94,13 @@ def parse_color(value: Any, key: str, *, hi: float | None = None) -> Color:
 
 def _checker_fields(cols: Any, scale: Any, key: str, hi: float | None = None
                     ) -> tuple[tuple[np.ndarray, np.ndarray], float]:
-    """A checker's two colours (each ≥ 0, and ≤ ``hi``) and its cell size (> 0), checked."""
+    """A checker's two colours (each ≥ 0, and ≤ ``hi``) and its cell size (a
+    :func:`raytrace.values.length`), checked."""
     where = f"{key}." if key else ""
     if not isinstance(cols, (list, tuple)) or len(cols) != 2:
         raise SceneError("must be a list of two colours", f"{where}colors")
     pair = tuple(values.color(c, f"{where}colors[{i}]", hi=hi) for i, c in enumerate(cols))
-    return pair, values.number(scale, f"{where}scale", lo=0, lo_open=True)
+    return pair, values.length(scale, f"{where}scale")
 
 
 @dataclass(eq=False)

@@ -7,6 +7,7 @@ stays in world coordinates here; :mod:`raytrace.accel` recentres it on the camer
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -24,9 +25,8 @@ from .readers.inputs import input_file
 from .readers.meshio import read_mesh
 from .sampling import check_aa, check_filter
 
-#: Largest accepted |coordinate| of a mesh vertex: Embree silently drops triangles with
-#: coordinates around 1.8e19 and float32 products overflow well before 3.4e38.
-MAX_COORDINATE = 1e18
+#: Largest accepted |coordinate| of any point, mesh vertices included (values.MAX_COORDINATE).
+MAX_COORDINATE = values.MAX_COORDINATE
 #: Largest accepted image, in pixels (the float32 image alone is 12 bytes a pixel).
 MAX_PIXELS = 100_000_000
 MAX_SIDE = 100_000
@@ -91,14 +91,16 @@ class Camera(values.Checked):
     fov: float = 40.0
 
     def check(self) -> None:
-        self.position = values.vector(self.position, "camera.position")
-        self.look_at = values.vector(self.look_at, "camera.look_at")
+        self.position = values.position(self.position, "camera.position")
+        self.look_at = values.position(self.look_at, "camera.look_at")
         self.up = values.vector(self.up, "camera.up", nonzero=True)
         self.fov = values.number(self.fov, "camera.fov", lo=0, hi=180, lo_open=True,
                                  hi_open=True)
         forward = self.look_at - self.position
-        if not np.any(forward) or not np.isfinite(np.linalg.norm(forward)):
+        if not np.any(forward):
             raise SceneError("must differ from camera.position", "camera.look_at")
+        values.check_length(math.hypot(*forward), "camera.look_at",
+                            "its distance to camera.position", longest=False)
         f = forward / np.linalg.norm(forward)
         u = self.up / np.linalg.norm(self.up)
         if np.linalg.norm(np.cross(f, u)) < 1e-9:
@@ -125,8 +127,8 @@ class Sphere(values.Checked):
     type = "sphere"
 
     def check(self) -> None:
-        self.center = values.vector(self.center, "center")
-        self.radius = values.number(self.radius, "radius", lo=0, lo_open=True)
+        self.center = values.position(self.center, "center")
+        self.radius = values.length(self.radius, "radius")
 
     def row(self, origin: np.ndarray) -> dict:
         """Its parameters as ``kernels.accel.sphere_t`` reads them, camera-relative, by the
@@ -146,7 +148,7 @@ class Plane(values.Checked):
     type = "plane"
 
     def check(self) -> None:
-        self.point = values.vector(self.point, "point")
+        self.point = values.position(self.point, "point")
         self.normal = values.unit(self.normal, "normal")
 
     def row(self, origin: np.ndarray) -> dict:
@@ -169,9 +171,9 @@ class Disk(values.Checked):
     type = "disk"
 
     def check(self) -> None:
-        self.center = values.vector(self.center, "center")
+        self.center = values.position(self.center, "center")
         self.normal = values.unit(self.normal, "normal")
-        self.radius = values.number(self.radius, "radius", lo=0, lo_open=True)
+        self.radius = values.length(self.radius, "radius")
 
     def row(self, origin: np.ndarray) -> dict:
         """Its parameters as ``kernels.accel.disk_t`` reads them, camera-relative, by the
@@ -242,7 +244,7 @@ class Mesh(values.Checked):
         if len(given) != 1:
             raise SceneError("give exactly one of file, vertices (with faces) or mesh",
                              "file" if not given else given[1])
-        translate = values.vector(self.translate, "translate")
+        translate = values.position(self.translate, "translate")
         rotate = values.vector(self.rotate, "rotate")
         if isinstance(self.scale, (list, tuple, np.ndarray)):
             scale = values.vector(self.scale, "scale")
@@ -274,10 +276,14 @@ class Mesh(values.Checked):
             if self.mesh is not None:
                 raise SceneError(e.problem, "mesh") from None
             raise
-        world = (verts * scale) @ rotation_matrix(rotate).T + translate
+        with np.errstate(over="ignore", invalid="ignore"):  # refused just below
+            world = (verts * scale) @ rotation_matrix(rotate).T + translate
         if not np.all(np.isfinite(world)) or np.abs(world).max() > MAX_COORDINATE:
             raise SceneError(f"transformed vertices exceed ±{MAX_COORDINATE:g}, beyond "
                              "float32's useful range for Embree", "scale")
+        values.check_length(float(np.ptp(world, axis=0).max()), "scale",
+                            "the transformed mesh's size (its bounding box's longest side)",
+                            longest=False)
         if np.prod(np.sign(scale)) < 0:
             # A mirroring scale turns counter-clockwise into clockwise: reverse each face so
             # the winding still gives the outward normal (entering vs leaving for refraction).
@@ -321,6 +327,8 @@ class Mesh(values.Checked):
                                  "or make a new Mesh", name)
         self.shading = values.string(self.shading, "shading", SHADINGS)
         self.vertices, self.faces = _check_arrays(self.vertices, self.faces)
+        values.check_length(float(np.ptp(self.vertices, axis=0).max()), "vertices",
+                            "the mesh's size (its bounding box's longest side)", longest=False)
         rows = len(self.faces)
         for name, shape in (("face_material", (rows,)), ("texcoords", (rows, 3, 2))):
             if getattr(self, name) is not None and np.shape(getattr(self, name)) != shape:
@@ -381,11 +389,12 @@ def _check_arrays(verts: Any, faces: Any) -> tuple[np.ndarray, np.ndarray]:
         raise SceneError(f"must be an (n >= 1, 3) array of vertex indices (triangles only), "
                          f"got shape {f.shape}", "faces")
     if not np.issubdtype(f.dtype, np.integer):
-        if not np.issubdtype(f.dtype, np.floating) or not np.all(np.mod(f, 1) == 0):
+        if (not np.issubdtype(f.dtype, np.floating) or not np.isfinite(f).all()
+                or not np.all(np.mod(f, 1) == 0)):
             raise SceneError("must hold whole vertex indices", "faces")
-    f = f.astype(np.int64, copy=False)  # (an int64 array checked again stays the same one)
-    if f.min() < 0 or f.max() >= len(v):
+    if f.min() < 0 or f.max() >= len(v):  # before the cast: 1e308 has no int64
         raise SceneError(f"index out of range 0..{len(v) - 1}", "faces")
+    f = f.astype(np.int64, copy=False)  # (an int64 array checked again stays the same one)
     return v, f
 
 

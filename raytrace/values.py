@@ -4,6 +4,10 @@ Each function takes the raw value and its key path and either returns a clean va
 :class:`~raytrace.errors.SceneError` naming the key and the problem. Used by the scene-file
 loader, the material library and the Python API alike, so a bad value reads the same wherever
 it comes from.
+
+Every position and length a scene holds is bounded by :data:`MAX_COORDINATE` and
+:data:`MIN_LENGTH` … :data:`MAX_LENGTH` (:func:`position`, :func:`length`, :func:`edge`): the
+range in which a scene renders as it does scaled to unit size (docs/robustness.md, "Bounds").
 """
 
 from __future__ import annotations
@@ -16,6 +20,23 @@ from typing import Any
 import numpy as np
 
 from .errors import SceneError
+
+#: Largest |coordinate| of any point of a scene: the camera, shapes, lights, mesh vertices after
+#: their transform. Embree intersects meshes in float32, where a triangle of size L met by a
+#: ray from distance D is lost once L²·D nears float32's 3.4e38 (a mesh 1e13 across seen from
+#: 1e13 away vanishes: docs/robustness.md, "Bounds"); any point can be a ray's origin, so every
+#: position shares the range that keeps L, D ≤ 2√3·1e12 and L²·D ≤ 4.2e37.
+MAX_COORDINATE = 1e12
+#: Largest length given as one: a radius, an area light's edge, a checker cell. (A distance
+#: between two points, such as the camera's to ``look_at``, is bounded by their coordinates.)
+MAX_LENGTH = MAX_COORDINATE
+#: Smallest length, the mirror of :data:`MAX_LENGTH`: a scene scaled below it loses its meshes
+#: (Embree's float32 edge cross products underflow at edges of ~1e-19) and, further down, its
+#: spheres and camera (float64 squares underflow below ~1e-154); a mesh at least 1e-12
+#: across would need 1e7 triangles a side before its triangles got that small.
+MIN_LENGTH = 1 / MAX_LENGTH
+_COORDINATE_WHY = "where every ray meets every mesh in Embree's float32"
+_LENGTH_WHY = "the lengths at which a scene renders as it does at unit size"
 
 
 def type_name(value: Any) -> str:
@@ -60,9 +81,13 @@ def number(value: Any, key: str, *, lo: float | None = None, hi: float | None = 
     """A finite real number (an integer if ``integer``) within optional bounds."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise SceneError(f"must be a number, got {type_name(value)}", key)
-    if integer and not float(value).is_integer():
+    try:
+        v = float(value)
+    except OverflowError:  # a Python int (a JSON integer) of more than 309 digits
+        raise SceneError("must be within float64's range (±1.8e308), got an integer of "
+                         f"{value.bit_length()} bits", key) from None
+    if integer and not v.is_integer():
         raise SceneError(f"must be a whole number, got {value!r}", key)
-    v = float(value)
     if not math.isfinite(v):
         raise SceneError(f"must be finite, got {value!r}", key)
     shown = v if isinstance(value, (np.integer, np.floating)) else value  # not np.float64(…)
@@ -87,8 +112,65 @@ def vector(value: Any, key: str, n: int = 3, *, nonzero: bool = False) -> np.nda
     out = np.array([number(x, f"{key}[{i}]") for i, x in enumerate(value)], dtype=np.float64)
     if nonzero and not np.any(out):
         raise SceneError("must not be the zero vector", key)
-    if nonzero and not np.isfinite(np.linalg.norm(out)):
+    with np.errstate(over="ignore", under="ignore"):  # the cases refused here
+        squared = np.dot(out, out)
+    if nonzero and not np.isfinite(squared):
         raise SceneError(f"is too long to normalise, got {value!r}", key)
+    if nonzero and squared < np.finfo(np.float64).tiny:
+        raise SceneError(f"is too short to normalise (its squared length underflows float64), "
+                         f"got {value!r}", key)
+    return out
+
+
+def position(value: Any, key: str) -> np.ndarray:
+    """A point: a list of 3 numbers, each within ±:data:`MAX_COORDINATE`.
+
+    >>> position([0, 1e12, -5], "center").tolist()
+    [0.0, 1000000000000.0, -5.0]
+    >>> position([1e200, 0, 0], "center")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    raytrace.errors.SceneError: center[0]: must be within ±1e+12 (...), got 1e+200
+    """
+    out = vector(value, key)
+    for i, x in enumerate(out):
+        if abs(x) > MAX_COORDINATE:
+            raise SceneError(f"must be within ±{_bound(MAX_COORDINATE)} ({_COORDINATE_WHY}), "
+                             f"got {float(x)!r}", f"{key}[{i}]")
+    return out
+
+
+def length(value: Any, key: str) -> float:
+    """A length (a radius, a cell size): a number > 0 within [:data:`MIN_LENGTH`,
+    :data:`MAX_LENGTH`].
+
+    >>> length(0.5, "radius")
+    0.5
+    >>> length(1e155, "radius")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    raytrace.errors.SceneError: radius: must be within [1e-12, 1e+12] (...), got 1e+155
+    """
+    v = number(value, key, lo=0, lo_open=True)
+    check_length(v, key)
+    return v
+
+
+def check_length(v: float, key: str, what: str = "", *, longest: bool = True) -> None:
+    """Refuse a length ``v`` outside [:data:`MIN_LENGTH`, :data:`MAX_LENGTH`] (only below it
+    where not ``longest``: a distance between two points, bounded by their coordinates);
+    ``what`` names a derived one ("its length", "its distance to camera.position")."""
+    if v < MIN_LENGTH or (longest and v > MAX_LENGTH):
+        bounds = (f"within [{_bound(MIN_LENGTH)}, {_bound(MAX_LENGTH)}]" if longest else
+                  f"at least {_bound(MIN_LENGTH)}")
+        raise SceneError(f"{what + ' ' if what else ''}must be {bounds} ({_LENGTH_WHY}), "
+                         f"got {float(v)!r}", key)
+
+
+def edge(value: Any, key: str) -> np.ndarray:
+    """A non-zero vector whose length is a :func:`length` (an area light's edge)."""
+    out = vector(value, key)
+    if not np.any(out):
+        raise SceneError("must not be the zero vector", key)
+    check_length(math.hypot(*out), key, "its length")
     return out
 
 

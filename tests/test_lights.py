@@ -350,3 +350,32 @@ def test_every_emitter_has_a_label_naming_its_light_and_part(jitter):
         *(f"lights[0] (area, cell {c})" for c in range(4)), "lights[1] (point)",
         "lights[2] (directional)", "lights[3] (spot)"]
     assert len(labels(lights, origin, 7)) == len(emitters(lights, origin, 7))
+
+
+# -- bounds on light positions, edges and directions -----------------------------------------
+@pytest.mark.parametrize("make,key", [
+    (lambda: raytrace.PointLight([0, 1e200, 0]), "position[1]"),
+    (lambda: raytrace.SpotLight([0, 0, -1e13], [0, -1, 0]), "position[2]"),
+    (lambda: raytrace.AreaLight([1e308, 0, 0], [1, 0, 0], [0, 0, 1]), "position[0]"),
+])
+def test_a_light_beyond_the_coordinate_bound_is_refused(make, key):
+    with pytest.raises(raytrace.SceneError) as e:
+        make()
+    assert e.value.key == key
+    assert e.value.problem.startswith("must be within ±1e+12 (")
+
+
+@pytest.mark.parametrize("edge,length", [([1e-300, 0, 0], "1e-300"),
+                                         ([0, 0, 1e13], "10000000000000.0"),
+                                         ([1e200, 1e200, 0], "1.414213562373095e+200")])
+def test_an_area_light_edge_outside_the_length_bounds_says_so(edge, length):
+    """An edge of 1e-300 was reported as parallel to the other (the cross product underflows)."""
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.AreaLight([0, 1, 0], edge, [0, 1, 0])
+    assert str(e.value) == (f"edge_u: its length must be within [1e-12, 1e+12] (the lengths at "
+                            f"which a scene renders as it does at unit size), got {length}")
+
+
+def test_a_light_direction_too_short_to_normalise_is_refused():
+    with pytest.raises(raytrace.SceneError, match=r"^direction: is too short to normalise"):
+        raytrace.DirectionalLight([1e-160, -1e-160, 0])

@@ -225,3 +225,13 @@ def test_materials_command_lists_the_library(capsys):
     assert library.describe("brass")["description"] in brass
     glass = next(line for line in out if line.startswith("glass "))
     assert "ior=1.5" in glass
+
+
+@pytest.mark.parametrize("scale", [1e-300, 1e-13, 1e13, 1e300])
+def test_a_checker_cell_outside_the_length_bounds_is_refused(scale):
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.scene_from_dict({"materials": {"floor": {"kd": {
+            "pattern": "checker", "colors": [0.2, 0.8], "scale": scale}}}})
+    assert str(e.value) == (f"materials.floor.kd.scale: must be within [1e-12, 1e+12] (the "
+                            f"lengths at which a scene renders as it does at unit size), "
+                            f"got {scale!r}")

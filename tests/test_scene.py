@@ -5,7 +5,12 @@ docs/architecture.md, against closed forms and rendered from TOML and Python."""
 
 from __future__ import annotations
 
+import math
+import resource
+import subprocess
+import sys
 import tomllib
+import warnings
 
 import numpy as np
 import pytest
@@ -345,3 +350,131 @@ def test_disks_are_in_the_id_aov_lit_shadowed_mirrored_and_seen_through(disk_ren
         change(scene)
         differ = np.abs(raytrace.render(scene, threads=2).rgb - full).max(axis=2) > 1e-3
         assert differ[ids == disk].sum() > 3, disk
+
+
+# -- bounds: every position and length within values' limits ---------------------------------
+RUNAWAY_SCENE = """[camera]
+position = [1e200, 1, 5]
+look_at = [0, 0, 0]
+[render]
+width = 32
+height = 24
+[[objects]]
+type = "sphere"
+center = [0, 0, 0]
+radius = 1
+[[lights]]
+type = "point"
+position = [2, 2, 2]
+"""
+
+
+def _limit_memory() -> None:
+    resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
+
+
+def render_command(scene) -> subprocess.CompletedProcess:
+    """``raytrace render SCENE -o SCENE.exr`` in a child process with 4 GiB of address space
+    that must end within 60 s (a runaway fails the test, never the machine)."""
+    return subprocess.run([sys.executable, "-m", "raytrace", "render", str(scene), "-o",
+                           str(scene.with_suffix(".exr"))], capture_output=True, text=True,
+                          timeout=60, preexec_fn=_limit_memory, cwd=scene.parent)
+
+
+def test_a_camera_at_1e200_is_refused_in_one_line_by_the_command(tmp_path):
+    """It used to render without end, growing ~140 MB/s (issue #28)."""
+    scene = tmp_path / "far.toml"
+    scene.write_text(RUNAWAY_SCENE)
+    run = render_command(scene)
+    assert run.returncode == 2
+    assert run.stderr.splitlines() == [
+        f"raytrace: error: {scene}: camera.position[0]: must be within ±1e+12 (where every ray "
+        "meets every mesh in Embree's float32), got 1e+200"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["far.toml"]
+
+
+def test_a_mesh_transform_that_overflows_is_refused_in_one_line_by_the_command(tmp_path):
+    """The overflow's RuntimeWarning, raised while the scene was read, sent the command into
+    an endless loop that grew its memory; the transform is now checked without warnings."""
+    scene = tmp_path / "huge.toml"
+    scene.write_text('[[objects]]\ntype = "mesh"\nvertices = [[0, 0, 0], [1e10, 0, 0], '
+                     '[0, 1, 0]]\nfaces = [[0, 1, 2]]\nscale = 1e300\n')
+    run = render_command(scene)
+    assert run.returncode == 2
+    assert run.stderr.splitlines() == [
+        f"raytrace: error: {scene}: objects[0].scale: transformed vertices exceed ±1e+12, "
+        "beyond float32's useful range for Embree"]
+
+
+@pytest.mark.parametrize("radius", [1e155, 1e308])
+def test_a_sphere_too_large_for_float64_squares_is_refused(radius):
+    """r² overflows from ~1.3e154: the sphere vanished, and at 1e308 with the camera inside
+    the image was black with no warning."""
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.scene_from_dict({"camera": {"position": [0, 0, 0], "look_at": [0, 0, -1]},
+                                  "objects": [{"type": "sphere", "center": [0, 0, 0],
+                                               "radius": radius}]})
+    assert str(e.value) == (f"objects[0].radius: must be within [1e-12, 1e+12] (the lengths at "
+                            f"which a scene renders as it does at unit size), got {radius!r}")
+
+
+@pytest.mark.parametrize("make,key", [
+    (lambda: raytrace.Sphere([0, 0, 2e12], 1), "center[2]"),
+    (lambda: raytrace.Disk([0, -1e13, 0], [0, 1, 0], 1), "center[1]"),
+    (lambda: raytrace.Disk([0, 0, 0], [0, 1, 0], 1e-13), "radius"),
+    (lambda: raytrace.Plane([1e300, 0, 0], [0, 1, 0]), "point[0]"),
+    (lambda: raytrace.Camera([0, 0, 0], [0, 0, -1e15]), "camera.look_at[2]"),
+    (lambda: raytrace.Mesh(vertices=[[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces=[[0, 1, 2]],
+                           translate=[0, 0, 5e12]), "translate[2]"),
+])
+def test_positions_and_lengths_beyond_the_bounds_name_their_key(make, key):
+    with pytest.raises(raytrace.SceneError) as e:
+        make()
+    assert e.value.key == key
+    assert e.value.problem.startswith(("must be within ±1e+12 (",
+                                       "must be within [1e-12, 1e+12] ("))
+
+
+def test_a_camera_whose_look_at_is_too_close_to_normalise_is_refused():
+    """|look_at − position|² underflowed: the camera's basis was NaN and the render silent."""
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.Camera([0, 0, 0], [0, 0, -1e-200])
+    assert str(e.value) == ("camera.look_at: its distance to camera.position must be at least "
+                            "1e-12 (the lengths at which a scene renders as it does at unit "
+                            "size), got 1e-200")
+
+
+@pytest.mark.parametrize("scale,vanished", [(1e13, "exceed ±1e+12"), (1e-13, "at least 1e-12")])
+def test_a_mesh_scaled_where_embree_loses_it_is_refused(scale, vanished):
+    """Measured: a unit-size mesh 1e13 across seen from 1e13 away vanishes in Embree's float32
+    (L²·D overflows), and so does one whose edges are ~1e-19 (L² underflows)."""
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.Mesh(vertices=[[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces=[[0, 1, 2]],
+                      scale=scale)
+    assert e.value.key == "scale"
+    assert vanished in e.value.problem
+
+
+@pytest.mark.parametrize("index,says", [(1e308, "index out of range 0..2"),
+                                        (-1e308, "index out of range 0..2"),
+                                        (math.inf, "must hold whole vertex indices"),
+                                        (math.nan, "must hold whole vertex indices")])
+def test_a_face_index_beyond_int64_is_refused_without_a_warning(index, says):
+    """Cast to int64 first, 1e308 raised numpy's 'invalid value encountered in cast' (and inf
+    an 'invalid value in remainder') before the error: two lines from the command."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(raytrace.SceneError) as e:
+            raytrace.Mesh(vertices=[[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces=[[index, 1, 2]])
+    assert str(e.value) == f"faces: {says}"
+
+
+def test_a_mesh_shrunk_in_place_below_the_smallest_length_is_refused_at_render():
+    scene = raytrace.Scene(objects=[raytrace.Mesh(vertices=[[0, 0, -3], [1, 0, -3], [0, 1, -3]],
+                                                  faces=[[0, 1, 2]])])
+    scene.objects[0].vertices *= 1e-20
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.render(scene, width=4, height=3)
+    assert str(e.value) == ("objects[0].vertices: the mesh's size (its bounding box's longest "
+                            "side) must be at least 1e-12 (the lengths at which a scene renders "
+                            "as it does at unit size), got 1e-20")
