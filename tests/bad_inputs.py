@@ -474,9 +474,9 @@ API_BODIES = {
 #: API misuses that must be refused, not rendered (the rest may do either: a material named
 #: after construction, say, is resolved at render as at construction).
 API_REFUSED = {"number-appended", "light-appended-to-objects", "lights-none", "objects-none",
-               "center-string", "radius-negative", "radius-nan", "radius-huge", "camera-position-huge", "camera-none", "mesh-nan-edit",
-               "light-position-nan", "pass-samples-0", "save-bad-suffix",
-               "save-exposure-nan"}
+               "center-string", "radius-negative", "radius-nan", "radius-huge",
+               "camera-position-huge", "camera-none", "mesh-nan-edit", "light-position-nan",
+               "pass-samples-0", "save-bad-suffix", "save-exposure-nan"}
 
 
 def api_cases() -> list[Case]:
