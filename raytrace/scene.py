@@ -447,6 +447,12 @@ def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | No
             raise SceneError(f"{path}: vertex {int(np.argmax(bad)) + 1} is not finite "
                              f"({np.asarray(loaded.vertices)[bad][0].tolist()}); Embree would "
                              "silently drop its triangles", "file")
+        faces = np.asarray(loaded.faces)
+        outside = (faces < 0) | (faces >= len(loaded.vertices))
+        if outside.any():  # (trimesh's merge below would end in an IndexError)
+            face, corner = divmod(int(np.argmax(outside)), 3)
+            raise SceneError(f"{path}: face {face} names vertex {int(faces[face, corner])}, "
+                             f"out of range 0..{len(loaded.vertices) - 1}", "file")
         # Merge coincident vertices so smooth shading can average across faces (STL repeats).
         loaded.merge_vertices(merge_tex=True, merge_norm=True)
     return np.asarray(loaded.vertices, dtype=np.float64), np.asarray(loaded.faces), texcoords

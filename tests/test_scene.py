@@ -478,3 +478,16 @@ def test_a_mesh_shrunk_in_place_below_the_smallest_length_is_refused_at_render()
     assert str(e.value) == ("objects[0].vertices: the mesh's size (its bounding box's longest "
                             "side) must be at least 1e-12 (the lengths at which a scene renders "
                             "as it does at unit size), got 1e-20")
+
+
+def test_a_mesh_file_face_out_of_range_is_one_line(tmp_path):
+    """An ASCII PLY (read by trimesh) whose face names vertex 9 of 3: one line naming the file,
+    the face and the index, not trimesh's IndexError while it merges vertices."""
+    path = tmp_path / "m.ply"
+    path.write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                    "property float y\nproperty float z\nelement face 2\n"
+                    "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n"
+                    "3 0 1 2\n3 0 1 9\n")
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.Mesh(file=str(path))
+    assert str(e.value) == f"file: {path}: face 1 names vertex 9, out of range 0..2"
