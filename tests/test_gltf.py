@@ -225,3 +225,16 @@ def test_a_node_cycle_and_a_bad_index_are_one_line(tmp_path):
     bad = write_gltf(tmp_path / "i.gltf", [{"mesh": 5}], [SQUARE], MATTE)
     with pytest.raises(SceneError, match=r"i\.gltf: malformed glTF: IndexError"):
         raytrace.load_scene(bad)
+
+
+def test_a_glb_of_garbage_is_one_line_with_pygltflibs_note_and_no_paragraphs(tmp_path, recwarn):
+    """pygltflib warns in paragraphs (asking for issues on its tracker) before it fails on a
+    file that only starts like a GLB: the failure is one line carrying its first note."""
+    path = tmp_path / "m.glb"
+    path.write_bytes(b"glTF" + bytes(range(256)) * 8)
+    with pytest.raises(SceneError) as e:
+        raytrace.Mesh(file=str(path), material="from_file")
+    assert "\n" not in str(e.value) and str(e.value).startswith(f"{path}: cannot read glTF: ")
+    assert "this file is version 50462976" in str(e.value)
+    assert "issue" not in str(e.value)
+    assert not recwarn.list

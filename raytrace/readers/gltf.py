@@ -311,13 +311,20 @@ def load_gltf(path: Path) -> GltfScene:
 def _load(path: Path) -> GltfScene:
     import pygltflib
 
-    try:
-        gltf = pygltflib.GLTF2().load(str(path))
-    except Exception as e:  # pygltflib raises what json, struct or its own code raise
-        raise SceneError(f"cannot read glTF: {type(e).__name__}: {e}", file=str(path)
-                         ) from None
+    # pygltflib warns in paragraphs (asking for issues on its tracker) where a file is not one
+    # it reads: its first note is the one line of a failure, or a RenderWarning line each.
+    with warnings.catch_warnings(record=True) as notes:
+        warnings.simplefilter("always")
+        try:
+            gltf = pygltflib.GLTF2().load(str(path))
+            failure = None if gltf is not None else "pygltflib read nothing"
+        except Exception as e:  # pygltflib raises what json, struct or its own code raise
+            gltf, failure = None, f"{type(e).__name__}: {e}"
+    said = [str(n.message).split(" Please open an issue")[0].rstrip(". ") for n in notes]
     if gltf is None:
-        raise SceneError("cannot read glTF", file=str(path))
+        raise SceneError(f"cannot read glTF: {said[0] if said else failure}", file=str(path))
+    for note in said:
+        warnings.warn(f"{path}: {note}", RenderWarning, stacklevel=2)
     _check_extensions(gltf, path)
     buffers = _buffers(gltf, path)
     materials: dict = {}
