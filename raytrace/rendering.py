@@ -141,13 +141,14 @@ def check_memory(width: int, height: int, steps: Iterable[str] = (),
     than its ``ceiling`` (a :class:`~raytrace.errors.MemoryLimitError`)."""
     steps = tuple(steps)
     need, have = peak_bytes(width, height, steps), available_bytes()
-    peak = f"{width}x{height} needs about {{}} of memory at its peak " \
-           f"(render{''.join(' + ' + s for s in steps)})"
+    what = f"render{''.join(' + ' + s for s in steps)}"
     if have is not None and need > have:
-        raise MemoryLimitError(f"{peak.format(f'{need / 1e9:.1f} GB')}, more than the "
-                               f"{have / 1e9:.1f} GB available on this machine", key)
+        raise MemoryLimitError(f"{width}x{height} needs about {need / 1e9:.1f} GB of memory at "
+                               f"its peak ({what}), more than the {have / 1e9:.1f} GB available "
+                               "on this machine", key)
     if ceiling is not None and need > ceiling.bytes:
-        raise ceiling.over(peak.format(size_text(need)))
+        raise ceiling.over(f"{width}x{height} needs about {size_text(need)} of memory at its "
+                           f"peak ({what})")
 
 
 @contextmanager
