@@ -477,14 +477,15 @@ class WhittedIntegrator:
                         progress(done[0], total)
 
         threads = max(1, min(self.opt.threads, len(passes)))
-        with ThreadPoolExecutor(threads, thread_name_prefix="raytrace") as pool:
-            workers = [pool.submit(work) for _ in range(threads)]
-            try:  # waking every WAKE_SECONDS: not every platform's lock wait takes a signal
-                while wait_for(workers, WAKE_SECONDS).not_done:
-                    pass
-            except BaseException as e:  # Ctrl-C (KeyboardInterrupt) while waiting
-                stop.request(e)
-                wait_for(workers)  # each ends at its pass's next batch
+        pool, workers = ThreadPoolExecutor(threads, thread_name_prefix="raytrace"), []
+        try:  # waking every WAKE_SECONDS: not every platform's lock wait takes a signal
+            workers += [pool.submit(work) for _ in range(threads)]
+            while wait_for(workers, WAKE_SECONDS).not_done:
+                pass
+        except BaseException as e:  # Ctrl-C (KeyboardInterrupt) while starting or waiting
+            stop.request(e)  # (a thread whose start it cut short finds the stop at once)
+        finally:
+            pool.shutdown()  # each thread ends at its pass's next batch once stopped
         stop.check()
 
     def _render_pass(self, start: int, stop: int, pixels: np.ndarray) -> None:

@@ -23,6 +23,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -909,6 +910,7 @@ def test_a_ctrl_c_while_the_passes_run_stops_them_all():
             _thread.interrupt_main()
 
     scene = make_scene([Sphere([0, 0, 0], 1.0)], [PointLight([2, 2, 5])])
+    before = set(threading.enumerate())
     try:
         with pytest.raises(KeyboardInterrupt):
             raytrace.render(scene, width=400, height=300, spp=4, threads=2, pass_samples=4096,
@@ -916,4 +918,9 @@ def test_a_ctrl_c_while_the_passes_run_stops_them_all():
     finally:
         signal.signal(signal.SIGINT, handler)
     assert 1 <= len(calls) < 59, calls  # of 118 passes (0.1 s of them at most, here ~10)
-    assert not [t for t in threading.enumerate() if t.name.startswith("raytrace")]
+    for thread in set(threading.enumerate()) - before:  # one whose start the Ctrl-C cut
+        thread.join(1.0)                                # short ends as it begins
+    assert set(threading.enumerate()) <= before
+    stopped_at = len(calls)
+    time.sleep(0.3)
+    assert len(calls) == stopped_at  # no pass went on

@@ -74,6 +74,9 @@ BAD_KEYWORDS = {
     "aa_min_depth": (3, raytrace.SceneError, "render.aa_min_depth: must be <= 2"),
     "client": (3, TypeError, "client must be a dask.distributed.Client or None, got int"),
     "tile": (16, raytrace.SceneError, "tile: tiles need a client"),
+    "max_memory": ("lots", raytrace.SceneError, "max_memory: must be a size such as 4G"),
+    "worker_timeout": (5, raytrace.SceneError, "worker_timeout: a worker timeout needs a "
+                                               "client"),
 }
 
 
