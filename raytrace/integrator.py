@@ -468,13 +468,13 @@ class WhittedIntegrator:
                     return
                 try:
                     self._render_pass(*item, pixels)
-                except BaseException as e:
+                    if progress is not None and not stop.requested:
+                        with self._lock:
+                            done[0] += item[1] - item[0]
+                            progress(done[0], total)
+                except BaseException as e:  # the pass's or progress's: raised by _run
                     stop.request(e)
                     return
-                if progress is not None and not stop.requested:
-                    with self._lock:
-                        done[0] += item[1] - item[0]
-                        progress(done[0], total)
 
         threads = max(1, min(self.opt.threads, len(passes)))
         pool, workers = ThreadPoolExecutor(threads, thread_name_prefix="raytrace"), []

@@ -924,3 +924,18 @@ def test_a_ctrl_c_while_the_passes_run_stops_them_all():
     stopped_at = len(calls)
     time.sleep(0.3)
     assert len(calls) == stopped_at  # no pass went on
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_an_error_in_the_progress_callback_stops_the_render_and_is_raised(threads):
+    calls = []
+
+    def progress(done: int, total: int) -> None:
+        calls.append(done)
+        raise ValueError("the bar broke")
+
+    scene = make_scene([Sphere([0, 0, 0], 1.0)], [PointLight([2, 2, 5])])
+    with pytest.raises(ValueError, match="the bar broke"):
+        raytrace.render(scene, width=400, height=300, threads=threads, pass_samples=4096,
+                        progress=progress)
+    assert 1 <= len(calls) <= threads  # the first call stops every thread
