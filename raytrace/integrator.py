@@ -30,10 +30,11 @@ batch order), so the image does not depend on the number of threads or on which 
 rendered which pass.
 
 A render can be asked to end early (:class:`Stop`: Ctrl-C, the memory ceiling of
-:mod:`raytrace.rendering`): the passes run on worker threads while the calling thread only
-waits, so it takes a Ctrl-C at once (Python runs signal handlers in the main thread, between
-bytecodes, never inside a compiled call); each pass reads the stop flag before each batch and
-each light's pass over it, the compiled loop too, so a render ends within one of those steps.
+:mod:`raytrace.rendering`): the passes run on pass threads (:func:`pass_threads`) while the
+calling thread only waits, so it takes a Ctrl-C at once (Python runs signal handlers in the
+main thread, between bytecodes, never inside a compiled call); each pass reads the stop flag
+before each batch and each light's pass over it, the compiled loop too, so a render ends
+within one of those steps.
 """
 
 from __future__ import annotations
@@ -176,6 +177,30 @@ class Stop:
         """Raise the reason of a stop asked for; nothing otherwise."""
         if self.reason is not None:
             raise self.reason
+
+
+class PassThreads(threading.local):
+    """Each calling thread's pool of pass threads (:func:`pass_threads`)."""
+
+    pool: ThreadPoolExecutor | None = None
+    size = 0
+
+
+_pass_threads = PassThreads()
+
+
+def pass_threads(n: int) -> ThreadPoolExecutor:
+    """The calling thread's pool of at least ``n`` pass threads, kept from render to render
+    (each calling thread its own, so that renders from several threads, a Dask worker's say,
+    run side by side): a pass thread's glibc heap (an arena per thread) serves the next
+    render's passes too, as the tuned allocator means it to (:mod:`raytrace.malloc`).
+    Idle threads wait on the pool's queue; they end with the pool."""
+    own = _pass_threads
+    if own.size < n:
+        if own.pool is not None:
+            own.pool.shutdown(wait=False)
+        own.pool, own.size = ThreadPoolExecutor(n, thread_name_prefix="raytrace"), n
+    return own.pool
 
 
 class Scratch:
@@ -476,16 +501,15 @@ class WhittedIntegrator:
                     stop.request(e)
                     return
 
-        threads = max(1, min(self.opt.threads, len(passes)))
-        pool, workers = ThreadPoolExecutor(threads, thread_name_prefix="raytrace"), []
+        threads, workers = max(1, min(self.opt.threads, len(passes))), []
         try:  # waking every WAKE_SECONDS: not every platform's lock wait takes a signal
+            pool = pass_threads(threads)
             workers += [pool.submit(work) for _ in range(threads)]
             while wait_for(workers, WAKE_SECONDS).not_done:
                 pass
         except BaseException as e:  # Ctrl-C (KeyboardInterrupt) while starting or waiting
-            stop.request(e)  # (a thread whose start it cut short finds the stop at once)
-        finally:
-            pool.shutdown()  # each thread ends at its pass's next batch once stopped
+            stop.request(e)  # (a pass whose submission it cut short finds the stop at once)
+            wait_for(workers)  # each ends at its pass's next batch
         stop.check()
 
     def _render_pass(self, start: int, stop: int, pixels: np.ndarray) -> None:
