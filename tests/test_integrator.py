@@ -22,7 +22,6 @@ import math
 import signal
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 
