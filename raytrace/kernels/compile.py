@@ -29,9 +29,10 @@ class CompileNotice(event.Listener):
     (:meth:`listening`'s callback) from a thread that compiled in it once no compile is in
     flight, that is when the pass that waited for those kernels is done (any thread's
     report where only the listening thread compiled: it builds the scene, and the passes
-    run on other threads, ``raytrace.integrator.pass_threads``), or when the block ends. On a terminal one line counts the spell's seconds, redrawn every :attr:`tick` s
-    below the progress bar where one is drawn (whose reports wait meanwhile, so it goes on
-    on the next line), and ends as :data:`COMPILED`;
+    run on other threads, ``raytrace.integrator.pass_threads``), or when the block ends.
+    On a terminal one line counts the spell's seconds, redrawn every :attr:`tick` s below
+    the progress bar where one is drawn (whose reports wait meanwhile, so it goes on on
+    the next line), and ends as :data:`COMPILED`;
     elsewhere :data:`COMPILING` is one line when a spell starts and :data:`COMPILED` one when
     it ends. The seconds run from the spell's first compile's start to its last one's end.
     """
