@@ -8,8 +8,10 @@
                           [--filter box|tent|gaussian|mitchell]
                           [--aa uniform|adaptive] [--aa-threshold T] [--aa-depth D]
                           [--aa-min-depth M]
-                          [--frames LIST [--overwrite]] [--workers N | --scheduler ADDRESS
+                          [--max-memory SIZE] [--frames LIST [--overwrite]]
+                          [--workers N | --scheduler ADDRESS
                           [--tls-ca-file CA --tls-cert CERT --tls-key KEY]] [--tile PIXELS]
+                          [--worker-timeout SECONDS]
     raytrace render SCENE1 SCENE2 ... --out-dir DIR [--png] [--stats] [the flags above
                           but -o and --frames]
     raytrace explain SCENE --pixel X Y [--sample S] [--json] [--width W] [--height H]
@@ -32,7 +34,9 @@ The metrics are :data:`raytrace.film.metrics.METRICS`. ``render`` writes all of 
 or none (:mod:`raytrace.film.outputs`); a render that completes but is probably not what was meant
 adds a line ``raytrace: warning: FILE: problem``. With ``--out-dir`` each scene's outputs are
 all or nothing on their own; a scene that fails is one error line naming its file, the next
-scene is rendered, and the exit status is 2.
+scene is rendered, and the exit status is 2. A render over its memory ceiling (``--max-memory``)
+is bad input too (exit 2); Ctrl-C ends a render within a batch of each pass with one line
+``raytrace: interrupted; ...`` and exit status 130.
 """
 
 from __future__ import annotations
@@ -131,6 +135,10 @@ def _parser() -> argparse.ArgumentParser:
     _overrides(r)
     r.add_argument("--threads", type=int, default=os.cpu_count() or 1,
                    help="worker threads (default: all cores)")
+    r.add_argument("--max-memory", metavar="SIZE",
+                   help="memory ceiling of this process, e.g. 4G or 512M (binary units) or "
+                        "bytes: a render over it is refused or stopped (default: the memory "
+                        "in use plus the memory available when the render starts)")
     for w in extras:
         r.add_argument(w.flag, nargs="?", const=True, metavar="FILE", dest=_dest(w),
                        help=f"{w.help} ({w.suffix}; no FILE only with --out-dir)")
@@ -184,6 +192,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="render on an existing Dask cluster, e.g. tls://host:8786")
     d.add_argument("--tile", type=int, metavar="PIXELS",
                    help="tile side with --workers or --scheduler (default 256)")
+    d.add_argument("--worker-timeout", type=float, metavar="SECONDS",
+                   help="stop when the cluster has had no worker this long (default 60)")
     d.add_argument("--tls-ca-file", metavar="CA.pem", help="with --scheduler: the CA "
                    "certificate the scheduler's certificate is checked against")
     d.add_argument("--tls-cert", metavar="CERT.pem", help="with --scheduler: this client's "
@@ -231,7 +241,7 @@ FLAGS = {"width": "--width", "height": "--height", "spp": "--spp", "max_depth": 
          "crop": "--crop", "aovs": "--aov", "filter": "--filter", "aa": "--aa",
          "aa_threshold": "--aa-threshold", "aa_depth": "--aa-depth",
          "aa_min_depth": "--aa-min-depth", "tile": "--tile", "pixel": "--pixel",
-         "sample": "--sample"}
+         "sample": "--sample", "max_memory": "--max-memory", "worker_timeout": "--worker-timeout"}
 
 
 def _flag_error(e: SceneError) -> SceneError:
@@ -311,15 +321,23 @@ def _cluster(args: argparse.Namespace):
         raise SceneError("give --workers (a local cluster) or --scheduler, not both",
                          "--scheduler")
     if args.workers is None and args.scheduler is None:
-        for flag, value in (("--tile", args.tile), ("--tls-ca-file", tls[0]),
-                            ("--tls-cert", tls[1]), ("--tls-key", tls[2])):
+        for flag, value in (("--tile", args.tile), ("--worker-timeout", args.worker_timeout),
+                            ("--tls-ca-file", tls[0]), ("--tls-cert", tls[1]),
+                            ("--tls-key", tls[2])):
             if value is not None:
                 raise SceneError("needs --workers or --scheduler", flag)
         return nullcontext(None)
-    from .distributed import check_tile, connect, require_distributed, security
+    from .distributed import (
+        check_tile,
+        check_worker_timeout,
+        connect,
+        require_distributed,
+        security,
+    )
 
     require_distributed("--workers" if args.workers is not None else "--scheduler")
     check_tile(args.tile, "--tile")
+    check_worker_timeout(args.worker_timeout, "--worker-timeout")
     if args.workers is not None:
         from . import values
 
@@ -358,10 +376,12 @@ def _render(args: argparse.Namespace) -> int:
     from .film.exr import exr_compression
     from .film.tonemap import check_tonemap
     from .film.writers import main_writer
-    from .rendering import render_options
+    from .rendering import memory_size, render_options
     from .scene import Scene
 
     malloc.tune()  # this process is ours: passes reuse the blocks the passes before freed
+    if args.max_memory is not None:  # bytes, found now
+        args.max_memory = memory_size(args.max_memory, "--max-memory")
     try:
         args.tonemap = check_tonemap(args.tonemap)
     except ValueError as e:
@@ -541,7 +561,7 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
     or None to load it here."""
     from .film.writers import WRITERS, Settings, main_writer
     from .kernels.compile import load_registries
-    from .rendering import check_memory, render, render_options
+    from .rendering import check_memory, memory_ceiling, render, render_options
 
     scene_path, files, stats_path = paths
     # Every output is checked before anything is rendered (outputs.py): its suffix and that it
@@ -560,10 +580,12 @@ def _render_one(args: argparse.Namespace, outputs: Outputs,
         progress = Progress(not args.quiet, _progress_unit(
             o.aa, distributed=args.workers is not None or args.scheduler is not None))
         x0, y0, x1, y1 = o.crop or (0, 0, o.width, o.height)
-        check_memory(x1 - x0, y1 - y0, tuple(w.name for w, _ in images))
+        check_memory(x1 - x0, y1 - y0, tuple(w.name for w, _ in images),
+                     ceiling=memory_ceiling(args.max_memory))
         load_registries(lean=True)  # this process runs no numba code but ours (jit.py)
         with _warnings_as_lines(), progress.showing() as report:
             image = render(scene, progress=report, client=client(), tile=args.tile,
+                           max_memory=args.max_memory, worker_timeout=args.worker_timeout,
                            **overrides)
     except SceneError as e:  # a flag's value: name the flag, not the scene key
         raise _flag_error(e) from None
@@ -621,7 +643,8 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
     from .rendering import render_options
     from .scene import Scene
 
-    for flag, value, default in (("--tile", args.tile, None), ("--png-bits", args.png_bits, 8)):
+    for flag, value, default in (("--tile", args.tile, None), ("--png-bits", args.png_bits, 8),
+                                 ("--worker-timeout", args.worker_timeout, None)):
         if value != default:  # frames are rendered whole, their previews at 8 bits
             raise SceneError("is not used with --frames", flag)
     frames = parse_frames(args.frames, "--frames")
@@ -662,7 +685,7 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
                                    overwrite=args.overwrite, progress=report,
                                    compression=args.compression, exposure=args.exposure,
                                    tonemap=args.tonemap, on_frame=written, crop=args.crop,
-                                   **overrides)
+                                   max_memory=args.max_memory, **overrides)
         except SceneError as e:
             raise (_flag_error(e) if e.key == "crop" else e) from None
     rays = sum(st["rays"]["total"] for st in result.stats.values())

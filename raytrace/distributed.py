@@ -14,7 +14,10 @@ size. Frames of a sequence are whole renders, one task each (:mod:`raytrace.fram
   options, so it builds a scene once however many of its tiles it renders.
 * A worker that dies (killed, out of memory) has its tiles run again on others (Dask
   reschedules the tasks of a lost worker); a :class:`~raytrace.errors.SceneError` raised on a
-  worker is raised again on the client as the same one-line error as a local render's.
+  worker is raised again on the client as the same one-line error as a local render's. A
+  cluster left with no worker at all for :data:`WORKER_TIMEOUT` seconds (or the render's
+  ``worker_timeout``) ends the wait with a :class:`~raytrace.errors.ClusterError`
+  (:func:`gather_each`), where Dask would wait for a worker for ever.
 * :func:`connect`: a client of a new :func:`local_cluster` (worker processes listening on the
   loopback interface only, with temporary TLS certificates when ``cryptography`` is installed)
   or of an existing scheduler, over TLS with a :func:`security` from certificate files.
@@ -64,6 +67,12 @@ TILE = 256
 KEEP = 2
 #: Seconds to wait for a scheduler to answer before giving up.
 CONNECT_TIMEOUT = 20
+#: Seconds a render waits on a cluster that has no worker before giving up (a minute: longer
+#: than a worker's restart by its nanny, a few seconds, or a batch system's start of a new
+#: worker that is already queued; ``--worker-timeout``, ``render(worker_timeout=)``).
+WORKER_TIMEOUT = 60.0
+#: Seconds between two looks at the cluster's workers while no result is ready.
+WORKER_POLL = 0.5
 #: Valid tile sides.
 TILE_RANGE = (8, 4096)
 #: The ``pip`` extra that installs Dask.
@@ -98,6 +107,14 @@ def check_tile(tile: Any, key: str = "tile") -> int:
     if tile is None:
         return TILE
     return values.number(tile, key, lo=TILE_RANGE[0], hi=TILE_RANGE[1], integer=True)
+
+
+def check_worker_timeout(seconds: Any, key: str = "worker_timeout") -> float:
+    """Seconds a render waits on a cluster without workers, checked (> 0, finite); None
+    gives :data:`WORKER_TIMEOUT`."""
+    if seconds is None:
+        return WORKER_TIMEOUT
+    return values.number(seconds, key, lo=0, lo_open=True)
 
 
 def scene_payload(scene: Scene, options: RenderOptions) -> tuple[bytes, RenderOptions, str]:
@@ -179,15 +196,18 @@ def render_tile(scene: Scene, key: str, options: RenderOptions,
 
 
 def render_tiles(client: Client, scene: Scene, options: RenderOptions, tile: int | None = None,
-                 progress: Callable[[int, int], None] | None = None) -> Image:
+                 progress: Callable[[int, int], None] | None = None,
+                 worker_timeout: float | None = None) -> Image:
     """``options``' window (its crop, or the whole frame) rendered as tiles of ``tile`` pixels
     on ``client``'s cluster, put together as one :class:`Image`, bit-identical to
     ``raytrace.render`` on one process. ``progress(done, total)`` counts camera samples, as a
-    local render's does, after each tile. ``stats`` sums the tiles' ray counts and adds
+    local render's does, after each tile. A cluster without workers for ``worker_timeout``
+    seconds (:func:`check_worker_timeout`) is a :class:`ClusterError`
+    (:func:`gather_each`). ``stats`` sums the tiles' ray counts and adds
     ``distributed``: the scheduler, tiles, tile size, scene bytes and per worker its tiles,
     wall and CPU seconds on them, builds and rays."""
     t_start = time.perf_counter()
-    tile = check_tile(tile)
+    tile, worker_timeout = check_tile(tile), check_worker_timeout(worker_timeout)
     window = options.crop or (0, 0, options.width, options.height)
     tiles = tile_grid(window, tile)
     payload, base, digest = scene_payload(scene, options)
@@ -198,7 +218,7 @@ def render_tiles(client: Client, scene: Scene, options: RenderOptions, tile: int
         futures = [client.submit(render_tile, scene_task, digest, base, crop, pure=False,
                                  key=f"raytrace-tile-{digest[:12]}-{token}-{i}")
                    for i, crop in enumerate(tiles)]
-    results = gather_each(client, futures)
+    results = gather_each(client, futures, worker_timeout)
     total = sum((x1 - x0) * (y1 - y0) for x0, y0, x1, y1 in tiles) * options.spp
     done, parts = 0, []
     for result in results:
@@ -211,17 +231,29 @@ def render_tiles(client: Client, scene: Scene, options: RenderOptions, tile: int
                     len(payload), client.scheduler.address)
 
 
-def gather_each(client: Client, futures: list) -> Iterator:
+def gather_each(client: Client, futures: list,
+                worker_timeout: float = WORKER_TIMEOUT) -> Iterator:
     """The results of ``futures`` as each finishes. A failure cancels the others and is
     raised: a :class:`SceneError` from a worker as a fresh one (the same line as a local
     render's, without the remote traceback), and of several, the one of the earliest future
     in ``futures``' order (:func:`earliest_scene_error`), as a local loop over them would
-    meet it; a task that killed workers or was cancelled as a :class:`ClusterError`."""
+    meet it; a task that killed workers or was cancelled as a :class:`ClusterError`, and so
+    is a cluster that has had no worker for ``worker_timeout`` seconds while results are
+    due (looked at every :data:`WORKER_POLL` seconds while none is ready)."""
     from distributed import as_completed
     from distributed.scheduler import KilledWorker
 
+    results = as_completed(futures, loop=client.loop, with_results=True)
+    alone_since = None  # when the cluster was first seen without a worker
     try:
-        for future, result in as_completed(futures, loop=client.loop, with_results=True):
+        while not results.is_empty():
+            if not results.has_ready():
+                alone_since = no_worker_since(client, alone_since, worker_timeout)
+                with results.thread_condition:  # woken by the next result
+                    if not results.has_ready():
+                        results.thread_condition.wait(WORKER_POLL)
+                continue
+            future, result = next(results)  # one is ready: no wait (a task's error raised)
             if future.cancelled():  # its data lost with no way to compute it again, say
                 raise ClusterError(f"task {future.key} was cancelled: {result}")
             yield result
@@ -234,6 +266,24 @@ def gather_each(client: Client, futures: list) -> Iterator:
                            "the workers' logs say why: out of memory?)") from None
     finally:
         client.cancel([f for f in futures if not f.done()])
+
+
+def no_worker_since(client: Client, since: float | None, timeout: float) -> float | None:
+    """When ``client``'s cluster was first seen without workers, ``since`` (None: it had
+    some), updated by a look now; a :class:`ClusterError` once that is ``timeout`` seconds
+    ago."""
+    try:
+        if client.nthreads():
+            return None
+    except OSError:  # the scheduler is not answering: no worker reachable either
+        pass
+    now = time.monotonic()
+    since = now if since is None else since
+    if now - since >= timeout:
+        raise ClusterError(f"the Dask cluster at {client.scheduler.address} has had no worker "
+                           f"for {timeout:g} s, so the render stopped (its workers' logs say "
+                           f"why they left; --worker-timeout or worker_timeout= waits longer)")
+    return since
 
 
 def earliest_scene_error(futures: list, first: SceneError) -> SceneError:

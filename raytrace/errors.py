@@ -40,6 +40,14 @@ class SceneError(ValueError):
         return SceneError(self.problem, key, self.file or file)
 
 
+class MemoryLimitError(SceneError):
+    """A render that needs, or reached, more memory than it may have: more than the machine
+    has available, or than its memory ceiling (``--max-memory``, ``render(max_memory=)``;
+    :mod:`raytrace.rendering`), found before it starts or while it runs. A
+    :class:`SceneError` (the input asks too much): one line, exit 2; its key names the limit
+    to raise."""
+
+
 class RenderWarning(UserWarning):
     """A render that completes but is probably not what was meant: a scene with no objects,
     pixels that overflowed float32. The command line prints each as one line

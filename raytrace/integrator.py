@@ -28,6 +28,13 @@ Mitsuba: a pass touches only its own samples, each thread has its own scratch ar
 counters, and every sample's contributions are summed in a fixed order (depth by depth, in
 batch order), so the image does not depend on the number of threads or on which thread
 rendered which pass.
+
+A render can be asked to end early (:class:`Stop`: Ctrl-C, the memory ceiling of
+:mod:`raytrace.rendering`): the passes run on pass threads (:func:`pass_threads`) while the
+calling thread only waits, so it takes a Ctrl-C at once (Python runs signal handlers in the
+main thread, between bytecodes, never inside a compiled call); each pass reads the stop flag
+before each batch and each light's pass over it, the compiled loop too, so a render ends
+within one of those steps.
 """
 
 from __future__ import annotations
@@ -40,6 +47,7 @@ import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import wait as wait_for
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -102,6 +110,8 @@ DEBUG = os.environ.get("RAYTRACE_DEBUG", "") not in ("", "0")
 #: and optimizes every kernel again into each variant of the loop: docs/performance.md,
 #: "The compiled loop").
 COMPILED_LOOP = os.environ.get("RAYTRACE_LOOP", "") == "compiled"
+#: Seconds between two looks of the thread waiting for the passes at whether a Ctrl-C came.
+WAKE_SECONDS = 0.1
 NO_LIGHT = np.zeros((0, 3))
 #: :func:`add`'s factor for contributions that are already weighted.
 ONE = np.ones((1, 3))
@@ -135,6 +145,62 @@ class RenderOptions(RenderSettings):
     crop: tuple[int, int, int, int] | None = None
     #: The AOVs to render besides the colour (:data:`raytrace.film.aov.AOVS`' names).
     aovs: tuple[str, ...] = ()
+
+
+class Stop:
+    """A request to end a render early, and what the render then raises: set from any thread
+    (:meth:`request`: the thread waiting for the passes on a Ctrl-C, the memory watch of
+    :mod:`raytrace.rendering`, a pass that failed), read by every pass before each batch, the
+    compiled loop included (``flag``, its :class:`raytrace.kernels.records.PassIO` field). The
+    first request wins."""
+
+    def __init__(self):
+        #: (1,) int64, 1 once a stop is asked for: the compiled loop reads it without the GIL.
+        self.flag = np.zeros(1, np.int64)
+        #: What the render raises once its passes have stopped (None: not asked).
+        self.reason: BaseException | None = None
+        self._lock = threading.Lock()
+
+    def request(self, reason: BaseException) -> None:
+        """Ask the render to stop and raise ``reason`` (ignored after a first request)."""
+        with self._lock:
+            if self.reason is None:
+                self.reason = reason
+                self.flag[0] = 1
+
+    @property
+    def requested(self) -> bool:
+        """Whether a stop was asked for."""
+        return bool(self.flag[0])
+
+    def check(self) -> None:
+        """Raise the reason of a stop asked for; nothing otherwise."""
+        if self.reason is not None:
+            raise self.reason
+
+
+class PassThreads(threading.local):
+    """Each calling thread's pool of pass threads (:func:`pass_threads`)."""
+
+    pool: ThreadPoolExecutor | None = None
+    size = 0
+
+
+_pass_threads = PassThreads()
+
+
+def pass_threads(n: int) -> ThreadPoolExecutor:
+    """The calling thread's pool of at least ``n`` pass threads, kept from render to render
+    (each calling thread its own, so that renders from several threads, a Dask worker's say,
+    run side by side): a pass thread's glibc heap (an arena per thread) serves the next
+    render's passes too, as the tuned allocator means it to (:mod:`raytrace.malloc`).
+    Idle threads wait on the pool's queue; they end with the pool."""
+    own = _pass_threads
+    if own.size < n:
+        if own.pool is not None:
+            own.pool.shutdown(wait=False)
+        own.pool, own.size = ThreadPoolExecutor(n, thread_name_prefix="raytrace"), n
+    return own.pool
 
 
 class Scratch:
@@ -240,6 +306,7 @@ class WhittedIntegrator:
         self._stats_per_thread: list[Stats] = []
         self._worker = Worker()
         self._compiled: tuple[Tracer, LightTable, PassSettings] | None = None
+        self._stop = Stop()  # the render in progress's (render's argument)
 
     def _set_options(self, options: RenderOptions) -> None:
         """The options and the windows they give: the window of the image (the crop or the
@@ -280,6 +347,7 @@ class WhittedIntegrator:
         other._stats_per_thread = []
         other._worker = Worker()
         other._compiled = None
+        other._stop = Stop()
         return other
 
     @property
@@ -310,11 +378,15 @@ class WhittedIntegrator:
         return max(opt.spp, (size // opt.spp) * opt.spp)
 
     # -- the loop ----------------------------------------------------------------------------
-    def render(self, progress: Callable[[int, int], None] | None = None) -> Image:
-        """The image, pass by pass on ``threads`` threads (the calling one included);
-        ``progress(done, total)`` is called, one thread at a time, after each pass."""
+    def render(self, progress: Callable[[int, int], None] | None = None,
+               stop: Stop | None = None) -> Image:
+        """The image, pass by pass on ``threads`` worker threads while the calling thread
+        waits; ``progress(done, total)`` is called, one thread at a time, after each pass.
+        ``stop``: a :class:`Stop` that ends the render early, within a batch of each pass,
+        raising its reason (a Ctrl-C while waiting stops the passes and is raised)."""
         opt = self.opt
         t_start = time.perf_counter()
+        self._stop = stop = Stop() if stop is None else stop
         with self._lock:  # a second render of this integrator counts from zero
             self._renders += 1
             self._stats_per_thread = []
@@ -335,7 +407,7 @@ class WhittedIntegrator:
         if opt.aovs:  # one table, a row per pixel (raytrace.film.aov.layout's columns)
             self._aov_out = np.empty((cols * rows, len(self.aov_layout.miss)))
             self._aov_out[:] = self.aov_layout.miss
-        self._run(passes, pixels, progress, total)
+        self._run(passes, pixels, progress, total, stop)
         aovs = aov_images.images(self._aov_out, opt.aovs, (rows, cols))
         if filtered:
             pixels, (cols, rows) = self._filter(pixels), self.window_size
@@ -405,42 +477,40 @@ class WhittedIntegrator:
                               Sampling(opt.width, opt.spp, grid(opt.spp), opt.seed))
 
     def _run(self, passes: list[tuple[int, int]], pixels: np.ndarray,
-             progress: Callable[[int, int], None] | None, total: int) -> None:
-        """Render ``passes`` into ``pixels``: the threads take the next pass from a shared
-        queue until none is left. After an exception in any thread (Ctrl-C included), no
-        thread starts another pass, and the first exception is raised once all have
-        stopped."""
-        queue, stop, done = iter(passes), threading.Event(), [0]
+             progress: Callable[[int, int], None] | None, total: int, stop: Stop) -> None:
+        """Render ``passes`` into ``pixels``: worker threads take the next pass from a shared
+        queue until none is left, while this thread waits (so that it takes a Ctrl-C at
+        once). A stop asked for (``stop``), an exception in any thread, or a Ctrl-C while
+        waiting stops them all at their next batch, and the first of these is raised once
+        all have stopped."""
+        queue, done = iter(passes), [0]
 
         def work() -> None:
-            while not stop.is_set():
+            while not stop.requested:
                 with self._lock:
                     item = next(queue, None)
                 if item is None:
                     return
                 try:
                     self._render_pass(*item, pixels)
-                except BaseException:
-                    stop.set()
-                    raise
-                if progress is not None:
-                    with self._lock:
-                        done[0] += item[1] - item[0]
-                        progress(done[0], total)
+                    if progress is not None and not stop.requested:
+                        with self._lock:
+                            done[0] += item[1] - item[0]
+                            progress(done[0], total)
+                except BaseException as e:  # the pass's or progress's: raised by _run
+                    stop.request(e)
+                    return
 
-        threads = min(self.opt.threads, len(passes))
-        if threads <= 1:
-            work()
-            return
-        with ThreadPoolExecutor(threads - 1, thread_name_prefix="raytrace") as pool:
-            others = [pool.submit(work) for _ in range(threads - 1)]
-            try:
-                work()
-            finally:
-                for f in others:  # each finishes the pass it is on
-                    f.exception()
-            for f in others:
-                f.result()
+        threads, workers = max(1, min(self.opt.threads, len(passes))), []
+        try:  # waking every WAKE_SECONDS: not every platform's lock wait takes a signal
+            pool = pass_threads(threads)
+            workers += [pool.submit(work) for _ in range(threads)]
+            while wait_for(workers, WAKE_SECONDS).not_done:
+                pass
+        except BaseException as e:  # Ctrl-C (KeyboardInterrupt) while starting or waiting
+            stop.request(e)  # (a pass whose submission it cut short finds the stop at once)
+            wait_for(workers)  # each ends at its pass's next batch
+        stop.check()
 
     def _render_pass(self, start: int, stop: int, pixels: np.ndarray) -> None:
         """Camera samples ``start`` to ``stop`` (whole pixels), depth by depth, into their
@@ -523,8 +593,8 @@ class WhittedIntegrator:
             return
         # an adaptive level's points are single samples: batches of the whole pass size
         per_pass = self.opt.pass_samples if self.opt.aa == "adaptive" else self.pass_size
-        pending = [rays]
-        while pending:
+        pending, stop = [rays], self._stop.flag
+        while pending and not stop[0]:  # a stop asked for ends the pass here
             rays = pending.pop()
             if len(rays) > per_pass:
                 pending.extend(reversed(chunks(rays, n, per_pass)))
@@ -549,7 +619,8 @@ class WhittedIntegrator:
                       np.zeros(2, np.int64))
         loop.trace_paths(tracer, lights, settings, rays.record,
                          PassIO(samples, None if keys is None else np.ascontiguousarray(
-                             keys, np.int64), w.aov if opt.aovs else None), tally)
+                             keys, np.int64), w.aov if opt.aovs else None, self._stop.flag),
+                         tally)
         st, counters = self.stats, tally.counters.tolist()
         for name, count in zip(KIND_NAMES, counters, strict=False):
             st.rays[name] += count
@@ -701,6 +772,8 @@ class WhittedIntegrator:
             key = path_keys(key, rays.origin, rays.direction)
         words = {}  # a jittered light's draws, one per hit for all its cells
         for e, em in enumerate(self.emitters):
+            if self._stop.requested:  # the pass ends (an area light's emitters take seconds)
+                break
             if em.stream not in words:
                 words[em.stream] = light_words(key, em.stream, rays.depth)
             tables = self.tables if not len(self.fast[e]) else self.tables._replace(

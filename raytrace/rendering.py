@@ -1,23 +1,35 @@
 """``raytrace.render``: one call from a :class:`~raytrace.scene.Scene` to an :class:`Image`.
 
-Also the memory a render needs (:func:`peak_bytes`), checked against what the machine has
-before any work (:func:`check_memory`).
+Also the memory a render may use. Every render has a memory ceiling (:func:`memory_ceiling`):
+``max_memory`` (``--max-memory``) or by default the memory this process holds when the render
+starts plus the memory the machine has available then. The estimated peak
+(:func:`peak_bytes`) is checked against the memory available and the ceiling before any work
+(:func:`check_memory`), and while the render runs a thread reads the process's resident
+memory every :data:`WATCH_SECONDS` and stops the render once it is over the ceiling
+(:func:`watch_memory`), through the same stop as a Ctrl-C (:class:`raytrace.integrator.Stop`):
+a :class:`~raytrace.errors.MemoryLimitError` naming the ceiling and how to raise it.
 """
 
 from __future__ import annotations
 
 import os
+import re
+import threading
 import warnings
-from collections.abc import Callable, Iterable, Sequence
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import psutil
 
 from . import values
-from .distributed import check_tile, render_tiles
-from .errors import RenderWarning, SceneError
+from .distributed import check_tile, check_worker_timeout, render_tiles
+from .errors import MemoryLimitError, RenderWarning, SceneError
 from .film import writers
 from .film.aov import check_aovs
 from .film.image import Image
-from .integrator import PASS_SAMPLES, RenderOptions, WhittedIntegrator
+from .integrator import PASS_SAMPLES, RenderOptions, Stop, WhittedIntegrator
 from .scene import RenderSettings, Scene
 
 if TYPE_CHECKING:
@@ -32,6 +44,13 @@ if TYPE_CHECKING:
 #: :data:`raytrace.film.writers.WRITERS`). AOVs are not counted.
 PEAK_BASE_BYTES = 256 * 2**20
 PEAK_RENDER_BYTES_PER_PIXEL = 15
+#: Seconds between two readings of the process's memory while a render runs
+#: (:func:`watch_memory`); each costs about 0.2 ms (psutil reading /proc on Linux).
+WATCH_SECONDS = 0.1
+#: A memory size's units (``--max-memory 4G``): binary multiples, as ``ulimit``, Docker and
+#: Slurm read them (1G = 1024³ bytes), with an optional ``B`` or ``iB``.
+SIZE_UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
+SIZE = re.compile(r"\s*(\d+(?:\.\d*)?|\.\d+)\s*([KMGT]?)(?:i?B)?\s*", re.IGNORECASE)
 
 
 def peak_bytes(width: int, height: int, steps: Iterable[str] = ()) -> int:
@@ -46,24 +65,120 @@ def peak_bytes(width: int, height: int, steps: Iterable[str] = ()) -> int:
 def available_bytes() -> int | None:
     """Memory this machine can give now without swapping (psutil's ``available``, on Linux
     the kernel's MemAvailable), or None where unknown."""
-    import psutil
-
     try:
         return int(psutil.virtual_memory().available)
     except (OSError, NotImplementedError, AttributeError):  # a platform psutil cannot read
         return None
 
 
+def rss_bytes() -> int:
+    """This process's resident memory now (psutil's ``rss``), bytes."""
+    return int(psutil.Process().memory_info().rss)
+
+
+def memory_size(value: Any, key: str = "max_memory") -> int:
+    """Bytes of a memory size: a whole number of bytes, or a string of a number and a unit
+    of :data:`SIZE_UNITS` (``"4G"``, ``"512M"``, ``"1.5GiB"``, ``"1000000"``); a
+    :class:`SceneError` naming ``key`` otherwise.
+
+    >>> memory_size("4G"), memory_size("512m"), memory_size(1000)
+    (4294967296, 536870912, 1000)
+    """
+    if isinstance(value, str):
+        m = SIZE.fullmatch(value)
+        if m is None:
+            raise SceneError(f"must be a size such as 4G, 512M or a number of bytes, got "
+                             f"{value!r}", key)
+        value = int(float(m[1]) * SIZE_UNITS[m[2].upper()])
+    return values.number(value, key, lo=1, integer=True)
+
+
+def size_text(n: int) -> str:
+    """A number of bytes in the units of :data:`SIZE_UNITS`, to a tenth.
+
+    >>> size_text(4 * 2**30), size_text(1536 * 2**20), size_text(100)
+    ('4.0 GiB', '1.5 GiB', '100 bytes')
+    """
+    for unit in ("T", "G", "M", "K"):
+        if n >= SIZE_UNITS[unit]:
+            return f"{n / SIZE_UNITS[unit]:.1f} {unit}iB"
+    return f"{n} bytes"
+
+
+@dataclass(frozen=True)
+class Ceiling:
+    """A render's memory ceiling: the most resident memory its process may hold, bytes, and
+    whether it was asked for (``max_memory``) or is the default (:func:`memory_ceiling`)."""
+
+    bytes: int
+    given: bool
+
+    def over(self, what: str) -> MemoryLimitError:
+        """The error of ``what`` (e.g. "the render reached 2.0 GiB") over this ceiling, which
+        names the ceiling and how to raise it, keyed ``max_memory`` (``--max-memory``)."""
+        default = "" if self.given else (" (the default: the memory this process held and "
+                                         "the memory available when the render started)")
+        return MemoryLimitError(f"{what}, over the memory ceiling of {size_text(self.bytes)}"
+                                f"{default}; give a larger size to raise it", "max_memory")
+
+
+def memory_ceiling(max_memory: Any = None) -> Ceiling | None:
+    """The memory ceiling of a render starting now: ``max_memory`` (:func:`memory_size`), or
+    by default what this process holds plus what the machine has available
+    (:func:`rss_bytes` + :func:`available_bytes`): the most the render can hold without
+    swapping or meeting the kernel's out-of-memory killer as the machine stands when it
+    starts. None where the platform does not tell the memory available."""
+    if max_memory is not None:
+        return Ceiling(memory_size(max_memory), True)
+    have = available_bytes()
+    return None if have is None else Ceiling(rss_bytes() + have, False)
+
+
 def check_memory(width: int, height: int, steps: Iterable[str] = (),
-                 key: str = "render.width") -> None:
+                 key: str = "render.width", ceiling: Ceiling | None = None) -> None:
     """Refuse, before any work, a render (and ``steps``) whose estimated peak
-    (:func:`peak_bytes`) is more than the memory available (:func:`available_bytes`)."""
+    (:func:`peak_bytes`) is more than the memory available (:func:`available_bytes`) or
+    than its ``ceiling`` (a :class:`~raytrace.errors.MemoryLimitError`)."""
     steps = tuple(steps)
     need, have = peak_bytes(width, height, steps), available_bytes()
+    what = f"render{''.join(' + ' + s for s in steps)}"
     if have is not None and need > have:
-        raise SceneError(f"{width}x{height} needs about {need / 1e9:.1f} GB of memory at its "
-                         f"peak (render{''.join(' + ' + s for s in steps)}), more than the "
-                         f"{have / 1e9:.1f} GB available on this machine", key)
+        raise MemoryLimitError(f"{width}x{height} needs about {need / 1e9:.1f} GB of memory at "
+                               f"its peak ({what}), more than the {have / 1e9:.1f} GB available "
+                               "on this machine", key)
+    if ceiling is not None and need > ceiling.bytes:
+        raise ceiling.over(f"{width}x{height} needs about {size_text(need)} of memory at its "
+                           f"peak ({what})")
+
+
+@contextmanager
+def watch_memory(ceiling: Ceiling | None, stop: Stop) -> Iterator[None]:
+    """While the block runs, a thread reads this process's resident memory
+    (:func:`rss_bytes`) at once and then every :data:`WATCH_SECONDS`, and asks ``stop`` to
+    end the render with the ceiling's :class:`~raytrace.errors.MemoryLimitError` once it is
+    over ``ceiling`` (None: no thread)."""
+    if ceiling is None:
+        yield
+        return
+    done = threading.Event()
+
+    def watch() -> None:
+        while True:
+            rss = rss_bytes()
+            if rss > ceiling.bytes:
+                stop.request(ceiling.over(f"the render reached {size_text(rss)} and was "
+                                          "stopped"))
+                return
+            if done.wait(WATCH_SECONDS):
+                return
+
+    thread = threading.Thread(target=watch, name="raytrace-memory", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        done.set()
+        thread.join()
 
 
 def render(scene: Scene, *, width: int | None = None, height: int | None = None,
@@ -75,7 +190,9 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
            aovs: str | Iterable[str] | None = None, filter: str | None = None,
            aa: str | None = None, aa_threshold: float | None = None,
            aa_depth: int | None = None, aa_min_depth: int | None = None,
-           client: Client | None = None, tile: int | None = None) -> Image:
+           client: Client | None = None, tile: int | None = None,
+           max_memory: int | str | None = None,
+           worker_timeout: float | None = None) -> Image:
     """Render ``scene``; keyword arguments override its ``[render]`` settings.
 
     Returns an :class:`Image` whose ``rgb`` is (height, width, 3) float32 linear RGB and whose
@@ -99,10 +216,21 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     overflowed float32 (written as 0, counted in ``stats["nonfinite_pixels"]``), give a
     :class:`~raytrace.errors.RenderWarning`.
 
+    ``max_memory``: the memory ceiling of this process while it renders, bytes or a size
+    such as ``"4G"`` (:func:`memory_size`; default: :func:`memory_ceiling`'s). A render
+    whose estimate is over it is refused before any work, and one that reaches it is stopped
+    within :data:`WATCH_SECONDS` and a batch of each pass: a
+    :class:`~raytrace.errors.MemoryLimitError`. A Ctrl-C stops the passes as quickly and is
+    raised as the KeyboardInterrupt it is (:class:`raytrace.integrator.Stop`).
+
     ``client``: a ``dask.distributed.Client``; the image (or the crop) is then rendered as
     ``tile``×``tile``-pixel crops (default :data:`raytrace.distributed.TILE`) on its cluster's
     workers, each on one thread, and put together: bit-identical to the render on one process
-    (:func:`raytrace.distributed.render_tiles`; docs/distributed.md).
+    (:func:`raytrace.distributed.render_tiles`; docs/distributed.md). A cluster left without
+    any worker for ``worker_timeout`` seconds (default
+    :data:`raytrace.distributed.WORKER_TIMEOUT`) ends the render with a
+    :class:`~raytrace.errors.ClusterError`; the ceiling bounds this process, not the
+    workers (each has Dask's own ``memory_limit``).
 
     Rendering the same ``scene`` object again reuses its acceleration structure while its
     geometry and camera position are unchanged (:mod:`raytrace.accel_cache`).
@@ -123,21 +251,31 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
                              aa_min_depth=aa_min_depth)
     x0, y0, x1, y1 = options.crop or (0, 0, options.width, options.height)
     try:
-        check_memory(x1 - x0, y1 - y0)
+        ceiling = memory_ceiling(max_memory)
+        check_memory(x1 - x0, y1 - y0, ceiling=ceiling)
         if client is None and tile is not None:
             raise SceneError("tiles need a client: render(scene, client=..., tile=...)", "tile")
+        if client is None and worker_timeout is not None:
+            raise SceneError("a worker timeout needs a client: render(scene, client=..., "
+                             "worker_timeout=...)", "worker_timeout")
         if client is not None:
-            tile = check_tile(tile)
+            tile, worker_timeout = check_tile(tile), check_worker_timeout(worker_timeout)
     except SceneError as e:
-        raise SceneError(e.problem, e.key, scene.path) from None
+        raise type(e)(e.problem, e.key, scene.path) from None
     where = f"{scene.path}: " if scene.path else ""
     if not scene.objects:
         warnings.warn(f"{where}the scene has no objects: the image is the background",
                       RenderWarning, stacklevel=2)
-    if client is not None:
-        image = render_tiles(client, scene, options, tile, progress)
-    else:
-        image = WhittedIntegrator(scene, options).render(progress)
+    stop = Stop()
+    try:
+        with watch_memory(ceiling, stop):
+            if client is not None:
+                image = render_tiles(client, scene, options, tile, progress, worker_timeout)
+            else:
+                image = WhittedIntegrator(scene, options).render(progress, stop)
+        stop.check()  # the ceiling reached after the last pass
+    except MemoryLimitError as e:
+        raise MemoryLimitError(e.problem, e.key, scene.path) from None
     bad = image.stats.get("nonfinite_pixels", 0)
     if bad:
         first = image.stats.get("nonfinite_first_pixel")  # tiles sum counts, not places

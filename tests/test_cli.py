@@ -7,8 +7,10 @@ import io
 import json
 import os
 import re
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -669,3 +671,73 @@ def test_the_documented_exit_statuses_are_the_cli_constants():
     assert sorted({int(s) for s, _ in rows}) == [0, 1, 2, 3, 130]
     for name, value in constants.items():
         assert re.search(rf"^    {value} .* {name}$", cli.__doc__, re.M), name
+
+
+# -- Ctrl-C ------------------------------------------------------------------------------------
+#: The command line, with a line on stdout after each pass (so the test knows the kernels are
+#: compiled and the render is under way).
+ANNOUNCING = """
+import sys
+from raytrace import cli
+from raytrace.integrator import WhittedIntegrator
+render_pass = WhittedIntegrator._render_pass
+def announced(self, *args):
+    render_pass(self, *args)
+    print("pass", flush=True)
+WhittedIntegrator._render_pass = announced
+sys.exit(cli.main(sys.argv[1:]))
+"""
+#: A floor and a ball under a 20 × 20 area light: 400 shadow rays a hit, seconds a pass of
+#: 65 536 samples, a minute or more for the frame.
+SOFT_SHADOWS = """\
+[render]
+width = 1200
+height = 900
+[camera]
+position = [0.0, 3.0, 7.0]
+look_at = [0.0, 0.6, 0.0]
+[[lights]]
+type = "area"
+position = [0.0, 3.5, 0.0]
+edge_u = [2.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, 1.5]
+samples = 400
+[[objects]]
+type = "plane"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+[[objects]]
+type = "sphere"
+center = [0.0, 0.7, 0.0]
+radius = 0.7
+"""
+
+
+@pytest.mark.timeout(600)
+@pytest.mark.parametrize("loop", ["python", pytest.param("compiled", marks=pytest.mark.slow)])
+def test_ctrl_c_ends_a_render_within_two_seconds(tmp_path, loop):
+    # SIGINT once the first pass is done (the other thread is then in the middle of one):
+    # exit 130 with the one line, no traceback, nothing written, within 2 s; with
+    # RAYTRACE_LOOP=compiled too, where a pass is one nogil call (its first run compiles the
+    # loop for minutes, hence slow).
+    scene = write_text(tmp_path / "soft.toml", SOFT_SHADOWS)
+    out = tmp_path / "o.exr"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", ANNOUNCING, "render", str(scene), "-o", str(out), "--threads",
+         "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+        env={**os.environ, "RAYTRACE_LOOP": loop})
+    try:
+        assert proc.stdout.readline().startswith("pass")  # (two threads may write at once)
+        signalled = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=120)
+        seconds = time.monotonic() - signalled
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 130, err
+    assert err.startswith("raytrace: interrupted; no output written") and len(
+        err.splitlines()) == 1, err
+    assert seconds < 2.0
+    assert os.listdir(tmp_path) == ["soft.toml"]

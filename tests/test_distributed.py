@@ -15,6 +15,7 @@ import pickle
 import shutil
 import subprocess
 import sys
+import time
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -24,6 +25,7 @@ import pytest
 import raytrace
 from raytrace import cli
 from raytrace import distributed as rd
+from raytrace.errors import ClusterError
 
 pytest.importorskip("distributed")
 
@@ -195,6 +197,49 @@ def test_a_killed_worker_s_tiles_run_elsewhere_and_the_image_is_unchanged(cluste
         assert same_bits(image.aov(aov), reference.aov(aov))
 
 
+def slow_tiles(seconds: float = 0.5) -> None:
+    """On a worker: each tile's integrator lookup takes ``seconds`` more (client.run)."""
+    import time
+
+    import raytrace.distributed as d
+
+    original = d.cached_integrator
+
+    def slow(*args, **kwargs):
+        time.sleep(seconds)
+        return original(*args, **kwargs)
+
+    d.cached_integrator = slow
+
+
+def test_a_cluster_left_without_workers_stops_the_render_in_one_line(clusters, scenes):
+    # The cluster's one worker is closed once the first tile is back; with nobody to run the
+    # other 47, Dask would wait for ever: the render ends worker_timeout seconds later.
+    scene, kw, _ = scenes["whitted"]
+    client = clusters.get(1)
+    closed = []
+
+    def progress(done: int, total: int) -> None:
+        if not closed:
+            clusters.cluster.scale(0)
+            closed.append(time.monotonic())
+
+    try:
+        client.run(slow_tiles)
+        with pytest.raises(ClusterError, match=r"^the Dask cluster at tls://127\.0\.0\.1:\d+ "
+                           r"has had no worker for 1\.5 s, so the render stopped \(.*"
+                           r"--worker-timeout or worker_timeout= waits longer\)$"):
+            raytrace.render(scene, client=client, tile=8, worker_timeout=1.5,
+                            progress=progress, **kw)
+        waited = time.monotonic() - closed[0]
+        assert 1.5 <= waited < 30, waited
+    finally:
+        clusters.close()  # (its worker is gone: the next test starts a new cluster)
+    with pytest.raises(raytrace.SceneError, match="^worker_timeout: must be > 0"):
+        rd.check_worker_timeout(-1)
+    assert rd.check_worker_timeout(None) == rd.WORKER_TIMEOUT == 60
+
+
 def test_a_scene_error_on_a_worker_is_the_local_error(clusters, scenes, tmp_path):
     client = clusters.get()
     scene, kw, _ = scenes["mesh"]
@@ -329,6 +374,10 @@ def test_the_workers_flag_renders_the_same_exr(tmp_path):
     (["--frames", "5-1"], "--frames", "ends before it starts"),
     (["--frames", "1-x"], "--frames", "not a frame list"),
     (["--overwrite"], "--overwrite", "is for --frames"),
+    (["--worker-timeout", "5"], "--worker-timeout", "needs --workers or --scheduler"),
+    (["--workers", "1", "--worker-timeout", "0"], "--worker-timeout", "must be > 0"),
+    (["--frames", "1", "--workers", "1", "--worker-timeout", "5"], "--worker-timeout",
+     "not used with --frames"),
 ])
 def test_bad_cluster_and_frame_flags_are_one_line_and_write_nothing(tmp_path, capsys,
                                                                     monkeypatch, args, flag,
@@ -484,6 +533,8 @@ def test_tile_is_checked_and_needs_a_client(scenes):
     scene, kw, _ = scenes["mesh"]
     with pytest.raises(raytrace.SceneError, match="tiles need a client"):
         raytrace.render(scene, tile=16, **kw)
+    with pytest.raises(raytrace.SceneError, match="a worker timeout needs a client"):
+        raytrace.render(scene, worker_timeout=5, **kw)
 
 
 def test_the_doctests():

@@ -16,10 +16,13 @@ Every expected value below is worked out by hand in the test (comments give the 
 
 from __future__ import annotations
 
+import _thread
 import json
 import math
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -42,7 +45,7 @@ from raytrace import (
 )
 from raytrace.cli import main
 from raytrace.film import read_exr
-from raytrace.integrator import KERNEL_FEATURES, RenderOptions, WhittedIntegrator, chunks
+from raytrace.integrator import KERNEL_FEATURES, RenderOptions, Stop, WhittedIntegrator, chunks
 from raytrace.kernels.kinds import CAMERA, NO_SHAPE, REFRACTION
 from raytrace.kernels.rays import gather_chunks, sample_chunks
 from raytrace.rays import RayBatch
@@ -863,3 +866,75 @@ def test_a_diffuse_scene_loads_no_reflection_refraction_or_mesh_kernels():
     assert loaded["light_pass"][5] == "none"  # depth
     assert loaded["hit_terms"][6] == "none"  # children
     assert len(loaded["light_pass"]) == 8 and len(loaded["hit_terms"]) == 7
+
+
+# -- stopping early (Ctrl-C, the memory ceiling) ------------------------------------------------
+@pytest.mark.parametrize("compiled", [False, pytest.param(True, id="compiled")])
+def test_a_stop_ends_the_pass_in_progress_before_its_next_batch(compiled):
+    # The stop is asked for once a pass has started: that pass adds nothing more (the
+    # compiled loop reads the flag itself, in one nogil call), and no other pass starts.
+    # whitted.toml's variant of the compiled loop is the one tests/test_loop.py compiles.
+    scene = raytrace.load_scene(SCENES / "whitted.toml")
+    integ = WhittedIntegrator(scene, render_options(scene, width=32, height=24, threads=2))
+    integ.compiled = compiled
+    stop, passes = Stop(), []
+    trace_batch = integ._trace_batch
+
+    def stopped_then_traced(rays, n, samples):
+        stop.request(KeyboardInterrupt())
+        trace_batch(rays, n, samples)
+        passes.append(samples.copy())
+
+    integ._trace_batch = stopped_then_traced
+    with pytest.raises(KeyboardInterrupt):
+        integ.render(stop=stop)
+    assert 1 <= len(passes) <= 2 and not any(p.any() for p in passes)  # one per thread at most
+    assert integ.render().rgb.any()  # without a stop, the same passes see the scene
+    later = Stop()
+    later.request(MemoryError("first"))
+    later.request(KeyboardInterrupt())  # the first request wins
+    with pytest.raises(MemoryError, match="first"):
+        integ.render(stop=later)
+
+
+def test_a_ctrl_c_while_the_passes_run_stops_them_all():
+    # The calling thread only waits for the passes, so a Ctrl-C reaches it at once
+    # (interrupt_main: what SIGINT does); it stops every thread at its next batch.
+    handler = signal.signal(signal.SIGINT, signal.default_int_handler)
+    calls = []
+
+    def progress(done: int, total: int) -> None:
+        calls.append(done)
+        if len(calls) == 1:
+            _thread.interrupt_main()
+
+    # 16 lights: a pass of 4096 samples is some 10 ms, and the waiting thread looks for the
+    # Ctrl-C every 0.1 s (interrupt_main, unlike a real SIGINT, does not wake it at once).
+    lights = [PointLight([2, 2, 5 + k]) for k in range(16)]
+    scene = make_scene([Sphere([0, 0, -3], 1.0)], lights)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            raytrace.render(scene, width=400, height=300, spp=4, threads=2, pass_samples=4096,
+                            progress=progress)
+    finally:
+        signal.signal(signal.SIGINT, handler)
+    assert 1 <= len(calls) < 59, calls  # of 118 passes
+    stopped_at = len(calls)
+    time.sleep(0.3)
+    assert len(calls) == stopped_at  # no pass went on
+    assert raytrace.render(scene, width=40, height=30, threads=2).rgb.any()  # threads serve on
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_an_error_in_the_progress_callback_stops_the_render_and_is_raised(threads):
+    calls = []
+
+    def progress(done: int, total: int) -> None:
+        calls.append(done)
+        raise ValueError("the bar broke")
+
+    scene = make_scene([Sphere([0, 0, -3], 1.0)], [PointLight([2, 2, 5])])
+    with pytest.raises(ValueError, match="the bar broke"):
+        raytrace.render(scene, width=400, height=300, threads=threads, pass_samples=4096,
+                        progress=progress)
+    assert 1 <= len(calls) <= threads  # the first call stops every thread

@@ -74,6 +74,9 @@ BAD_KEYWORDS = {
     "aa_min_depth": (3, raytrace.SceneError, "render.aa_min_depth: must be <= 2"),
     "client": (3, TypeError, "client must be a dask.distributed.Client or None, got int"),
     "tile": (16, raytrace.SceneError, "tile: tiles need a client"),
+    "max_memory": ("lots", raytrace.SceneError, "max_memory: must be a size such as 4G"),
+    "worker_timeout": (5, raytrace.SceneError, "worker_timeout: a worker timeout needs a "
+                                               "client"),
 }
 
 
@@ -222,6 +225,98 @@ def test_an_image_this_machine_cannot_hold_is_refused_up_front(tmp_path, capsys,
                                        "GB of memory at its peak (render + exr + png), more "
                                        "than the 1.0 GB available on this machine\n")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
+
+
+# -- the memory ceiling ------------------------------------------------------------------------
+BALL = raytrace.Scene(objects=[raytrace.Sphere([0, 0, -3], 1)],
+                      lights=[raytrace.PointLight([2, 2, 0])])
+
+
+@pytest.mark.parametrize(("size", "bytes_"), [
+    ("4G", 4 * 2**30), ("512M", 512 * 2**20), ("512m", 512 * 2**20), ("1.5GiB", 3 * 2**29),
+    ("64KB", 64 * 1024), ("1T", 2**40), ("1000", 1000), (1000, 1000), (" 2 G ", 2 * 2**30)])
+def test_a_memory_size_reads_binary_units_or_bytes(size, bytes_):
+    assert RENDER.memory_size(size) == bytes_
+
+
+@pytest.mark.parametrize("size", ["lots", "4 GB RAM", "-1G", "G", "0", 0, -5, True, 1.5, None])
+def test_a_bad_memory_size_is_one_line_naming_the_key(size):
+    with pytest.raises(raytrace.SceneError, match=r"^max_memory: must be "):
+        RENDER.memory_size(size)
+
+
+def test_the_default_ceiling_is_the_memory_held_plus_the_memory_available(monkeypatch):
+    monkeypatch.setattr(RENDER, "rss_bytes", lambda: 300 * 2**20)
+    monkeypatch.setattr(RENDER, "available_bytes", lambda: 2 * 2**30)
+    assert RENDER.memory_ceiling() == RENDER.Ceiling(2 * 2**30 + 300 * 2**20, False)
+    assert RENDER.memory_ceiling("1G") == RENDER.Ceiling(2**30, True)
+    monkeypatch.setattr(RENDER, "available_bytes", lambda: None)  # a platform that won't say
+    assert RENDER.memory_ceiling() is None
+
+
+def test_a_render_over_its_ceiling_is_refused_before_any_work(tmp_path, capsys, monkeypatch):
+    def never(*args, **kwargs):
+        raise AssertionError("the integrator was built")
+
+    monkeypatch.setattr(RENDER, "WhittedIntegrator", never)
+    need = RENDER.size_text(RENDER.peak_bytes(32, 24))
+    with pytest.raises(RENDER.MemoryLimitError) as e:
+        raytrace.render(BALL, width=32, height=24, max_memory="100M")
+    assert str(e.value) == (f"max_memory: 32x24 needs about {need} of memory at its peak "
+                            "(render), over the memory ceiling of 100.0 MiB; give a larger "
+                            "size to raise it")
+    toml = tmp_path / "s.toml"
+    toml.write_text('[render]\nwidth = 32\nheight = 24\n[[objects]]\ntype = "sphere"\n'
+                    'center = [0, 0, -3]\nradius = 1\n')
+    out = tmp_path / "o.exr"
+    assert cli.main(["render", str(toml), "-o", str(out), "--max-memory", "1M", "-q"]) == 2
+    need = RENDER.size_text(RENDER.peak_bytes(32, 24, ("exr",)))
+    assert capsys.readouterr().err == (
+        f"raytrace: error: --max-memory: 32x24 needs about {need} of memory at its peak "
+        "(render + exr), over the memory ceiling of 1.0 MiB; give a larger size to raise it\n")
+    assert not out.exists()
+    assert cli.main(["render", str(toml), "-o", str(out), "--max-memory", "lots"]) == 2
+    assert "--max-memory: must be a size such as 4G" in capsys.readouterr().err
+
+
+def test_a_render_that_reaches_its_ceiling_is_stopped(tmp_path, capsys, monkeypatch):
+    # The estimate passes (1 GiB), then the process "grows" past the ceiling once the first
+    # pass is done: the memory watch stops the render before its last pass.
+    started, calls = [], []
+
+    def rss() -> int:
+        return 2**30 + 2**20 if started else 100 * 2**20
+
+    def progress(done: int, total: int) -> None:
+        calls.append(done)
+        started.append(True)
+
+    monkeypatch.setattr(RENDER, "rss_bytes", rss)
+    with pytest.raises(RENDER.MemoryLimitError) as e:
+        raytrace.render(BALL, width=400, height=300, spp=16, threads=1, max_memory="1G",
+                        progress=progress, pass_samples=4096)
+    assert str(e.value) == ("max_memory: the render reached 1.0 GiB and was stopped, over the "
+                            "memory ceiling of 1.0 GiB; give a larger size to raise it")
+    assert 1 <= len(calls) < 400 * 300 * 16 // 4096 / 2, calls  # stopped well before the end
+    # The command line: one line, exit 2, nothing written.
+    started.append(True)
+    toml = tmp_path / "s.toml"
+    toml.write_text('[[objects]]\ntype = "sphere"\ncenter = [0, 0, -3]\nradius = 1\n')
+    out = tmp_path / "o.exr"
+    assert cli.main(["render", str(toml), "-o", str(out), "--max-memory", "1G", "-q"]) == 2
+    assert capsys.readouterr().err == (
+        "raytrace: error: --max-memory: the render reached 1.0 GiB and was stopped, over the "
+        "memory ceiling of 1.0 GiB; give a larger size to raise it\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
+    # By default the ceiling is the memory held and available at the start, and says so.
+    monkeypatch.setattr(RENDER, "available_bytes", lambda: 2**29)
+    monkeypatch.setattr(RENDER, "rss_bytes", lambda: 2**29 if not calls else 2**31)
+    calls.clear()
+    with pytest.raises(RENDER.MemoryLimitError, match=r"reached 2\.0 GiB and was stopped, over "
+                       r"the memory ceiling of 1\.0 GiB \(the default: the memory this "
+                       r"process held and the memory available when the render started\)"):
+        raytrace.render(BALL, width=400, height=300, spp=16, threads=1, progress=progress,
+                        pass_samples=4096)
 
 
 @pytest.mark.slow

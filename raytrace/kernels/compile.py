@@ -27,10 +27,12 @@ class CompileNotice(event.Listener):
 
     A *spell* of compiling starts with a compile and ends at the first progress report
     (:meth:`listening`'s callback) from a thread that compiled in it once no compile is in
-    flight, that is when the pass that waited for those kernels is done, or when the block
-    ends. On a terminal one line counts the spell's seconds, redrawn every :attr:`tick` s
-    below the progress bar where one is drawn (whose reports wait meanwhile, so it goes on
-    on the next line), and ends as :data:`COMPILED`;
+    flight, that is when the pass that waited for those kernels is done (any thread's
+    report where only the listening thread compiled: it builds the scene, and the passes
+    run on other threads, ``raytrace.integrator.pass_threads``), or when the block ends.
+    On a terminal one line counts the spell's seconds, redrawn every :attr:`tick` s below
+    the progress bar where one is drawn (whose reports wait meanwhile, so it goes on on
+    the next line), and ends as :data:`COMPILED`;
     elsewhere :data:`COMPILING` is one line when a spell starts and :data:`COMPILED` one when
     it ends. The seconds run from the spell's first compile's start to its last one's end.
     """
@@ -44,6 +46,7 @@ class CompileNotice(event.Listener):
         self._lock = threading.RLock()  # a render's threads compile and report side by side
         self._running = 0               # compiles in flight, nested ones included
         self._threads: set[int] = set()  # the threads that compiled in this spell
+        self._listener: int | None = None  # the thread of listening()'s block
         self._began: float | None = None  # the spell's first compile's start; None: no spell
         self._ended = 0.0               # its latest compile's end
         self._width = 0                 # of the notice's line as drawn last
@@ -101,7 +104,8 @@ class CompileNotice(event.Listener):
         """``progress(done, total)`` unless a spell is on (which this report may end)."""
         with self._lock:
             if self._began is not None:
-                if self._running or threading.get_ident() not in self._threads:
+                waited = self._threads - {self._listener}  # the pass threads that compiled
+                if self._running or (waited and threading.get_ident() not in waited):
                     return
                 self._finish()
             progress(done, total)
@@ -113,6 +117,7 @@ class CompileNotice(event.Listener):
         """Say the compiles inside the block; yields the callback to report progress to in
         place of ``progress`` (a render's ``progress(done, total)``). A block that raises
         (Ctrl-C) leaves a spell unfinished: no :data:`COMPILED` for a compile cut short."""
+        self._listener = threading.get_ident()
         event.register("numba:compile", self)
         try:
             yield lambda done, total: self._report(progress, done, total)

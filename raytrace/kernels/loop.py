@@ -297,15 +297,15 @@ def _transparent_shadow(tracer, settings, shadows, k, coherent, tally):
     return rows, factor, np.empty(0, np.bool_)
 
 
-def direct_lighting(tracer, lights, settings, rays, depth, keys, surf, tally):
+def direct_lighting(tracer, lights, settings, rays, depth, pass_io, surf, tally):
     """Σ_l S_l·f_l·I_l·[…] at every hit: :func:`_direct_lighting`, or no rows in a scene
     without lights or lit materials (``tracer.lit`` None: no light pass compiled)."""
 
 
 @overload(direct_lighting)
-def _direct_lighting_by_type(tracer, lights, settings, rays, depth, keys, surf, tally):
+def _direct_lighting_by_type(tracer, lights, settings, rays, depth, pass_io, surf, tally):
     if field_is_none(tracer, "lit"):
-        return lambda tracer, lights, settings, rays, depth, keys, surf, tally: \
+        return lambda tracer, lights, settings, rays, depth, pass_io, surf, tally: \
             np.empty((0, 3))
     return _direct_lighting
 
@@ -335,19 +335,23 @@ def _hit_keys(keys, rays, depth):
     return path
 
 
-def _direct_lighting(tracer, lights, settings, rays, depth, keys, surf, tally):
+def _direct_lighting(tracer, lights, settings, rays, depth, pass_io, surf, tally):
     """Σ_l S_l · f_l · I_l · [kd·max(N·L, 0) + ks·spec] at every hit, (n, 3): per emitter,
-    the light pass and its shadow rays (``WhittedIntegrator.direct_lighting``). ``keys``: each
-    pass sample's jitter key (no rows: no jittered light); ``tally``: the pass's
+    the light pass and its shadow rays (``WhittedIntegrator.direct_lighting``). ``pass_io``:
+    the pass's :class:`raytrace.kernels.records.PassIO` (its ``keys``: each pass sample's
+    jitter key, None: no jittered light; its ``stop`` flag, read before each emitter, since
+    an area light's hundreds of emitters may take seconds); ``tally``: the pass's
     :class:`raytrace.kernels.records.Tally`."""
     n = rays.origin.shape[0]
     out = np.zeros((n, 3))
     term = np.empty((n, 3))
     shadows = Shadows(np.empty(n, np.int64), np.empty((n, 3)), np.empty((n, 3)), np.empty(n),
                       np.empty(n, np.int64))
-    key = hit_keys(keys, rays, depth)
+    key = hit_keys(pass_io.keys, rays, depth)
     scene = tracer.scene
     for e in range(lights.rows.shape[0]):
+        if pass_io.stop[0] != 0:  # the pass ends: what it adds no longer counts
+            break
         em = emitter_at(lights, e)
         words = np.empty(0, np.int64)
         if em.stream >= 0 and key.shape[0]:
@@ -389,7 +393,7 @@ def trace_depth(tracer, lights, settings, rays, depth, pass_io, tally):
     (``WhittedIntegrator.trace`` and ``shade``). ``pass_io``: a
     :class:`raytrace.kernels.records.PassIO`; ``tally``: a
     :class:`raytrace.kernels.records.Tally`."""
-    samples, keys, aov = pass_io.samples, pass_io.keys, pass_io.aov
+    samples, aov = pass_io.samples, pass_io.aov
     counters, seconds, timespec = tally.counters, tally.seconds, tally.timespec
     n = rays.origin.shape[0]
     rk.count_kinds(rays.kind, counters)
@@ -415,7 +419,7 @@ def trace_depth(tracer, lights, settings, rays, depth, pass_io, tally):
     surf = surfaces(tracer, hits, rays.origin, rays.direction)
     if depth == 0:
         first_hit_aovs(tracer, rays, hits, surf, aov)
-    lit = direct_lighting(tracer, lights, settings, rays, depth, keys, surf, tally)
+    lit = direct_lighting(tracer, lights, settings, rays, depth, pass_io, surf, tally)
     m = rays.origin.shape[0]
     children = room_for_children(tracer.children, m)
     sk.hit_terms(rays, surf, tracer.scene, Local(settings.ambient, lit), settings.min_weight,
@@ -527,11 +531,13 @@ def trace_paths(tracer, lights, settings, camera, pass_io, tally):
     sample's sum is added up in the same order whatever the pass size, the crop or the
     threads. ``pass_io``: the pass's sums, jitter keys and AOV table (a
     :class:`raytrace.kernels.records.PassIO`); ``tally``: its counters (a
-    :class:`raytrace.kernels.records.Tally`)."""
+    :class:`raytrace.kernels.records.Tally`). The pass ends early, its sums incomplete, once
+    ``pass_io.stop[0]`` is not 0 (read before each batch and each light's pass: a Ctrl-C or
+    the memory ceiling, ``raytrace.integrator.Stop``)."""
     n = camera.origin.shape[0]
     pending = [camera]
     depths = [0]
-    while len(pending):
+    while len(pending) and pass_io.stop[0] == 0:
         rays = pending.pop()
         depth = depths.pop()
         m = rays.origin.shape[0]

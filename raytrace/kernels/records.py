@@ -41,7 +41,7 @@ record                   what it holds (n rays or hits, M materials, T triangles
 :class:`Tracer`          the scene as the loop reads it
 :class:`LightTable`      the emitters, their colours and fast-Phong tables
 :class:`PassSettings`    the render's settings
-:class:`PassIO`          a pass's sums, jitter keys and AOV table
+:class:`PassIO`          a pass's sums, jitter keys and AOV table, and the render's stop flag
 :class:`Tally`           a pass's counters
 **camera and film**
 :class:`Pinhole`         the frame as a pinhole sees it
@@ -426,11 +426,14 @@ class PassSettings(NamedTuple):
 
 
 class PassIO(NamedTuple):
-    """What one pass writes and the keys it reads, a row per pass sample."""
+    """What one pass writes and the keys it reads, a row per pass sample, and the render's
+    stop flag, which the loop reads between batches and lights
+    (``raytrace.integrator.Stop``)."""
 
     samples: np.ndarray       #: (S, 3) float64 radiance sums
     keys: np.ndarray | None   #: (S,) int64 jitter keys of a jittered area light, or None
     aov: np.ndarray | None    #: (S, C) float64 the per-sample AOV table, or None
+    stop: np.ndarray          #: (1,) int64, not 0: end the pass at the next batch or light
 
 
 class Tally(NamedTuple):
