@@ -28,6 +28,8 @@ from importlib import import_module
 #: the line that registers it.
 EXPORTS = {
     "RenderWarning": ("errors", "RenderWarning"), "SceneError": ("errors", "SceneError"),
+    "MemoryLimitError": ("errors", "MemoryLimitError"), "ClusterError": ("errors", "ClusterError"),
+    "EngineError": ("errors", "EngineError"),
     "explain": ("raytree", "explain"), "Image": ("film.image", "Image"),
     "read_exr": ("film.exr", "read_exr"), "render_frames": ("frames", "render_frames"),
     "Checker": ("material", "Checker"), "Material": ("material", "Material"),
