@@ -119,10 +119,16 @@ def build_or_refuse(p: dict, shape: str, light: str) -> Scene | None:
         return None
 
 
+#: Each render's memory ceiling, on the whole process: a 16×12 render in a fresh process peaks
+#: at 0.22 GB (the interpreter, numba, Embree); a test worker holds more after hundreds of
+#: tests. A render that grew without end would be stopped (its MemoryLimitError fails the test).
+MAX_MEMORY = "4G"
+
+
 def render(scene: Scene) -> tuple[np.ndarray, int]:
     with warnings.catch_warnings():  # overflowed pixels warn; the counts are compared below
         warnings.simplefilter("ignore", raytrace.RenderWarning)
-        image = raytrace.render(scene, threads=1)
+        image = raytrace.render(scene, threads=1, max_memory=MAX_MEMORY)
     assert np.isfinite(image.rgb).all()
     return image.rgb.astype(np.float64), image.stats["nonfinite_pixels"]
 
