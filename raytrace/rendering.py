@@ -42,7 +42,7 @@ if TYPE_CHECKING:
 #: pass of rays per thread) plus bytes a pixel for the step that holds the most: the render
 #: (the float32 image and a mask), or writing an output (each writer's own figure,
 #: :data:`raytrace.film.writers.WRITERS`). AOVs are not counted.
-PEAK_BASE_BYTES = 256 * 2**20
+PEAK_BASE_BYTES = 300 * 2**20
 PEAK_RENDER_BYTES_PER_PIXEL = 15
 #: Seconds between two readings of the process's memory while a render runs
 #: (:func:`watch_memory`); each costs about 0.2 ms (psutil reading /proc on Linux).
