@@ -127,6 +127,17 @@ class Material:
     #: no output of a render may overwrite.
     sources: tuple[Path, ...] = field(default=(), compare=False, repr=False, init=False)
 
+    @property
+    def branches(self) -> int:
+        """How many rays a hit on this surface can spawn (Whitted's tree, Hall & Greenberg
+        1983): reflected (``kr`` not zero), refracted (``kt`` not zero) and seen through
+        (``opacity`` under 1, or an alpha texture); a pattern counts as not zero."""
+        def spawns(k: Any) -> bool:
+            return not isinstance(k, np.ndarray) or bool(np.any(k))
+
+        return (spawns(self.kr) + spawns(self.kt)
+                + (self.opacity < 1 or self.alpha is not None))
+
     def __post_init__(self) -> None:
         where = f"material {self.name!r}" if self.name else "Material"
         for k in COLOR_KEYS:

@@ -346,3 +346,31 @@ print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)
     measured = int(out.split()[-1])
     estimate = RENDER.peak_bytes(side, side, steps)
     assert measured <= estimate <= 1.5 * measured, (measured, estimate)
+
+
+def glass_pair(depth: int, min_weight: float = 0.0) -> raytrace.Scene:
+    glass = raytrace.Material(kd=0.0, kr=0.1, kt=0.9, ior=1.5, name="glass")
+    return raytrace.Scene(
+        camera=raytrace.Camera(position=[0, 0, 5], look_at=[0, 0, 0]),
+        objects=[raytrace.Sphere(center=[-1, 0, 0], radius=1.0, material=glass),
+                 raytrace.Sphere(center=[1, 0, 0], radius=1.0, material=glass)],
+        lights=[raytrace.PointLight(position=[3, 3, 3])],
+        render=raytrace.RenderSettings(max_depth=depth, min_weight=min_weight))
+
+
+def test_a_ray_tree_that_can_double_past_2_to_the_24_warns_before_the_render():
+    # glass reflects and refracts: 2 rays a hit, (2^(D+1) − 1) rays a sample at most
+    assert RENDER.ray_tree_warning(glass_pair(23), 23, 0.0) is None    # 2^24 − 1 rays
+    assert RENDER.ray_tree_warning(glass_pair(24), 24, 0.0) == (
+        "render.max_depth: 24 with min_weight 0 lets a ray tree grow to about 10^7 rays a "
+        "camera sample, as material 'glass' spawns 2 rays a hit; where such surfaces face "
+        "each other the render may not end: set render.min_weight (POV-Ray's adc_bailout, "
+        "1/255 there) or a lower max_depth")                          # 2^25 − 1 rays
+    assert "10^301 rays" in RENDER.ray_tree_warning(glass_pair(1000), 1000, 0.0)
+    assert RENDER.ray_tree_warning(glass_pair(1000), 1000, 1 / 255) is None
+    mirror = glass_pair(1000)
+    for sphere in mirror.objects:
+        sphere.material = raytrace.Material(kr=0.9, name="mirror")   # one ray a hit: a chain
+    assert RENDER.ray_tree_warning(mirror, 1000, 0.0) is None
+    with pytest.warns(raytrace.RenderWarning, match="max_depth: 40 with min_weight 0"):
+        raytrace.render(glass_pair(40), width=2, height=2, threads=1)
