@@ -504,7 +504,8 @@ class WhittedIntegrator:
         threads, workers = max(1, min(self.opt.threads, len(passes))), []
         try:  # waking every WAKE_SECONDS: not every platform's lock wait takes a signal
             pool = pass_threads(threads)
-            workers += [pool.submit(work) for _ in range(threads)]
+            for _ in range(threads):  # one by one: a Ctrl-C between two leaves none unseen
+                workers.append(pool.submit(work))
             while wait_for(workers, WAKE_SECONDS).not_done:
                 pass
         except BaseException as e:  # Ctrl-C (KeyboardInterrupt) while starting or waiting
