@@ -89,20 +89,35 @@ def memory_size(value: Any, key: str = "max_memory") -> int:
         if m is None:
             raise SceneError(f"must be a size such as 4G, 512M or a number of bytes, got "
                              f"{value!r}", key)
-        value = int(float(m[1]) * SIZE_UNITS[m[2].upper()])
+        value = float(m[1]) * SIZE_UNITS[m[2].upper()]
+        if m[2]:  # a size in a unit: to the nearest byte ("1.5G")
+            value = round(value)
     return values.number(value, key, lo=1, integer=True)
 
 
-def size_text(n: int) -> str:
-    """A number of bytes in the units of :data:`SIZE_UNITS`, to a tenth.
+def size_text(n: int, digits: int = 1) -> str:
+    """A number of bytes in the units of :data:`SIZE_UNITS`, to ``digits`` decimals.
 
-    >>> size_text(4 * 2**30), size_text(1536 * 2**20), size_text(100)
-    ('4.0 GiB', '1.5 GiB', '100 bytes')
+    >>> size_text(4 * 2**30), size_text(1536 * 2**20), size_text(100), size_text(2**30, 3)
+    ('4.0 GiB', '1.5 GiB', '100 bytes', '1.000 GiB')
     """
     for unit in ("T", "G", "M", "K"):
         if n >= SIZE_UNITS[unit]:
-            return f"{n / SIZE_UNITS[unit]:.1f} {unit}iB"
+            return f"{n / SIZE_UNITS[unit]:.{digits}f} {unit}iB"
     return f"{n} bytes"
+
+
+def size_texts(a: int, b: int) -> tuple[str, str]:
+    """Two sizes (:func:`size_text`) to the fewest decimals, one to six, that tell them apart.
+
+    >>> size_texts(2**30 + 2**20, 2**30), size_texts(3 * 2**30, 2**30)
+    (('1.001 GiB', '1.000 GiB'), ('3.0 GiB', '1.0 GiB'))
+    """
+    for digits in range(1, 7):
+        texts = size_text(a, digits), size_text(b, digits)
+        if texts[0] != texts[1]:
+            break
+    return texts
 
 
 @dataclass(frozen=True)
@@ -113,13 +128,17 @@ class Ceiling:
     bytes: int
     given: bool
 
-    def over(self, what: str) -> MemoryLimitError:
-        """The error of ``what`` (e.g. "the render reached 2.0 GiB") over this ceiling, which
-        names the ceiling and how to raise it, keyed ``max_memory`` (``--max-memory``)."""
+    def over(self, what: str, size: int) -> MemoryLimitError:
+        """The error of ``what`` (e.g. "the render reached {} and was stopped", the ``{}``
+        for ``size`` bytes) over this ceiling, which names the ceiling and how to raise it,
+        keyed ``max_memory`` (``--max-memory``); both sizes to the decimals that tell them
+        apart."""
+        size_said, ceiling_said = size_texts(size, self.bytes)
         default = "" if self.given else (" (the default: the memory this process held and "
                                          "the memory available when the render started)")
-        return MemoryLimitError(f"{what}, over the memory ceiling of {size_text(self.bytes)}"
-                                f"{default}; give a larger size to raise it", "max_memory")
+        return MemoryLimitError(f"{what.format(size_said)}, over the memory ceiling of "
+                                f"{ceiling_said}{default}; give a larger size to raise it",
+                                "max_memory")
 
 
 def memory_ceiling(max_memory: Any = None) -> Ceiling | None:
@@ -143,12 +162,13 @@ def check_memory(width: int, height: int, steps: Iterable[str] = (),
     need, have = peak_bytes(width, height, steps), available_bytes()
     what = f"render{''.join(' + ' + s for s in steps)}"
     if have is not None and need > have:
-        raise MemoryLimitError(f"{width}x{height} needs about {need / 1e9:.1f} GB of memory at "
-                               f"its peak ({what}), more than the {have / 1e9:.1f} GB available "
-                               "on this machine", key)
+        need_said, have_said = size_texts(need, have)
+        raise MemoryLimitError(f"{width}x{height} needs about {need_said} of memory at its "
+                               f"peak ({what}), more than the {have_said} available on this "
+                               "machine", key)
     if ceiling is not None and need > ceiling.bytes:
-        raise ceiling.over(f"{width}x{height} needs about {size_text(need)} of memory at its "
-                           f"peak ({what})")
+        raise ceiling.over(f"{width}x{height} needs about {{}} of memory at its peak ({what})",
+                           need)
 
 
 @contextmanager
@@ -166,8 +186,7 @@ def watch_memory(ceiling: Ceiling | None, stop: Stop) -> Iterator[None]:
         while True:
             rss = rss_bytes()
             if rss > ceiling.bytes:
-                stop.request(ceiling.over(f"the render reached {size_text(rss)} and was "
-                                          "stopped"))
+                stop.request(ceiling.over("the render reached {} and was stopped", rss))
                 return
             if done.wait(WATCH_SECONDS):
                 return

@@ -205,25 +205,26 @@ def test_peak_estimate_is_the_base_plus_the_largest_step():
 def test_an_image_this_machine_cannot_hold_is_refused_up_front(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(RENDER, "available_bytes", lambda: 2 * 10**9)
     scene = raytrace.Scene(objects=[raytrace.Sphere([0, 0, -3], 1)])
-    # 256 MiB + 15 B × 1e8 pixels = 1.77 GB fits in 2 GB: not refused by the check (the
+    # 300 MiB + 15 B × 1e8 pixels = 1.81e9 B fits in 2e9 B: not refused by the check (the
     # integrator is stopped before it allocates anything).
     RENDER.check_memory(10000, 10000)
-    # 256 MiB + 25 B × 1e8 = 2.77 GB with the EXR, and with a PNG too (written band by band).
-    with pytest.raises(raytrace.SceneError, match=r"10000x10000 needs about 2\.8 GB of memory "
-                       r"at its peak \(render \+ exr\), more than the 2\.0 GB available"):
+    # 300 MiB + 25 B × 1e8 = 2.81e9 B = 2.62 GiB with the EXR, and with a PNG too (written band
+    # by band), over 2e9 B = 1.86 GiB.
+    with pytest.raises(raytrace.SceneError, match=r"10000x10000 needs about 2\.6 GiB of memory "
+                       r"at its peak \(render \+ exr\), more than the 1\.9 GiB available"):
         RENDER.check_memory(10000, 10000, ("exr",))
     monkeypatch.setattr(RENDER, "available_bytes", lambda: 10**9)
     with pytest.raises(raytrace.SceneError, match=r"^render\.width: 10000x10000 needs about "
-                                                  r"1\.8 GB .*\(render\)"):
+                                                  r"1\.7 GiB .*\(render\)"):
         raytrace.render(scene, width=10000, height=10000)
     toml = tmp_path / "s.toml"
     toml.write_text('[[objects]]\ntype = "sphere"\ncenter = [0, 0, -3]\nradius = 1\n')
     rc = cli.main(["render", str(toml), "-o", str(tmp_path / "o.exr"), "--png",
                    str(tmp_path / "o.png"), "--width", "10000", "--height", "10000", "-q"])
     assert rc == 2
-    assert capsys.readouterr().err == ("raytrace: error: --width: 10000x10000 needs about 2.8 "
-                                       "GB of memory at its peak (render + exr + png), more "
-                                       "than the 1.0 GB available on this machine\n")
+    assert capsys.readouterr().err == ("raytrace: error: --width: 10000x10000 needs about 2.6 "
+                                       "GiB of memory at its peak (render + exr + png), more "
+                                       "than the 953.7 MiB available on this machine\n")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
 
 
@@ -239,7 +240,8 @@ def test_a_memory_size_reads_binary_units_or_bytes(size, bytes_):
     assert RENDER.memory_size(size) == bytes_
 
 
-@pytest.mark.parametrize("size", ["lots", "4 GB RAM", "-1G", "G", "0", 0, -5, True, 1.5, None])
+@pytest.mark.parametrize("size", ["lots", "4 GB RAM", "-1G", "G", "0", 0, -5, True, 1.5, None,
+                                  "0.5", "4.5"])
 def test_a_bad_memory_size_is_one_line_naming_the_key(size):
     with pytest.raises(raytrace.SceneError, match=r"^max_memory: must be "):
         RENDER.memory_size(size)
@@ -295,8 +297,8 @@ def test_a_render_that_reaches_its_ceiling_is_stopped(tmp_path, capsys, monkeypa
     with pytest.raises(RENDER.MemoryLimitError) as e:
         raytrace.render(BALL, width=400, height=300, spp=16, threads=1, max_memory="1G",
                         progress=progress, pass_samples=4096)
-    assert str(e.value) == ("max_memory: the render reached 1.0 GiB and was stopped, over the "
-                            "memory ceiling of 1.0 GiB; give a larger size to raise it")
+    assert str(e.value) == ("max_memory: the render reached 1.001 GiB and was stopped, over "
+                            "the memory ceiling of 1.000 GiB; give a larger size to raise it")
     assert 1 <= len(calls) < 400 * 300 * 16 // 4096 / 2, calls  # stopped well before the end
     # The command line: one line, exit 2, nothing written.
     started.append(True)
@@ -305,8 +307,8 @@ def test_a_render_that_reaches_its_ceiling_is_stopped(tmp_path, capsys, monkeypa
     out = tmp_path / "o.exr"
     assert cli.main(["render", str(toml), "-o", str(out), "--max-memory", "1G", "-q"]) == 2
     assert capsys.readouterr().err == (
-        "raytrace: error: --max-memory: the render reached 1.0 GiB and was stopped, over the "
-        "memory ceiling of 1.0 GiB; give a larger size to raise it\n")
+        "raytrace: error: --max-memory: the render reached 1.001 GiB and was stopped, over "
+        "the memory ceiling of 1.000 GiB; give a larger size to raise it\n")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
     # By default the ceiling is the memory held and available at the start, and says so.
     monkeypatch.setattr(RENDER, "available_bytes", lambda: 2**29)
