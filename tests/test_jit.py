@@ -89,6 +89,21 @@ def test_the_guard_leaves_a_current_cache_alone(tmp_path):
     assert stamp.read_text() == jit.source_hash(jit.hashed_modules())
 
 
+def test_a_first_compile_into_a_cache_folder_is_kept_by_the_next_process(tmp_path):
+    # numba creates NUMBA_CACHE_DIR's folders when it decorates a module's kernels, after the
+    # guard ran: unstamped, the next process took the first compile for a stale one.
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    guard = "import raytrace.kernels.jit"
+    subprocess.run([sys.executable, "-c", guard], env=env, check=True)
+    folders = {p.parent for p in tmp_path.rglob("raytrace-kernels.sha256")}
+    assert folders  # the folders numba will write are stamped before it writes them
+    compiled = [folder / "accel.kernel-1.py311.nbi" for folder in folders]
+    for f in compiled:  # stands for what a first render's compile leaves there
+        f.write_bytes(b"index")
+    subprocess.run([sys.executable, "-c", guard], env=env, check=True)
+    assert all(f.exists() for f in compiled)
+
+
 # -- the compile notice: numba's compile events, said while they run ------------------------
 COMPILED = re.compile(r"raytrace: compiled kernels in \d+\.\d s")
 
