@@ -643,8 +643,7 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
     from .rendering import render_options
     from .scene import Scene
 
-    for flag, value, default in (("--tile", args.tile, None), ("--png-bits", args.png_bits, 8),
-                                 ("--worker-timeout", args.worker_timeout, None)):
+    for flag, value, default in (("--tile", args.tile, None), ("--png-bits", args.png_bits, 8)):
         if value != default:  # frames are rendered whole, their previews at 8 bits
             raise SceneError("is not used with --frames", flag)
     frames = parse_frames(args.frames, "--frames")
@@ -685,9 +684,11 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
                                    overwrite=args.overwrite, progress=report,
                                    compression=args.compression, exposure=args.exposure,
                                    tonemap=args.tonemap, on_frame=written, crop=args.crop,
-                                   max_memory=args.max_memory, **overrides)
-        except SceneError as e:
-            raise (_flag_error(e) if e.key == "crop" else e) from None
+                                   max_memory=args.max_memory,
+                                   worker_timeout=args.worker_timeout, **overrides)
+        except SceneError as e:  # the keys only flags set: name the flag
+            flag = e.key in ("crop", "max_memory", "worker_timeout")
+            raise (_flag_error(e) if flag else e) from None
     rays = sum(st["rays"]["total"] for st in result.stats.values())
     if stats_file:
         summary = {"frames": {str(f): st for f, st in sorted(result.stats.items())},

@@ -25,20 +25,22 @@ import re
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from . import values
-from .distributed import gather_each
-from .errors import SceneError
+from .distributed import check_worker_timeout, gather_each
+from .errors import MemoryLimitError, SceneError
 from .film import writers
 from .film.exr import exr_compression
 from .film.image import Image
 from .film.tonemap import check_exposure, check_tonemap
+from .integrator import Stop
 from .readers.inputs import input_file
 from .readers.scene_file import load_scene
-from .rendering import render
+from .rendering import memory_ceiling, memory_size, render, watch_memory
 from .scene import Scene
 
 if TYPE_CHECKING:
@@ -151,8 +153,8 @@ class SceneSource:
 
     def scene(self, frame: int) -> Scene:
         """The scene of ``frame``; a :class:`SceneError` naming the function and the frame
-        when the function raises (the user's exception named in the one line, and chained)
-        or returns something else than a Scene."""
+        when the function raises (the user's exception named in the one line, with the first
+        line of its message, and chained) or returns something else than a Scene."""
         if self.files is not None:
             return load_scene(frame_path(self.files, frame))
         where = f"{self.name}({frame})"
@@ -161,7 +163,8 @@ class SceneSource:
         except SceneError as e:
             raise SceneError(e.problem, e.key, e.file or where) from None
         except Exception as e:  # the user's code: one line, not its traceback
-            raise SceneError(f"raised {type(e).__name__}: {e}", file=where) from e
+            first = next(iter(str(e).splitlines()), "")
+            raise SceneError(f"raised {type(e).__name__}: {first}", file=where) from e
         if not isinstance(scene, Scene):
             raise SceneError(f"returned {type(scene).__name__}, not a raytrace.Scene",
                              file=where)
@@ -233,6 +236,7 @@ def render_frames(scenes: str | os.PathLike | Callable[[int], Scene] | SceneSour
                   on_frame: Callable[[int, list[str]], None] | None = None,
                   compression: str = "zip", exposure: float = 0.0, tonemap: str = "clip",
                   extras: Mapping[str, str | os.PathLike] | None = None,
+                  max_memory: int | str | None = None, worker_timeout: float | None = None,
                   **overrides: Any) -> FramesResult:
     """Render ``frames`` of a sequence to ``output`` (a pattern, ``out.####.exr``) and, with
     ``png``, previews (``preview.####.png``), each written atomically as it is finished.
@@ -246,9 +250,23 @@ def render_frames(scenes: str | os.PathLike | Callable[[int], Scene] | SceneSour
     turn. ``progress(done, total)`` counts the frames rendered of those to render;
     ``on_frame(frame, paths)`` is called after each frame's files are written. ``exposure``
     and ``tonemap`` are the previews'; ``compression`` the EXRs'.
+    ``max_memory``: the memory ceiling of this process (:func:`raytrace.render`'s): each
+    frame's render here; with a ``client``, this process while it gathers and writes the
+    frames (checked as each comes back), each frame on a worker having the default ceiling
+    (:func:`raytrace.rendering.memory_ceiling`) and Dask's ``memory_limit``.
+    ``worker_timeout``: with a ``client``, the seconds the frames wait on a cluster without
+    workers (:func:`raytrace.distributed.gather_each`). Errors in these two name the keyword,
+    not a frame's scene file.
     ``overrides``: :func:`raytrace.render`'s keywords (width, spp, crop, aovs, threads...).
     """
     t0 = time.perf_counter()
+    if max_memory is not None:
+        max_memory = memory_size(max_memory)
+    if client is None and worker_timeout is not None:
+        raise SceneError("a worker timeout needs a client: render_frames(..., client=..., "
+                         "worker_timeout=...)", "worker_timeout")
+    if client is not None:
+        worker_timeout = check_worker_timeout(worker_timeout)
     source = scene_source(scenes)
     numbers = parse_frames(frames)
     given = {writers.main_writer().suffix: output, ".png": png}
@@ -292,9 +310,15 @@ def render_frames(scenes: str | os.PathLike | Callable[[int], Scene] | SceneSour
 
     if client is None:
         for frame in todo:
-            write(frame, render_frame(source, frame, overrides))
+            try:
+                image = render_frame(source, frame, {**overrides, "max_memory": max_memory})
+            except MemoryLimitError as e:  # over the keyword's ceiling: not the frame file's
+                if e.key != "max_memory":
+                    raise
+                raise MemoryLimitError(e.problem, e.key) from None
+            write(frame, image)
     else:
-        remote = {**overrides, "threads": 1}  # a worker thread a frame
+        remote = {**overrides, "threads": 1}  # a worker thread a frame; max_memory stays here
         token = time.time_ns()
         futures = []
         for frame in todo:
@@ -303,8 +327,13 @@ def render_frames(scenes: str | os.PathLike | Callable[[int], Scene] | SceneSour
                     if source.files is not None else by_value(source))
             futures.append(client.submit(framed, what, frame, remote, pure=False,
                                          key=f"raytrace-frame-{frame}-{token}"))
-        for frame, image in gather_each(client, futures):
-            write(frame, image)
+        stop = Stop()  # asked by the memory watch of this process, which writes the frames
+        with (watch_memory(memory_ceiling(max_memory), stop),
+              closing(gather_each(client, futures, worker_timeout)) as results):
+            for frame, image in results:
+                stop.check()
+                write(frame, image)
+            stop.check()
     result.seconds = time.perf_counter() - t0
     return result
 

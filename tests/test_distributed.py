@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import pickle
+import re
 import shutil
 import subprocess
 import sys
@@ -335,6 +336,58 @@ def test_a_frame_function_s_error_on_a_worker_is_one_line_as_locally(clusters, t
                                 f"got 0{written}\n")
 
 
+def test_frames_on_a_cluster_keep_the_memory_ceiling_on_the_client(clusters, tmp_path):
+    # 1 MiB is less than this process holds: the client stops at the first frame back, with
+    # its own line. Sent to the workers, it refused each frame's peak estimate instead.
+    client = clusters.get()
+
+    def scene_at(frame):
+        return orbit(frame)
+
+    with pytest.raises(raytrace.errors.MemoryLimitError) as e:
+        raytrace.render_frames(scene_at, str(tmp_path / "out.####.exr"), "1-2", client=client,
+                               max_memory="1M")
+    assert re.fullmatch(r"max_memory: the render reached \d+\.\d [MG]iB and was stopped, over "
+                        r"the memory ceiling of 1\.0 MiB; give a larger size to raise it",
+                        str(e.value)), str(e.value)
+    assert os.listdir(tmp_path) == []
+
+
+def test_frames_on_a_cluster_left_without_workers_stop_after_the_worker_timeout(
+        clusters, tmp_path, monkeypatch, capsys):
+    client = clusters.get(1)
+    anim = tmp_path / "anim.py"
+    anim.write_text("import raytrace\n\n"
+                    "def scene_at(frame):\n"
+                    "    return raytrace.Scene(\n"
+                    "        render=raytrace.RenderSettings(width=8, height=6))\n")
+
+    @contextmanager
+    def the_test_cluster(**kwargs):
+        yield client
+
+    monkeypatch.setattr(rd, "connect", the_test_cluster)
+    try:
+        clusters.cluster.scale(0)
+        deadline = time.monotonic() + 60
+        while client.nthreads() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not client.nthreads()
+        t0 = time.monotonic()
+        assert cli.main(["render", f"{anim}:scene_at", "--frames", "1-2", "-o",
+                         str(tmp_path / "f.####.exr"), "-q", "--scheduler", "tcp://127.0.0.1:1",
+                         "--worker-timeout", "1.5"]) == 2
+        waited = time.monotonic() - t0
+        assert re.fullmatch(r"raytrace: error: the Dask cluster at tls://127\.0\.0\.1:\d+ has "
+                            r"had no worker for 1\.5 s, so the render stopped \(its workers' "
+                            r"logs say why they left; --worker-timeout or worker_timeout= waits "
+                            r"longer\)\n", capsys.readouterr().err)
+        assert 1.5 <= waited < 30, waited
+        assert os.listdir(tmp_path) == ["anim.py"]
+    finally:
+        clusters.close()  # (its worker is gone: the next test starts a new cluster)
+
+
 def test_the_workers_flag_renders_the_same_exr(tmp_path):
     scene = tmp_path / "whitted.toml"
     shutil.copy(ROOT / "scenes" / "whitted.toml", scene)
@@ -376,8 +429,8 @@ def test_the_workers_flag_renders_the_same_exr(tmp_path):
     (["--overwrite"], "--overwrite", "is for --frames"),
     (["--worker-timeout", "5"], "--worker-timeout", "needs --workers or --scheduler"),
     (["--workers", "1", "--worker-timeout", "0"], "--worker-timeout", "must be > 0"),
-    (["--frames", "1", "--workers", "1", "--worker-timeout", "5"], "--worker-timeout",
-     "not used with --frames"),
+    (["--frames", "1", "--workers", "1", "--worker-timeout", "0"], "--worker-timeout",
+     "must be > 0"),
 ])
 def test_bad_cluster_and_frame_flags_are_one_line_and_write_nothing(tmp_path, capsys,
                                                                     monkeypatch, args, flag,

@@ -288,3 +288,52 @@ def test_a_full_disk_writing_the_sequence_stats_names_the_file_and_what_was_writ
            "without --overwrite skips it)\n")
     assert (tmp_path / "s.json").read_text() == "old\n"
     assert sorted(os.listdir(tmp_path)) == ["a.1.exr", "anim.py", "s.json"]
+
+
+def test_a_frames_function_s_error_of_several_lines_is_its_first_line(tmp_path, capsys,
+                                                                     monkeypatch):
+    write_text(tmp_path / "anim.py", "def scene_at(frame):\n"
+                                     "    raise ValueError('line one\\nline two')\n")
+    monkeypatch.chdir(tmp_path)
+    rc = cli.main(["render", "anim.py:scene_at", "--frames", "1", "-o", "a.#.exr"])
+    assert (rc, capsys.readouterr().err) == (
+        2, "raytrace: error: anim.py:scene_at(1): raised ValueError: line one\n")
+    assert os.listdir(tmp_path) == ["anim.py"]
+
+
+def test_a_worker_timeout_without_a_client_names_the_keyword(tmp_path):
+    write_text(tmp_path / "s_1.toml", SHOT.format(x=0.0, radius=0.5))
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.render_frames(tmp_path / "s_#.toml", tmp_path / "o_#.exr", "1",
+                               worker_timeout=5)
+    assert str(e.value) == ("worker_timeout: a worker timeout needs a client: "
+                            "render_frames(..., client=..., worker_timeout=...)")
+    assert sorted(os.listdir(tmp_path)) == ["s_1.toml"]
+
+
+def ceiling_line(width: int, height: int, ceiling: str) -> str:
+    """The refusal of a ``width`` x ``height`` render under ``ceiling`` (rendering.py)."""
+    from raytrace.rendering import peak_bytes, size_text
+
+    return (f"{width}x{height} needs about {size_text(peak_bytes(width, height))} of memory at "
+            f"its peak (render), over the memory ceiling of {ceiling}; give a larger size to "
+            "raise it")
+
+
+def test_a_memory_ceiling_of_frames_names_the_flag_or_the_keyword_not_a_scene_file(
+        tmp_path, capsys):
+    for f in (1, 2):
+        write_text(tmp_path / f"s_{f}.toml", SHOT.format(x=0.1 * f, radius=0.5))
+    rc = cli.main(["render", str(tmp_path / "s_#.toml"), "--frames", "1..2", "-o",
+                   str(tmp_path / "o_#.exr"), "--max-memory", "1M"])
+    assert (rc, capsys.readouterr().err) == (
+        2, f"raytrace: error: --max-memory: {ceiling_line(12, 8, '1.0 MiB')}\n")
+    with pytest.raises(raytrace.errors.MemoryLimitError) as e:
+        raytrace.render_frames(tmp_path / "s_#.toml", tmp_path / "o_#.exr", "1-2",
+                               max_memory="1M")
+    assert str(e.value) == f"max_memory: {ceiling_line(12, 8, '1.0 MiB')}"
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.render_frames(tmp_path / "s_#.toml", tmp_path / "o_#.exr", "1", max_memory="x")
+    assert str(e.value) == ("max_memory: must be a size such as 4G, 512M or a number of bytes, "
+                            "got 'x'")
+    assert sorted(os.listdir(tmp_path)) == ["s_1.toml", "s_2.toml"]
