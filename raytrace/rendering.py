@@ -318,15 +318,16 @@ def ray_tree_warning(scene: Scene, max_depth: int, min_weight: float) -> str | N
     glass spheres reach (depth 100: 24 s for 16×12 pixels; 150: no end). None otherwise."""
     if min_weight > 0:
         return None
-    used = [m for o in scene.objects for m in getattr(o, "materials", [o.material])]
-    b, name = max(((m.branches, m.name) for m in used), default=(0, ""), key=lambda t: t[0])
+    used = [(m.branches, repr(m.name) if m.name else f"objects[{i}].material")
+            for i, o in enumerate(scene.objects) for m in getattr(o, "materials", [o.material])]
+    b, name = max(used, default=(0, ""), key=lambda t: t[0])
     if b < 2:
         return None
     rays = (b ** (max_depth + 1) - 1) // (b - 1)
     if rays <= RAY_TREE_RAYS:
         return None
     return (f"render.max_depth: {max_depth} with min_weight 0 lets a ray tree grow to about "
-            f"10^{len(str(rays)) - 1} rays a camera sample, as material {name!r} spawns {b} rays a "
+            f"10^{len(str(rays)) - 1} rays a camera sample, as material {name} spawns {b} rays a "
             f"hit; where such surfaces face each other the render may not end: set "
             f"render.min_weight (POV-Ray's adc_bailout, 1/255 there) or a lower max_depth")
 

@@ -6,6 +6,7 @@ meant (no objects, pixels beyond float32) say so: a RenderWarning, one line from
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import inspect
 import subprocess
@@ -370,6 +371,10 @@ def test_a_ray_tree_that_can_double_past_2_to_the_24_warns_before_the_render():
         "1/255 there) or a lower max_depth")                          # 2^25 − 1 rays
     assert "10^301 rays" in RENDER.ray_tree_warning(glass_pair(1000), 1000, 0.0)
     assert RENDER.ray_tree_warning(glass_pair(1000), 1000, 1 / 255) is None
+    unnamed = glass_pair(30)
+    unnamed.objects[1].material = dataclasses.replace(unnamed.objects[1].material, name="",
+                                                      opacity=0.5)  # and seen through: 3
+    assert "as material objects[1].material spawns 3" in RENDER.ray_tree_warning(unnamed, 30, 0)
     mirror = glass_pair(1000)
     for sphere in mirror.objects:
         sphere.material = raytrace.Material(kr=0.9, name="mirror")   # one ray a hit: a chain

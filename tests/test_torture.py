@@ -512,6 +512,8 @@ def test_critical_angle_exactly():
 
 
 @pytest.mark.parametrize("max_depth", [0, 1, 5, 50])
+@pytest.mark.filterwarnings("ignore:render.max_depth. 50 with min_weight 0:"
+                            "raytrace.errors.RenderWarning")  # the tree's bound: 2^51 rays
 def test_camera_inside_a_glass_sphere(max_depth):
     # From the centre every ray meets the sphere at normal incidence: kt leaves undeviated to
     # the background b, kr comes back through the centre to the opposite side, and so on.
