@@ -25,8 +25,6 @@ from .readers.inputs import input_file
 from .readers.meshio import read_mesh
 from .sampling import check_aa, check_filter
 
-#: Largest accepted |coordinate| of any point, mesh vertices included (values.MAX_COORDINATE).
-MAX_COORDINATE = values.MAX_COORDINATE
 #: Largest accepted image, in pixels (the float32 image alone is 12 bytes a pixel).
 MAX_PIXELS = 100_000_000
 MAX_SIDE = 100_000
@@ -278,9 +276,7 @@ class Mesh(values.Checked):
             raise
         with np.errstate(over="ignore", invalid="ignore"):  # refused just below
             world = (verts * scale) @ rotation_matrix(rotate).T + translate
-        if not np.all(np.isfinite(world)) or np.abs(world).max() > MAX_COORDINATE:
-            raise SceneError(f"transformed vertices exceed ±{MAX_COORDINATE:g}, beyond "
-                             "float32's useful range for Embree", "scale")
+        values.check_points(world, "scale", "transformed vertices")
         values.check_length(float(np.ptp(world, axis=0).max()), "scale",
                             "the transformed mesh's size (its bounding box's longest side)",
                             longest=False)
@@ -378,9 +374,7 @@ def _check_arrays(verts: Any, faces: Any) -> tuple[np.ndarray, np.ndarray]:
         bad = ~np.isfinite(v).all(axis=1)
         raise SceneError(f"vertex {int(np.argmax(bad))} is not finite ({v[bad][0].tolist()}); "
                          "Embree would silently drop its triangles", "vertices")
-    if np.abs(v).max() > MAX_COORDINATE:
-        raise SceneError(f"coordinates exceed ±{MAX_COORDINATE:g}, beyond float32's useful "
-                         "range for Embree", "vertices")
+    values.check_points(v, "vertices", "coordinates")
     try:
         f = np.asarray(faces)
     except (TypeError, ValueError):

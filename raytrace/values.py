@@ -139,6 +139,21 @@ def position(value: Any, key: str) -> np.ndarray:
     return out
 
 
+def check_points(points: np.ndarray, key: str, what: str) -> None:
+    """Refuse an array of points (a mesh's vertices, ``what``) with a coordinate that is not
+    finite or beyond ±:data:`MAX_COORDINATE`, as :func:`position` refuses one point.
+
+    >>> check_points(np.array([[0.0, 2e12, 0.0]]), "scale", "transformed vertices")
+    ... # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    raytrace.errors.SceneError: scale: transformed vertices exceed ±1e+12 (where every ray ...)
+    """
+    with np.errstate(invalid="ignore"):
+        largest = np.abs(points).max(initial=0.0)
+    if not largest <= MAX_COORDINATE:  # (NaN too)
+        raise SceneError(f"{what} exceed ±{_bound(MAX_COORDINATE)} ({_COORDINATE_WHY})", key)
+
+
 def length(value: Any, key: str) -> float:
     """A length (a radius, a cell size): a number > 0 within [:data:`MIN_LENGTH`,
     :data:`MAX_LENGTH`].
