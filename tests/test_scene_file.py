@@ -368,3 +368,27 @@ def test_mesh_transform_order_scale_rotate_translate(tmp_path):
     m = raytrace.Mesh(vertices=[[1, 0, 0], [0, 1, 0], [0, 0, 1]], faces=[[0, 1, 2]], scale=2.0,
                       rotate=[0, 90, 0], translate=[0, 5, 0])
     np.testing.assert_allclose(m.vertices, [[0, 5, -2], [0, 7, 0], [2, 5, 0]], atol=1e-12)
+
+
+QUAD_PLY = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+            "property float z\nelement face 2\nproperty list uchar int vertex_indices\n"
+            "end_header\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 0 1 2\n3 1 3 2\n")
+
+
+@pytest.mark.parametrize("name,text", [
+    ("quad.ply", QUAD_PLY), ("quad.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 0 1 2\n"
+                                          "3 1 3 2\n"),
+    ("quad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")])
+def test_a_mesh_file_without_materials_renders_alone_with_the_default_material(
+        tmp_path, name, text):
+    # A PLY, an OFF and an OBJ naming no MTL file, given as the scene: the default material
+    # (kd 0.5, ka following it, no highlight) under the model ambient 0.1 and the reported
+    # directional light: the quad (normal +z) at the image centre is 0.5·0.1 + 0.5·(N·L).
+    path = write_text(tmp_path / name, text)
+    with pytest.warns(raytrace.RenderWarning, match="no camera in the file"):
+        scene = raytrace.load_scene(path)
+    (mesh,), (light,) = scene.objects, scene.lights
+    assert len(mesh.faces) == 2 and mesh.material.name == "default"
+    to_light = -np.asarray(light.direction) / np.linalg.norm(light.direction)
+    image = raytrace.render(scene, width=9, height=9, threads=1)
+    assert image.rgb[4, 4] == pytest.approx([0.05 + 0.5 * to_light[2]] * 3, rel=1e-6)

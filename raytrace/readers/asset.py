@@ -13,6 +13,9 @@ from ..material import Material
 #: Suffixes whose files carry their own materials.
 OBJ_SUFFIXES = (".obj",)
 GLTF_SUFFIXES = (".gltf", ".glb")
+#: Mesh files without materials (read by trimesh, or raytrace.readers.meshio for binary PLY)
+#: that a scene may name, or the command line render alone with the default material.
+MESH_SUFFIXES = (".ply", ".stl", ".off")
 
 
 @dataclass

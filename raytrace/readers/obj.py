@@ -90,6 +90,13 @@ def _corner(word: str, n_v: int, n_vt: int) -> tuple[int, int]:
     return vi, ti
 
 
+def names_mtl(path: Path) -> bool:
+    """Whether an OBJ file names an MTL library (an ``mtllib`` statement), read line by line
+    without parsing the rest."""
+    with open(path, encoding="utf-8", errors="replace") as f:
+        return any(line.split(None, 1)[:1] == ["mtllib"] for line in f)
+
+
 def load_obj(path: Path) -> Asset:
     """An OBJ's faces with the materials their ``usemtl`` names in its ``mtllib`` files."""
     obj = read_obj(path)

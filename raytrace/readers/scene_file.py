@@ -21,9 +21,10 @@ from ..errors import RenderWarning, SceneError
 from ..lights import DirectionalLight
 from ..material import Material, library, material_from_table
 from ..scene import FROM_FILE, LIGHT_TYPES, OBJECT_TYPES, Camera, Mesh, RenderSettings, Scene
-from .asset import GLTF_SUFFIXES, OBJ_SUFFIXES
+from .asset import GLTF_SUFFIXES, MESH_SUFFIXES, OBJ_SUFFIXES
 from .gltf import load_gltf
 from .inputs import input_file, read_text
+from .obj import names_mtl
 
 TOP_KEYS = ("render", "camera", "ambient", "materials", "lights", "objects")
 RENDER_KEYS = ("width", "height", "spp", "max_depth", "min_weight", "background", "seed",
@@ -53,11 +54,12 @@ REQUIRED = {cls: _required(cls) for cls in (*LIGHT_TYPES.values(), *OBJECT_TYPES
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read a ``.toml`` or ``.json`` scene file into a :class:`Scene`; an ``.obj``, ``.gltf``
-    or ``.glb`` model alone becomes a scene too (:func:`scene_from_model`)."""
+    """Read a ``.toml`` or ``.json`` scene file into a :class:`Scene`; a model or mesh file
+    alone (``.obj``, ``.gltf``, ``.glb``, ``.ply``, ``.stl``, ``.off``) becomes a scene too
+    (:func:`scene_from_model`)."""
     path = Path(path)
     name = str(path)
-    if path.suffix.lower() in GLTF_SUFFIXES + OBJ_SUFFIXES:  # a model alone: no TOML
+    if path.suffix.lower() in GLTF_SUFFIXES + OBJ_SUFFIXES + MESH_SUFFIXES:  # no TOML
         return scene_from_model(path)
     text = read_text(path, "scene file", file=name)
     if not text.strip():  # (a file of only comments is a scene of defaults: no objects)
@@ -238,8 +240,11 @@ def scene_from_model(path: Path) -> Any:
     found = None
     if path.suffix.lower() in GLTF_SUFFIXES:
         found = load_gltf(path)
+    # the file's own materials where it has them (a glTF, an OBJ naming an MTL library), else
+    # the default material (a PLY, an STL, an OFF, an OBJ alone)
+    own = found is not None or (path.suffix.lower() in OBJ_SUFFIXES and names_mtl(path))
     try:
-        mesh = Mesh(file=path, material=FROM_FILE)
+        mesh = Mesh(file=path, material=FROM_FILE if own else None)
     except SceneError as e:
         raise SceneError(e.problem, e.key if e.file else None, e.file or str(path)) from None
     render = RenderSettings()
