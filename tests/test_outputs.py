@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import errno
+import importlib
 import os
 import shutil
 import signal
@@ -37,6 +38,7 @@ from raytrace.film.outputs import Outputs
 from raytrace.material import library
 
 ROOT = Path(__file__).resolve().parents[1]
+RENDERING = importlib.import_module("raytrace.rendering")  # (raytrace.render: the function)
 QUAD = "v 0 0 -3\nv 1 0 -3\nv 1 1 -3\nv 0 1 -3\nf 1 2 3\nf 1 3 4\n"
 SCENE = """\
 [render]
@@ -95,7 +97,7 @@ def no_render(monkeypatch):
     def refuse(*args, **kwargs):
         raise AssertionError("rendered although an output was bad")
 
-    monkeypatch.setattr(sys.modules["raytrace.rendering"], "render", refuse)
+    monkeypatch.setattr(RENDERING, "render", refuse)
 
 
 # -- collisions, before anything is rendered --------------------------------------------------
@@ -183,9 +185,14 @@ NAMES = {"scene": "scene.toml", "mesh": "m.obj", "-o": "out.exr", "--png": "out.
 SPELLINGS = ("plain", "dot", "updown", "absolute", "symlink", "hardlink")
 
 
+#: Two roles that may name one file: both inputs (``raytrace render m.obj`` reads the model that
+#: is its own mesh). It was refused only while an OBJ without MTL could not render alone.
+INPUTS = {"scene", "mesh"}
+
+
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(pair=st.permutations(ROLES).map(lambda p: p[:2]), spelling=st.sampled_from(SPELLINGS),
-       old_outputs=st.booleans())
+@given(pair=st.permutations(ROLES).map(lambda p: p[:2]).filter(lambda p: set(p) != INPUTS),
+       spelling=st.sampled_from(SPELLINGS), old_outputs=st.booleans())
 def test_any_two_paths_that_are_one_file_exit_2_and_change_nothing(pair, spelling,
                                                                     old_outputs):
     import tempfile
@@ -418,7 +425,7 @@ def test_an_interrupted_render_names_what_was_left(tmp_path, capsys, monkeypatch
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(sys.modules["raytrace.rendering"], "render", interrupted)
+    monkeypatch.setattr(RENDERING, "render", interrupted)
     folder(tmp_path)
     before = snapshot(tmp_path)
     rc, err = run(tmp_path, ["render", "scene.toml", "-o", "out.exr", "--png", "out.png",
