@@ -30,7 +30,7 @@ from .film import writers
 from .film.aov import check_aovs
 from .film.image import Image
 from .integrator import PASS_SAMPLES, RenderOptions, Stop, WhittedIntegrator
-from .scene import RenderSettings, Scene
+from .scene import RenderSettings, Scene, object_materials
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -319,7 +319,7 @@ def ray_tree_warning(scene: Scene, max_depth: int, min_weight: float) -> str | N
     if min_weight > 0:
         return None
     used = [(m.branches, repr(m.name) if m.name else f"objects[{i}].material")
-            for i, o in enumerate(scene.objects) for m in getattr(o, "materials", [o.material])]
+            for i, o in enumerate(scene.objects) for m in object_materials(o)]
     b, name = max(used, default=(0, ""), key=lambda t: t[0])
     if b < 2:
         return None

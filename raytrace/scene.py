@@ -350,6 +350,12 @@ class Mesh(values.Checked):
 OBJECT_TYPES = {**SHAPE_TYPES, "mesh": Mesh}
 
 
+def object_materials(obj: Any) -> list[Material]:
+    """The materials an object's surface uses: a mesh's (several where a model file gives its
+    faces their own), any other object's one."""
+    return obj.materials if isinstance(obj, Mesh) else [obj.material]
+
+
 def _nonzero_area(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Where |(b − a) × (c − a)|² > 0 for the corners a, b, c of each face: the cross product
     and the sum of squares term by term as ``np.cross`` and ``np.linalg.norm`` order them (so
@@ -567,7 +573,7 @@ class Scene(values.Checked):
         owned = [(m, f"material {m.name!r}") for m in self.materials.values()]
         owned += [(m, f"material {m.name!r}" if m.name else f"the material of objects[{i}]")
                   for i, o in enumerate(self.objects)
-                  for m in getattr(o, "materials", [o.material])]  # inline ones have no name
+                  for m in object_materials(o)]  # inline ones have no name
         for m, owner in owned:
             files += [(p, f"the file of {owner}") for p in m.files]
         return files

@@ -43,7 +43,7 @@ from .kernels.records import (
 )
 from .material import COLOR_KEYS, COLUMNS, Checker, Material
 from .readers.texture import WRAPS, Texture
-from .scene import SHAPE_TYPES, Mesh
+from .scene import SHAPE_TYPES, Mesh, object_materials
 from .scene import Scene as SceneDescription
 
 #: A triangle's error band in float32 ulps (2⁻²³ relative) of its largest coordinate: how far
@@ -112,7 +112,7 @@ def scene_arrays(scene: SceneDescription) -> SceneArrays:
     before anything is rounded to float32 for Embree."""
     seen: dict[int, Material] = {}
     for o in scene.objects:
-        for m in getattr(o, "materials", [o.material]):  # a mesh's faces may use several
+        for m in object_materials(o):  # a mesh's faces may use several
             seen.setdefault(id(m), m)
     materials = list(seen.values())
     origin = np.asarray(scene.camera.position, dtype=np.float64)
