@@ -104,6 +104,62 @@ def test_a_first_compile_into_a_cache_folder_is_kept_by_the_next_process(tmp_pat
     assert all(f.exists() for f in compiled)
 
 
+RACE_KERNELS = "from raytrace.kernels.jit import kernel\n\n" + "".join(
+    f"@kernel\ndef f{i}(x):\n    return x * 2 + {i}\n\n" for i in range(12)) + \
+    "FUNCS = [" + ", ".join(f"f{i}" for i in range(12)) + "]\n"
+RACE = """
+import sys, time
+from numba.core import caching, event
+save_index = caching.IndexDataCacheFile._save_index
+
+def slow_save_index(self, overloads):  # widens the window a race needs: 50 ms, not ~0.1 ms
+    time.sleep(0.05)
+    save_index(self, overloads)
+
+caching.IndexDataCacheFile._save_index = slow_save_index
+compiles = []
+
+class Count(event.Listener):
+    def on_start(self, e):
+        compiles.append(1)
+
+    def on_end(self, e):
+        pass
+
+event.register("numba:compile", Count())
+import race_kernels
+start, args = float(sys.argv[1]), [eval(a) for a in sys.argv[2:]]
+while time.time() < start:
+    time.sleep(0.001)
+wrong = [(f.__name__, a) for a in args for i, f in enumerate(race_kernels.FUNCS)
+         if f(a) != a * 2 + i]
+print(len(compiles), wrong)
+"""
+
+
+def test_processes_compiling_side_by_side_leave_every_entry_in_the_cache(tmp_path):
+    # Two processes compile the same 12 kernels for different argument types into one cache
+    # folder at once (numba's index write slowed to 50 ms in both, so their saves overlap):
+    # a third process then finds all 24 machine codes there, each the right one. numba's own
+    # cache lost about a quarter of the entries to the race (one process's index write
+    # dropping the other's entry), so the third process compiled them again.
+    (tmp_path / "race_kernels.py").write_text(RACE_KERNELS)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(PACKAGE.parent)])}
+    env.pop("NUMBA_CACHE_DIR", None)
+
+    def run(start: float, *args: str) -> subprocess.Popen:
+        return subprocess.Popen([sys.executable, "-c", RACE, str(start), *args], env=env,
+                                cwd=tmp_path, stdout=subprocess.PIPE, text=True)
+
+    start = time.time() + 3.0  # both imported numba and the kernels by then
+    both = [run(start, "3"), run(start, "1.5")]
+    outputs = [p.communicate(timeout=120)[0].split(maxsplit=1) for p in both]
+    assert [o[1].strip() for o in outputs] == ["[]", "[]"]
+    assert [o[0] for o in outputs] == ["12", "12"]  # each compiled its own signatures
+    third = run(0.0, "3", "1.5").communicate(timeout=120)[0].split(maxsplit=1)
+    assert third == ["0", "[]\n"]  # both processes' 24 entries loaded, each right
+
+
 # -- the compile notice: numba's compile events, said while they run ------------------------
 COMPILED = re.compile(r"raytrace: compiled kernels in \d+\.\d s")
 

@@ -19,7 +19,15 @@ files of the kernel modules are deleted and the kernels compile afresh (STUMPY's
 does the same by hand). The hash also covers the installed embreex and the Embree library it
 ships (:func:`engine_stamp`): the traversal kernels are compiled against Embree's struct
 layouts, so code compiled beside another Embree never loads. Reading and hashing the sources
-costs about a millisecond.
+costs about a millisecond. numpy's version is hashed too: numba's cache keys its files on numba's
+version and the CPU, not on the numpy whose functions it compiled in.
+
+**Side by side.** Processes that compile into one cache folder at once (``raytrace warmup``'s
+workers, two renders, pytest-xdist) never leave it wrong: numba saves an entry as read the
+index, add the entry, write the index, write the data, so two processes adding signatures of
+one kernel at once lose one's entry, or pair one's index with the other's data file
+(``numba.core.caching.IndexDataCacheFile.save``). :class:`LockedCacheFile` holds an exclusive
+``flock`` on a lock file beside the index for the whole save and a shared one while loading.
 """
 
 from __future__ import annotations
@@ -29,17 +37,80 @@ import importlib.util
 import os
 import re
 import tempfile
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numba
+import numpy as np
+from numba.core import caching
+from numba.core.dispatcher import Dispatcher
+
+try:
+    import fcntl
+except ImportError:  # not POSIX: numba's own unlocked cache
+    fcntl = None
+
+
+class LockedCacheFile(caching.IndexDataCacheFile):
+    """numba's index and data files of one kernel, each save whole: an exclusive ``flock`` on
+    ``<index>.lock`` from reading the index to writing the data, a shared one while loading.
+    Where the lock file cannot be made (a read-only folder, where numba saves nothing either)
+    it reads as numba does."""
+
+    @contextmanager
+    def _locked(self, how: int) -> Iterator[None]:
+        fd = None
+        if fcntl is not None:
+            try:
+                fd = os.open(self._index_path + ".lock", os.O_RDWR | os.O_CREAT, 0o666)
+                fcntl.flock(fd, how)
+            except OSError:
+                if fd is not None:
+                    os.close(fd)
+                fd = None
+        try:
+            yield
+        finally:
+            if fd is not None:
+                os.close(fd)  # releases the lock
+
+    def save(self, key, data):
+        with self._locked(fcntl.LOCK_EX if fcntl else 0):
+            super().save(key, data)
+
+    def load(self, key):
+        with self._locked(fcntl.LOCK_SH if fcntl else 0):
+            return super().load(key)
+
+
+class LockedCache(caching.FunctionCache):
+    """numba's cache of one kernel (``cache=True``) through :class:`LockedCacheFile`."""
+
+    def __init__(self, py_func: Callable):
+        super().__init__(py_func)
+        self._cache_file = LockedCacheFile(self._cache_path, self._impl.filename_base,
+                                           self._impl.locator.get_source_stamp())
+
+
+def _cached(**options) -> Callable[[Callable], Dispatcher]:
+    """A decorator compiling with ``options`` and caching through :class:`LockedCache`
+    (what ``cache=True`` does, with numba's ``FunctionCache``)."""
+    compile_ = numba.njit(nogil=True, fastmath=False, error_model="numpy", **options)
+
+    def decorate(fn: Callable) -> Dispatcher:
+        dispatcher = compile_(fn)
+        dispatcher._cache = LockedCache(dispatcher.py_func)  # Dispatcher.enable_caching's slot
+        return dispatcher
+    return decorate
+
 
 #: Decorator for every kernel.
-kernel = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
+kernel = _cached()
 #: Decorator for a small dispatcher that must vanish into its callers (numba inlines it in
 #: its own IR, before LLVM: ``accel_kernels.shape_t`` called as a kernel cost 50 % more per
 #: analytic query, 33.8 against 22.7 ns a ray on the Whitted scene).
-inline = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy",
-                    inline="always")
+inline = _cached(inline="always")
 
 
 PACKAGE = Path(__file__).resolve().parent
@@ -84,9 +155,9 @@ def engine_stamp() -> str:
 
 
 def source_hash(modules: list[Path]) -> str:
-    """SHA-256 of numba's version, the Embree this install calls (:func:`engine_stamp`) and
-    every module's path and source."""
-    h = hashlib.sha256(numba.__version__.encode() + b"\0" + engine_stamp().encode())
+    """SHA-256 of numba's and numpy's versions, the Embree this install calls
+    (:func:`engine_stamp`) and every module's path and source."""
+    h = hashlib.sha256(f"{numba.__version__}\0{np.__version__}\0{engine_stamp()}".encode())
     for path in modules:
         h.update(str(path.relative_to(PACKAGE)).encode() + b"\0" + path.read_bytes() + b"\0")
     return h.hexdigest()
