@@ -19,6 +19,7 @@
     raytrace compare TEST.exr REFERENCE.exr [--metric rmse|mae|max|relmse|psnr|flip]
                      [--threshold T] [--diff DIFF.png] [--json]
     raytrace materials
+    raytrace warmup [SCENE ...] [--jobs N] [--quiet]
     raytrace --version
 
 Exit status (docs/scene_format.md, "Exit status", has the same table)::
@@ -222,6 +223,15 @@ def _parser() -> argparse.ArgumentParser:
                    help="print the whole report (every metric, worst pixels) as JSON")
 
     sub.add_parser("materials", help="list the named materials of the library")
+
+    w = sub.add_parser("warmup", help="compile the kernels scenes use before their first "
+                                      "render, several scenes at a time")
+    w.add_argument("scenes", nargs="*", metavar="SCENE",
+                   help="scene or model files (default: the scenes shipped with raytrace)")
+    w.add_argument("--jobs", type=int, help="scenes rendered at a time, each in a process of "
+                                            "its own (default: the CPUs)")
+    w.add_argument("-q", "--quiet", action="store_true",
+                   help="no progress bar and no table; errors only")
     return p
 
 
@@ -795,6 +805,34 @@ def _materials(args: argparse.Namespace) -> int:
     return 0
 
 
+def _warmup(args: argparse.Namespace) -> int:
+    from .warmup import SIZE, shipped_folder, shipped_scenes, warmup
+
+    if args.jobs is not None and args.jobs < 1:
+        raise SceneError(f"must be at least 1, got {args.jobs}", "--jobs")
+    scenes = [Path(s) for s in args.scenes] or shipped_scenes()
+    if not scenes:
+        raise SceneError(f"no SCENE given, and this install ships none ({shipped_folder()} "
+                         "is not there)", "warmup")
+    progress = Progress(not args.quiet, "scenes")
+    t0 = time.perf_counter()
+    with progress.showing(compiles=False) as report:
+        warmed = warmup(scenes, args.jobs, report)
+    failed = [w for w in warmed if w.error]
+    if not args.quiet:
+        width = max(len(str(w.scene)) for w in warmed)
+        print(f"{'scene':{width}s}  seconds  compiling  ({SIZE[0]}x{SIZE[1]}, "
+              f"a process each)")
+        for w in warmed:
+            print(f"{str(w.scene):{width}s}  {w.seconds:7.1f}  {w.compile_seconds:9.1f}"
+                  f"{'  failed' if w.error else ''}")
+        print(f"warmed {len(warmed) - len(failed)} of {len(warmed)} scenes in "
+              f"{time.perf_counter() - t0:.1f} s")
+    for w in failed:
+        print(f"raytrace: error: {w.error}", file=sys.stderr)
+    return max((w.status for w in failed), default=EXIT_DONE)  # 3 (the engine) over 2
+
+
 def _frames_written(args: argparse.Namespace) -> str:
     """With ``--frames``, the frames written before a failure (each complete, and skipped
     by a rerun): `` (written before it: frames 1-3, ...)``, or ``""`` when none was."""
@@ -812,7 +850,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args.written = []  # frames of a sequence written so far (each is written atomically)
     args.frames_written = []  # and their numbers
     handler = {"render": _render, "explain": _explain, "compare": _compare,
-               "materials": _materials}[args.command]
+               "materials": _materials, "warmup": _warmup}[args.command]
     with Outputs() as args.outputs:  # all or nothing (outputs.py); temporary files removed
         try:
             return handler(args)
