@@ -412,7 +412,7 @@ def table(results: dict, baseline: str | None) -> str:
             if name == "jobs":
                 continue
             row(f"raytrace warmup, shipped scenes, {name}, wall s", w["wall"])
-            row(f"  then Whitted 64x48, fresh process, wall s", w["render_after"]["wall"])
+            row("  then Whitted 64x48, fresh process, wall s", w["render_after"]["wall"])
     if "cold" in results:
         for name, r in results["cold"].items():
             base_key = name.replace("current", baseline) if baseline else None
