@@ -26,7 +26,7 @@ LAZY_BOUNDARIES = {"raytrace", "raytrace.cli"}
 #: What a compiled kernel module may import besides its own folder.
 KERNEL_IMPORTS = {"__future__", "math", "numpy", "numba", "llvmlite", "hashlib", "importlib",
                   "os", "re", "sys", "tempfile", "threading", "collections", "contextlib",
-                  "pathlib", "typing", "time"}
+                  "pathlib", "typing", "time", "fcntl"}
 
 
 def module_name(path: Path) -> str:
