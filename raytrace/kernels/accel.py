@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from .core import FLAT
-from .jit import inline, kernel
+from .jit import helper, inline, kernel
 from .kinds import NO_SHAPE
 from .records import (
     Ray,
@@ -91,7 +91,7 @@ SPHERE, PLANE, DISK = SHAPE_KINDS.values()
 ROW = 8
 
 
-@kernel
+@helper
 def sphere_t(ray, row, extent, on_it, spawned):
     """Ray parameter of the hit of one ray with one sphere (inf on a miss), float64.
 
@@ -144,7 +144,7 @@ def sphere_t(ray, row, extent, on_it, spawned):
     return math.inf
 
 
-@kernel
+@helper
 def sphere_surface(row, p):
     """The point ``p`` (a 3-tuple) snapped onto the sphere of ``row``, ``c + r·n``, and its
     unit outward normal ``n``, the normalised radial vector, as a 6-tuple."""
@@ -157,7 +157,7 @@ def sphere_surface(row, p):
     return cx + r * rx, cy + r * ry, cz + r * rz, rx, ry, rz
 
 
-@kernel
+@helper
 def plane_t(ray, row, extent, on_it, spawned):
     """Ray parameter of the hit of one ray with one plane (inf on a miss): ``(p − o)·n / d·n``.
 
@@ -184,7 +184,7 @@ def plane_t(ray, row, extent, on_it, spawned):
     return math.inf
 
 
-@kernel
+@helper
 def plane_surface(row, p):
     """The point ``p`` moved onto the plane of ``row`` along its normal by its signed
     distance, and the plane's unit normal, as a 6-tuple."""
@@ -195,7 +195,7 @@ def plane_surface(row, p):
     return x - off * nx, y - off * ny, z - off * nz, nx, ny, nz
 
 
-@kernel
+@helper
 def disk_t(ray, row, extent, on_it, spawned):
     """Ray parameter of the hit of one ray with one disk (inf on a miss): its plane's hit
     (:func:`plane_t`, with its rules for a ray leaving it or starting on it) where that point
@@ -216,7 +216,7 @@ def disk_t(ray, row, extent, on_it, spawned):
     return math.inf
 
 
-@kernel
+@helper
 def disk_surface(row, p):
     """The point ``p`` snapped onto the disk of ``row`` and its unit normal, as a 6-tuple:
     its plane's (:func:`plane_surface`; a disk's row begins with its plane's)."""

@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 
 from .core import camera_uniform, pixel_offset
-from .jit import kernel
+from .jit import helper, kernel
 
 
 @kernel
@@ -23,7 +23,7 @@ def offset_rows(spp, k, seed, sample, sx, sy):
         sx[i], sy[i] = pixel_offset(spp, k, seed, sample[i], sample[i] % spp)
 
 
-@kernel
+@helper
 def direction1(x, y, pinhole):
     """The unit direction through image position (x, y) (pixels, (0, 0) the frame's top-left
     corner) of the frame of ``pinhole`` (a :class:`raytrace.kernels.records.Pinhole`: W × H

@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from .jit import kernel
+from .jit import helper, kernel
 from .kinds import DIELECTRIC, FAST_PHONG, FLAT, GOURAUD, NO_FRESNEL, SCHLICK, SMOOTH  # noqa: F401
 from .records import TEX_HEIGHT, TEX_OFFSET, TEX_WIDTH, TEX_WRAP_S, TEX_WRAP_T, SpawnPoint
 
@@ -52,7 +52,7 @@ WHOLE_POWER_MAX = 65536.0
 
 
 # -- hashing --------------------------------------------------------------------------------
-@kernel
+@helper
 def finalize64(z):
     """SplitMix64's finalizer of a uint64 ``z`` (Steele, Lea & Flood, "Fast splittable
     pseudorandom number generators", 2014): a bijection that mixes every input bit into
@@ -62,13 +62,13 @@ def finalize64(z):
     return z ^ (z >> _S31)
 
 
-@kernel
+@helper
 def mix64(z):
     """:func:`finalize64` of a uint64 ``z`` as a uniform float in [0, 1): its top 53 bits."""
     return float(finalize64(z) >> _S11) * 2.0**-53
 
 
-@kernel
+@helper
 def path_key1(key, origin_bits, direction_bits):
     """The jitter key of a secondary ray's hits: its camera sample's ``key`` (≥ 0) hashed
     with the bit patterns (3-tuples of uint64) of the ray's origin and direction, which
@@ -83,14 +83,14 @@ def path_key1(key, origin_bits, direction_bits):
     return np.int64(z >> np.uint64(1))
 
 
-@kernel
+@helper
 def camera_uniform(seed, index, stream):
     """A uniform float in [0, 1) for camera sample ``index`` (global), ``stream`` 0 or 1 (x or
     y) and the render's ``seed``: :func:`mix64` of ``(2·index + stream)·M1 + seed·M3``."""
     return mix64((np.uint64(index) * _TWO + np.uint64(stream)) * M1 + np.uint64(seed) * M3)
 
 
-@kernel
+@helper
 def light_word(key, stream, depth):
     """The draw of a jittered area light at one hit, a 63-bit int64 ≥ 0: :func:`finalize64`
     of ``key·M1 + stream·M3 + depth·M2`` (``key`` the hit's global camera sample, or
@@ -101,7 +101,7 @@ def light_word(key, stream, depth):
                                + np.uint64(depth) * M2) >> np.uint64(1))
 
 
-@kernel
+@helper
 def light_uniform(word):
     """Two uniform floats (w₁, w₂) in [0, 1) from a :func:`light_word`: its top 31 bits times
     2⁻³¹ and its bottom 32 bits times 2⁻³²."""
@@ -116,7 +116,7 @@ def light_words(key, stream, depth, out):
 
 
 # -- the camera -----------------------------------------------------------------------------
-@kernel
+@helper
 def pixel_offset(spp, k, seed, sample, cell):
     """Position (sx, sy) in [0, 1)² inside its pixel of global sample ``sample``, the
     ``cell``-th (``sample mod spp``) of its pixel: the centre for spp = 1, jittered in cell
@@ -132,14 +132,14 @@ def pixel_offset(spp, k, seed, sample, cell):
 
 
 # -- optics ---------------------------------------------------------------------------------
-@kernel
+@helper
 def reflect3(dx, dy, dz, nx, ny, nz):
     """Mirror direction ``r = d − 2(d·n)n`` (law of reflection)."""
     k = 2.0 * (dx * nx + dy * ny + dz * nz)
     return dx - k * nx, dy - k * ny, dz - k * nz
 
 
-@kernel
+@helper
 def refract3(dx, dy, dz, nx, ny, nz, eta):
     """Snell refraction ``η₁ sin θ₁ = η₂ sin θ₂`` with ``eta = η₁/η₂`` of a unit ``d`` at the
     unit normal ``n``; returns ``(tx, ty, tz, tir)``.
@@ -180,7 +180,7 @@ def fresnel1(cos_i, eta):
     return 0.5 * (rs * rs + rp * rp)
 
 
-@kernel
+@helper
 def fresnel_weights1(model, cos_i, eta, kr, kt):
     """kr and kt (3-tuples) weighted for the angle of incidence by ``model``:
     NO_FRESNEL leaves them; SCHLICK gives ``kr + (1 − kr)(1 − cos θ)⁵`` (Schlick 1994 with
@@ -199,14 +199,14 @@ def fresnel_weights1(model, cos_i, eta, kr, kt):
 
 
 # -- surfaces -------------------------------------------------------------------------------
-@kernel
+@helper
 def facing1(gx, gy, gz, dx, dy, dz):
     """+1 where the geometric normal faces the viewer (``N_g·(−d) >= 0``), else −1: surfaces
     are two-sided, normals turn to the side the ray comes from."""
     return -1.0 if gx * -dx + gy * -dy + gz * -dz < 0.0 else 1.0
 
 
-@kernel
+@helper
 def leave1(at, d):
     """Start of a ray leaving a surface point along ``d`` (a 3-tuple): ``at.offset`` off the
     surface along the geometric normal, on the side it leaves on (the sign of ``d·N_g``, +1
@@ -224,7 +224,7 @@ def leave1(at, d):
 
 
 # -- powers ---------------------------------------------------------------------------------
-@kernel
+@helper
 def is_whole1(n):
     """True where ``n`` is a whole number in ``[1, WHOLE_POWER_MAX]``: the exponents
     :func:`whole_power1` takes."""
@@ -259,7 +259,7 @@ def whole_power1(c, n):
     return result
 
 
-@kernel
+@helper
 def checker1(x, y, z, scale):
     """1 where ``floor(x/s + 1e-4) + floor(y/s + 1e-4) + floor(z/s + 1e-4)`` is odd, else 0
     (SCENE_FORMAT.md; :data:`CHECKER_BIAS`). Parity is taken on the float sum, so it is even
@@ -270,7 +270,7 @@ def checker1(x, y, z, scale):
     return 1 if half - math.floor(half) == 0.5 else 0
 
 
-@kernel
+@helper
 def wrap1(i, n, mode):
     """Texel index ``i`` of a row of ``n`` wrapped by ``mode`` (``raytrace.readers.texture.WRAPS``):
     0 repeat (i mod n), 1 clamp to the edge, 2 mirrored repeat (period 2n)."""
@@ -288,7 +288,7 @@ def wrap1(i, n, mode):
 RED, GREEN, BLUE, ALPHA = (np.int64(c) for c in range(4))
 
 
-@kernel
+@helper
 def bilinear1(texels, info, q, s, t, channel):
     """Channel ``channel`` (0 … 3: R, G, B, A) of texture ``q`` bilinearly filtered at (s, t):
     with ``x = s·W − ½``, ``y = t·H − ½``, the four texels around (x, y) weighted by their
@@ -308,14 +308,14 @@ def bilinear1(texels, info, q, s, t, channel):
         (1.0 - ax) * texels[c] + ax * texels[d])
 
 
-@kernel
+@helper
 def texture1(texels, info, q, s, t):
     """The RGB of texture ``q`` at (s, t), each channel by :func:`bilinear1`."""
     return (bilinear1(texels, info, q, s, t, RED), bilinear1(texels, info, q, s, t, GREEN),
             bilinear1(texels, info, q, s, t, BLUE))
 
 
-@kernel
+@helper
 def taylor1(table, row, first, u, v):
     """The second-order polynomial in columns ``first … first + 5`` of row ``row`` of
     ``table`` at barycentrics (u, v): ``T₀ + du·(T₁ + T₃·du + T₄·dv) + dv·(T₂ + T₅·dv)`` with

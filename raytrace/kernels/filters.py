@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 from .core import pixel_offset
-from .jit import kernel
+from .jit import helper, kernel
 from .kinds import BOX, GAUSSIAN, TENT
 
 #: Gaussian's standard deviation (pbrt-v4's default), in pixels.
@@ -16,7 +16,7 @@ SIGMA = 0.5
 B, C = 1.0 / 3.0, 1.0 / 3.0
 
 
-@kernel
+@helper
 def profile1(code, radius, x):
     """The 1-D profile ``f(x)`` of filter ``code`` with ``radius``, 0 outside ``[−r, r]``
     (module docstring; Mitchell & Netravali 1988, eq. 8, scaled by 2/r)."""

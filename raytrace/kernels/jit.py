@@ -111,6 +111,14 @@ kernel = _cached()
 #: its own IR, before LLVM: ``accel_kernels.shape_t`` called as a kernel cost 50 % more per
 #: analytic query, 33.8 against 22.7 ns a ray on the Whitted scene).
 inline = _cached(inline="always")
+#: Decorator for a per-ray helper that only other kernels call: compiled without the wrappers
+#: that let Python (and C) call it, so its first compile lowers and emits less machine code
+#: (a matte scene's first render, 44 helpers: 14.8–14.9 s of CPU against 16.7–16.8 s;
+#: docs/performance.md, "Cold compile"). LLVM links and inlines it into its callers exactly
+#: as a :data:`kernel`. Calling one from Python raises numba's error; a test that checks a
+#: helper against hand-worked values calls it through a kernel, or the helper stays a
+#: :data:`kernel`.
+helper = _cached(no_cpython_wrapper=True, no_cfunc_wrapper=True)
 
 
 PACKAGE = Path(__file__).resolve().parent
@@ -119,12 +127,13 @@ STAMP = "raytrace-kernels.sha256"
 
 
 #: An import of a decorator of this module, the mark of a module that compiles kernels.
-_DECORATORS = re.compile(r"^from \.jit import .*\b(kernel|inline)\b", re.MULTILINE)
+_DECORATORS = re.compile(r"^from \.jit import .*\b(helper|inline|kernel)\b", re.MULTILINE)
 
 
 def kernel_modules() -> list[Path]:
     """The package's modules that compile kernels: every ``.py`` file that imports from this
-    one (:data:`kernel`, :data:`inline`; this one excluded), in a fixed order."""
+    one (:data:`kernel`, :data:`inline`, :data:`helper`; this one excluded), in a fixed
+    order."""
     return sorted(p for p in PACKAGE.rglob("*.py") if p != Path(__file__).resolve()
                   and _DECORATORS.search(p.read_text("utf-8")))
 

@@ -39,7 +39,7 @@ from . import core
 from . import embree as ek
 from . import rays as rk
 from . import shading as sk
-from .jit import kernel
+from .jit import helper, kernel
 from .kinds import NO_SHAPE, PRUNED, REFLECTION, REFRACTION, SEE_THROUGH
 from .records import (
     EMITTER_FIELDS,
@@ -101,7 +101,7 @@ def now(settings, timespec):
     return timespec[0] + 1e-9 * timespec[1]
 
 
-@kernel
+@helper
 def emitter_at(table, e):
     """Emitter ``e`` of ``table.rows`` (a :class:`raytrace.kernels.records.LightTable`) as
     the light pass takes it (:class:`raytrace.kernels.records.Emitter`: its row is the record's
@@ -371,7 +371,7 @@ def _direct_lighting(tracer, lights, settings, rays, depth, pass_io, surf, tally
     return out
 
 
-@kernel
+@helper
 def spawn(rays, surf, children):
     """The children whose status is KEEP, reflected then refracted then see-through, each in
     hit order (``WhittedIntegrator._spawn``): a new batch of rays."""
@@ -386,7 +386,7 @@ def spawn(rays, surf, children):
     return Rays(out.origin, out.direction, out.sample, out.weight, out.shape, out.kind)
 
 
-@kernel
+@helper
 def trace_depth(tracer, lights, settings, rays, depth, pass_io, tally):
     """One depth of a batch: intersect, add the background of the misses and the local terms
     of the hits into ``pass_io``'s sums, return the next depth's rays

@@ -27,7 +27,7 @@ from numba.core import types
 from numba.extending import overload
 
 from .core import ALPHA, bilinear1, checker1, texture1
-from .jit import inline, kernel
+from .jit import helper, inline
 from .records import (
     CHECKER_COLOR0,
     CHECKER_COLOR1,
@@ -143,7 +143,7 @@ def _alpha1(alphas, m, hit, constant):
     return alpha
 
 
-@kernel
+@helper
 def color1(palette, m, slot, x, y, z):
     """Colour ``slot`` (KA … KE) of material ``m`` at the world point (x, y, z): its constant
     or its checker pattern there, colour 0 or colour 1 by :func:`checker1`'s parity
@@ -158,7 +158,7 @@ def color1(palette, m, slot, x, y, z):
     return checkers[p, c], checkers[p, c + 1], checkers[p, c + 2]
 
 
-@kernel
+@helper
 def opacity1(constant, cut, image, st):
     """Opacity of a material with an alpha texture at texture coordinates ``st``: its
     ``constant`` times the texture's alpha (glTF BLEND), or 1 / 0 by the alpha cutoff (MASK;
@@ -171,7 +171,7 @@ def opacity1(constant, cut, image, st):
     return a
 
 
-@kernel
+@helper
 def texcoord1(tc, tri, u, v):
     """The texture coordinates (s, t) at barycentrics (u, v) of triangle ``tri``,
     ``(1 − u − v)·st₀ + u·st₁ + v·st₂`` from its corners' ``tc`` (T, 3, 2); (0, 0) off a

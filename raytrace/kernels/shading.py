@@ -48,7 +48,7 @@ from .core import (
     taylor1,
     whole_power1,
 )
-from .jit import kernel
+from .jit import helper, kernel
 from .kinds import (  # noqa: F401  (the codes, as this module's names)
     BLINN,
     DIRECTIONAL,
@@ -133,7 +133,7 @@ def incidence1(p, em, word):
 
 
 # -- highlights and the local model -----------------------------------------------------------
-@kernel
+@helper
 def cosine_power1(a, b, n):
     """``max(a·b, 0)^n`` for unit vectors as ``exp(n·log1p(−h))`` with ``h = 1 − a·b`` taken
     as ``|a − b|²/2`` (no cancellation near a·b = 1, so n = 1e8 still falls off right);
@@ -156,7 +156,7 @@ def cosine_power1(a, b, n):
     return math.exp(n * math.log1p(-h))
 
 
-@kernel
+@helper
 def phong1(normal, light, view, n):
     """Phong's ``(V·R)^n``, ``R = 2(N·L)N − L`` normalised (Phong 1975); N, L, V unit
     3-tuples."""
@@ -168,7 +168,7 @@ def phong1(normal, light, view, n):
     return cosine_power1(view, (rx / length, ry / length, rz / length), n)
 
 
-@kernel
+@helper
 def blinn1(normal, light, view, n):
     """Blinn's ``(N·H)^n``, ``H = (L + V)/|L + V|`` (Blinn 1977); 0 where L = −V. N, L, V
     unit 3-tuples."""
@@ -181,7 +181,7 @@ def blinn1(normal, light, view, n):
     return cosine_power1(normal, (hx / length, hy / length, hz / length), n)
 
 
-@kernel
+@helper
 def highlight1(model, normal, light, view, n):
     """The highlight ``spec`` of model code ``model`` (PHONG or BLINN)."""
     if model == BLINN:
@@ -189,7 +189,7 @@ def highlight1(model, normal, light, view, n):
     return phong1(normal, light, view, n)
 
 
-@kernel
+@helper
 def direct1(normal, light, view, finish):
     """``kd·max(N·L, 0) + ks·spec`` per channel for the colours ``kd``, ``ks`` of ``finish``
     (a :class:`raytrace.kernels.records.Finish`, with the highlight's model and exponent n);
@@ -237,7 +237,7 @@ def bulge1(p, hit, smooth):
     return px + dx, py + dy, pz + dz
 
 
-@kernel
+@helper
 def gouraud1(hit, eye, smooth, em, word, finish):
     """Seed 000's Gouraud shading at a hit on triangle ``tri`` (barycentrics ``1 − (u + v)``,
     ``u``, ``v``): the unshadowed ``f·[kd·max(N·L, 0) + ks·spec]`` of one emitter ``em``
@@ -267,7 +267,7 @@ def gouraud1(hit, eye, smooth, em, word, finish):
     return r, g, b
 
 
-@kernel
+@helper
 def fast_phong1(table, hit, finish):
     """Bishop & Weimer's fast Phong shading (1986) at barycentrics (u, v) of triangle ``tri``
     seen from side ``s`` (``hit``: a :class:`raytrace.kernels.records.MeshHit`):
@@ -606,7 +606,7 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children):
             status[i, 2] = _status((w_s[i, 0], w_s[i, 1], w_s[i, 2]), min_weight)
 
 
-@kernel
+@helper
 def _status(w, min_weight):
     """NONE, PRUNED or KEEP for a child of weight ``w`` (3,) (its largest channel, NaN
     propagating like numpy's max). ``w`` is a tuple: a row of an array would cost a
