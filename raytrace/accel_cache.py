@@ -20,8 +20,8 @@ a 0.2 s build): the camera position (the accelerator is camera-relative, docs/ar
 rebuilds, and every image stays bit-identical to a render in a fresh process), and each
 object in order: its kind, its geometry (an analytic shape's table row, ``row(origin)``, so a
 new shape type is hashed by what it registers; a mesh's world-space vertices and faces,
-shading, texture coordinates, per-face materials) and its materials' places in the render's
-material table. A material's colours,
+shading, texture coordinates, file normals, per-face materials) and its materials' places
+in the render's material table. A material's colours,
 the lights, the camera's direction and field of view and every render setting are not part of
 it. A mesh's ``translate``, ``rotate`` and ``scale`` are applied when the ``Mesh`` is made; its
 ``vertices`` are what is rendered and what is hashed. Hashing the bytes rather than counting
@@ -78,7 +78,7 @@ def fingerprint(scene: Scene, materials: list) -> bytes:
         h.update(type(o).__name__.encode())
         if isinstance(o, Mesh):
             h.update(o.shading.encode())
-            add(o.vertices, o.faces, o.texcoords, o.face_material, o.degenerate,
+            add(o.vertices, o.faces, o.texcoords, o.normals, o.face_material, o.degenerate,
                 [index[id(m)] for m in o.materials])
         else:  # an analytic shape: its table row, as the stage makes it (tables.shape_tables)
             add(pack_row(o.type, o.row(origin)), index[id(o.material)])

@@ -20,9 +20,11 @@ from . import values
 from .errors import SceneError
 from .lights import LIGHT_TYPES, AreaLight, DirectionalLight, PointLight, SpotLight  # noqa: F401
 from .material import Material, library, material_from_table
+from .readers.asset import GLTF_SUFFIXES
 from .readers.assets import load_with_materials
+from .readers.gltf import load_gltf
 from .readers.inputs import input_file
-from .readers.meshio import read_mesh
+from .readers.meshio import MeshFile, merge_vertices, read_mesh
 from .sampling import check_aa, check_filter
 
 #: Largest accepted image, in pixels (the float32 image alone is 12 bytes a pixel).
@@ -188,7 +190,9 @@ class Disk(values.Checked):
 SHAPE_TYPES = {"sphere": Sphere, "plane": Plane, "disk": Disk}
 
 
-SHADINGS = ("flat", "smooth", "gouraud", "fast_phong")
+#: ``shading`` names; "file": the normals the mesh file gives, interpolated as "smooth" (the
+#: default where the file gives normals, "flat" where it gives none).
+SHADINGS = ("flat", "smooth", "gouraud", "fast_phong", "file")
 #: ``material = "from_file"``: a mesh file's own materials (OBJ + MTL, glTF), per face.
 FROM_FILE = "from_file"
 
@@ -212,14 +216,16 @@ class Mesh(values.Checked):
     scale → rotate → translate. Faces with zero area are dropped (and counted in the stats).
 
     After construction ``vertices`` (float64, world space, transformed) and ``faces`` (int64)
-    hold the triangles; ``degenerate`` counts the dropped faces.
+    hold the triangles; ``degenerate`` counts the dropped faces; ``normals`` the normals the
+    file gives (OBJ ``vn``, glTF ``NORMAL``, PLY ``nx ny nz``) per face corner, and
+    ``shading``, unless given, is ``"file"`` where the file gives normals, else ``"flat"``.
     """
 
     file: Any = None
     vertices: Any = None
     faces: Any = None
     mesh: Any = None
-    shading: str = "flat"
+    shading: Any = None
     translate: Any = (0.0, 0.0, 0.0)
     rotate: Any = (0.0, 0.0, 0.0)
     scale: Any = 1.0
@@ -231,6 +237,9 @@ class Mesh(values.Checked):
     file_materials: list = field(default_factory=list, init=False, repr=False)
     face_material: Any = field(default=None, init=False, repr=False)
     texcoords: Any = field(default=None, init=False, repr=False)
+    #: (F, 3, 3) unit world-space normals per face corner, as the file gives them (None where
+    #: it gives none; a corner without one: zeros, shaded with its face's normal).
+    normals: Any = field(default=None, init=False, repr=False)
     sources: tuple = field(default=(), init=False, repr=False)
     #: What the vertices were made from (file, mesh, and translate, rotate, scale as a 3×3
     #: array), for :meth:`check` to refuse a change of them that would not be seen.
@@ -259,7 +268,7 @@ class Mesh(values.Checked):
         if from_file:
             verts, faces = self._load_with_materials(Path(self.file))
         elif self.file is not None:
-            verts, faces, self.texcoords = _load_mesh_file(Path(self.file))
+            verts, faces, self.texcoords, self.normals = _load_mesh_file(Path(self.file))
         elif self.mesh is not None:
             verts, faces = _from_trimesh(self.mesh, "mesh")
         else:
@@ -286,6 +295,8 @@ class Mesh(values.Checked):
             faces = faces[:, ::-1]
             if self.texcoords is not None:
                 self.texcoords = self.texcoords[:, ::-1]
+            if self.normals is not None:
+                self.normals = self.normals[:, ::-1]
         keep = _nonzero_area(world, faces)
         self.degenerate = int((~keep).sum())
         if not keep.any():
@@ -295,6 +306,8 @@ class Mesh(values.Checked):
             self.face_material = self.face_material[keep]
         if self.texcoords is not None:
             self.texcoords = np.ascontiguousarray(self.texcoords[keep])
+        if self.normals is not None:
+            self.normals = world_normals(self.normals[keep], rotate, scale, self.file)
         self.check()
 
     def check(self) -> None:
@@ -321,12 +334,18 @@ class Mesh(values.Checked):
                 raise SceneError(f"was applied to the vertices when the mesh was made (then "
                                  f"{made.tolist()}, now {shown!r}); transform the vertices, "
                                  "or make a new Mesh", name)
+        if self.shading is None:  # the file's normals where it gives them (glTF's rule)
+            self.shading = "flat" if self.normals is None else "file"
         self.shading = values.string(self.shading, "shading", SHADINGS)
+        if self.shading == "file" and self.normals is None:
+            raise SceneError("\"file\" needs a mesh file that gives normals (OBJ vn, glTF "
+                             "NORMAL, PLY nx ny nz); this mesh has none", "shading")
         self.vertices, self.faces = _check_arrays(self.vertices, self.faces)
         values.check_length(float(np.ptp(self.vertices, axis=0).max()), "vertices",
                             "the mesh's size (its bounding box's longest side)", longest=False)
         rows = len(self.faces)
-        for name, shape in (("face_material", (rows,)), ("texcoords", (rows, 3, 2))):
+        for name, shape in (("face_material", (rows,)), ("texcoords", (rows, 3, 2)),
+                            ("normals", (rows, 3, 3))):
             if getattr(self, name) is not None and np.shape(getattr(self, name)) != shape:
                 raise SceneError(f"must have the shape {shape} (one row a face), got "
                                  f"{np.shape(getattr(self, name))}", name)
@@ -337,6 +356,7 @@ class Mesh(values.Checked):
         asset = load_with_materials(input_file(path, "mesh file", "file"))
         self.file_materials, self.face_material = asset.materials, asset.face_material
         self.texcoords, self.sources = asset.texcoords, asset.sources
+        self.normals = asset.normals
         self.material = asset.materials[0]
         return asset.vertices, asset.faces
 
@@ -409,10 +429,36 @@ def _from_trimesh(mesh: Any, key: str) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)
 
 
-def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Vertices, faces and, for a single textured mesh, texture coordinates (F, 3, 2): from
-    :func:`raytrace.readers.meshio.read_mesh` where it reads the file, else from trimesh."""
+def world_normals(normals: np.ndarray, rotate: np.ndarray, scale: np.ndarray,
+                  file: Any) -> np.ndarray:
+    """A file's normals (F, 3, 3) in world space, unit: transformed by the inverse transpose
+    of the linear part ``M = R·S`` of the mesh's transform, ``n' = R·S⁻¹·n / |R·S⁻¹·n|``
+    (normals stay perpendicular to the transformed surface; pbrt-v4 ``Transform::operator()
+    (Normal3)``). A zero normal stays zero (its corner is shaded with its face's normal); a
+    non-finite one is refused, naming the file."""
+    n = np.asarray(normals, np.float64)
+    bad = ~np.isfinite(n).all(axis=2)
+    if bad.any():
+        face, corner = np.argwhere(bad)[0]
+        raise SceneError(f"{file}: the normal of face {face + 1}, corner {corner + 1} is not "
+                         f"finite ({n[face, corner].tolist()})", "file")
+    n = (n / scale) @ rotation_matrix(rotate).T
+    length = np.linalg.norm(n, axis=2, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.ascontiguousarray(np.where(length > 0, n / length, 0.0))
+
+
+def _load_mesh_file(path: Path) -> MeshFile:
+    """Vertices, faces and, for a single textured mesh, texture coordinates (F, 3, 2), and the
+    normals the file gives (F, 3, 3): a glTF from :func:`raytrace.readers.gltf.load_gltf`
+    (positions merged as trimesh merges them), binary PLY and OBJ triangles from
+    :func:`raytrace.readers.meshio.read_mesh`, anything else from trimesh
+    (:func:`_trimesh_normals`)."""
     input_file(path, "mesh file", "file")
+    if path.suffix.lower() in GLTF_SUFFIXES:  # raytrace's glTF reader: its NORMALs kept
+        asset = load_gltf(path).asset
+        return MeshFile(*merge_vertices(asset.vertices, asset.faces), asset.texcoords,
+                        asset.normals)
     fast = read_mesh(path)  # binary PLY and OBJ triangles: as trimesh reads and merges them
     if fast is not None:
         return fast
@@ -453,9 +499,20 @@ def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | No
             face, corner = divmod(int(np.argmax(outside)), 3)
             raise SceneError(f"{path}: face {face} names vertex {int(faces[face, corner])}, "
                              f"out of range 0..{len(loaded.vertices) - 1}", "file")
+        normals = _trimesh_normals(loaded)  # per corner, before the merge drops them
         # Merge coincident vertices so smooth shading can average across faces (STL repeats).
         loaded.merge_vertices(merge_tex=True, merge_norm=True)
-    return np.asarray(loaded.vertices, dtype=np.float64), np.asarray(loaded.faces), texcoords
+    return MeshFile(np.asarray(loaded.vertices, dtype=np.float64), np.asarray(loaded.faces),
+                    texcoords, normals)
+
+
+def _trimesh_normals(loaded: Any) -> np.ndarray | None:
+    """The per-corner normals (F, 3, 3) a mesh trimesh loaded was given by its file, or None.
+    trimesh computes ``vertex_normals`` on first access when none were given: only normals a
+    loader stored (in its cache, before anything computed them) are the file's."""
+    if "vertex_normals" not in loaded._cache:
+        return None
+    return np.asarray(loaded.vertex_normals, np.float64)[np.asarray(loaded.faces)]
 
 
 def _check_record(record: Any, key: str | None, path: str | None) -> None:

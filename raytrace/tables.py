@@ -49,8 +49,10 @@ from .scene import Scene as SceneDescription
 #: A triangle's error band in float32 ulps (2⁻²³ relative) of its largest coordinate: how far
 #: along its normal a ray must start for Embree never to report it again (EMBREEX_NOTES.md).
 BAND_ULPS = 3.0
-#: ``Triangles.shading`` of each ``Mesh.shading``.
-SHADING_CODES = {"flat": FLAT, "smooth": SMOOTH, "gouraud": GOURAUD, "fast_phong": FAST_PHONG}
+#: ``Triangles.shading`` of each ``Mesh.shading`` ("file": the file's normals, interpolated
+#: as smooth; see :func:`shading_of`).
+SHADING_CODES = {"flat": FLAT, "smooth": SMOOTH, "gouraud": GOURAUD, "fast_phong": FAST_PHONG,
+                 "file": SMOOTH}
 
 
 class SceneArrays:
@@ -160,11 +162,9 @@ def triangle_tables(meshes: list[Mesh], origin: np.ndarray, index: dict[int, int
     for m, first in zip(meshes, geom_first, strict=True):
         v = np.ascontiguousarray(m.vertices - origin, dtype=np.float64)
         faces = np.ascontiguousarray(m.faces, dtype=np.int64)
-        vn = np.empty_like(v)
-        ak.vertex_normals(v, faces, vn)
         s = slice(first, first + len(faces))
-        ak.triangle_tables(v, faces, vn, BAND_ULPS * 2.0**-23, corners[s], normal[s],
-                           vnormals[s], band[s])
+        shading_of(m, v, faces, Triangles(geom_first, corners[s], normal[s], vnormals[s],
+                                          shading[s], material[s], band[s]))
         relative.append((v, faces))
     # the texture coordinates of every triangle where some mesh's file gives them (image
     # textures and the uv AOV read them; zeros for the faces of a mesh without them)
@@ -174,6 +174,41 @@ def triangle_tables(meshes: list[Mesh], origin: np.ndarray, index: dict[int, int
         else np.zeros((0, 3, 2)))
     return Triangles(geom_first, corners, normal, vnormals, shading, material, band,
                      texcoords), relative
+
+
+def shading_of(mesh: Mesh, v: np.ndarray, faces: np.ndarray, out: Triangles) -> None:
+    """The one place that decides the normals a mesh is shaded with, written with its
+    corners, face normals and error bands into ``out`` (the mesh's rows of the scene's
+    :class:`~raytrace.kernels.records.Triangles`; ``v`` its camera-relative vertices):
+
+    * ``"file"`` (the default where the file gives normals): each corner's normal as the file
+      gives it (:attr:`raytrace.Mesh.normals`, per corner, so split normals stay split), the
+      face normal at a corner without one; interpolated as ``"smooth"`` (Phong 1975). A
+      triangle none of whose corners has one is flat (glTF 2.0 §3.7.2.1: "client
+      implementations MUST calculate flat normals");
+    * ``"smooth"``, ``"gouraud"``, ``"fast_phong"``: the normalised sum of the unit face
+      normals at each vertex (seed 000; ``kernels.accel.vertex_normals``), whatever the file
+      gives;
+    * ``"flat"``: the face normal.
+
+    **Below the surface.** A corner normal that points below its face (``n_k·N_g < 0``, N_g
+    the outward face normal of the winding) is turned over, ``−n_k``: a file whose normals
+    and winding disagree then shades as the normals say, and an interpolated normal
+    ``Σ b_k·n_k`` never points below the face (each term is above it), nor do the normals
+    that Gouraud shading and Hanika's lift read at the corners (docs/shading.md, "Shading
+    normals below the surface").
+    """
+    vn = np.zeros_like(v)  # a zero vertex normal: its corners take the face normal
+    if mesh.shading != "file":
+        ak.vertex_normals(v, faces, vn)
+    ak.triangle_tables(v, faces, vn, BAND_ULPS * 2.0**-23, out.corners, out.normal,
+                       out.vnormals, out.band)
+    if mesh.shading == "file":
+        given = np.any(mesh.normals != 0.0, axis=2)  # (F, 3)
+        out.vnormals[given] = mesh.normals[given]
+        out.shading[~given.any(axis=1)] = FLAT
+    below = np.einsum("fkj,fj->fk", out.vnormals, out.normal) < 0.0
+    out.vnormals[below] *= -1.0
 
 
 class MaterialTable:

@@ -349,11 +349,18 @@ class ReferenceTracer:
             corner_n = vn[f]                                             # (F, 3, 3)
             cancel = (length < NORMAL_FLOOR)[f]                          # rule 4: face normal
             corner_n[cancel] = np.repeat(fn[:, None], 3, axis=1)[cancel]
+            shading = [mesh.shading] * len(f)
+            if mesh.shading == "file":  # the file's normals per corner, the face's where none
+                given = np.any(mesh.normals != 0, axis=2)
+                corner_n = np.where(given[..., None], mesh.normals, fn[:, None])
+                shading = ["file" if g else "flat" for g in given.any(axis=1)]
+            below = np.einsum("fkj,fj->fk", corner_n, fn) < 0    # below its face: turned over
+            corner_n = np.where(below[..., None], -corner_n, corner_n)
             corners.append(tri)
             vnormals.append(corner_n)
             fnormals.append(fn)
             self.tri_materials += [mesh.material] * len(f)
-            self.tri_shading += [mesh.shading] * len(f)
+            self.tri_shading += shading
         self.corners = np.concatenate(corners) if corners else np.zeros((0, 3, 3))
         self.vertex_normals = np.concatenate(vnormals) if vnormals else np.zeros((0, 3, 3))
         self.face_normals = np.concatenate(fnormals) if fnormals else np.zeros((0, 3))

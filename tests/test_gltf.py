@@ -238,3 +238,42 @@ def test_a_glb_of_garbage_is_one_line_with_pygltflibs_note_and_no_paragraphs(tmp
     assert "this file is version 50462976" in str(e.value)
     assert "issue" not in str(e.value)
     assert not recwarn.list
+
+
+def _dome_square(tmp_path, name: str, normals: bool):
+    """The square scaled ×2 along x by its node, with NORMALs tilted outwards at its corners
+    (n_k ∝ (x_k/2, y_k/2, 1) in the file) or none."""
+    corners = np.asarray(SQUARE["positions"], float)
+    mesh = {**SQUARE, "normals": (corners / 2 + [0, 0, 1]) / np.linalg.norm(
+        corners / 2 + [0, 0, 1], axis=1, keepdims=True) if normals else None}
+    return write_gltf(tmp_path / f"{name}.gltf", [{"mesh": 0, "scale": [2, 1, 1]}], [mesh],
+                      MATTE), corners
+
+
+@pytest.mark.parametrize("normals", [True, False])
+def test_gltf_normals_shade_by_the_spec(tmp_path, normals):
+    """With NORMAL, the point of triangle (0, 1, 2) at barycentrics b = (0.2, 0.5, 0.3) shades
+    with N = Σ b_k·n'_k / |…|, n'_k the file's normals through the inverse transpose of the
+    node's matrix, diag(1/2, 1, 1) (∝ (x_k/4, y_k/2, 1)); without, with the flat +z (glTF 2.0
+    §3.7.2.1: "client implementations MUST calculate flat normals"). kd 0.6 (ka = kd),
+    Ia 0.1, one directional light of 1: pixel = 0.06 + 0.6·max(N·L, 0), worked here."""
+    path, corners = _dome_square(tmp_path, "dome", normals)
+    mesh = raytrace.Mesh(file=path, material=raytrace.Material(kd=0.6))
+    assert mesh.shading == ("file" if normals else "flat")
+    own = raytrace.Mesh(file=path, material="from_file")  # the same normals either way
+    np.testing.assert_array_equal(own.normals, mesh.normals)
+    b = np.array([0.2, 0.5, 0.3])
+    world = corners[:3] * [2, 1, 1]
+    p = b @ world
+    n = corners[:3] / 2 + [0, 0, 1]
+    n = n / np.linalg.norm(n, axis=1, keepdims=True) * [0.5, 1, 1]  # inverse transpose
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    normal = b @ n if normals else np.array([0, 0, 1.0])
+    normal /= np.linalg.norm(normal)
+    light = np.array([0.5, -0.3, -1.0]) / np.linalg.norm([0.5, -0.3, -1.0])
+    want = 0.06 + 0.6 * max(-(normal @ light), 0.0)
+    scene = make_scene([mesh], [raytrace.DirectionalLight(light, 1.0)], ambient=0.1,
+                       camera=raytrace.Camera(p + [0.1, 0.2, 3.0], p, fov=10))
+    assert pixel(scene)[0] == pytest.approx(want, rel=1e-5)
+    if normals:  # and the tilt shows: the flat value differs
+        assert abs(want - (0.06 + 0.6 * light[2] * -1)) > 1e-3

@@ -16,29 +16,34 @@ from raytrace.readers import meshio
 
 
 def trimesh_reference(path):
-    """What raytrace.Mesh took from trimesh before meshio: vertices, faces, texcoords."""
+    """What raytrace.Mesh took from trimesh before meshio: vertices, faces, texcoords, and
+    the normals trimesh's loader read from the file, per corner (before the merge)."""
     loaded = trimesh.load(str(path), process=False)
     texcoords = None
     uv = getattr(loaded.visual, "uv", None)
     if uv is not None and len(uv) == len(loaded.vertices):
         texcoords = np.asarray(uv, np.float64)[np.asarray(loaded.faces)] * [1, -1] + [0, 1]
+    normals = None
+    if "vertex_normals" in loaded._cache:  # stored by the loader, not computed
+        normals = np.asarray(loaded.vertex_normals)[np.asarray(loaded.faces)]
     loaded.merge_vertices(merge_tex=True, merge_norm=True)
-    return np.asarray(loaded.vertices, np.float64), np.asarray(loaded.faces), texcoords
+    return np.asarray(loaded.vertices, np.float64), np.asarray(loaded.faces), texcoords, normals
 
 
 def assert_same_as_trimesh(path):
     fast = meshio.read_mesh(path)
     assert fast is not None, "meshio fell back to trimesh"
-    v, f, t = fast
-    rv, rf, rt = trimesh_reference(path)
+    v, f, t, n = fast
+    rv, rf, rt, rn = trimesh_reference(path)
     assert v.dtype == np.float64 and f.dtype == np.int64
     np.testing.assert_array_equal(v, rv)
     np.testing.assert_array_equal(f, rf)
     np.testing.assert_array_equal(vertex_normals(v, f), vertex_normals(rv, rf))
-    if rt is None:
-        assert t is None
-    else:
-        np.testing.assert_array_equal(t, rt)
+    for mine, theirs in ((t, rt), (n, rn)):
+        if theirs is None:
+            assert mine is None
+        else:
+            np.testing.assert_array_equal(mine, theirs)
 
 
 def knot() -> trimesh.Trimesh:
@@ -78,7 +83,7 @@ def test_ply_soup_merges_as_trimesh_does(tmp_path):
     path = tmp_path / "soup.ply"
     trimesh.Trimesh(v, f, process=False).export(path)
     assert_same_as_trimesh(path)
-    got, faces, _ = meshio.read_mesh(path)
+    got, faces, _, _ = meshio.read_mesh(path)
     assert len(got) == len(knot().vertices)  # unreferenced dropped, duplicates merged
 
 
@@ -260,3 +265,64 @@ def test_a_ply_or_obj_mesh_scene_never_imports_trimesh(tmp_path, suffix):
     out = subprocess.run([sys.executable, "-c", code, str(scene)], capture_output=True,
                          text=True, check=True).stdout.split()
     assert out == [str(len(knot().faces)), "False"]
+
+
+def _ply_with_normals(path, encoding: str):
+    """Two triangles over 4 vertices whose ``nx ny nz`` are made-up unit vectors, one a vertex
+    (the shared vertices 0 and 2 give both triangles the same corner normal)."""
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    n = np.array([[0, 0, 1], [0.6, 0, 0.8], [0, 0.6, 0.8], [-0.6, 0, 0.8]], float)
+    f = np.array([[0, 1, 2], [0, 2, 3]])
+    header = (f"ply\nformat {encoding} 1.0\nelement vertex 4\nproperty float x\n"
+              "property float y\nproperty float z\nproperty float nx\nproperty float ny\n"
+              "property float nz\nelement face 2\nproperty list uchar int vertex_indices\n"
+              "end_header\n")
+    if encoding == "ascii":
+        body = "".join(" ".join(map(str, row)) + "\n" for row in np.c_[v, n].tolist())
+        body += "".join(f"3 {a} {b} {c}\n" for a, b, c in f.tolist())
+        path.write_text(header + body)
+    else:
+        rec = np.zeros(2, [("n", "u1"), ("i", "<i4", (3,))])
+        rec["n"], rec["i"] = 3, f
+        path.write_bytes(header.encode() + np.c_[v, n].astype("<f4").tobytes() + rec.tobytes())
+    return n[f]  # (2, 3, 3): each corner its vertex's normal
+
+
+@pytest.mark.parametrize("encoding", ["binary_little_endian", "ascii"])
+def test_ply_normals_are_the_files_per_corner(tmp_path, encoding):
+    # Binary: raytrace's reader; ASCII: trimesh's, whose stored normals are taken before the
+    # merge. Either way each corner has its vertex's nx ny nz exactly (0.6, 0.8 as float32).
+    path = tmp_path / "quad.ply"
+    want = _ply_with_normals(path, encoding)
+    assert (meshio.read_mesh(path) is None) == (encoding == "ascii")
+    mesh = raytrace.Mesh(file=path)
+    assert mesh.shading == "file"
+    np.testing.assert_allclose(mesh.normals, want, rtol=1e-7)
+
+
+def test_normals_trimesh_computes_are_not_the_files(tmp_path):
+    # An ASCII PLY (trimesh's reader) and an STL without vertex normals: trimesh would compute
+    # vertex normals on first access; the mesh takes none and is flat (glTF's rule).
+    ply = tmp_path / "tri.ply"
+    ply.write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y"
+                   "\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices"
+                   "\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+    stl = tmp_path / "tri.stl"
+    trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]]).export(stl)
+    for path in (ply, stl):
+        mesh = raytrace.Mesh(file=path)
+        assert mesh.normals is None and mesh.shading == "flat", path.name
+
+
+def test_obj_split_normals_stay_split_through_the_merge(tmp_path):
+    # Two triangles sharing an edge by position (6 v lines merged to 4 positions), each
+    # triangle's corners naming its own vn: the merged mesh keeps each corner's normal (a
+    # hard edge stays hard).
+    text = ("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 0 0\nv 1 1 0.5\nv 0 1 0\n"
+            "vn 0 0 1\nvn 0 -0.6 0.8\n"
+            "f 1//1 2//1 3//1\nf 4//2 5//2 6//2\n")
+    path = tmp_path / "hinge.obj"
+    path.write_text(text)
+    got = meshio.read_mesh(path)
+    assert len(got.vertices) == 4
+    np.testing.assert_array_equal(got.normals, [[[0, 0, 1]] * 3, [[0, -0.6, 0.8]] * 3])

@@ -243,3 +243,22 @@ def test_an_mtl_of_binary_bytes_is_named_not_text_without_echoing_them(tmp_path)
         raytrace.Mesh(file=tmp_path / "quad.obj", material="from_file")
     assert str(e.value) == (f"{tmp_path / 'quad.mtl'}: mtllib: byte 0x1e on line 1 is not "
                             "text: an MTL file must be text")
+
+
+def test_obj_normals_come_with_the_materials(tmp_path):
+    # The quad as one polygon fanned into (1 2 3), (1 3 4), its corners naming vn by
+    # v/vt/vn; a third triangle with no vn. Each corner keeps the vn it names (rows of
+    # Mesh.normals); the triangle without any is flat (glTF's rule): N·L = 1/2 there, so the
+    # lit value above, while the vn tilt the quad's pixel away from it.
+    obj = QUAD.replace("f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n",
+                       "vn 0 0 1\nvn 0.6 0 0.8\nf 1/1/1 2/2/2 3/3/2 4/4/1\nv 5 5 0\n"
+                       "f 2 5 3\n")
+    mesh = quad(tmp_path, "newmtl m\n" + LIT, obj)
+    n, t = [0, 0, 1], [0.6, 0, 0.8]
+    np.testing.assert_array_equal(mesh.normals, [[n, t, t], [n, t, n], [[0, 0, 0]] * 3])
+    assert mesh.shading == "file"
+    far = raytrace.Camera(position=(3.0, 2.5, 2), look_at=(3.0, 2.5, 0))  # inside (2 5 3)
+    assert pixel(make_scene([mesh], [LIGHT], far, ambient=0.2))[0] == pytest.approx(
+        lit_value(), rel=1e-5)
+    tilted = raytrace.Camera(position=(0.5, -0.5, 2), look_at=(0.5, -0.5, 0))
+    assert abs(pixel(make_scene([mesh], [LIGHT], tilted, ambient=0.2))[0] - lit_value()) > 0.01

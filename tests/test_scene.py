@@ -94,7 +94,7 @@ def _face_past_the_end(scene):
     (_set("objects.2.file", "bunny.obj"), "objects[2].file: was read when the mesh was made; "
                                           "make a new Mesh to change it"),
     (_set("objects.2.shading", "phong"), "objects[2].shading: must be one of 'flat', 'smooth', "
-                                         "'gouraud', 'fast_phong', got 'phong'"),
+                                         "'gouraud', 'fast_phong', 'file', got 'phong'"),
     (_set("objects.0.material", "emerlad"), "objects[0].material: unknown material 'emerlad' "
                                             "(did you mean 'emerald'?)"),
     (_set("lights.0.attenuation", [0, 0, 0]), "lights[0].attenuation: needs a0, a1, a2 >= 0, not "
@@ -491,3 +491,23 @@ def test_a_mesh_file_face_out_of_range_is_one_line(tmp_path):
     with pytest.raises(raytrace.SceneError) as e:
         raytrace.Mesh(file=str(path))
     assert str(e.value) == f"file: {path}: face 1 names vertex 9, out of range 0..2"
+
+
+def test_file_normals_transform_by_the_inverse_transpose(tmp_path):
+    # scale (2, 1, 1), then rotate 90° about z: a file normal (1, 0, 1)/√2 becomes
+    # R·S⁻¹·n ∝ Rz90·(1/2, 0, 1) = (0, 1/2, 1), unit (0, 1, 2)/√5 (worked by hand), which is
+    # perpendicular to the transformed surface. A mirroring scale reverses each face's
+    # corners, normals with them; a non-finite normal is one line naming the file.
+    path = tmp_path / "tri.obj"
+    path.write_text("v 0 0 0\nv 1 0 -1\nv 0 1 0\nvn 0.7071067811865476 0 0.7071067811865476\n"
+                    "vn 0 0 1\nf 1//1 2//2 3//2\n")
+    mesh = raytrace.Mesh(file=path, scale=[2, 1, 1], rotate=[0, 0, 90])
+    np.testing.assert_allclose(mesh.normals[0, 0], np.array([0, 1, 2]) / np.sqrt(5),
+                               atol=1e-15)
+    np.testing.assert_allclose(mesh.normals[0, 1:], [[0, 0, 1]] * 2, atol=1e-15)
+    mirrored = raytrace.Mesh(file=path, scale=[-1, 1, 1])
+    np.testing.assert_allclose(mirrored.normals[0], [[0, 0, 1], [0, 0, 1],
+                                                     [-0.5 ** 0.5, 0, 0.5 ** 0.5]], atol=1e-15)
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn nan 0 1\nf 1//1 2//1 3//1\n")
+    with pytest.raises(raytrace.SceneError, match="normal of face 1, corner 1 is not finite"):
+        raytrace.Mesh(file=path)

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import make_scene
+import trimesh
+from helpers import aimed_camera, make_scene, pixel, unit
 
 import raytrace
 from raytrace.accel import Accelerator
@@ -117,3 +118,158 @@ def test_every_shape_type_has_a_kernel_kind():
     assert set(SHAPE_TYPES) == set(ak.SHAPE_KINDS)
     assert sorted(ak.SHAPE_KINDS.values()) == list(range(len(ak.SHAPE_KINDS)))
     assert all(cls.type == name for name, cls in SHAPE_TYPES.items())
+
+
+# -- the normals a mesh is shaded with (tables.shading_of) -------------------------------------
+#: A directional light from the upper left front, ambient 0.1, a matte-plus-Blinn material:
+#: a pixel is ka·Ia + I·[kd·max(N·L, 0) + ks·max(N·H, 0)ⁿ] (docs/shading.md), N·L > 0.
+LIGHT = unit([-0.4, 0.9, 0.7])
+KD, KS, SHININESS, IA = 0.6, 0.3, 20.0, 0.1
+
+
+def lit(normal, view) -> float:
+    """The hand-worked pixel of a unit shading ``normal`` seen along ``view`` (towards the
+    eye), float64: ka·Ia + kd·N·L + ks·(N·H)ⁿ, ka = kd, I = 1, H = (L + V)/|L + V|."""
+    n, v = unit(normal), unit(view)
+    h = unit(LIGHT + v)
+    return KD * IA + KD * max(n @ LIGHT, 0.0) + KS * max(n @ h, 0.0) ** SHININESS
+
+
+def look_at(mesh: raytrace.Mesh, target, eye) -> float:
+    """The one pixel of ``mesh`` seen from ``eye`` through ``target`` (red channel)."""
+    scene = make_scene([mesh], [raytrace.DirectionalLight(-LIGHT, 1.0)],
+                       camera=aimed_camera(eye, target), ambient=IA)
+    return float(pixel(scene)[0])
+
+
+def shaded(path, **kw) -> raytrace.Mesh:
+    material = raytrace.Material(kd=KD, ks=KS, shininess=SHININESS, highlight="blinn")
+    return raytrace.Mesh(file=path, material=material, **kw)
+
+
+def cube_obj(path: Path) -> Path:
+    """The cube |x|, |y|, |z| ≤ 1 as 12 triangles over 8 shared positions whose corners name
+    24 ``vn``, each face's own normal at its 4 corners (Wings 3D and Blender write hard edges
+    so)."""
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    lines = [f"v {x:g} {y:g} {z:g}" for x, y, z in corners]
+    faces, k = [], 0
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            n = np.zeros(3)
+            n[axis] = sign
+            quad = [i for i, c in enumerate(corners) if c[axis] == sign]
+            # counter-clockwise seen from outside: sort the quad's corners by angle about n
+            u = np.roll(n, 1)
+            w = np.cross(n, u)
+            quad.sort(key=lambda i: np.arctan2((corners[i] - n) @ w, (corners[i] - n) @ u))
+            lines += [f"vn {n[0]:g} {n[1]:g} {n[2]:g}"] * 4
+            c = [f"{q + 1}//{k + j + 1}" for j, q in enumerate(quad)]
+            faces += [f"f {c[0]} {c[1]} {c[2]}", f"f {c[0]} {c[2]} {c[3]}"]
+            k += 4
+    path.write_text("\n".join(lines + faces) + "\n")
+    return path
+
+
+def test_a_cube_with_24_file_normals_stays_hard_edged(tmp_path):
+    # A point 0.02 from an edge, on each of the three faces the eye sees, shades with its own
+    # face's normal (the flat value, worked by hand from that normal), as in the face's middle:
+    # the 24 vn are kept per corner through the merge of the 8 positions. shading = "smooth"
+    # (vertex normals averaged over the merged positions, as before) rounds the edge instead.
+    mesh = shaded(cube_obj(tmp_path / "cube.obj"))
+    assert mesh.shading == "file" and len(mesh.vertices) == 8 and mesh.normals.shape == (12, 3, 3)
+    eye = np.array([4.0, 5.0, 6.0])
+    for n, points in (([1, 0, 0], ([1, 0.98, 0.3], [1, 0.2, 0.98], [1, 0.0, 0.0])),
+                      ([0, 1, 0], ([0.98, 1, -0.5], [0.3, 1, 0.98], [0.0, 1, 0.0])),
+                      ([0, 0, 1], ([0.98, 0.1, 1], [-0.4, 0.98, 1], [0.0, 0.0, 1]))):
+        for p in points:
+            p = np.array(p)
+            want = lit(n, eye - p)
+            assert look_at(mesh, p, eye) == pytest.approx(want, rel=1e-5), (n, p)
+    p = np.array([1, 0.98, 0.3])
+    rounded = look_at(shaded(tmp_path / "cube.obj", shading="smooth"), p, eye)
+    assert abs(rounded - lit([1, 0, 0], eye - p)) > 0.05
+
+
+def sphere_obj(path: Path, with_normals: bool = True) -> tuple[Path, trimesh.Trimesh]:
+    """An 80-face icosphere of radius 1 whose ``vn`` are the sphere's exact normals (the unit
+    positions), as a modeller exports a smooth sphere."""
+    ico = trimesh.creation.icosphere(subdivisions=1, radius=1.0)
+    v, f = np.asarray(ico.vertices), np.asarray(ico.faces)
+    lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in v.tolist()]
+    if with_normals:
+        n = v / np.linalg.norm(v, axis=1, keepdims=True)
+        lines += [f"vn {x!r} {y!r} {z!r}" for x, y, z in n.tolist()]
+        lines += ["f " + " ".join(f"{i}//{i}" for i in face) for face in (f + 1).tolist()]
+    else:
+        lines += ["f " + " ".join(str(i) for i in face) for face in (f + 1).tolist()]
+    path.write_text("\n".join(lines) + "\n")
+    return path, ico
+
+
+@pytest.mark.parametrize("bary", [(0.2, 0.3, 0.5), (0.6, 0.25, 0.15), (0.05, 0.05, 0.9)])
+def test_a_sphere_with_file_normals_matches_the_hand_interpolation(tmp_path, bary):
+    # At the point with barycentrics b of a triangle that faces the eye and the light, the
+    # shading normal is N = Σ b_k·n_k / |Σ b_k·n_k|, n_k the file's normals at its corners
+    # (Phong 1975), worked here in float64 from the file's numbers, not by the renderer.
+    path, ico = sphere_obj(tmp_path / "sphere.obj")
+    mesh = shaded(path)
+    v = np.asarray(ico.vertices)
+    centres = v[ico.faces].mean(axis=1)
+    tri = int(np.argmax(centres @ unit([-0.1, 0.4, 1.0])))  # a face towards eye and light
+    corners = v[ico.faces[tri]]
+    p = np.asarray(bary) @ corners
+    normal = np.asarray(bary) @ (corners / np.linalg.norm(corners, axis=1, keepdims=True))
+    eye = p + 3.0 * unit(p + [0.1, 0.2, 0.3])
+    want = lit(normal, eye - p)
+    assert look_at(mesh, p, eye) == pytest.approx(want, rel=1e-5)
+    # without vn the same file is flat: the face normal's value
+    flat_path, _ = sphere_obj(tmp_path / "flat.obj", with_normals=False)
+    face = unit(np.cross(corners[1] - corners[0], corners[2] - corners[0]))
+    assert shaded(flat_path).shading == "flat"
+    assert look_at(shaded(flat_path), p, eye) == pytest.approx(lit(face, eye - p), rel=1e-5)
+    assert abs(want - lit(face, eye - p)) > 1e-3  # the two differ: the test can tell them
+
+
+def test_shading_overrides_the_file_normals(tmp_path):
+    # shading = "flat" shades the face normal although the file gives normals.
+    path, ico = sphere_obj(tmp_path / "sphere.obj")
+    v = np.asarray(ico.vertices)
+    tri = int(np.argmax(v[ico.faces].mean(axis=1) @ unit([-0.1, 0.4, 1.0])))
+    corners = v[ico.faces[tri]]
+    p = np.array([0.2, 0.3, 0.5]) @ corners
+    eye = p + 3.0 * unit(p)
+    face = unit(np.cross(corners[1] - corners[0], corners[2] - corners[0]))
+    assert look_at(shaded(path, shading="flat"), p, eye) == pytest.approx(
+        lit(face, eye - p), rel=1e-5)
+
+
+def test_file_shading_needs_normals_from_the_file():
+    with pytest.raises(raytrace.SceneError, match="shading.*gives normals"):
+        raytrace.Mesh(vertices=[[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces=[[0, 1, 2]],
+                      shading="file")
+
+
+def test_file_normals_below_the_surface_are_turned_over(tmp_path):
+    # The stiff case: one triangle in z = 0 wound counter-clockwise (N_g = +z) whose file
+    # normals n = (0.05, 0, −1)/|…| point nearly opposite N_g, seen at grazing incidence
+    # (V·N_g ≈ 0.03). The rule (docs/shading.md, "Shading normals below the surface"): the
+    # corner normals are turned over, N = −n = (−0.05, 0, 1)/|…|. Worked by hand, kd = ka =
+    # 0.6, Ia = 0.1, one directional light of 1, no highlight:
+    # * a light in front (towards it L = (0.3, −0.2, 1)/|…|): 0.06 + 0.6·(N·L), N·L ≈ 0.94;
+    #   taken as given, n·L < 0 and the pixel was ambient only (a black hole);
+    # * a light behind (L = (0.3, −0.2, −1)/|…|): N·L < 0, ambient only, 0.06; taken as given,
+    #   n·L > 0 and the open triangle was lit from behind (a light leak).
+    # Every pixel of a small grazing render is finite.
+    path = tmp_path / "below.obj"
+    path.write_text("v -50 -50 0\nv 50 -50 0\nv 0 50 0\nvn 0.05 0 -1\nf 1//1 2//1 3//1\n")
+    mesh = raytrace.Mesh(file=path, material=raytrace.Material(kd=0.6))
+    camera = aimed_camera([0.0, -10.0, 0.3], [0.0, 0.0, 0.0])
+    turned = unit([-0.05, 0.0, 1.0])
+    for towards, want in (([0.3, -0.2, 1.0], 0.06 + 0.6 * (turned @ unit([0.3, -0.2, 1.0]))),
+                          ([0.3, -0.2, -1.0], 0.06)):
+        scene = make_scene([mesh], [raytrace.DirectionalLight(-unit(towards), 1.0)],
+                           camera=camera, ambient=0.1)
+        assert pixel(scene)[0] == pytest.approx(want, rel=1e-6), towards
+        image = raytrace.render(scene, width=16, height=12)
+        assert np.isfinite(image.rgb).all()

@@ -30,3 +30,6 @@ class Asset:
     #: Files read besides the mesh file (MTL, textures, glTF buffers): inputs no output
     #: may overwrite.
     sources: tuple[Path, ...] = ()
+    #: (F, 3, 3) per corner, the normals the file gives (OBJ ``vn``, glTF ``NORMAL``); None
+    #: where it gives none, a zero row for a corner without one (glTF: a primitive without)
+    normals: np.ndarray | None = None

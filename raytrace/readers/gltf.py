@@ -328,7 +328,7 @@ def _load(path: Path) -> GltfScene:
     _check_extensions(gltf, path)
     buffers = _buffers(gltf, path)
     materials: dict = {}
-    verts, faces, face_mat, uvs, sources = [], [], [], [], []
+    verts, faces, face_mat, uvs, normals, sources = [], [], [], [], [], []
     camera, lights, offset = None, [], 0
     light_specs = _ext(gltf, "KHR_lights_punctual").get("lights", [])
     ranged = False
@@ -364,6 +364,12 @@ def _load(path: Path) -> GltfScene:
                    if prim.indices is not None else np.arange(len(pos)).reshape(-1, 3))
             uv = (accessor(gltf, buffers, prim.attributes.TEXCOORD_0, path)
                   if prim.attributes.TEXCOORD_0 is not None else None)
+            normal = (accessor(gltf, buffers, prim.attributes.NORMAL, path)
+                      if prim.attributes.NORMAL is not None else None)
+            if normal is not None and normal.shape != pos.shape:
+                raise SceneError(f"NORMAL has {normal.shape}, POSITION {pos.shape}: one "
+                                 "3-vector a vertex", f"meshes[{node.mesh}].primitives[{p}]."
+                                 "attributes.NORMAL", str(path))
             if idx.size and (idx.min() < 0 or idx.max() >= len(pos)):
                 raise SceneError(f"index out of range 0..{len(pos) - 1}",
                                  f"meshes[{node.mesh}].primitives[{p}].indices", str(path))
@@ -376,6 +382,11 @@ def _load(path: Path) -> GltfScene:
             faces.append(idx + offset)
             face_mat.append(np.full(len(idx), list(materials).index(prim.material)))
             uvs.append(uv[:, :2][idx] if uv is not None else np.zeros((len(idx), 3, 2)))
+            # normals by the inverse transpose of the node's matrix (they stay perpendicular
+            # to the transformed surface); none: zeros, flat (glTF 2.0 §3.7.2.1: "client
+            # implementations MUST calculate flat normals")
+            normals.append((normal @ np.linalg.inv(world[:3, :3]))[idx] if normal is not None
+                           else np.zeros((len(idx), 3, 3)))
             offset += len(pos)
     if ranged:
         warnings.warn(f"{path}: KHR_lights_punctual range is not modelled: lights fall off as "
@@ -386,7 +397,8 @@ def _load(path: Path) -> GltfScene:
     sources += [p for m in mats for p in m.sources]
     asset = Asset(np.concatenate(verts), np.concatenate(faces).astype(np.int64),
                   np.concatenate(face_mat).astype(np.int64), mats,
-                  np.concatenate(uvs) if any(len(u) for u in uvs) else None, tuple(sources))
+                  np.concatenate(uvs) if any(len(u) for u in uvs) else None, tuple(sources),
+                  np.concatenate(normals) if any(n.any() for n in normals) else None)
     return GltfScene(asset, camera, lights)
 
 

@@ -21,6 +21,11 @@ coordinates; tests/test_meshio.py checks it on the same files):
   of each kept, in order of first occurrence among the referenced vertices) through a 64-bit
   hash of the rounded positions, checked against the positions themselves.
 
+Where the file gives normals (OBJ ``vn`` named by the faces' corners, PLY ``nx ny nz``),
+each face corner's normal comes with them (:class:`MeshFile` ``normals``, (F, 3, 3)): per
+corner, so the merge of positions keeps a cube's 24 split normals (docs/scene_format.md,
+"Mesh shading").
+
 Anything else (ASCII PLY, polygons, ``usemtl``/``mtllib``, other OBJ statements, texture
 coordinates in a PLY) returns ``None`` and the caller falls back to trimesh, so every file
 trimesh reads is still read and images do not change. Malformed files raise one
@@ -60,12 +65,18 @@ class Lines(NamedTuple):
     ends: np.ndarray     #: (L,) int64
 
 
-Mesh3 = tuple[np.ndarray, np.ndarray, "np.ndarray | None"]
+class MeshFile(NamedTuple):
+    """A mesh file's triangles as :class:`raytrace.Mesh` takes them (object space)."""
+
+    vertices: np.ndarray               #: (V, 3) float64, merged as trimesh merges them
+    faces: np.ndarray                  #: (F, 3) int64
+    texcoords: np.ndarray | None       #: (F, 3, 2) per corner (s, t), t = 0 at the top
+    #: (F, 3, 3) per corner, the normals the file itself gives (None where it gives none)
+    normals: np.ndarray | None = None
 
 
-def read_mesh(path: Path) -> Mesh3 | None:
-    """``(vertices (V, 3) float64, faces (F, 3) int64, texcoords (F, 3, 2) or None)`` of a
-    binary PLY or OBJ file, merged as trimesh merges them; None where trimesh must read it."""
+def read_mesh(path: Path) -> MeshFile | None:
+    """A binary PLY or OBJ file's :class:`MeshFile`; None where trimesh must read it."""
     suffix = path.suffix.lower()
     if suffix == ".ply":
         return read_ply(path)
@@ -75,8 +86,9 @@ def read_mesh(path: Path) -> Mesh3 | None:
 
 
 # -- PLY ---------------------------------------------------------------------------------
-def read_ply(path: Path) -> Mesh3 | None:
-    """A binary PLY of triangles: its vertices' x, y, z and its faces' vertex indices."""
+def read_ply(path: Path) -> MeshFile | None:
+    """A binary PLY of triangles: its vertices' x, y, z (and nx, ny, nz where given: each
+    corner takes its vertex's) and its faces' vertex indices."""
     data = path.read_bytes()
     end = data.find(b"end_header")
     if not data.startswith(b"ply") or end < 0:
@@ -130,7 +142,11 @@ def read_ply(path: Path) -> Mesh3 | None:
     faces = face[lists[0]].astype(np.int64)
     _check_finite(vertices, path, lambda i: f"vertex {i + 1}")
     _check_indices(faces, len(vertices), path, lambda i: f"face {i + 1}")
-    return (*merge_vertices(vertices, faces), None)
+    normals = None
+    if {"nx", "ny", "nz"} <= set(vertex.dtype.names):
+        normals = np.stack([vertex[k].astype(np.float64) for k in ("nx", "ny", "nz")],
+                           axis=1)[faces]
+    return MeshFile(*merge_vertices(vertices, faces), None, normals)
 
 
 def _ply_dtype(props: list, order: str) -> np.dtype | None:
@@ -154,8 +170,9 @@ def _ply_dtype(props: list, order: str) -> np.dtype | None:
 
 
 # -- OBJ ---------------------------------------------------------------------------------
-def read_obj(path: Path) -> Mesh3 | None:
-    """An OBJ of triangles: ``v`` positions, ``f`` corners, ``vt`` per corner where given."""
+def read_obj(path: Path) -> MeshFile | None:
+    """An OBJ of triangles: ``v`` positions, ``f`` corners, ``vt`` and ``vn`` per corner where
+    the corners name them."""
     data = path.read_bytes()
     if b"\r" in data:
         data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
@@ -176,18 +193,19 @@ def read_obj(path: Path) -> Mesh3 | None:
         raise SceneError(f"{path} holds no faces", "file")
     v = _numbers(lines, kinds[b"v"], b"v", 3, path)
     vt = _numbers(lines, kinds[b"vt"], b"vt", 2, path)
-    if v is None or vt is None:
+    vn = _numbers(lines, kinds[b"vn"], b"vn", 3, path)
+    if v is None or vt is None or vn is None:
         return None
-    corners = _face_corners(words, kinds[b"f"], path, len(v), len(vt))
+    corners = _face_corners(words, kinds[b"f"], path, (len(v), len(vt), len(vn)))
     if corners is None:
         return None
-    faces, face_vt = corners
+    faces, face_vt, face_vn = corners
     _check_finite(v, path, lambda i: f"line {_line_of(kinds[b'v'], i)}")
     vertices, merged = merge_vertices(v, faces)
     texcoords = None
     if face_vt is not None and len(vt):
         texcoords = vt[face_vt] * [1.0, -1.0] + [0.0, 1.0]  # t = 0 at the image's top row
-    return vertices, merged, texcoords
+    return MeshFile(vertices, merged, texcoords, vn[face_vn] if face_vn is not None else None)
 
 
 def _statements(lines: Lines) -> tuple[dict[bytes, np.ndarray], bool]:
@@ -294,10 +312,12 @@ def _face_words(lines: Lines, mask: np.ndarray, path: Path
 
 
 def _face_corners(words: tuple[bytes, np.ndarray, np.ndarray], mask: np.ndarray, path: Path,
-                  n_v: int, n_vt: int) -> tuple[np.ndarray, np.ndarray | None] | None:
-    """(F, 3) vertex indices and (F, 3) texture-vertex indices (or None) of triangle-only
-    ``f`` lines (their :func:`_face_words`) written all in one corner form; None for polygons
-    or mixed forms."""
+                  sizes: tuple[int, int, int]) -> tuple | None:
+    """(F, 3) vertex indices, (F, 3) texture-vertex and (F, 3) normal indices (each None where
+    the corners name none) of triangle-only ``f`` lines (their :func:`_face_words`) written
+    all in one corner form; None for polygons or mixed forms. ``sizes``: how many ``v``,
+    ``vt`` and ``vn`` lines the file has."""
+    n_v, n_vt, n_vn = sizes
     text, word_starts, counts = words
     n = len(counts)
     if np.any(counts != 3):
@@ -327,7 +347,8 @@ def _face_corners(words: tuple[bytes, np.ndarray, np.ndarray], mask: np.ndarray,
         return None  # f v/vt with no vt lines: trimesh reads it without texture coordinates
     face_vt = absolute(numbers[:, :, 1], n_vt, "texture vertex") if slashes and not double \
         else None
-    return faces, face_vt
+    face_vn = absolute(numbers[:, :, -1], n_vn, "normal") if slashes == 2 else None
+    return faces, face_vt, face_vn
 
 
 # -- shared ------------------------------------------------------------------------------

@@ -18,20 +18,23 @@ from .texture import mtl_texture
 
 def read_obj(path: Path) -> dict:
     """The statements of an OBJ that carry triangles and materials (Wavefront, "Object Files
-    (.obj)", Appendix B1 of the Advanced Visualizer manual): ``v``, ``vt``, ``f`` (polygons
+    (.obj)", Appendix B1 of the Advanced Visualizer manual): ``v``, ``vt``, ``vn``, ``f`` (polygons
     fanned into triangles; ``v``, ``v/vt``, ``v//vn``, ``v/vt/vn``; negative indices count
     back), ``usemtl``, ``mtllib``. Parsed here, not by trimesh: trimesh replaces a material
     it finds untextured by a default one and drops its name when Pillow is installed, so the
     faces could not be matched to their MTL materials.
 
-    Returns ``vertices`` (V, 3), ``uv`` (VT, 2), ``faces`` (F, 3) and ``face_uv`` (F, 3)
-    (−1: no vt) indices, ``face_name`` (F,) index into ``names`` (the usemtl names in order
-    of use; "" before any usemtl), ``libs`` (the mtllib paths).
+    Returns ``vertices`` (V, 3), ``uv`` (VT, 2), ``vn`` (VN, 3), ``faces`` (F, 3),
+    ``face_uv`` (F, 3) (−1: no vt) and ``face_vn`` (F, 3) (−1: no vn) indices,
+    ``face_name`` (F,) index into ``names`` (the usemtl names in order of use; "" before
+    any usemtl), ``libs`` (the mtllib paths).
     """
     v: list = []
     vt: list = []
+    vn: list = []
     faces: list = []
     fuv: list = []
+    fvn: list = []
     fname: list = []
     names: list[str] = []
     libs: list[Path] = []
@@ -45,8 +48,12 @@ def read_obj(path: Path) -> dict:
                     raise ValueError("needs x y z")
             elif stmt == "vt":
                 vt.append([float(x) for x in (args[:2] + ["0"])[:2]])
+            elif stmt == "vn":
+                vn.append([float(x) for x in args[:3]])
+                if len(vn[-1]) != 3:
+                    raise ValueError("needs x y z")
             elif stmt == "f":
-                corners = [_corner(w, len(v), len(vt)) for w in args]
+                corners = [_corner(w, len(v), len(vt), len(vn)) for w in args]
                 if len(corners) < 3:
                     raise ValueError(f"needs at least 3 vertices, got {len(corners)}")
                 if current < 0:
@@ -56,6 +63,7 @@ def read_obj(path: Path) -> dict:
                     tri = (corners[0], corners[k], corners[k + 1])
                     faces.append([c[0] for c in tri])
                     fuv.append([c[1] for c in tri])
+                    fvn.append([c[2] for c in tri])
                     fname.append(current)
             elif stmt == "usemtl":
                 name = " ".join(args)
@@ -70,12 +78,15 @@ def read_obj(path: Path) -> dict:
         raise SceneError(f"{path} holds no faces", "file")
     return {"vertices": np.array(v, np.float64).reshape(-1, 3),
             "uv": np.array(vt, np.float64).reshape(-1, 2),
+            "vn": np.array(vn, np.float64).reshape(-1, 3),
             "faces": np.array(faces, np.int64), "face_uv": np.array(fuv, np.int64),
+            "face_vn": np.array(fvn, np.int64),
             "face_name": np.array(fname, np.int64), "names": names, "libs": libs}
 
 
-def _corner(word: str, n_v: int, n_vt: int) -> tuple[int, int]:
-    """A face corner ``v[/vt[/vn]]`` as 0-based (vertex, texture vertex or −1)."""
+def _corner(word: str, n_v: int, n_vt: int, n_vn: int) -> tuple[int, int, int]:
+    """A face corner ``v[/vt[/vn]]`` as 0-based (vertex, texture vertex or −1, normal or
+    −1)."""
     parts = word.split("/")
 
     def index(text: str, n: int, what: str) -> int:
@@ -87,7 +98,8 @@ def _corner(word: str, n_v: int, n_vt: int) -> tuple[int, int]:
 
     vi = index(parts[0], n_v, "vertex")
     ti = index(parts[1], n_vt, "texture vertex") if len(parts) > 1 and parts[1] else -1
-    return vi, ti
+    ni = index(parts[2], n_vn, "normal") if len(parts) > 2 and parts[2] else -1
+    return vi, ti, ni
 
 
 def names_mtl(path: Path) -> bool:
@@ -117,6 +129,9 @@ def load_obj(path: Path) -> Asset:
         # OBJ's t runs up the image; a texture's rows run down it. No vt: (0, 0).
         uv = np.vstack([obj["uv"] * [1.0, -1.0] + [0.0, 1.0], [[0.0, 0.0]]])
         texcoords = uv[obj["face_uv"]]
+    normals = None
+    if (obj["face_vn"] >= 0).any():  # a corner without vn: zeros, shaded with its face's
+        normals = np.vstack([obj["vn"], [[0.0, 0.0, 0.0]]])[obj["face_vn"]]
     sources = tuple(obj["libs"]) + tuple(p for m in materials for p in m.files)
     return Asset(obj["vertices"], obj["faces"], obj["face_name"], materials, texcoords,
-                 sources)
+                 sources, normals)
