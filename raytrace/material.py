@@ -186,6 +186,12 @@ class Material:
         return self.opacity < 1 or self.alpha is not None
 
     @property
+    def invisible(self) -> bool:
+        """Not drawn at all: opacity 0 and no alpha texture (I = 0·I_surface + I_behind, and
+        shadow rays pass with factor 1)."""
+        return self.opacity == 0 and self.alpha is None
+
+    @property
     def transparent(self) -> bool:
         """Lets shadow rays through (factor t·kt + 1 − t > 0 somewhere)."""
         return self.transmits or self.see_through
@@ -203,6 +209,32 @@ class Material:
 
     def replace(self, **changes: Any) -> Material:
         return dataclasses.replace(self, **changes)
+
+
+#: The least highlight exponent a model file's material is given (:func:`file_shininess`).
+MATTE_SHININESS = 1.0
+
+
+def file_shininess(n: float) -> float:
+    """The Blinn exponent of a model file's highlight of exponent ``n`` (glTF: Walter's
+    n = 2/α² − 2 of its roughness, :func:`raytrace.readers.gltf.roughness_exponent`; MTL:
+    ``Ns``): ``max(n, 1)``, so that a rough material stays matte.
+
+    The contract's highlight ``ks·(N·H)^n·I`` has no N·L factor (Phong 1975; the MTL spec's
+    illum 2, ``Ks·(N·H)^Ns``), while the microfacet lobe a roughness stands for is weighted
+    by N·L in the reflectance equation (Akenine-Möller et al., Real-Time Rendering, 4th ed.,
+    §9.3). At roughness 1 (n = 0, the uniform lobe; MTL exporters write ``Ns 0`` for their
+    roughest material) the missing cosine leaves ``ks·I`` at every lit point: a flat white
+    metal. With the light at the eye, H = L and the lobe with its cosine is
+    ``(N·H)^n·(N·L) = (N·H)^(n+1)``: exponent 1 at n = 0, which the floor gives, so the
+    roughest highlight falls off as Lambert's cosine there. Exponents ≥ 1 are kept as they
+    are: only a glTF roughness above (2/3)^¼ = 0.904 (where 2/α² − 2 = 1) or an ``Ns`` below
+    1 is raised.
+
+    >>> file_shininess(0.0), file_shininess(0.5), file_shininess(120.0)
+    (1.0, 1.0, 120.0)
+    """
+    return max(float(n), MATTE_SHININESS)
 
 
 #: The material table's per-material columns (:class:`raytrace.kernels.records.Materials` has one

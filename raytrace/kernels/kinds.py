@@ -22,8 +22,10 @@ NONE, PRUNED, KEEP = 0, 1, 2
 
 # -- lights -----------------------------------------------------------------------------------
 #: Emission laws (``Emitter.kind``), each one branch of ``kernels.shading.incidence1``.
-EMITTER_KINDS = {"point": 0, "spot": 1, "directional": 2}
-POINT, SPOT, DIRECTIONAL = EMITTER_KINDS.values()
+#: "spot" is seed 000's (cos α)^a inside a hard cone; "smooth_spot" KHR_lights_punctual's falloff
+#: between an inner and an outer cone.
+EMITTER_KINDS = {"point": 0, "spot": 1, "directional": 2, "smooth_spot": 3}
+POINT, SPOT, DIRECTIONAL, SMOOTH_SPOT = EMITTER_KINDS.values()
 
 # -- materials --------------------------------------------------------------------------------
 #: Highlight models by name: Phong's (V·R)^n (Phong 1975), Blinn's (N·H)^n (Blinn 1977).

@@ -63,6 +63,7 @@ from .kinds import (  # noqa: F401  (the codes, as this module's names)
     PHONG,
     POINT,
     PRUNED,
+    SMOOTH_SPOT,
     SPOT,
 )
 from .material import alpha_tables1, surface_color1, surface_opacity1, texture_tables1
@@ -98,7 +99,11 @@ def incidence1(p, em, word):
     ``f_radial = 1/(a0 + a1·d + a2·d²)`` (0 where that is not finite, and at the light itself,
     where L is undefined; L stays a unit vector however near or far the light); a spot
     multiplies ``(cos α)^a`` inside its cone (``cos α >= cos θ``, edge included) and 0
-    outside. A directional light has L = −direction, d = ∞, f = 1.
+    outside; a smooth spot (KHR_lights_punctual, "Inner and Outer Cone Angles", the spec's
+    recommended implementation) multiplies ``t²``, ``t = clamp((cos α − cos θ_outer) /
+    max(0.001, cos θ_inner − cos θ_outer), 0, 1)``. An emitter with a ``range`` r > 0 also
+    multiplies the spec's window ``max(min(1 − (d/r)⁴, 1), 0)`` (KHR_lights_punctual, "Range
+    Property"). A directional light has L = −direction, d = ∞, f = 1.
     """
     px, py, pz = p
     if em.kind == DIRECTIONAL:
@@ -129,6 +134,14 @@ def incidence1(p, em, word):
     if em.kind == SPOT:
         cos_a = -(lx * em.dx + ly * em.dy + lz * em.dz)  # light-to-point against the axis
         f = f * (max(cos_a, 0.0) ** em.exponent if cos_a >= em.cos_cutoff else 0.0)
+    elif em.kind == SMOOTH_SPOT:
+        cos_a = -(lx * em.dx + ly * em.dy + lz * em.dz)
+        t = (cos_a - em.cos_cutoff) / max(em.cos_inner - em.cos_cutoff, 0.001)
+        t = min(max(t, 0.0), 1.0)
+        f = f * (t * t)
+    if em.range > 0.0:
+        q = dist / em.range
+        f = f * min(max(1.0 - (q * q) * (q * q), 0.0), 1.0)
     return lx, ly, lz, dist, f
 
 

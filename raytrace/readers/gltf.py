@@ -31,7 +31,7 @@ import numpy as np
 from .. import values
 from ..errors import RenderWarning, SceneError
 from ..lights import DirectionalLight, PointLight, SpotLight
-from ..material import Material
+from ..material import Material, file_shininess
 from .asset import Asset
 from .inputs import input_file
 from .texture import GLTF_WRAPS, Texture
@@ -157,7 +157,8 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
     """A glTF material as a raytrace :class:`Material` (docs/scene_format.md has the table):
     ``kd = baseColor·(1 − metallic)·(1 − transmission)``, specular colour
     ``F0 = mix(((ior − 1)/(ior + 1))²·specularColor·specular, baseColor, metallic)``,
-    ``shininess`` = :func:`roughness_exponent`, ``ks = F0·(n + 8)/8`` (normalised
+    ``shininess`` n = :func:`raytrace.material.file_shininess` of :func:`roughness_exponent`
+    (at least 1, so a rough material stays matte), ``ks = F0·(n + 8)/8`` (normalised
     Blinn–Phong, Akenine-Möller et al., Real-Time Rendering 4th ed., eq. 7.48, times π as the
     seeds' kd is), ``kr = F0·(1 − roughness)²``; transmission t: ``kt = t·baseColor·(1 −
     metallic)``, ``kr = 1`` and the dielectric Fresnel split; ``ke = emissive·strength``;
@@ -201,7 +202,7 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
         np.array(spec.get("specularColorFactor", [1, 1, 1]), np.float64)
         * spec.get("specularFactor", 1.0), 1.0)
     f0 = f0_dielectric * (1 - metallic) + base * metallic
-    n = roughness_exponent(rough)
+    n = file_shininess(roughness_exponent(rough))
     fields: dict[str, Any] = {
         "kd": base * (1 - metallic) * (1 - trans), "ks": f0 * (n + 8) / 8, "shininess": n,
         "highlight": "blinn", "kr": np.clip(f0 * (1 - rough) ** 2, 0, 1),
@@ -238,43 +239,42 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
 
 
 def _light(spec: dict, world: np.ndarray, where: str, path: Path):
-    """A KHR_lights_punctual light at its node (:data:`LIGHTS`)."""
+    """A KHR_lights_punctual light at its node (:data:`LIGHTS`): colour × intensity as its
+    ``color``; point and spot (candela) at the inverse square, attenuation (0, 0, 1), with the
+    spec's ``range`` window; a spot with the spec's falloff between ``innerConeAngle`` and
+    ``outerConeAngle`` (``inner_cutoff`` and ``cutoff``, in degrees); directional (lux) as it
+    is. The light shines down its node's −z."""
     kind = spec.get("type")
     color = np.array(spec.get("color", [1, 1, 1]), np.float64) * spec.get("intensity", 1.0)
     position = world[:3, 3]
     axis = world[:3, :3] @ [0.0, 0.0, -1.0]
+    local = {"position": position, "color": color, "attenuation": (0, 0, 1),
+             "range": spec.get("range")}
     try:
         if kind == "point":
-            return PointLight(position=position, color=color, attenuation=(0, 0, 1))
+            return PointLight(**local)
         if kind == "directional":
             return DirectionalLight(direction=axis, color=color)
         if kind == "spot":
             cone = spec.get("spot", {})
             inner = cone.get("innerConeAngle", 0.0)
             outer = cone.get("outerConeAngle", math.pi / 4)
-            return SpotLight(position=position, direction=axis, cutoff=math.degrees(outer),
-                             exponent=spot_exponent(inner, outer), color=color,
-                             attenuation=(0, 0, 1))
+            return SpotLight(**local, direction=axis, cutoff=_degrees(outer, "outerConeAngle"),
+                             inner_cutoff=_degrees(inner, "innerConeAngle"))
     except SceneError as e:
         raise SceneError(e.problem, f"{where}.{e.key}", str(path)) from None
     raise SceneError(f"type must be point, spot or directional, got {kind!r}", where,
                      str(path))
 
 
-def spot_exponent(inner: float, outer: float) -> float:
-    """The exponent a of (cos α)^a that halves a spot's light midway between its glTF inner and
-    outer cone angles (radians): a = ln ½ / ln cos((inner + outer)/2), 0 for a hard edge
-    (inner = outer). glTF fades linearly in cos α from inner to outer; raytrace's spot cuts
-    off at ``outer`` and falls off as (cos α)^a inside."""
-    mid = 0.5 * (inner + outer)
-    if outer - inner < 1e-9 or math.cos(mid) >= 1.0:
-        return 0.0
-    return math.log(0.5) / math.log(math.cos(mid))
+def _degrees(radians: Any, key: str) -> float:
+    """A cone angle of the file (radians, checked as a number) in degrees."""
+    return math.degrees(values.number(radians, f"spot.{key}"))
 
 
 #: KHR_lights_punctual: light type → what it becomes (intensity times colour as the light's
-#: colour; candela for point and spot at an inverse-square attenuation (0, 0, 1), lux for
-#: directional; ``range`` is not modelled and warned about).
+#: colour; candela for point and spot at an inverse-square attenuation (0, 0, 1) with the
+#: spec's ``range`` window, the spot with the spec's cone falloff; lux for directional).
 LIGHTS = {"point": "PointLight", "spot": "SpotLight", "directional": "DirectionalLight"}
 
 
@@ -331,7 +331,6 @@ def _load(path: Path) -> GltfScene:
     verts, faces, face_mat, uvs, sources = [], [], [], [], []
     camera, lights, offset = None, [], 0
     light_specs = _ext(gltf, "KHR_lights_punctual").get("lights", [])
-    ranged = False
     for n, world in world_matrices(gltf):
         node = gltf.nodes[n]
         where = f"nodes[{n}]"
@@ -349,7 +348,6 @@ def _load(path: Path) -> GltfScene:
                                  f"{where}.extensions.KHR_lights_punctual.light", str(path))
             lights.append(_light(light_specs[light_ref], world, f"KHR_lights_punctual.lights"
                                  f"[{light_ref}]", path))
-            ranged |= "range" in light_specs[light_ref]
         if node.mesh is None:
             continue
         for p, prim in enumerate(gltf.meshes[node.mesh].primitives):
@@ -377,9 +375,6 @@ def _load(path: Path) -> GltfScene:
             face_mat.append(np.full(len(idx), list(materials).index(prim.material)))
             uvs.append(uv[:, :2][idx] if uv is not None else np.zeros((len(idx), 3, 2)))
             offset += len(pos)
-    if ranged:
-        warnings.warn(f"{path}: KHR_lights_punctual range is not modelled: lights fall off as "
-                      "1/d² without a cut-off", RenderWarning, stacklevel=2)
     if not faces:
         raise SceneError("holds no triangles", "meshes", str(path))
     mats = list(materials.values())

@@ -25,7 +25,7 @@ import numpy as np
 
 from .. import values
 from ..errors import RenderWarning, SceneError
-from ..material import Material
+from ..material import Material, file_shininess
 from .inputs import read_text
 
 #: Statements read as colours: ``Ka r [g b]``.
@@ -41,9 +41,12 @@ DEFAULTS: dict[str, Any] = {"Ka": None, "Kd": np.full(3, 0.8), "Ks": np.zeros(3)
 
 
 def _base(f: dict) -> dict:
-    """ka, kd, Ke and the dissolve every model shares: ``Ka·Ia + Kd·Σ(N·L)I`` (illum 1)."""
+    """ka, kd, Ke and the dissolve every model shares: ``Ka·Ia + Kd·Σ(N·L)I`` (illum 1); the
+    highlight exponent is ``Ns``, at least 1 (:func:`raytrace.material.file_shininess`: ``Ns 0``
+    would light every lit point with the whole of Ks)."""
     return {"ka": f["Ka"], "kd": f["Kd"], "ke": f["Ke"], "opacity": f["d"], "ks": 0.0,
-            "shininess": f["Ns"], "highlight": "blinn", "ior": max(f["Ni"], 1e-6)}
+            "shininess": file_shininess(f["Ns"]), "highlight": "blinn",
+            "ior": max(f["Ni"], 1e-6)}
 
 
 def _illum0(f: dict) -> dict:
@@ -155,6 +158,11 @@ def read_mtl(path: Path, texture: Callable[[Path, dict, str, str], Any] | None =
         f = {**DEFAULTS, **table}
         if "d" not in table and "Tr" in table:
             f["d"] = 1.0 - table["Tr"]
+            if f["d"] == 0.0:
+                warnings.warn(f"{path}: material {name!r} (line {table['line']}): Tr 1 makes it "
+                              "fully transparent (Tr = 1 − d by the MTL spec), so it is not "
+                              "drawn; Meshlab writes Tr 1 meaning opaque: write d 1 or Tr 0 "
+                              "there to see it", RenderWarning, stacklevel=2)
         fields = ILLUM[f["illum"]](f)
         if f["map_Kd"] is not None:
             if texture is None:
