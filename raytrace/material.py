@@ -2,7 +2,8 @@
 
 A :class:`Material` holds per-channel colours ``ka kd ks kr kt`` (each a constant RGB or a
 :class:`Checker` pattern), the highlight exponent ``shininess`` with its model (``"phong"``
-(V·R)^n, Phong 1975; ``"blinn"`` (N·H)^n, Blinn 1977), the index of refraction and the
+(V·R)^n, Phong 1975; ``"blinn"`` (N·H)^n, Blinn 1977; ``"blinn_cosine"`` (N·H)^n·(N·L), the
+lobe inside the reflectance equation, as glTF materials map), the index of refraction and the
 opacity t of the blend ``I = t·I_surface + (1 − t)·I_behind`` (seed 003).
 
 The named library lives in the top-level ``materials/`` folder, one TOML file per material
@@ -209,32 +210,6 @@ class Material:
 
     def replace(self, **changes: Any) -> Material:
         return dataclasses.replace(self, **changes)
-
-
-#: The least highlight exponent a model file's material is given (:func:`file_shininess`).
-MATTE_SHININESS = 1.0
-
-
-def file_shininess(n: float) -> float:
-    """The Blinn exponent of a model file's highlight of exponent ``n`` (glTF: Walter's
-    n = 2/α² − 2 of its roughness, :func:`raytrace.readers.gltf.roughness_exponent`; MTL:
-    ``Ns``): ``max(n, 1)``, so that a rough material stays matte.
-
-    The contract's highlight ``ks·(N·H)^n·I`` has no N·L factor (Phong 1975; the MTL spec's
-    illum 2, ``Ks·(N·H)^Ns``), while the microfacet lobe a roughness stands for is weighted
-    by N·L in the reflectance equation (Akenine-Möller et al., Real-Time Rendering, 4th ed.,
-    §9.3). At roughness 1 (n = 0, the uniform lobe; MTL exporters write ``Ns 0`` for their
-    roughest material) the missing cosine leaves ``ks·I`` at every lit point: a flat white
-    metal. With the light at the eye, H = L and the lobe with its cosine is
-    ``(N·H)^n·(N·L) = (N·H)^(n+1)``: exponent 1 at n = 0, which the floor gives, so the
-    roughest highlight falls off as Lambert's cosine there. Exponents ≥ 1 are kept as they
-    are: only a glTF roughness above (2/3)^¼ = 0.904 (where 2/α² − 2 = 1) or an ``Ns`` below
-    1 is raised.
-
-    >>> file_shininess(0.0), file_shininess(0.5), file_shininess(120.0)
-    (1.0, 1.0, 120.0)
-    """
-    return max(float(n), MATTE_SHININESS)
 
 
 #: The material table's per-material columns (:class:`raytrace.kernels.records.Materials` has one

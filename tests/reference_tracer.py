@@ -208,8 +208,9 @@ def blinn(n: np.ndarray, l: np.ndarray, v: np.ndarray) -> float:
     return float(n @ h) / length if length > 0.0 else 0.0
 
 
-#: The highlight models by their ``highlight`` key: the cosine raised to the shininess.
-HIGHLIGHTS = {"phong": phong, "blinn": blinn}
+#: The highlight models by their ``highlight`` key: the cosine raised to the shininess
+#: ("blinn_cosine" then times N·L, :func:`highlight`).
+HIGHLIGHTS = {"phong": phong, "blinn": blinn, "blinn_cosine": blinn}
 
 
 def reflectance(cos_i: float, eta: float) -> float:
@@ -258,11 +259,13 @@ def check_material(m: Material, where: str) -> None:
 
 
 def highlight(model: str, n: np.ndarray, l: np.ndarray, v: np.ndarray, power: float) -> float:
-    """spec = cos^n of the model's cosine, 0 where the cosine is ≤ 0."""
+    """spec = cos^n of the model's cosine, 0 where the cosine is ≤ 0; "blinn_cosine" times
+    max(N·L, 0), the reflectance equation's cosine."""
     if model not in HIGHLIGHTS:
         raise ValueError(f"unknown highlight {model!r} (valid: {', '.join(HIGHLIGHTS)})")
     cos = HIGHLIGHTS[model](n, l, v)
-    return cos**power if cos > 0.0 else 0.0
+    spec = cos**power if cos > 0.0 else 0.0
+    return spec * max(float(n @ l), 0.0) if model == "blinn_cosine" else spec
 
 
 def local_term(n: np.ndarray, l: np.ndarray, v: np.ndarray, kd: np.ndarray, ks: np.ndarray,

@@ -114,14 +114,15 @@ def test_each_khr_light_matches_the_equivalent_toml_light(tmp_path, kind):
 
 
 def test_metallic_roughness_maps_onto_kd_ks_shininess_kr(tmp_path):
-    """baseColor (0.8, 0.4, 0.2), metallic 0, roughness 1: kd = baseColor, n = 2/1 − 2 = 0
-    raised to 1 (a rough material stays matte, docs/scene_format.md), ks = F0·(n + 8)/8 =
-    0.04·9/8 = 0.045, kr = 0. Head-on under a unit light at the eye (N·H = 1): kd + ks."""
+    """baseColor (0.8, 0.4, 0.2), metallic 0, roughness 1: kd = baseColor, n = 2/1 − 2 = 0,
+    ks = F0·(n + 8)/8 = 0.04, kr = 0, highlight ks·(N·H)^n·(N·L). Head-on under a unit light
+    at the eye (N·H = N·L = 1): kd + ks."""
     path = write_gltf(tmp_path / "m.gltf", [{"mesh": 0}], [SQUARE], MATTE)
     mesh = raytrace.Mesh(file=path, material="from_file")
     cam = raytrace.Camera(position=(0, 0, 2), look_at=(0, 0, 0))
     got = pixel(make_scene([mesh], [raytrace.PointLight(position=(0, 0, 2))], cam))
-    np.testing.assert_allclose(got, [0.845, 0.445, 0.245], rtol=1e-6)
+    np.testing.assert_allclose(got, [0.84, 0.44, 0.24], rtol=1e-6)
+    assert raytrace.Mesh(file=path, material="from_file").material.highlight == "blinn_cosine"
     gold = [{"pbrMetallicRoughness": {"baseColorFactor": [1.0, 0.8, 0.3, 1],
                                       "metallicFactor": 1.0, "roughnessFactor": 0.0},
              "emissiveFactor": [0.1, 0.0, 0.0]}]

@@ -28,9 +28,11 @@ EMITTER_KINDS = {"point": 0, "spot": 1, "directional": 2, "smooth_spot": 3}
 POINT, SPOT, DIRECTIONAL, SMOOTH_SPOT = EMITTER_KINDS.values()
 
 # -- materials --------------------------------------------------------------------------------
-#: Highlight models by name: Phong's (V·R)^n (Phong 1975), Blinn's (N·H)^n (Blinn 1977).
-HIGHLIGHT_CODES = {"phong": 0, "blinn": 1}
-PHONG, BLINN = HIGHLIGHT_CODES.values()
+#: Highlight models by name: Phong's (V·R)^n (Phong 1975), Blinn's (N·H)^n (Blinn 1977), and
+#: Blinn's times N·L, the cosine of the reflectance equation that a microfacet lobe (a glTF
+#: roughness) sits in (Akenine-Möller et al., Real-Time Rendering, 4th ed., §9.3).
+HIGHLIGHT_CODES = {"phong": 0, "blinn": 1, "blinn_cosine": 2}
+PHONG, BLINN, BLINN_COSINE = HIGHLIGHT_CODES.values()
 #: How kr and kt vary with the angle of incidence (``kernels.core.fresnel_weights1``).
 FRESNEL_CODES = {"none": 0, "schlick": 1, "dielectric": 2}
 NO_FRESNEL, SCHLICK, DIELECTRIC = FRESNEL_CODES.values()

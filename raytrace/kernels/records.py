@@ -126,7 +126,7 @@ class Shapes(NamedTuple):
 #: value for each: ``raytrace.material.COLUMNS``.
 MATERIAL_COLUMNS = {
     "shininess": (np.float64, "highlight exponent n"),
-    "highlight": (np.int64, "kinds.PHONG or BLINN"),
+    "highlight": (np.int64, "kinds.PHONG, BLINN or BLINN_COSINE"),
     "ior": (np.float64, "relative index of refraction"),
     "opacity": (np.float64, "t of the seeds' blend"),
     "lit": (np.bool_, "takes direct light (kd or ks not zero)"),
@@ -567,7 +567,7 @@ class Finish(NamedTuple):
     kd: tuple          #: (r, g, b) diffuse colour
     ks: tuple          #: (r, g, b) specular colour
     shininess: float   #: the highlight's exponent n
-    highlight: int     #: kinds.PHONG or BLINN
+    highlight: int     #: kinds.PHONG, BLINN or BLINN_COSINE
 
 
 class Palette(NamedTuple):

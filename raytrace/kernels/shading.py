@@ -51,6 +51,7 @@ from .core import (
 from .jit import kernel
 from .kinds import (  # noqa: F401  (the codes, as this module's names)
     BLINN,
+    BLINN_COSINE,
     DIRECTIONAL,
     KA,
     KD,
@@ -196,9 +197,17 @@ def blinn1(normal, light, view, n):
 
 @kernel
 def highlight1(model, normal, light, view, n):
-    """The highlight ``spec`` of model code ``model`` (PHONG or BLINN)."""
+    """The highlight ``spec`` of model code ``model``: PHONG, BLINN, or BLINN_COSINE
+    ``(N·H)^n·max(N·L, 0)`` (a Blinn–Phong lobe inside the reflectance equation, which weights
+    it by N·L: Akenine-Möller et al., Real-Time Rendering, 4th ed., §9.3; at n = 0 a
+    Lambertian term, not a constant one)."""
     if model == BLINN:
         return blinn1(normal, light, view, n)
+    if model == BLINN_COSINE:
+        nx, ny, nz = normal
+        lx, ly, lz = light
+        cos_l = nx * lx + ny * ly + nz * lz
+        return blinn1(normal, light, view, n) * cos_l if cos_l > 0.0 else 0.0
     return phong1(normal, light, view, n)
 
 
@@ -287,7 +296,8 @@ def fast_phong1(table, hit, finish):
     ``kd·D + ks·max(S, 0)ⁿ`` with D and S the diffuse and specular Taylor polynomials of row
     ``tri`` of ``table`` (columns ``FAST_DIFFUSE`` and ``FAST_SPECULAR``;
     :mod:`raytrace.fast_phong`, :func:`raytrace.kernels.core.taylor1`) in place of ``N̂·L``
-    and ``N̂·H`` (``finish.highlight`` BLINN) or ``V·R`` (PHONG); all zero where ``D <= 0``,
+    and ``N̂·H`` (``finish.highlight`` BLINN; BLINN_COSINE also times D) or ``V·R`` (PHONG);
+    all zero where ``D <= 0``,
     as :func:`direct1`. The side turns N: it negates D and ``N̂·H``, and ``V·R`` is even in
     N. ``finish``: a :class:`raytrace.kernels.records.Finish`."""
     tri, u, v, s = hit.triangle, hit.u, hit.v, hit.side
@@ -297,10 +307,12 @@ def fast_phong1(table, hit, finish):
         return 0.0, 0.0, 0.0
     if ks[0] == 0.0 and ks[1] == 0.0 and ks[2] == 0.0:
         return kd[0] * ndl, kd[1] * ndl, kd[2] * ndl
-    cos = taylor1(table, tri, FAST_SPECULAR, u, v) * (s if model == BLINN else 1.0)
+    cos = taylor1(table, tri, FAST_SPECULAR, u, v) * (1.0 if model == PHONG else s)
     spec = 0.0
     if cos > 0.0:  # as cosine_power1: 0 where the cosine is not positive, 1 for n = 0
         spec = 1.0 if n == 0.0 else math.exp(n * math.log(min(cos, 1.0)))
+    if model == BLINN_COSINE:
+        spec = spec * ndl
     return kd[0] * ndl + ks[0] * spec, kd[1] * ndl + ks[1] * spec, kd[2] * ndl + ks[2] * spec
 
 

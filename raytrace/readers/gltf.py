@@ -31,7 +31,7 @@ import numpy as np
 from .. import values
 from ..errors import RenderWarning, SceneError
 from ..lights import DirectionalLight, PointLight, SpotLight
-from ..material import Material, file_shininess
+from ..material import Material
 from .asset import Asset
 from .inputs import input_file
 from .texture import GLTF_WRAPS, Texture
@@ -157,10 +157,11 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
     """A glTF material as a raytrace :class:`Material` (docs/scene_format.md has the table):
     ``kd = baseColor·(1 − metallic)·(1 − transmission)``, specular colour
     ``F0 = mix(((ior − 1)/(ior + 1))²·specularColor·specular, baseColor, metallic)``,
-    ``shininess`` n = :func:`raytrace.material.file_shininess` of :func:`roughness_exponent`
-    (at least 1, so a rough material stays matte), ``ks = F0·(n + 8)/8`` (normalised
-    Blinn–Phong, Akenine-Möller et al., Real-Time Rendering 4th ed., eq. 7.48, times π as the
-    seeds' kd is), ``kr = F0·(1 − roughness)²``; transmission t: ``kt = t·baseColor·(1 −
+    ``shininess`` = :func:`roughness_exponent`, ``ks = F0·(n + 8)/8`` with ``highlight =
+    "blinn_cosine"``, ``ks·(N·H)^n·(N·L)`` (normalised Blinn–Phong inside the reflectance
+    equation, Akenine-Möller et al., Real-Time Rendering 4th ed., eq. 7.48 and §9.3, times π
+    as the seeds' kd is: a rough material stays matte, roughness 1 a Lambertian F0·(N·L)),
+    ``kr = F0·(1 − roughness)²``; transmission t: ``kt = t·baseColor·(1 −
     metallic)``, ``kr = 1`` and the dielectric Fresnel split; ``ke = emissive·strength``;
     BLEND alpha as opacity, MASK as 0 or 1 by the cutoff; unlit: ``ke = baseColor``."""
     if index is None:
@@ -202,10 +203,10 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
         np.array(spec.get("specularColorFactor", [1, 1, 1]), np.float64)
         * spec.get("specularFactor", 1.0), 1.0)
     f0 = f0_dielectric * (1 - metallic) + base * metallic
-    n = file_shininess(roughness_exponent(rough))
+    n = roughness_exponent(rough)
     fields: dict[str, Any] = {
         "kd": base * (1 - metallic) * (1 - trans), "ks": f0 * (n + 8) / 8, "shininess": n,
-        "highlight": "blinn", "kr": np.clip(f0 * (1 - rough) ** 2, 0, 1),
+        "highlight": "blinn_cosine", "kr": np.clip(f0 * (1 - rough) ** 2, 0, 1),
         "ior": ior if ior > 0 else 1.5,
         "ke": np.array(m.emissiveFactor if m is not None and m.emissiveFactor else [0, 0, 0],
                        np.float64) * strength}

@@ -25,7 +25,7 @@ import numpy as np
 
 from .. import values
 from ..errors import RenderWarning, SceneError
-from ..material import Material, file_shininess
+from ..material import Material
 from .inputs import read_text
 
 #: Statements read as colours: ``Ka r [g b]``.
@@ -40,12 +40,20 @@ DEFAULTS: dict[str, Any] = {"Ka": None, "Kd": np.full(3, 0.8), "Ks": np.zeros(3)
                             "d": 1.0, "illum": 2, "map_Kd": None}
 
 
+#: The least highlight exponent: ``Ns`` below 1 is read as 1. The spec's ``Ks·(N·H)^Ns`` has no
+#: N·L factor, so ``Ns 0`` (what exporters write for their roughest material) adds the whole
+#: of ``Ks·I`` at every lit point: a flat white model. With the light at the eye (H = L) a
+#: Blinn lobe weighted by the reflectance equation's N·L is ``(N·H)^(Ns + 1)``: exponent 1 at
+#: Ns = 0, which the floor gives, falling off as Lambert's cosine (docs/scene_format.md,
+#: "Rough materials stay matte").
+MATTE_NS = 1.0
+
+
 def _base(f: dict) -> dict:
     """ka, kd, Ke and the dissolve every model shares: ``Ka·Ia + Kd·Σ(N·L)I`` (illum 1); the
-    highlight exponent is ``Ns``, at least 1 (:func:`raytrace.material.file_shininess`: ``Ns 0``
-    would light every lit point with the whole of Ks)."""
+    highlight exponent for the models that have one (:data:`MATTE_NS`)."""
     return {"ka": f["Ka"], "kd": f["Kd"], "ke": f["Ke"], "opacity": f["d"], "ks": 0.0,
-            "shininess": file_shininess(f["Ns"]), "highlight": "blinn",
+            "shininess": max(f["Ns"], MATTE_NS), "highlight": "blinn",
             "ior": max(f["Ni"], 1e-6)}
 
 
