@@ -164,6 +164,20 @@ def test_a_khr_spot_light_with_a_range_renders_the_hand_value(tmp_path):
     np.testing.assert_allclose(got, kd_i * 0.1305225, rtol=2e-6)
 
 
+@pytest.mark.parametrize("change,key,problem", [
+    ({"spot": {"innerConeAngle": 0.6, "outerConeAngle": 0.5}}, "spot.innerConeAngle",
+     "must be <= 0.5"),
+    ({"spot": {"outerConeAngle": 2.0}}, "spot.outerConeAngle", "must be <= 1.5708"),
+    ({"range": 0}, "range", "must be > 0"),
+])
+def test_a_bad_khr_spot_or_range_is_one_line_naming_the_field(tmp_path, change, key, problem):
+    light = {"type": "spot", **change}
+    path = _lit_square(tmp_path, light, {"translation": [0, 0, 1]}, "bad")
+    with pytest.raises(SceneError) as e:
+        raytrace.load_scene(path)
+    assert str(e.value).startswith(f"{path}: KHR_lights_punctual.lights[0].{key}: {problem}")
+
+
 def test_transmission_and_ior_make_fresnel_glass(tmp_path):
     glass = [{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0,
                                        "roughnessFactor": 0},

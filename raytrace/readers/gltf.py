@@ -258,19 +258,16 @@ def _light(spec: dict, world: np.ndarray, where: str, path: Path):
             return DirectionalLight(direction=axis, color=color)
         if kind == "spot":
             cone = spec.get("spot", {})
-            inner = cone.get("innerConeAngle", 0.0)
-            outer = cone.get("outerConeAngle", math.pi / 4)
-            return SpotLight(**local, direction=axis, cutoff=_degrees(outer, "outerConeAngle"),
-                             inner_cutoff=_degrees(inner, "innerConeAngle"))
+            outer = values.number(cone.get("outerConeAngle", math.pi / 4),
+                                  "spot.outerConeAngle", lo=0, hi=math.pi / 2, lo_open=True)
+            inner = values.number(cone.get("innerConeAngle", 0.0), "spot.innerConeAngle",
+                                  lo=0, hi=outer)
+            return SpotLight(**local, direction=axis, cutoff=math.degrees(outer),
+                             inner_cutoff=math.degrees(inner))
     except SceneError as e:
         raise SceneError(e.problem, f"{where}.{e.key}", str(path)) from None
     raise SceneError(f"type must be point, spot or directional, got {kind!r}", where,
                      str(path))
-
-
-def _degrees(radians: Any, key: str) -> float:
-    """A cone angle of the file (radians, checked as a number) in degrees."""
-    return math.degrees(values.number(radians, f"spot.{key}"))
 
 
 #: KHR_lights_punctual: light type → what it becomes (intensity times colour as the light's
