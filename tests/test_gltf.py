@@ -84,17 +84,21 @@ def _lit_square(tmp_path, light: dict, node: dict, name: str):
 def test_each_khr_light_matches_the_equivalent_toml_light(tmp_path, kind):
     """The same square lit by the glTF light and by the TOML light docs/scene_format.md maps
     it to (colour × intensity; 1/d²; the spot's cutoff at the outer cone and its inner_cutoff
-    at the inner one, the spec's falloff between them): the same pixels."""
+    at the inner one, the spec's falloff between them; range 2.2, which ends the light inside
+    the square's corners, as range): the same pixels."""
     color, intensity = [1.0, 0.5, 0.25], 3.0
     down = {"translation": [0.2, 0.1, 1.5], "rotation": quaternion([1, 0, 0], -20)}
     light = {"type": kind, "color": color, "intensity": intensity}
     if kind == "spot":
         light["spot"] = {"innerConeAngle": 0.2, "outerConeAngle": 0.5}
+    if kind != "directional":
+        light["range"] = 2.2
     axis = [0, math.sin(math.radians(-20)), -math.cos(math.radians(20))]  # R(−20° x)·(−ẑ)
-    toml = {"point": 'type = "point"\nposition = [0.2, 0.1, 1.5]\nattenuation = [0, 0, 1]',
+    toml = {"point": 'type = "point"\nposition = [0.2, 0.1, 1.5]\nattenuation = [0, 0, 1]\n'
+                     'range = 2.2',
             "spot": f'type = "spot"\nposition = [0.2, 0.1, 1.5]\nattenuation = [0, 0, 1]\n'
                     f'direction = {axis}\ncutoff = {math.degrees(0.5)!r}\n'
-                    f'inner_cutoff = {math.degrees(0.2)!r}',
+                    f'inner_cutoff = {math.degrees(0.2)!r}\nrange = 2.2',
             "directional": f"type = \"directional\"\ndirection = {axis}"}[kind]
     path = _lit_square(tmp_path, light, down, kind)
     with pytest.warns(RenderWarning, match="no camera in the file"):  # the default framing
@@ -111,6 +115,10 @@ def test_each_khr_light_matches_the_equivalent_toml_light(tmp_path, kind):
     b = raytrace.render(ref, width=24, height=18).rgb
     assert a.max() > 0.05 and (a > 0).mean() > 0.1  # it is lit
     np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-7)
+    if kind != "directional":  # the window dims the square: without it, brighter
+        assert gl.lights[0].range == 2.2
+        gl.lights[0].range = None
+        assert (raytrace.render(gl, width=24, height=18).rgb > a + 1e-3).any()
 
 
 def test_metallic_roughness_maps_onto_kd_ks_shininess_kr(tmp_path):
