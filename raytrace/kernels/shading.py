@@ -4,8 +4,9 @@ behind the array functions of :mod:`raytrace.optics` and :mod:`raytrace.shading`
 Two layers, in pipeline order:
 
 * **one ray at a time**, a function per formula, on scalars: ``incidence1`` (a light's L,
-  distance and ``f_radial·f_angular``, seed 000), ``cosine_power1`` / ``phong1`` /
-  ``blinn1`` / ``direct1`` (the seeds' local model, Phong 1975, Blinn 1977), ``bulge1``,
+  distance and ``f_radial·f_angular``, seed 000, and KHR_lights_punctual's cone and range),
+  ``cosine_power1`` / ``phong1`` / ``blinn1`` / ``blinn_cosine1`` / ``direct1`` (the seeds'
+  local model, Phong 1975, Blinn 1977; glTF's lobe with its cosine), ``bulge1``,
   ``gouraud1`` and ``fast_phong1`` (Bishop & Weimer 1986); the primitives they share with the
   other kernel modules (reflection, refraction, the spawn rule, the checker, the hashes) are
   :mod:`raytrace.kernels.core`'s, a hit's material :mod:`raytrace.kernels.material`'s;
@@ -196,18 +197,24 @@ def blinn1(normal, light, view, n):
 
 
 @kernel
+def blinn_cosine1(normal, light, view, n):
+    """Blinn's lobe weighted by the reflectance equation's cosine, ``(N·H)^n·max(N·L, 0)``
+    (Akenine-Möller et al., Real-Time Rendering, 4th ed., §9.3: every BRDF lobe is weighted by
+    N·L), the highlight glTF materials map to: at n = 0 a Lambertian term, not a constant
+    one. N, L, V unit 3-tuples."""
+    nx, ny, nz = normal
+    lx, ly, lz = light
+    cos_l = nx * lx + ny * ly + nz * lz
+    return blinn1(normal, light, view, n) * cos_l if cos_l > 0.0 else 0.0
+
+
+@kernel
 def highlight1(model, normal, light, view, n):
-    """The highlight ``spec`` of model code ``model``: PHONG, BLINN, or BLINN_COSINE
-    ``(N·H)^n·max(N·L, 0)`` (a Blinn–Phong lobe inside the reflectance equation, which weights
-    it by N·L: Akenine-Möller et al., Real-Time Rendering, 4th ed., §9.3; at n = 0 a
-    Lambertian term, not a constant one)."""
+    """The highlight ``spec`` of model code ``model`` (PHONG, BLINN or BLINN_COSINE)."""
     if model == BLINN:
         return blinn1(normal, light, view, n)
     if model == BLINN_COSINE:
-        nx, ny, nz = normal
-        lx, ly, lz = light
-        cos_l = nx * lx + ny * ly + nz * lz
-        return blinn1(normal, light, view, n) * cos_l if cos_l > 0.0 else 0.0
+        return blinn_cosine1(normal, light, view, n)
     return phong1(normal, light, view, n)
 
 
