@@ -41,7 +41,7 @@ import numpy as np
 
 from .kernels.core import FAST_PHONG, taylor_rows
 from .kernels.records import FAST_COLUMNS, FAST_DIFFUSE, FAST_SPECULAR, FAST_TERMS
-from .kernels.shading import BLINN
+from .kernels.shading import PHONG
 
 #: No table: the light pass shades every hit exactly (``raytrace.kernels.records.Scene.fast``).
 NONE = np.zeros((0, FAST_COLUMNS))
@@ -131,7 +131,7 @@ def tables(triangles, highlight: np.ndarray, emitters: list) -> list[np.ndarray]
     code (``raytrace.kernels.records.Materials.highlight``)."""
     if not np.any(triangles.shading == FAST_PHONG):
         return [NONE] * len(emitters)
-    blinn = np.asarray(highlight)[triangles.material] == BLINN
+    blinn = np.asarray(highlight)[triangles.material] != PHONG  # N̂·H for both Blinn models
     return [NONE if em.position is not None else
             coefficients(triangles.corners, triangles.vnormals, -np.asarray(em.direction), blinn)
             for em in emitters]

@@ -1,7 +1,12 @@
 """Light sources as seen from shading points: direction, distance and attenuation.
 
 Seed 000: ``f_radial(d) = 1/(a0 + a1·d + a2·d²)`` for local sources, 1 at infinity;
-``f_angular = 0`` where ``cos α < cos θ`` (outside the cone), else ``(cos α)^a``. Area lights
+``f_angular = 0`` where ``cos α < cos θ`` (outside the cone), else ``(cos α)^a``. Two opt-in
+laws of KHR_lights_punctual (Khronos, glTF 2.0 extension, "Inner and Outer Cone Angles" and
+"Range Property", the spec's recommended implementation), by key: a spot's ``inner_cutoff``
+makes ``f_angular = t²``, ``t = clamp((cos α − cos θ_outer)/max(0.001, cos θ_inner −
+cos θ_outer), 0, 1)``; a local light's ``range`` r multiplies ``f_radial`` by
+``max(min(1 − (d/r)⁴, 1), 0)``. Area lights
 (seed 001, "distributed sources") are a k×k grid of point samples sharing the colour: at the
 cell centres, or, jittered, at a point drawn inside its cell anew for every shading point
 (stratified sampling of the light, as in Cook, Porter & Carpenter, "Distributed Ray
@@ -20,7 +25,7 @@ import numpy as np
 
 from . import values
 from .errors import SceneError
-from .kernels.kinds import DIRECTIONAL, POINT, SPOT
+from .kernels.kinds import DIRECTIONAL, POINT, SMOOTH_SPOT, SPOT
 from .kernels.records import Emitter as EmitterRecord
 
 
@@ -49,6 +54,10 @@ class Emitter:
     stream: int = -1
     offset: tuple[float, float] = (0.0, 0.0)
     part: str = ""
+    #: cos of a smooth spot's inner cone (the KHR_lights_punctual law); None: seed 000's spot.
+    cos_inner: float | None = None
+    #: > 0: the KHR_lights_punctual range window of a local light; 0: none.
+    range: float = 0.0
 
     @property
     def jittered(self) -> bool:
@@ -56,14 +65,15 @@ class Emitter:
 
     @cached_property
     def record(self) -> EmitterRecord:
-        """The emitter as the kernels take it, a :class:`raytrace.kernels.records.Emitter` of 21
-        floats: kind (POINT, SPOT, DIRECTIONAL), position, direction, attenuation, cos θ,
-        exponent, cell edges u and v, stream (below 2⁵², so exact in a float64), offset. A named
+        """The emitter as the kernels take it, a :class:`raytrace.kernels.records.Emitter` of 23
+        floats: kind (POINT, SPOT, DIRECTIONAL, SMOOTH_SPOT), position, direction, attenuation,
+        cos θ, exponent, cell edges u and v, stream (below 2⁵², so exact in a float64), offset,
+        cos of the inner cone, range. A named
         tuple of floats, not an array: numba passes it by value, where an array argument costs
         a reference count per call of the per-hit function that takes it (13 ns a hit in the
         light pass)."""
-        kind = (DIRECTIONAL if self.position is None else
-                POINT if self.cos_cutoff is None else SPOT)
+        kind = (DIRECTIONAL if self.position is None else POINT if self.cos_cutoff is None
+                else SPOT if self.cos_inner is None else SMOOTH_SPOT)
         zero = np.zeros(3)
         return EmitterRecord(*np.concatenate([
             [kind], zero if self.position is None else self.position,
@@ -71,7 +81,8 @@ class Emitter:
             [1.0, 0.0, 0.0] if self.attenuation is None else self.attenuation,
             [0.0 if self.cos_cutoff is None else self.cos_cutoff, self.exponent],
             zero if self.cell_u is None else self.cell_u,
-            zero if self.cell_v is None else self.cell_v, [self.stream], self.offset]
+            zero if self.cell_v is None else self.cell_v, [self.stream], self.offset,
+            [1.0 if self.cos_inner is None else self.cos_inner, self.range]]
         ).astype(np.float64).tolist())
 
 
@@ -95,6 +106,11 @@ def labels(lights: list, origin: np.ndarray, seed: int) -> list[str]:
             for i, light in enumerate(lights) for e in light.emitters(origin, seed, i)]
 
 
+def _range(value: Any) -> float | None:
+    """A light's ``range`` (a :func:`raytrace.values.length`), or None: no window."""
+    return None if value is None else values.length(value, "range")
+
+
 def _attenuation(value: Any, key: str) -> np.ndarray:
     a = values.vector(value, key)
     if np.any(a < 0) or not np.any(a > 0):
@@ -105,21 +121,25 @@ def _attenuation(value: Any, key: str) -> np.ndarray:
 
 @dataclass
 class PointLight(values.Checked):
-    """An isotropic point source with radial attenuation 1/(a0 + a1·d + a2·d²)."""
+    """An isotropic point source with radial attenuation 1/(a0 + a1·d + a2·d²), times the
+    KHR_lights_punctual window max(min(1 − (d/range)⁴, 1), 0) where ``range`` is given."""
 
     position: Any
     color: Any = 1.0
     attenuation: Any = (1.0, 0.0, 0.0)
+    range: Any = None
     type = "point"
 
     def check(self) -> None:
         self.position = values.position(self.position, "position")
         self.color = values.color(self.color, "color")
         self.attenuation = _attenuation(self.attenuation, "attenuation")
+        self.range = _range(self.range)
 
     def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
         """One point sample (:class:`raytrace.lights.Emitter`), camera-relative."""
-        return [Emitter(self.color, self.position - origin, attenuation=self.attenuation)]
+        return [Emitter(self.color, self.position - origin, attenuation=self.attenuation,
+                        range=self.range or 0.0)]
 
 
 @dataclass
@@ -141,7 +161,9 @@ class DirectionalLight(values.Checked):
 
 @dataclass
 class SpotLight(values.Checked):
-    """A point source limited to a cone: f_angular = (cos α)^exponent inside, 0 outside."""
+    """A point source limited to a cone: f_angular = (cos α)^exponent inside, 0 outside; with
+    ``inner_cutoff`` KHR_lights_punctual's falloff instead, t² with t = clamp((cos α − cos
+    cutoff)/max(0.001, cos inner_cutoff − cos cutoff), 0, 1). ``range``: as a point light's."""
 
     position: Any
     direction: Any
@@ -149,6 +171,8 @@ class SpotLight(values.Checked):
     exponent: float = 0.0
     color: Any = 1.0
     attenuation: Any = (1.0, 0.0, 0.0)
+    inner_cutoff: Any = None
+    range: Any = None
     type = "spot"
 
     def check(self) -> None:
@@ -158,11 +182,20 @@ class SpotLight(values.Checked):
         self.exponent = values.number(self.exponent, "exponent", lo=0)
         self.color = values.color(self.color, "color")
         self.attenuation = _attenuation(self.attenuation, "attenuation")
+        if self.inner_cutoff is not None:
+            self.inner_cutoff = values.number(self.inner_cutoff, "inner_cutoff", lo=0,
+                                              hi=self.cutoff)
+            if self.exponent != 0:
+                raise SceneError("a spot falls off by exponent (cos α)^a or between "
+                                 "inner_cutoff and cutoff, not both: drop one", "inner_cutoff")
+        self.range = _range(self.range)
 
     def emitters(self, origin: np.ndarray, seed: int, index: int) -> list:
         """One point sample with its cone (:class:`raytrace.lights.Emitter`)."""
+        inner = None if self.inner_cutoff is None else cos_cutoff(self.inner_cutoff)
         return [Emitter(self.color, self.position - origin, self.direction, self.attenuation,
-                        cos_cutoff(self.cutoff), self.exponent)]
+                        cos_cutoff(self.cutoff), self.exponent, cos_inner=inner,
+                        range=self.range or 0.0)]
 
 
 @dataclass
@@ -181,6 +214,7 @@ class AreaLight(values.Checked):
     jitter: bool = False
     color: Any = 1.0
     attenuation: Any = (1.0, 0.0, 0.0)
+    range: Any = None
     type = "area"
 
     def check(self) -> None:
@@ -198,6 +232,7 @@ class AreaLight(values.Checked):
         self.jitter = values.boolean(self.jitter, "jitter")
         self.color = values.color(self.color, "color")
         self.attenuation = _attenuation(self.attenuation, "attenuation")
+        self.range = _range(self.range)
 
     def sample_points(self) -> np.ndarray:
         """The k² cell centres (k², 3), cell (i, j) at ``position + ((i + ½)/k − ½)·edge_u +
@@ -217,14 +252,15 @@ class AreaLight(values.Checked):
         pts = self.sample_points() - origin
         col = self.color / len(pts)
         if not self.jitter:
-            return [Emitter(col, position=p, attenuation=self.attenuation, part=f"cell {c}")
+            return [Emitter(col, position=p, attenuation=self.attenuation, part=f"cell {c}",
+                            range=self.range or 0.0)
                     for c, p in enumerate(pts)]
         k = math.isqrt(self.samples)
         stream = int(np.random.default_rng([seed, index]).integers(0, 2**52))
         i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")  # sample_points' order
         return [Emitter(col, position=p, attenuation=self.attenuation, cell_u=self.edge_u / k,
                         cell_v=self.edge_v / k, stream=stream, offset=(b / k, a / k),
-                        part=f"cell {c}")
+                        part=f"cell {c}", range=self.range or 0.0)
                 for c, (p, a, b) in enumerate(zip(pts, i.ravel(), j.ravel(), strict=True))]
 
 

@@ -2,7 +2,8 @@
 
 A :class:`Material` holds per-channel colours ``ka kd ks kr kt`` (each a constant RGB or a
 :class:`Checker` pattern), the highlight exponent ``shininess`` with its model (``"phong"``
-(V·R)^n, Phong 1975; ``"blinn"`` (N·H)^n, Blinn 1977), the index of refraction and the
+(V·R)^n, Phong 1975; ``"blinn"`` (N·H)^n, Blinn 1977; ``"blinn_cosine"`` (N·H)^n·(N·L), the
+lobe inside the reflectance equation, as glTF materials map), the index of refraction and the
 opacity t of the blend ``I = t·I_surface + (1 − t)·I_behind`` (seed 003).
 
 The named library lives in the top-level ``materials/`` folder, one TOML file per material
@@ -184,6 +185,12 @@ class Material:
     @property
     def see_through(self) -> bool:
         return self.opacity < 1 or self.alpha is not None
+
+    @property
+    def invisible(self) -> bool:
+        """Not drawn at all: opacity 0 and no alpha texture (I = 0·I_surface + I_behind, and
+        shadow rays pass with factor 1)."""
+        return self.opacity == 0 and self.alpha is None
 
     @property
     def transparent(self) -> bool:

@@ -287,6 +287,8 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
                       RenderWarning, stacklevel=2)
     if (tree := ray_tree_warning(scene, options.max_depth, options.min_weight)) is not None:
         warnings.warn(f"{where}{tree}", RenderWarning, stacklevel=2)
+    if (unseen := invisible_warning(scene)) is not None:
+        warnings.warn(f"{where}{unseen}", RenderWarning, stacklevel=2)
     stop = Stop()
     try:
         with watch_memory(ceiling, stop):
@@ -330,6 +332,18 @@ def ray_tree_warning(scene: Scene, max_depth: int, min_weight: float) -> str | N
             f"10^{len(str(rays)) - 1} rays a camera sample, as material {name} spawns {b} rays a "
             f"hit; where such surfaces face each other the render may not end: set "
             f"render.min_weight (POV-Ray's adc_bailout, 1/255 there) or a lower max_depth")
+
+
+def invisible_warning(scene: Scene) -> str | None:
+    """A warning naming the objects whose every material is invisible
+    (:attr:`Material.invisible`: opacity 0, as an MTL ``Tr 1`` makes it), so that nothing of
+    them is drawn; None where there are none."""
+    unseen = [f"objects[{i}]" for i, o in enumerate(scene.objects)
+              if all(m.invisible for m in object_materials(o))]
+    if not unseen:
+        return None
+    return (f"{', '.join(unseen)}: every surface has opacity 0 (MTL d 0 or Tr 1, glTF alpha 0), "
+            f"so nothing of {'it' if len(unseen) == 1 else 'them'} is drawn")
 
 
 def render_options(scene: Scene, *, width: int | None = None, height: int | None = None,

@@ -146,6 +146,8 @@ class Emitter:
     spot_axis: np.ndarray | None = None
     cos_cutoff: float = -1.0
     exponent: float = 0.0
+    cos_inner: float | None = None  #: a smooth spot's inner cone (KHR_lights_punctual)
+    range: float | None = None      #: the KHR_lights_punctual range window
 
 
 def unit(v: np.ndarray) -> np.ndarray:
@@ -206,8 +208,9 @@ def blinn(n: np.ndarray, l: np.ndarray, v: np.ndarray) -> float:
     return float(n @ h) / length if length > 0.0 else 0.0
 
 
-#: The highlight models by their ``highlight`` key: the cosine raised to the shininess.
-HIGHLIGHTS = {"phong": phong, "blinn": blinn}
+#: The highlight models by their ``highlight`` key: the cosine raised to the shininess
+#: ("blinn_cosine" then times N·L, :func:`highlight`).
+HIGHLIGHTS = {"phong": phong, "blinn": blinn, "blinn_cosine": blinn}
 
 
 def reflectance(cos_i: float, eta: float) -> float:
@@ -256,11 +259,13 @@ def check_material(m: Material, where: str) -> None:
 
 
 def highlight(model: str, n: np.ndarray, l: np.ndarray, v: np.ndarray, power: float) -> float:
-    """spec = cos^n of the model's cosine, 0 where the cosine is ≤ 0."""
+    """spec = cos^n of the model's cosine, 0 where the cosine is ≤ 0; "blinn_cosine" times
+    max(N·L, 0), the reflectance equation's cosine."""
     if model not in HIGHLIGHTS:
         raise ValueError(f"unknown highlight {model!r} (valid: {', '.join(HIGHLIGHTS)})")
     cos = HIGHLIGHTS[model](n, l, v)
-    return cos**power if cos > 0.0 else 0.0
+    spec = cos**power if cos > 0.0 else 0.0
+    return spec * max(float(n @ l), 0.0) if model == "blinn_cosine" else spec
 
 
 def local_term(n: np.ndarray, l: np.ndarray, v: np.ndarray, kd: np.ndarray, ks: np.ndarray,
@@ -286,9 +291,16 @@ def incidence(em: Emitter, p: np.ndarray) -> tuple[np.ndarray, float, float]:
     l = to / dist
     a0, a1, a2 = em.attenuation
     f = 1.0 / (a0 + a1 * dist + a2 * dist * dist)
-    if em.spot_axis is not None:
+    if em.spot_axis is not None and em.cos_inner is not None:
+        # KHR_lights_punctual's recommended falloff, linear in cos α then squared
+        cos_a = -float(l @ em.spot_axis)
+        t = (cos_a - em.cos_cutoff) / max(0.001, em.cos_inner - em.cos_cutoff)
+        f = f * min(max(t, 0.0), 1.0) ** 2
+    elif em.spot_axis is not None:
         cos_a = -float(l @ em.spot_axis)
         f = f * cos_a**em.exponent if cos_a >= em.cos_cutoff else 0.0
+    if em.range is not None:
+        f = f * max(min(1.0 - (dist / em.range) ** 4, 1.0), 0.0)
     return l, dist, f
 
 
@@ -398,11 +410,16 @@ class ReferenceTracer:
         if kind == "directional":
             return [Emitter(color, direction=unit(np.asarray(light.direction, np.float64)))]
         att = tuple(float(a) for a in light.attenuation)
+        window = light.range
         if kind == "spot":
             cos_cutoff = 0.0 if light.cutoff == 90.0 else math.cos(math.radians(light.cutoff))
+            inner = (None if light.inner_cutoff is None else
+                     0.0 if light.inner_cutoff == 90.0 else
+                     math.cos(math.radians(light.inner_cutoff)))
             return [Emitter(color, np.asarray(light.position, np.float64), attenuation=att,
                             spot_axis=unit(np.asarray(light.direction, np.float64)),
-                            cos_cutoff=cos_cutoff, exponent=float(light.exponent))]
+                            cos_cutoff=cos_cutoff, exponent=float(light.exponent),
+                            cos_inner=inner, range=window)]
         if kind == "area":
             if light.jitter:
                 raise NotImplementedError("the reference tracer has no jittered area lights "
@@ -411,9 +428,10 @@ class ReferenceTracer:
             c, eu, ev = (np.asarray(x, np.float64) for x in (light.position, light.edge_u,
                                                                 light.edge_v))
             return [Emitter(color / (k * k), c + ((i + 0.5) / k - 0.5) * eu
-                            + ((j + 0.5) / k - 0.5) * ev, attenuation=att)
+                            + ((j + 0.5) / k - 0.5) * ev, attenuation=att, range=window)
                     for i in range(k) for j in range(k)]
-        return [Emitter(color, np.asarray(light.position, np.float64), attenuation=att)]  # point
+        return [Emitter(color, np.asarray(light.position, np.float64), attenuation=att,  # point
+                        range=window)]
 
     # -- camera ------------------------------------------------------------------------------
     def camera_ray(self, row: int, col: int, width: int, height: int, sx: float = 0.5,

@@ -10,7 +10,7 @@ import sys
 
 import numpy as np
 import pytest
-from helpers import make_scene, pixel, write_gltf
+from helpers import aimed_camera, make_scene, pixel, write_gltf
 
 import raytrace
 from raytrace.camera import camera_rays
@@ -83,18 +83,22 @@ def _lit_square(tmp_path, light: dict, node: dict, name: str):
 @pytest.mark.parametrize("kind", ["point", "spot", "directional"])
 def test_each_khr_light_matches_the_equivalent_toml_light(tmp_path, kind):
     """The same square lit by the glTF light and by the TOML light docs/scene_format.md maps
-    it to (colour × intensity; 1/d²; the spot's cutoff at the outer cone and an exponent that
-    halves it midway between the cones): the same pixels."""
+    it to (colour × intensity; 1/d²; the spot's cutoff at the outer cone and its inner_cutoff
+    at the inner one, the spec's falloff between them; range 2.2, which ends the light inside
+    the square's corners, as range): the same pixels."""
     color, intensity = [1.0, 0.5, 0.25], 3.0
     down = {"translation": [0.2, 0.1, 1.5], "rotation": quaternion([1, 0, 0], -20)}
     light = {"type": kind, "color": color, "intensity": intensity}
     if kind == "spot":
         light["spot"] = {"innerConeAngle": 0.2, "outerConeAngle": 0.5}
+    if kind != "directional":
+        light["range"] = 2.2
     axis = [0, math.sin(math.radians(-20)), -math.cos(math.radians(20))]  # R(−20° x)·(−ẑ)
-    toml = {"point": 'type = "point"\nposition = [0.2, 0.1, 1.5]\nattenuation = [0, 0, 1]',
+    toml = {"point": 'type = "point"\nposition = [0.2, 0.1, 1.5]\nattenuation = [0, 0, 1]\n'
+                     'range = 2.2',
             "spot": f'type = "spot"\nposition = [0.2, 0.1, 1.5]\nattenuation = [0, 0, 1]\n'
                     f'direction = {axis}\ncutoff = {math.degrees(0.5)!r}\n'
-                    f'exponent = {math.log(0.5) / math.log(math.cos(0.35))!r}',
+                    f'inner_cutoff = {math.degrees(0.2)!r}\nrange = 2.2',
             "directional": f"type = \"directional\"\ndirection = {axis}"}[kind]
     path = _lit_square(tmp_path, light, down, kind)
     with pytest.warns(RenderWarning, match="no camera in the file"):  # the default framing
@@ -111,16 +115,22 @@ def test_each_khr_light_matches_the_equivalent_toml_light(tmp_path, kind):
     b = raytrace.render(ref, width=24, height=18).rgb
     assert a.max() > 0.05 and (a > 0).mean() > 0.1  # it is lit
     np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-7)
+    if kind != "directional":  # the window dims the square: without it, brighter
+        assert gl.lights[0].range == 2.2
+        gl.lights[0].range = None
+        assert (raytrace.render(gl, width=24, height=18).rgb > a + 1e-3).any()
 
 
 def test_metallic_roughness_maps_onto_kd_ks_shininess_kr(tmp_path):
     """baseColor (0.8, 0.4, 0.2), metallic 0, roughness 1: kd = baseColor, n = 2/1 − 2 = 0,
-    ks = F0·(n + 8)/8 = 0.04, kr = 0. Head-on under a unit light at the eye: kd + ks."""
+    ks = F0·(n + 8)/8 = 0.04, kr = 0, highlight ks·(N·H)^n·(N·L). Head-on under a unit light
+    at the eye (N·H = N·L = 1): kd + ks."""
     path = write_gltf(tmp_path / "m.gltf", [{"mesh": 0}], [SQUARE], MATTE)
     mesh = raytrace.Mesh(file=path, material="from_file")
     cam = raytrace.Camera(position=(0, 0, 2), look_at=(0, 0, 0))
     got = pixel(make_scene([mesh], [raytrace.PointLight(position=(0, 0, 2))], cam))
     np.testing.assert_allclose(got, [0.84, 0.44, 0.24], rtol=1e-6)
+    assert raytrace.Mesh(file=path, material="from_file").material.highlight == "blinn_cosine"
     gold = [{"pbrMetallicRoughness": {"baseColorFactor": [1.0, 0.8, 0.3, 1],
                                       "metallicFactor": 1.0, "roughnessFactor": 0.0},
              "emissiveFactor": [0.1, 0.0, 0.0]}]
@@ -130,6 +140,50 @@ def test_metallic_roughness_maps_onto_kd_ks_shininess_kr(tmp_path):
     np.testing.assert_allclose(m.kr, [1.0, 0.8, 0.3])  # a polished metal: a tinted mirror
     np.testing.assert_allclose(m.ke, [0.1, 0, 0])
     assert m.shininess == 10_000.0
+
+
+def test_a_khr_spot_light_with_a_range_renders_the_hand_value(tmp_path):
+    """A spot (KHR_lights_punctual) at (0, 0, 1.5) shining down its node's −z onto the square
+    (normal +z), inner cone 0.2 rad, outer 0.5 rad, range 4, intensity 3 cd, colour
+    (1, 0.5, 0.25); a matte material with no highlight (specularFactor 0: ks = 0). The pixel
+    aims at P = (1.5·tan 0.35, 0, 0): α = 0.35 rad off the axis, d = 1.5/cos 0.35 = 1.596810,
+    N·L = cos 0.35 = 0.9393727. The spec's recommended falloff: t = (cos 0.35 − cos 0.5)/
+    (cos 0.2 − cos 0.5) = (0.9393727 − 0.8775826)/(0.9800666 − 0.8775826) = 0.602925,
+    t² = 0.363518; its range window 1 − (d/4)⁴ = 1 − 0.399203⁴ = 0.974604; 1/d² = 0.392187.
+    Pixel = kd·I·t²·window·N·L/d² = kd·I·0.1305225, I = 3·colour (candela at the 1/d²
+    law)."""
+    light = {"type": "spot", "color": [1.0, 0.5, 0.25], "intensity": 3.0, "range": 4.0,
+             "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}}
+    plain = [{"pbrMetallicRoughness": MATTE[0]["pbrMetallicRoughness"],
+              "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}]
+    path = write_gltf(tmp_path / "spot.gltf", [{"mesh": 0}, {
+        "translation": [0.0, 0.0, 1.5], "extensions": {"KHR_lights_punctual": {"light": 0}}}],
+        [SQUARE], plain, extra={"extensionsUsed": ["KHR_lights_punctual",
+                                                   "KHR_materials_specular"],
+                                "extensions": {"KHR_lights_punctual": {"lights": [light]}}})
+    with pytest.warns(RenderWarning, match="no camera in the file"):
+        gl = raytrace.load_scene(path)
+    (spot,) = gl.lights
+    assert (spot.cutoff, spot.inner_cutoff, spot.range) == pytest.approx(
+        (math.degrees(0.5), math.degrees(0.2), 4.0))
+    x = 1.5 * math.tan(0.35)
+    got = pixel(make_scene(gl.objects, gl.lights, aimed_camera([x, -1.0, 3.0], [x, 0.0, 0.0])))
+    kd_i = np.array([0.8, 0.4, 0.2]) * 3.0 * np.array([1.0, 0.5, 0.25])
+    np.testing.assert_allclose(got, kd_i * 0.1305225, rtol=2e-6)
+
+
+@pytest.mark.parametrize("change,key,problem", [
+    ({"spot": {"innerConeAngle": 0.6, "outerConeAngle": 0.5}}, "spot.innerConeAngle",
+     "must be <= 0.5"),
+    ({"spot": {"outerConeAngle": 2.0}}, "spot.outerConeAngle", "must be <= 1.5708"),
+    ({"range": 0}, "range", "must be > 0"),
+])
+def test_a_bad_khr_spot_or_range_is_one_line_naming_the_field(tmp_path, change, key, problem):
+    light = {"type": "spot", **change}
+    path = _lit_square(tmp_path, light, {"translation": [0, 0, 1]}, "bad")
+    with pytest.raises(SceneError) as e:
+        raytrace.load_scene(path)
+    assert str(e.value).startswith(f"{path}: KHR_lights_punctual.lights[0].{key}: {problem}")
 
 
 def test_transmission_and_ior_make_fresnel_glass(tmp_path):

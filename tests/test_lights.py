@@ -58,6 +58,103 @@ def test_spot_exponent_zero_is_a_hard_edged_cone():
     np.testing.assert_allclose(value, expected, rtol=RTOL)
 
 
+# -- KHR_lights_punctual's laws: the smooth spot (inner_cutoff) and the range window ----------
+#: A smooth spot of inner cone 10° and outer cone 30° (KHR_lights_punctual's falloff).
+INNER, OUTER = 10.0, 30.0
+SPOT_COLOR = np.array([1.5, 1.0, 0.5])
+
+
+def _smooth_spot_pixel(alpha_deg: float, **keys):
+    """The floor lit by a spot at S = (0, 2, 0) pointing straight down, at 1/d²
+    (attenuation (0, 0, 1), as glTF's candela), the pixel at P = (2·tan α, 0, 0): the
+    light-to-point direction makes angle α with the axis, d = 2/cos α, N·L = cos α."""
+    x = 2.0 * math.tan(math.radians(alpha_deg))
+    spot = raytrace.SpotLight([0.0, 2.0, 0.0], [0.0, -1.0, 0.0], cutoff=OUTER,
+                              inner_cutoff=INNER, color=SPOT_COLOR, attenuation=[0, 0, 1],
+                              **keys)
+    scene = make_scene([raytrace.Plane(**FLOOR, material=raytrace.Material(kd=KD, ka=KA))],
+                       [spot], camera=aimed_camera([x, 3.0, 3.0], [x, 0.0, 0.0]), ambient=IA)
+    return pixel(scene)
+
+
+def _lit_floor(alpha_deg: float, t: float, window: float = 1.0) -> np.ndarray:
+    """ka·Ia + t²·window·I·kd·cos α/d² with d = 2/cos α: the floor pixel by hand."""
+    c = math.cos(math.radians(alpha_deg))
+    return KA * IA + t * t * window * SPOT_COLOR * KD * c * (c / 2.0) ** 2
+
+
+def test_smooth_spot_between_its_cones_falls_off_as_the_khr_spec():
+    """KHR_lights_punctual's recommended falloff at α = 20°, between inner 10° and outer 30°:
+    t = (cos 20° − cos 30°)/(cos 10° − cos 30°) = (0.9396926 − 0.8660254)/(0.9848078 −
+    0.8660254) = 0.0736672/0.1187824 = 0.620184; the light is t² = 0.384628 of the cone's."""
+    t = 0.0736672 / 0.1187824
+    np.testing.assert_allclose(_smooth_spot_pixel(20.0), _lit_floor(20.0, t), rtol=1e-6)
+
+
+@pytest.mark.parametrize("alpha", [0.0, 5.0, INNER])
+def test_smooth_spot_inside_its_inner_cone_is_full(alpha):
+    """At and inside the inner cone t = clamp(≥ 1) = 1: the whole light, 1/d² and N·L only."""
+    np.testing.assert_allclose(_smooth_spot_pixel(alpha), _lit_floor(alpha, 1.0), rtol=RTOL)
+
+
+@pytest.mark.parametrize("alpha", [30.5, 60.0])
+def test_smooth_spot_beyond_its_outer_cone_is_dark(alpha):
+    """t = clamp(< 0) = 0 beyond the outer cone: ambient only, exactly."""
+    np.testing.assert_array_equal(_smooth_spot_pixel(alpha), (KA * IA).astype(np.float32))
+
+
+def test_range_window_at_half_the_range():
+    """A point light 2 above the floor with range 4: d = range/2, so the KHR window is
+    1 − (1/2)⁴ = 15/16 and the pixel below it kd·I·(15/16)/d² (N·L = 1, ambient 0)."""
+    light = raytrace.PointLight([0.0, 2.0, 0.0], color=SPOT_COLOR, attenuation=[0, 0, 1],
+                                range=4.0)
+    scene = make_scene([raytrace.Plane(**FLOOR, material=raytrace.Material(kd=KD, ka=0.0))],
+                       [light], camera=aimed_camera([0.0, 3.0, 3.0], [0.0, 0.0, 0.0]))
+    np.testing.assert_allclose(pixel(scene), KD * SPOT_COLOR * (1 - 1 / 16) / 4, rtol=1e-7)
+    # the smooth spot's axis, d = 2 again
+    np.testing.assert_allclose(_smooth_spot_pixel(0.0, range=4.0),
+                               _lit_floor(0.0, 1.0, 15 / 16), rtol=1e-7)
+
+
+@pytest.mark.parametrize("make", [
+    lambda r: raytrace.PointLight([0.0, 2.0, 0.0], color=2.0, range=r),
+    lambda r: raytrace.SpotLight([0.0, 2.0, 0.0], [0, -1, 0], color=2.0, range=r),
+    lambda r: raytrace.AreaLight([0.0, 2.0, 0.0], [0.1, 0, 0], [0, 0, 0.1], color=2.0,
+                                 range=r)])
+def test_beyond_its_range_a_light_gives_nothing(make):
+    """d = 2 > range 1.9: 1 − (d/r)⁴ < 0, the window is 0: ambient only."""
+    scene = make_scene([raytrace.Plane(**FLOOR, material=raytrace.Material(kd=KD, ka=KA))],
+                       [make(1.9)], camera=aimed_camera([0.0, 3.0, 3.0], [0.0, 0.0, 0.0]),
+                       ambient=IA)
+    np.testing.assert_array_equal(pixel(scene), (KA * IA).astype(np.float32))
+    scene.lights[0].range = 2.5  # inside its range, it lights the floor
+    assert np.all(pixel(scene) > KA * IA + 0.1)
+
+
+@pytest.mark.parametrize("keys,key,problem", [
+    (dict(inner_cutoff=31.0), "inner_cutoff", "must be <= 30"),
+    (dict(inner_cutoff=-1.0), "inner_cutoff", "must be >= 0"),
+    (dict(inner_cutoff=10.0, exponent=2.0), "inner_cutoff", "not both"),
+    (dict(range=0.0), "range", "must be > 0"),
+    (dict(range=-3.0), "range", "must be > 0"),
+])
+def test_bad_spot_keys_are_one_line(keys, key, problem):
+    with pytest.raises(raytrace.SceneError, match=problem) as e:
+        raytrace.SpotLight([0, 2, 0], [0, -1, 0], cutoff=30.0, **keys)
+    assert e.value.key == key
+
+
+def test_the_new_keys_are_opt_in_and_the_old_spot_law_stays_the_default():
+    """Without inner_cutoff and range a spot's emitter is seed 000's SPOT with no window, as
+    before (so existing scenes render bit for bit as they did)."""
+    (old,) = emitters([raytrace.SpotLight([0, 2, 0], [0, -1, 0], exponent=3.0)], np.zeros(3), 0)
+    assert old.record.kind == K.SPOT and old.record.range == 0.0
+    (new,) = emitters([raytrace.SpotLight([0, 2, 0], [0, -1, 0], inner_cutoff=20.0,
+                                          range=5.0)], np.zeros(3), 0)
+    assert new.record.kind == K.SMOOTH_SPOT and new.record.range == 5.0
+    assert new.record.cos_inner == pytest.approx(math.cos(math.radians(20.0)))
+
+
 def test_directional_light_on_a_sphere():
     # Unit sphere at C = (1, -0.5, 0.25); the pixel aims at Q = C + N with the outward normal
     # N = (sin 40°, 0, cos 40°) from the eye at C + (0, 0, 5). The light travels along

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import RTOL, aimed_camera, make_scene, pixel, write_text
+from helpers import RTOL, aimed_camera, make_scene, pixel, write_gltf, write_text
 
 import raytrace
 from raytrace import cli, shading
@@ -235,3 +235,53 @@ def test_a_checker_cell_outside_the_length_bounds_is_refused(scale):
     assert str(e.value) == (f"materials.floor.kd.scale: must be within [1e-12, 1e+12] (the "
                             f"lengths at which a scene renders as it does at unit size), "
                             f"got {scale!r}")
+
+
+# -- model-file materials: a rough one stays matte (material.file_shininess) -----------------
+#: A unit sphere at the origin seen, and lit by a unit point light, from E = (0, 0, 5).
+EYE = np.array([0.0, 0.0, 5.0])
+#: The point Q = (sin θ, 0, cos θ) of the sphere where N·L = 0.2 for the light at E: with
+#: N = Q and L = (E − Q)/|E − Q|, N·L = (5c − 1)/√(26 − 10c) for c = cos θ. Setting it to 0.2
+#: and squaring: (5c − 1)² = 0.04·(26 − 10c), i.e. 25c² − 9.6c − 0.04 = 0, whose root with
+#: 5c − 1 > 0 is c = (9.6 + √(9.6² + 4·25·0.04))/50 = (9.6 + √96.16)/50 = 0.388122.
+COS_Q = (9.6 + math.sqrt(96.16)) / 50
+GRAZING = np.array([math.sqrt(1 - COS_Q**2), 0.0, COS_Q])
+
+
+def _front_and_grazing(material: Material) -> tuple[np.ndarray, np.ndarray]:
+    """The sphere's pixel where N·L = 1 (Q = (0, 0, 1)) and where N·L = 0.2 (GRAZING): one
+    point light at the camera, ambient 0, black background, depth 0."""
+    def at(q):
+        scene = make_scene([raytrace.Sphere([0, 0, 0], 1.0, material=material)],
+                           [raytrace.PointLight(EYE)], aimed_camera(EYE, q), ambient=0.0,
+                           background=0.0, max_depth=0)
+        return pixel(scene)
+    return at([0.0, 0.0, 1.0]), at(GRAZING)
+
+
+def _gltf_material(tmp_path, metallic: float, roughness: float) -> Material:
+    quad = {"positions": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "indices": [[0, 1, 2]],
+            "material": 0}
+    mat = {"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.5, 0.05, 1.0],
+                                    "metallicFactor": metallic, "roughnessFactor": roughness}}
+    path = write_gltf(tmp_path / "m.gltf", [{"mesh": 0}], [quad], [mat])
+    return raytrace.Mesh(file=path, material="from_file").material
+
+
+def _mtl_material(tmp_path, ns: float) -> Material:
+    write_text(tmp_path / "m.obj", "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n")
+    write_text(tmp_path / "m.mtl", f"newmtl m\nKd 0.05\nKs 1\nNs {ns}\nillum 2\n")
+    return raytrace.Mesh(file=tmp_path / "m.obj", material="from_file").material
+
+
+@pytest.mark.parametrize("source,make", [
+    *((f"glTF metallic {m} roughness {r}", lambda p, m=m, r=r: _gltf_material(p, m, r))
+      for m in (0.0, 1.0) for r in (0.9, 1.0)),
+    *((f"MTL Ks 1 Ns {n}", lambda p, n=n: _mtl_material(p, n)) for n in (0, 0.5, 1))])
+def test_a_rough_model_material_stays_matte(tmp_path, source, make):
+    """docs/scene_format.md's mapping: no term is constant over the lit surface. Where
+    N·L = 0.2 a pixel is at most 0.35 of its value where N·L = 1 (Lambert alone gives 0.2;
+    the old mapping, shininess 0 and ks = F0 = 1, gave 1: flat white)."""
+    front, grazing = _front_and_grazing(make(tmp_path))
+    assert np.all(front > 0.01), source
+    assert np.all(grazing <= 0.35 * front), (source, grazing / front)

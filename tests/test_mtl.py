@@ -12,6 +12,7 @@ import pytest
 from helpers import make_scene, pixel
 
 import raytrace
+from raytrace import cli
 from raytrace.errors import RenderWarning, SceneError
 
 B = np.array([0.3, 0.5, 0.7])  # the background every secondary ray ends in
@@ -91,6 +92,42 @@ def test_illum_4_dissolves_with_d(tmp_path):
 def test_illum_9_dissolves_without_reflection_and_tr_is_one_minus_d(tmp_path):
     got = render_quad(tmp_path, LIT + "Tr 0.4\nillum 9\n")
     np.testing.assert_allclose(got, 0.6 * lit_value() + 0.4 * B, rtol=1e-6)
+
+
+def test_tr_1_warns_naming_the_material_the_file_and_the_fix(tmp_path, recwarn):
+    """Meshlab writes ``Tr 1`` meaning opaque; by the spec (Tr = 1 − d) it is fully
+    transparent: read by the spec, with a warning that says which material and how to fix it.
+    A partial Tr, or a d beside it (d wins), says nothing."""
+    with pytest.warns(RenderWarning) as caught:
+        mesh = quad(tmp_path, "newmtl m\nKd 0.5\nTr 1\n")
+    (note,) = [str(w.message) for w in caught]
+    assert note == (f"{tmp_path / 'quad.mtl'}: material 'm' (line 1): Tr 1 makes it fully "
+                    "transparent (Tr = 1 − d by the MTL spec), so it is not drawn; Meshlab "
+                    "writes Tr 1 meaning opaque: write d 1 or Tr 0 there to see it")
+    assert mesh.material.opacity == 0.0
+    recwarn.clear()
+    for mtl in ("newmtl m\nKd 0.5\nTr 0.4\n", "newmtl m\nKd 0.5\nd 1\nTr 1\n"):
+        (tmp_path / "quad.mtl").write_text(mtl)
+        raytrace.Mesh(file=tmp_path / "quad.obj", material="from_file")
+    assert not [w for w in recwarn.list if issubclass(w.category, RenderWarning)]
+
+
+def test_a_model_made_invisible_by_tr_is_two_warning_lines_at_the_cli(tmp_path, capsys):
+    """``raytrace render quad.obj`` of the Tr 1 quad: the MTL line and the render's line that
+    the model is invisible, each one line (with the default-camera line of a bare OBJ)."""
+    quad(tmp_path, "newmtl m\nKd 0.5\nd 1\n")  # writes quad.obj
+    (tmp_path / "quad.mtl").write_text("newmtl m\nKd 0.5\nTr 1\n")
+    rc = cli.main(["render", str(tmp_path / "quad.obj"), "-o", str(tmp_path / "q.exr"), "-q",
+                   "--width", "8", "--height", "6"])
+    assert rc == 0
+    lines = capsys.readouterr().err.splitlines()
+    assert [x for x in lines if "Tr 1 makes it fully transparent" in x] == [
+        f"raytrace: warning: {tmp_path / 'quad.mtl'}: material 'm' (line 1): Tr 1 makes it "
+        "fully transparent (Tr = 1 − d by the MTL spec), so it is not drawn; Meshlab writes Tr "
+        "1 meaning opaque: write d 1 or Tr 0 there to see it"]
+    assert [x for x in lines if "opacity 0" in x] == [
+        f"raytrace: warning: {tmp_path / 'quad.obj'}: objects[0]: every surface has opacity 0 "
+        "(MTL d 0 or Tr 1, glTF alpha 0), so nothing of it is drawn"]
 
 
 def test_illum_5_fresnel_reflection_rises_from_ks_towards_grazing(tmp_path):

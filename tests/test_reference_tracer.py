@@ -53,6 +53,7 @@ from raytrace import (
     Plane,
     PointLight,
     Sphere,
+    SpotLight,
 )
 
 TESTS = Path(__file__).resolve().parent
@@ -414,5 +415,24 @@ def test_disks_fresnel_and_emission_match_reference_tracer():
     scene = make_scene(objects, lights, Camera([0.4, 2.0, 4.5], [0, 0.7, 0], fov=45),
                        ambient=0.1, background=[0.3, 0.4, 0.6])
     result = compare(scene, 40, 30, 4)
+    assert not result["wrong"], result["wrong"]
+    assert len(result["edges"]) <= EDGE_FRACTION * result["size"], result["edges"]
+
+
+def test_khr_spot_and_range_windows_match_reference_tracer():
+    # KHR_lights_punctual's laws: a smooth spot (inner_cutoff) whose edge crosses the ball and
+    # the floor, a ranged point light whose window ends on the floor, a ranged area light;
+    # the reference computes them with formulas of its own. 40×30, max_depth 2.
+    objects = [Plane([0, 0, 0], [0, 1, 0], Material(kd=[0.8, 0.8, 0.75])),
+               Sphere([0.2, 0.6, -0.1], 0.6, Material(kd=[0.2, 0.3, 0.8], ks=0.4,
+                                                      highlight="blinn"))]
+    lights = [SpotLight([0.5, 3, 1], [-0.1, -1, -0.3], cutoff=35, inner_cutoff=15,
+                        color=[6, 5, 4], attenuation=[0, 0, 1], range=6.0),
+              PointLight([-2, 1.5, 1], [0.8, 0.6, 0.4], attenuation=[0, 0, 1], range=3.0),
+              AreaLight([1.5, 2, -1], [0.5, 0, 0], [0, 0, 0.5], samples=4, color=0.6,
+                        range=3.5)]
+    scene = make_scene(objects, lights, Camera([0.4, 2.5, 4.5], [0, 0.5, 0], fov=50),
+                       ambient=0.05, background=[0.3, 0.4, 0.6])
+    result = compare(scene, 40, 30, 2)
     assert not result["wrong"], result["wrong"]
     assert len(result["edges"]) <= EDGE_FRACTION * result["size"], result["edges"]

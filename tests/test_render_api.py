@@ -11,6 +11,7 @@ import importlib
 import inspect
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -191,6 +192,22 @@ def test_a_scene_without_objects_warns_and_an_empty_file_is_an_error(tmp_path, c
         assert capsys.readouterr().err == f"raytrace: error: {empty}: the scene file is empty\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["blank.json", "l.exr", "lonely.toml",
                                                           "zero.toml"]
+
+
+def test_an_object_whose_every_surface_is_invisible_warns():
+    """Opacity 0 on every material of an object (as an MTL ``Tr 1`` gives): nothing of it is
+    drawn, and the render says which object; one partly visible material, or opacity above
+    0, says nothing."""
+    ghost = raytrace.Material(kd=0.5, opacity=0.0)
+    scene = raytrace.Scene(objects=[raytrace.Sphere([0, 0, -3], 1.0, material=raytrace.Material()),
+                                    raytrace.Sphere([2, 0, -3], 1.0, material=ghost)])
+    with pytest.warns(raytrace.RenderWarning, match=r"^objects\[1\]: every surface has "
+                                                    r"opacity 0 .*so nothing of it is drawn$"):
+        raytrace.render(scene, width=4, height=3)
+    scene.objects[1].material = ghost.replace(opacity=0.01)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", raytrace.RenderWarning)
+        raytrace.render(scene, width=4, height=3)
 
 
 # -- memory ------------------------------------------------------------------------------------

@@ -61,24 +61,28 @@ def _highlight_scene(model: str, theta_l: float, theta_v: float, n: float):
                       camera=aimed_camera(eye, [0.0, 0.0, 0.0]), ambient=0.3), mat
 
 
-@pytest.mark.parametrize("model", ["phong", "blinn"])
+@pytest.mark.parametrize("model", ["phong", "blinn", "blinn_cosine"])
 def test_highlight_peak_at_mirror_direction(model):
     # Light and eye symmetric about N at 45°: V = R (so V·R = 1) and H = N (N·H = 1).
-    # I = ka·Ia + Il·(kd·cos 45° + ks·1).
+    # I = ka·Ia + Il·(kd·cos 45° + ks·1); blinn_cosine's highlight is times N·L = cos 45°.
     scene, m = _highlight_scene(model, 45.0, 45.0, 50.0)
     il = np.array([1.0, 0.9, 0.8])
-    expected = m.ka * 0.3 + il * (m.kd * math.cos(math.radians(45)) + m.ks * 1.0)
+    cos_l = math.cos(math.radians(45)) if model == "blinn_cosine" else 1.0
+    expected = m.ka * 0.3 + il * (m.kd * math.cos(math.radians(45)) + m.ks * cos_l)
     np.testing.assert_allclose(pixel(scene), expected, rtol=RTOL)
 
 
-@pytest.mark.parametrize("model", ["phong", "blinn"])
+@pytest.mark.parametrize("model", ["phong", "blinn", "blinn_cosine"])
 def test_highlight_off_peak(model):
     # θ_L = 30°, θ_V = 55°: R is 25° away from V, so V·R = cos 25° (Phong), and H bisects L, V
-    # at (55° − 30°)/2 = 12.5° from N, so N·H = cos 12.5° (Blinn; seed 001: α = φ/2).
+    # at (55° − 30°)/2 = 12.5° from N, so N·H = cos 12.5° (Blinn; seed 001: α = φ/2);
+    # blinn_cosine: (N·H)ⁿ·N·L = cos¹⁰ 12.5°·cos 30°.
     theta_l, theta_v, n = 30.0, 55.0, 10.0
     scene, m = _highlight_scene(model, theta_l, theta_v, n)
     phi = math.radians(theta_v - theta_l)
     spec = math.cos(phi) ** n if model == "phong" else math.cos(phi / 2) ** n
+    if model == "blinn_cosine":
+        spec *= math.cos(math.radians(theta_l))
     il = np.array([1.0, 0.9, 0.8])
     expected = m.ka * 0.3 + il * (m.kd * math.cos(math.radians(theta_l)) + m.ks * spec)
     np.testing.assert_allclose(pixel(scene), expected, rtol=RTOL)

@@ -27,7 +27,8 @@ def test_an_unknown_key_suggests_the_closest():
         raytrace.scene_from_dict({"lights": [{"type": "spot", "position": [0, 1, 0],
                                               "direction": [0, -1, 0], "cutof": 30}]})
     assert str(e.value) == ("lights[0].cutof: unknown key (did you mean 'cutoff'?) (valid keys: "
-                            "type, position, direction, cutoff, exponent, color, attenuation)")
+                            "type, position, direction, cutoff, exponent, color, attenuation, "
+                            "inner_cutoff, range)")
 
 
 def test_an_unknown_choice_suggests_the_closest():

@@ -22,13 +22,17 @@ NONE, PRUNED, KEEP = 0, 1, 2
 
 # -- lights -----------------------------------------------------------------------------------
 #: Emission laws (``Emitter.kind``), each one branch of ``kernels.shading.incidence1``.
-EMITTER_KINDS = {"point": 0, "spot": 1, "directional": 2}
-POINT, SPOT, DIRECTIONAL = EMITTER_KINDS.values()
+#: "spot" is seed 000's (cos α)^a inside a hard cone; "smooth_spot" KHR_lights_punctual's falloff
+#: between an inner and an outer cone.
+EMITTER_KINDS = {"point": 0, "spot": 1, "directional": 2, "smooth_spot": 3}
+POINT, SPOT, DIRECTIONAL, SMOOTH_SPOT = EMITTER_KINDS.values()
 
 # -- materials --------------------------------------------------------------------------------
-#: Highlight models by name: Phong's (V·R)^n (Phong 1975), Blinn's (N·H)^n (Blinn 1977).
-HIGHLIGHT_CODES = {"phong": 0, "blinn": 1}
-PHONG, BLINN = HIGHLIGHT_CODES.values()
+#: Highlight models by name: Phong's (V·R)^n (Phong 1975), Blinn's (N·H)^n (Blinn 1977), and
+#: Blinn's times N·L, the cosine of the reflectance equation that a microfacet lobe (a glTF
+#: roughness) sits in (Akenine-Möller et al., Real-Time Rendering, 4th ed., §9.3).
+HIGHLIGHT_CODES = {"phong": 0, "blinn": 1, "blinn_cosine": 2}
+PHONG, BLINN, BLINN_COSINE = HIGHLIGHT_CODES.values()
 #: How kr and kt vary with the angle of incidence (``kernels.core.fresnel_weights1``).
 FRESNEL_CODES = {"none": 0, "schlick": 1, "dielectric": 2}
 NO_FRESNEL, SCHLICK, DIELECTRIC = FRESNEL_CODES.values()

@@ -19,7 +19,7 @@ record                   what it holds (n rays or hits, M materials, T triangles
 :class:`Triangles`       the float64 triangle tables (``raytrace.tables.SceneArrays.triangles``)
 :class:`Scene`           what every shading kernel needs of the scene: camera position,
                          materials, triangles (and a light pass's fast-Phong table)
-:class:`Emitter`         one point-like light sample, 21 floats
+:class:`Emitter`         one point-like light sample, 23 floats
                          (``raytrace.lights.Emitter.record``)
 :class:`Shadows`         the shadow rays a light pass spawns
 :class:`ShadowWalk`      transparent shadow rays crossing the surfaces they hit
@@ -126,7 +126,7 @@ class Shapes(NamedTuple):
 #: value for each: ``raytrace.material.COLUMNS``.
 MATERIAL_COLUMNS = {
     "shininess": (np.float64, "highlight exponent n"),
-    "highlight": (np.int64, "kinds.PHONG or BLINN"),
+    "highlight": (np.int64, "kinds.PHONG, BLINN or BLINN_COSINE"),
     "ior": (np.float64, "relative index of refraction"),
     "opacity": (np.float64, "t of the seeds' blend"),
     "lit": (np.bool_, "takes direct light (kd or ks not zero)"),
@@ -211,7 +211,7 @@ class Scene(NamedTuple):
 class Emitter(NamedTuple):
     """One point-like light sample (camera-relative), passed by value."""
 
-    kind: float      #: shading_kernels.POINT, SPOT or DIRECTIONAL
+    kind: float      #: kinds.POINT, SPOT, DIRECTIONAL or SMOOTH_SPOT
     px: float        #: position (unused for a directional light)
     py: float
     pz: float
@@ -221,7 +221,7 @@ class Emitter(NamedTuple):
     a0: float        #: radial attenuation 1/(a0 + a1·d + a2·d²)
     a1: float
     a2: float
-    cos_cutoff: float  #: cos θ of a spot's cone
+    cos_cutoff: float  #: cos θ of a spot's cone (a smooth spot's outer cone)
     exponent: float    #: a in (cos α)^a
     ux: float        #: a jittered area-light cell's edges
     uy: float
@@ -232,6 +232,8 @@ class Emitter(NamedTuple):
     stream: float    #: ≥ 0: a jittered area light's hash stream (exact below 2⁵²); −1 otherwise
     ou: float        #: a jittered cell (i, j) of k × k: its canonical offsets j/k and i/k
     ov: float        #: (shading_kernels.incidence1)
+    cos_inner: float  #: cos of a smooth spot's inner cone, where its falloff begins
+    range: float     #: > 0: the KHR_lights_punctual window max(min(1 − (d/range)⁴, 1), 0); 0: none
 
 
 #: Floats in an :class:`Emitter`: the width of a row of ``LightTable.rows``.
@@ -565,7 +567,7 @@ class Finish(NamedTuple):
     kd: tuple          #: (r, g, b) diffuse colour
     ks: tuple          #: (r, g, b) specular colour
     shininess: float   #: the highlight's exponent n
-    highlight: int     #: kinds.PHONG or BLINN
+    highlight: int     #: kinds.PHONG, BLINN or BLINN_COSINE
 
 
 class Palette(NamedTuple):

@@ -4,8 +4,9 @@ behind the array functions of :mod:`raytrace.optics` and :mod:`raytrace.shading`
 Two layers, in pipeline order:
 
 * **one ray at a time**, a function per formula, on scalars: ``incidence1`` (a light's L,
-  distance and ``f_radial·f_angular``, seed 000), ``cosine_power1`` / ``phong1`` /
-  ``blinn1`` / ``direct1`` (the seeds' local model, Phong 1975, Blinn 1977), ``bulge1``,
+  distance and ``f_radial·f_angular``, seed 000, and KHR_lights_punctual's cone and range),
+  ``cosine_power1`` / ``phong1`` / ``blinn1`` / ``blinn_cosine1`` / ``direct1`` (the seeds'
+  local model, Phong 1975, Blinn 1977; glTF's lobe with its cosine), ``bulge1``,
   ``gouraud1`` and ``fast_phong1`` (Bishop & Weimer 1986); the primitives they share with the
   other kernel modules (reflection, refraction, the spawn rule, the checker, the hashes) are
   :mod:`raytrace.kernels.core`'s, a hit's material :mod:`raytrace.kernels.material`'s;
@@ -51,6 +52,7 @@ from .core import (
 from .jit import helper, kernel
 from .kinds import (  # noqa: F401  (the codes, as this module's names)
     BLINN,
+    BLINN_COSINE,
     DIRECTIONAL,
     KA,
     KD,
@@ -63,6 +65,7 @@ from .kinds import (  # noqa: F401  (the codes, as this module's names)
     PHONG,
     POINT,
     PRUNED,
+    SMOOTH_SPOT,
     SPOT,
 )
 from .material import alpha_tables1, surface_color1, surface_opacity1, texture_tables1
@@ -98,7 +101,11 @@ def incidence1(p, em, word):
     ``f_radial = 1/(a0 + a1·d + a2·d²)`` (0 where that is not finite, and at the light itself,
     where L is undefined; L stays a unit vector however near or far the light); a spot
     multiplies ``(cos α)^a`` inside its cone (``cos α >= cos θ``, edge included) and 0
-    outside. A directional light has L = −direction, d = ∞, f = 1.
+    outside; a smooth spot (KHR_lights_punctual, "Inner and Outer Cone Angles", the spec's
+    recommended implementation) multiplies ``t²``, ``t = clamp((cos α − cos θ_outer) /
+    max(0.001, cos θ_inner − cos θ_outer), 0, 1)``. An emitter with a ``range`` r > 0 also
+    multiplies the spec's window ``max(min(1 − (d/r)⁴, 1), 0)`` (KHR_lights_punctual, "Range
+    Property"). A directional light has L = −direction, d = ∞, f = 1.
     """
     px, py, pz = p
     if em.kind == DIRECTIONAL:
@@ -129,6 +136,14 @@ def incidence1(p, em, word):
     if em.kind == SPOT:
         cos_a = -(lx * em.dx + ly * em.dy + lz * em.dz)  # light-to-point against the axis
         f = f * (max(cos_a, 0.0) ** em.exponent if cos_a >= em.cos_cutoff else 0.0)
+    elif em.kind == SMOOTH_SPOT:
+        cos_a = -(lx * em.dx + ly * em.dy + lz * em.dz)
+        t = (cos_a - em.cos_cutoff) / max(em.cos_inner - em.cos_cutoff, 0.001)
+        t = min(max(t, 0.0), 1.0)
+        f = f * (t * t)
+    if em.range > 0.0:
+        q = dist / em.range
+        f = f * min(max(1.0 - (q * q) * (q * q), 0.0), 1.0)
     return lx, ly, lz, dist, f
 
 
@@ -182,10 +197,24 @@ def blinn1(normal, light, view, n):
 
 
 @helper
+def blinn_cosine1(normal, light, view, n):
+    """Blinn's lobe weighted by the reflectance equation's cosine, ``(N·H)^n·max(N·L, 0)``
+    (Akenine-Möller et al., Real-Time Rendering, 4th ed., §9.3: every BRDF lobe is weighted by
+    N·L), the highlight glTF materials map to: at n = 0 a Lambertian term, not a constant
+    one. N, L, V unit 3-tuples."""
+    nx, ny, nz = normal
+    lx, ly, lz = light
+    cos_l = nx * lx + ny * ly + nz * lz
+    return blinn1(normal, light, view, n) * cos_l if cos_l > 0.0 else 0.0
+
+
+@helper
 def highlight1(model, normal, light, view, n):
-    """The highlight ``spec`` of model code ``model`` (PHONG or BLINN)."""
+    """The highlight ``spec`` of model code ``model`` (PHONG, BLINN or BLINN_COSINE)."""
     if model == BLINN:
         return blinn1(normal, light, view, n)
+    if model == BLINN_COSINE:
+        return blinn_cosine1(normal, light, view, n)
     return phong1(normal, light, view, n)
 
 
@@ -274,7 +303,8 @@ def fast_phong1(table, hit, finish):
     ``kd·D + ks·max(S, 0)ⁿ`` with D and S the diffuse and specular Taylor polynomials of row
     ``tri`` of ``table`` (columns ``FAST_DIFFUSE`` and ``FAST_SPECULAR``;
     :mod:`raytrace.fast_phong`, :func:`raytrace.kernels.core.taylor1`) in place of ``N̂·L``
-    and ``N̂·H`` (``finish.highlight`` BLINN) or ``V·R`` (PHONG); all zero where ``D <= 0``,
+    and ``N̂·H`` (``finish.highlight`` BLINN; BLINN_COSINE also times D) or ``V·R`` (PHONG);
+    all zero where ``D <= 0``,
     as :func:`direct1`. The side turns N: it negates D and ``N̂·H``, and ``V·R`` is even in
     N. ``finish``: a :class:`raytrace.kernels.records.Finish`."""
     tri, u, v, s = hit.triangle, hit.u, hit.v, hit.side
@@ -284,10 +314,12 @@ def fast_phong1(table, hit, finish):
         return 0.0, 0.0, 0.0
     if ks[0] == 0.0 and ks[1] == 0.0 and ks[2] == 0.0:
         return kd[0] * ndl, kd[1] * ndl, kd[2] * ndl
-    cos = taylor1(table, tri, FAST_SPECULAR, u, v) * (s if model == BLINN else 1.0)
+    cos = taylor1(table, tri, FAST_SPECULAR, u, v) * (1.0 if model == PHONG else s)
     spec = 0.0
     if cos > 0.0:  # as cosine_power1: 0 where the cosine is not positive, 1 for n = 0
         spec = 1.0 if n == 0.0 else math.exp(n * math.log(min(cos, 1.0)))
+    if model == BLINN_COSINE:
+        spec = spec * ndl
     return kd[0] * ndl + ks[0] * spec, kd[1] * ndl + ks[1] * spec, kd[2] * ndl + ks[2] * spec
 
 

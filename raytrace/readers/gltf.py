@@ -157,9 +157,11 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
     """A glTF material as a raytrace :class:`Material` (docs/scene_format.md has the table):
     ``kd = baseColor·(1 − metallic)·(1 − transmission)``, specular colour
     ``F0 = mix(((ior − 1)/(ior + 1))²·specularColor·specular, baseColor, metallic)``,
-    ``shininess`` = :func:`roughness_exponent`, ``ks = F0·(n + 8)/8`` (normalised
-    Blinn–Phong, Akenine-Möller et al., Real-Time Rendering 4th ed., eq. 7.48, times π as the
-    seeds' kd is), ``kr = F0·(1 − roughness)²``; transmission t: ``kt = t·baseColor·(1 −
+    ``shininess`` = :func:`roughness_exponent`, ``ks = F0·(n + 8)/8`` with ``highlight =
+    "blinn_cosine"``, ``ks·(N·H)^n·(N·L)`` (normalised Blinn–Phong inside the reflectance
+    equation, Akenine-Möller et al., Real-Time Rendering 4th ed., eq. 7.48 and §9.3, times π
+    as the seeds' kd is: a rough material stays matte, roughness 1 a Lambertian F0·(N·L)),
+    ``kr = F0·(1 − roughness)²``; transmission t: ``kt = t·baseColor·(1 −
     metallic)``, ``kr = 1`` and the dielectric Fresnel split; ``ke = emissive·strength``;
     BLEND alpha as opacity, MASK as 0 or 1 by the cutoff; unlit: ``ke = baseColor``."""
     if index is None:
@@ -204,7 +206,7 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
     n = roughness_exponent(rough)
     fields: dict[str, Any] = {
         "kd": base * (1 - metallic) * (1 - trans), "ks": f0 * (n + 8) / 8, "shininess": n,
-        "highlight": "blinn", "kr": np.clip(f0 * (1 - rough) ** 2, 0, 1),
+        "highlight": "blinn_cosine", "kr": np.clip(f0 * (1 - rough) ** 2, 0, 1),
         "ior": ior if ior > 0 else 1.5,
         "ke": np.array(m.emissiveFactor if m is not None and m.emissiveFactor else [0, 0, 0],
                        np.float64) * strength}
@@ -238,43 +240,39 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
 
 
 def _light(spec: dict, world: np.ndarray, where: str, path: Path):
-    """A KHR_lights_punctual light at its node (:data:`LIGHTS`)."""
+    """A KHR_lights_punctual light at its node (:data:`LIGHTS`): colour × intensity as its
+    ``color``; point and spot (candela) at the inverse square, attenuation (0, 0, 1), with the
+    spec's ``range`` window; a spot with the spec's falloff between ``innerConeAngle`` and
+    ``outerConeAngle`` (``inner_cutoff`` and ``cutoff``, in degrees); directional (lux) as it
+    is. The light shines down its node's −z."""
     kind = spec.get("type")
     color = np.array(spec.get("color", [1, 1, 1]), np.float64) * spec.get("intensity", 1.0)
     position = world[:3, 3]
     axis = world[:3, :3] @ [0.0, 0.0, -1.0]
+    local = {"position": position, "color": color, "attenuation": (0, 0, 1),
+             "range": spec.get("range")}
     try:
         if kind == "point":
-            return PointLight(position=position, color=color, attenuation=(0, 0, 1))
+            return PointLight(**local)
         if kind == "directional":
             return DirectionalLight(direction=axis, color=color)
         if kind == "spot":
             cone = spec.get("spot", {})
-            inner = cone.get("innerConeAngle", 0.0)
-            outer = cone.get("outerConeAngle", math.pi / 4)
-            return SpotLight(position=position, direction=axis, cutoff=math.degrees(outer),
-                             exponent=spot_exponent(inner, outer), color=color,
-                             attenuation=(0, 0, 1))
+            outer = values.number(cone.get("outerConeAngle", math.pi / 4),
+                                  "spot.outerConeAngle", lo=0, hi=math.pi / 2, lo_open=True)
+            inner = values.number(cone.get("innerConeAngle", 0.0), "spot.innerConeAngle",
+                                  lo=0, hi=outer)
+            return SpotLight(**local, direction=axis, cutoff=math.degrees(outer),
+                             inner_cutoff=math.degrees(inner))
     except SceneError as e:
         raise SceneError(e.problem, f"{where}.{e.key}", str(path)) from None
     raise SceneError(f"type must be point, spot or directional, got {kind!r}", where,
                      str(path))
 
 
-def spot_exponent(inner: float, outer: float) -> float:
-    """The exponent a of (cos α)^a that halves a spot's light midway between its glTF inner and
-    outer cone angles (radians): a = ln ½ / ln cos((inner + outer)/2), 0 for a hard edge
-    (inner = outer). glTF fades linearly in cos α from inner to outer; raytrace's spot cuts
-    off at ``outer`` and falls off as (cos α)^a inside."""
-    mid = 0.5 * (inner + outer)
-    if outer - inner < 1e-9 or math.cos(mid) >= 1.0:
-        return 0.0
-    return math.log(0.5) / math.log(math.cos(mid))
-
-
 #: KHR_lights_punctual: light type → what it becomes (intensity times colour as the light's
-#: colour; candela for point and spot at an inverse-square attenuation (0, 0, 1), lux for
-#: directional; ``range`` is not modelled and warned about).
+#: colour; candela for point and spot at an inverse-square attenuation (0, 0, 1) with the
+#: spec's ``range`` window, the spot with the spec's cone falloff; lux for directional).
 LIGHTS = {"point": "PointLight", "spot": "SpotLight", "directional": "DirectionalLight"}
 
 
@@ -331,7 +329,6 @@ def _load(path: Path) -> GltfScene:
     verts, faces, face_mat, uvs, normals, sources = [], [], [], [], [], []
     camera, lights, offset = None, [], 0
     light_specs = _ext(gltf, "KHR_lights_punctual").get("lights", [])
-    ranged = False
     for n, world in world_matrices(gltf):
         node = gltf.nodes[n]
         where = f"nodes[{n}]"
@@ -349,7 +346,6 @@ def _load(path: Path) -> GltfScene:
                                  f"{where}.extensions.KHR_lights_punctual.light", str(path))
             lights.append(_light(light_specs[light_ref], world, f"KHR_lights_punctual.lights"
                                  f"[{light_ref}]", path))
-            ranged |= "range" in light_specs[light_ref]
         if node.mesh is None:
             continue
         for p, prim in enumerate(gltf.meshes[node.mesh].primitives):
@@ -388,9 +384,6 @@ def _load(path: Path) -> GltfScene:
             normals.append((normal @ np.linalg.inv(world[:3, :3]))[idx] if normal is not None
                            else np.zeros((len(idx), 3, 3)))
             offset += len(pos)
-    if ranged:
-        warnings.warn(f"{path}: KHR_lights_punctual range is not modelled: lights fall off as "
-                      "1/d² without a cut-off", RenderWarning, stacklevel=2)
     if not faces:
         raise SceneError("holds no triangles", "meshes", str(path))
     mats = list(materials.values())

@@ -40,10 +40,21 @@ DEFAULTS: dict[str, Any] = {"Ka": None, "Kd": np.full(3, 0.8), "Ks": np.zeros(3)
                             "d": 1.0, "illum": 2, "map_Kd": None}
 
 
+#: The least highlight exponent: ``Ns`` below 1 is read as 1. The spec's ``Ks·(N·H)^Ns`` has no
+#: N·L factor, so ``Ns 0`` (what exporters write for their roughest material) adds the whole
+#: of ``Ks·I`` at every lit point: a flat white model. With the light at the eye (H = L) a
+#: Blinn lobe weighted by the reflectance equation's N·L is ``(N·H)^(Ns + 1)``: exponent 1 at
+#: Ns = 0, which the floor gives, falling off as Lambert's cosine (docs/scene_format.md,
+#: "Rough materials stay matte").
+MATTE_NS = 1.0
+
+
 def _base(f: dict) -> dict:
-    """ka, kd, Ke and the dissolve every model shares: ``Ka·Ia + Kd·Σ(N·L)I`` (illum 1)."""
+    """ka, kd, Ke and the dissolve every model shares: ``Ka·Ia + Kd·Σ(N·L)I`` (illum 1); the
+    highlight exponent for the models that have one (:data:`MATTE_NS`)."""
     return {"ka": f["Ka"], "kd": f["Kd"], "ke": f["Ke"], "opacity": f["d"], "ks": 0.0,
-            "shininess": f["Ns"], "highlight": "blinn", "ior": max(f["Ni"], 1e-6)}
+            "shininess": max(f["Ns"], MATTE_NS), "highlight": "blinn",
+            "ior": max(f["Ni"], 1e-6)}
 
 
 def _illum0(f: dict) -> dict:
@@ -155,6 +166,11 @@ def read_mtl(path: Path, texture: Callable[[Path, dict, str, str], Any] | None =
         f = {**DEFAULTS, **table}
         if "d" not in table and "Tr" in table:
             f["d"] = 1.0 - table["Tr"]
+            if f["d"] == 0.0:
+                warnings.warn(f"{path}: material {name!r} (line {table['line']}): Tr 1 makes it "
+                              "fully transparent (Tr = 1 − d by the MTL spec), so it is not "
+                              "drawn; Meshlab writes Tr 1 meaning opaque: write d 1 or Tr 0 "
+                              "there to see it", RenderWarning, stacklevel=2)
         fields = ILLUM[f["illum"]](f)
         if f["map_Kd"] is not None:
             if texture is None:
