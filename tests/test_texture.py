@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import make_scene, pixel, write_gltf
+from helpers import make_scene, pixel, write_gltf, write_png
 from PIL import Image
 
 import raytrace
@@ -62,6 +62,40 @@ def test_an_srgb_png_is_decoded_to_linear(tmp_path):
     np.testing.assert_allclose(tex.texels[..., :3], by_hand, rtol=1e-6)
     linear = Texture.from_file(tmp_path / "g.png", "kd", srgb=False)
     np.testing.assert_allclose(linear.texels[..., :3], c, rtol=1e-6)
+
+
+#: 16-bit codes one apart, which 8 bits cannot tell apart (4660 / 257 = 18.13…, 4661 / 257 =
+#: 18.14…: both 8-bit code 18), in two rows of two texels, four channels.
+CODES16 = np.array([[[4660, 4661, 4662, 65535], [4663, 30000, 30001, 1]],
+                    [[0, 1, 65534, 32768], [65535, 12345, 12346, 12347]]], np.uint16)
+
+
+@pytest.mark.parametrize("channels", [1, 2, 3, 4])
+def test_a_16_bit_png_is_read_at_16_bits(tmp_path, channels):
+    """Grey, grey + alpha, RGB and RGBA 16-bit PNGs (written by hand, helpers.write_png) read
+    back as code / 65535 to float32's precision (≪ 1/65535): grey in R, G and B; alpha 1 where
+    the file has none, else its own, unassociated."""
+    codes = CODES16[..., :channels]
+    tex = Texture.from_file(write_png(tmp_path / "t.png", codes), "kd", srgb=False)
+    want = codes / 65535.0
+    rgb = want[..., :1].repeat(3, axis=2) if channels <= 2 else want[..., :3]
+    alpha = want[..., -1] if channels in (2, 4) else np.ones(codes.shape[:2])
+    np.testing.assert_allclose(tex.texels[..., :3], rgb, rtol=0, atol=1e-7)
+    np.testing.assert_allclose(tex.texels[..., 3], alpha, rtol=0, atol=1e-7)
+    assert tex.texels[0, 0, 0] < tex.texels[0, 1, 0]  # 4660 < 4663: one code at 8 bits
+
+
+def test_a_16_bit_png_in_a_gltf_buffer_is_decoded_from_srgb_at_16_bits(tmp_path):
+    """The bytes of a 16-bit RGBA PNG (a glTF image in a buffer or a data URI), sRGB: each
+    colour code c decodes to ((c/65535 + 0.055)/1.055)^2.4 (IEC 61966-2-1; all codes here
+    are above the linear segment's 0.04045·65535 = 2651), alpha stays c/65535."""
+    data = write_png(tmp_path / "t.png", CODES16).read_bytes()
+    tex = Texture.from_file(tmp_path / "model.glb#images[0]", "kd", data=data)
+    c = CODES16[..., :3] / 65535.0
+    by_hand = np.where(c > 0.04045, ((c + 0.055) / 1.055) ** 2.4, c / 12.92)
+    np.testing.assert_allclose(tex.texels[..., :3], by_hand, rtol=2e-6, atol=1e-9)
+    np.testing.assert_allclose(tex.texels[..., 3], CODES16[..., 3] / 65535.0, atol=1e-7)
+    assert tex.texels[0, 0, 0] != tex.texels[0, 0, 1]  # 4660 and 4661: apart at 16 bits
 
 
 def _square_obj(tmp_path, extra_mtl=""):

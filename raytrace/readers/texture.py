@@ -7,11 +7,14 @@ function="sRGB")``, IEC 61966-2-1), alpha stays linear. The renderer samples it 
 texture coordinates (s, t) (t = 0 at the top row, as in glTF; OBJ's t is flipped on loading)
 with bilinear filtering between texel centres (texel (i, j) is at ((i + ½)/W, (j + ½)/H)),
 and the wrap mode per axis from :data:`WRAPS` (:func:`raytrace.kernels.core.texture1`). Images are
-read with Pillow.
+read with Pillow, but for 16-bit PNGs (grey, grey + alpha, RGB, RGBA): Pillow opens a 16-bit
+colour PNG as 8-bit, so those are read by OpenImageIO at the file's 16 bits (a code c is
+c / 65535), their alpha kept unassociated as the PNG stores it (PNG spec §12.8).
 """
 
 from __future__ import annotations
 
+import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -53,9 +56,12 @@ class Texture:
         if data is None:
             input_file(file, "texture file", key, where)
         try:
-            with Image.open(io.BytesIO(data) if data is not None else file) as im:
-                im.load()
-                rgba = _pixels(im)
+            if png_bit_depth(data if data is not None else _head(file)) == 16:
+                rgba = _png16(file, data)
+            else:
+                with Image.open(io.BytesIO(data) if data is not None else file) as im:
+                    im.load()
+                    rgba = _pixels(im)
         except (OSError, UnidentifiedImageError, ValueError, Image.DecompressionBombError) as e:
             raise SceneError(f"cannot read texture {file}: {e}", key, where) from None
         if srgb:
@@ -72,6 +78,56 @@ class Texture:
     @property
     def max(self) -> np.ndarray:
         return self.texels[..., :3].reshape(-1, 3).max(axis=0).astype(np.float64)
+
+
+#: The eight bytes every PNG file begins with (PNG spec §5.2).
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def png_bit_depth(head: bytes) -> int | None:
+    """The bit depth a PNG's header chunk states, or None for bytes that are not a PNG: the
+    signature, then IHDR (length, ``IHDR``, width, height), its bit depth at byte 24 (PNG spec
+    §5.2, §11.2.2).
+
+    >>> png_bit_depth(PNG_SIGNATURE + bytes(4) + b"IHDR" + bytes(8) + bytes([16]))
+    16
+    """
+    if head[:8] == PNG_SIGNATURE and head[12:16] == b"IHDR" and len(head) > 24:
+        return head[24]
+    return None
+
+
+def _head(file: Path) -> bytes:
+    with open(file, "rb") as f:
+        return f.read(25)
+
+
+def _png16(file: Path, data: bytes | None) -> np.ndarray:
+    """RGBA in [0, 1] of a 16-bit PNG (the file, or its bytes), read by OpenImageIO at 16
+    bits. OpenImageIO's Python binding reads only from a path, so bytes (a glTF image in a
+    buffer or a data URI) pass through a temporary file."""
+    import OpenImageIO as oiio  # a library's import: where it is used
+
+    if data is not None:
+        with tempfile.TemporaryDirectory(prefix="raytrace-texture-") as folder:
+            copy = Path(folder) / "texture.png"
+            copy.write_bytes(data)
+            return _png16(copy, None)
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)  # the PNG's own alpha, not premultiplied
+    f = oiio.ImageInput.open(str(file), config)
+    if f is None:
+        raise OSError(oiio.geterror())
+    try:
+        codes = f.read_image(oiio.UINT16)
+        if codes is None:
+            raise OSError(f.geterror())
+    finally:
+        f.close()
+    c = np.asarray(codes, np.float64).reshape(codes.shape[0], codes.shape[1], -1) / 65535.0
+    if c.shape[2] <= 2:  # grey (and alpha): the grey in R, G and B
+        c = np.concatenate([c[..., :1].repeat(3, axis=2), c[..., 1:]], axis=2)
+    return c if c.shape[2] == 4 else np.dstack([c, np.ones(c.shape[:2])])
 
 
 def _pixels(im: Any) -> np.ndarray:
