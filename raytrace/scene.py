@@ -7,6 +7,7 @@ stays in world coordinates here; :mod:`raytrace.accel` recentres it on the camer
 
 from __future__ import annotations
 
+import io
 import math
 import warnings
 from collections.abc import Mapping
@@ -20,9 +21,11 @@ from . import values
 from .errors import SceneError
 from .lights import LIGHT_TYPES, AreaLight, DirectionalLight, PointLight, SpotLight  # noqa: F401
 from .material import Material, library, material_from_table
+from .readers.asset import GLTF_SUFFIXES
 from .readers.assets import load_with_materials
-from .readers.inputs import input_file
-from .readers.meshio import read_mesh
+from .readers.gltf import load_gltf
+from .readers.inputs import input_file, read_text
+from .readers.meshio import merge_vertices, read_mesh
 from .sampling import check_aa, check_filter
 
 #: Largest accepted image, in pixels (the float32 image alone is 12 bytes a pixel).
@@ -409,20 +412,49 @@ def _from_trimesh(mesh: Any, key: str) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)
 
 
+#: Mesh formats that are text (STL where it is not binary): raytrace decodes them
+#: (:func:`~.readers.inputs.read_text`) and hands trimesh UTF-8, so trimesh never guesses an
+#: encoding (with charset_normalizer, an optional dependency of trimesh raytrace does not need).
+TEXT_MESH_SUFFIXES = (".obj", ".off", ".stl")
+
+
+def _binary_stl(path: Path) -> bool:
+    """Whether an STL file is binary: an 80-byte header, a uint32 triangle count n, then n
+    records of 50 bytes, so 84 + 50·n bytes in all (the rule trimesh's reader applies)."""
+    with open(path, "rb") as f:
+        head = f.read(84)
+    size = path.stat().st_size
+    return len(head) == 84 and size == 84 + 50 * int.from_bytes(head[80:], "little")
+
+
 def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Vertices, faces and, for a single textured mesh, texture coordinates (F, 3, 2): from
-    :func:`raytrace.readers.meshio.read_mesh` where it reads the file, else from trimesh."""
+    :func:`raytrace.readers.meshio.read_mesh` where it reads the file, a glTF from
+    :func:`raytrace.readers.gltf.load_gltf` (the reader ``material = "from_file"`` uses, so
+    one file gets one verdict), else from trimesh; merged as trimesh merges them."""
     input_file(path, "mesh file", "file")
+    if path.suffix.lower() in GLTF_SUFFIXES:
+        asset = load_gltf(path).asset
+        return (*merge_vertices(asset.vertices, asset.faces), asset.texcoords)
     fast = read_mesh(path)  # binary PLY and OBJ triangles: as trimesh reads and merges them
     if fast is not None:
         return fast
     import trimesh
 
+    source, kind = str(path), {}
+    suffix = path.suffix.lower()
+    if suffix in TEXT_MESH_SUFFIXES and not (suffix == ".stl" and _binary_stl(path)):
+        # binary bytes in a text format: one line naming the byte
+        what = "ASCII STL file (not binary: not 84 + 50·n bytes)" if suffix == ".stl" else (
+            f"{suffix[1:].upper()} file")
+        text = read_text(path, what, "file", a="an", strict=False)
+        source = io.BytesIO(text.encode("utf-8"))
+        kind = {"file_type": suffix[1:], "skip_materials": True}
     # trimesh warns on stderr about NaN while merging: the error below says it in one line.
     with warnings.catch_warnings(), np.errstate(invalid="ignore", over="ignore"):
         warnings.simplefilter("ignore")
         try:
-            loaded = trimesh.load(str(path), process=False)
+            loaded = trimesh.load(source, process=False, **kind)
         except Exception as e:  # trimesh raises many types for unreadable files
             # (the exception alone can mislead: random bytes in an .stl fail on a text codec)
             raise SceneError(f"cannot read mesh {path}: not a mesh file trimesh can load "

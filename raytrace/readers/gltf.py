@@ -73,7 +73,27 @@ def _buffers(gltf: Any, path: Path) -> list[bytes]:
         else:
             file = input_file(path.parent / uri, "buffer file", f"buffers[{i}].uri", str(path))
             out.append(file.read_bytes())
+        if len(out[-1]) < (b.byteLength or 0):
+            raise SceneError(f"holds {len(out[-1])} bytes, its byteLength says {b.byteLength}: "
+                             "the file is truncated", f"buffers[{i}]", str(path))
     return out
+
+
+def view_bytes(gltf: Any, buffers: list[bytes], index: Any, path: Path, key: str
+               ) -> tuple[bytes, int, int]:
+    """Buffer view ``index`` (§3.6.1), named by ``key`` where it is referred to: its buffer's
+    bytes and the view's [start, end) in them, checked to lie inside the buffer."""
+    if not isinstance(index, int) or not 0 <= index < len(gltf.bufferViews or []):
+        raise SceneError(f"no such bufferView {index!r}", key, str(path))
+    view, where = gltf.bufferViews[index], f"bufferViews[{index}]"
+    if not isinstance(view.buffer, int) or not 0 <= view.buffer < len(buffers):
+        raise SceneError(f"no such buffer {view.buffer!r}", f"{where}.buffer", str(path))
+    start = view.byteOffset or 0
+    end = start + (view.byteLength or 0)
+    if end > len(buffers[view.buffer]):
+        raise SceneError(f"bytes {start}..{end} reach past the end of buffers[{view.buffer}] "
+                         f"({len(buffers[view.buffer])} bytes)", where, str(path))
+    return buffers[view.buffer], start, end
 
 
 def accessor(gltf: Any, buffers: list[bytes], index: int, path: Path) -> np.ndarray:
@@ -92,13 +112,15 @@ def accessor(gltf: Any, buffers: list[bytes], index: int, path: Path) -> np.ndar
     dtype, width = np.dtype(COMPONENT[a.componentType]).newbyteorder("<"), WIDTH[a.type]
     if a.bufferView is None:
         return np.zeros((a.count, width), np.float64)
-    view = gltf.bufferViews[a.bufferView]
-    data = buffers[view.buffer]
-    start = (view.byteOffset or 0) + (a.byteOffset or 0)
-    stride = view.byteStride or dtype.itemsize * width
+    data, view_start, view_end = view_bytes(gltf, buffers, a.bufferView, path,
+                                            f"{key}.bufferView")
+    start = view_start + (a.byteOffset or 0)
+    stride = gltf.bufferViews[a.bufferView].byteStride or dtype.itemsize * width
     end = start + stride * (a.count - 1) + dtype.itemsize * width
-    if a.count and end > (view.byteOffset or 0) + view.byteLength or end > len(data):
-        raise SceneError("reaches past the end of its buffer view", key, str(path))
+    if a.count < 0 or a.count and end > view_end:
+        raise SceneError(f"reaches past the end of bufferViews[{a.bufferView}] "
+                         f"({view_end - view_start} bytes): count {a.count} from byteOffset "
+                         f"{a.byteOffset or 0}", key, str(path))
     rows = np.ndarray((a.count, width), dtype, data, start, (stride, dtype.itemsize))
     out = rows.astype(np.float64 if a.componentType == 5126 or a.normalized else np.int64)
     if a.normalized and a.componentType != 5126:
@@ -278,7 +300,17 @@ def spot_exponent(inner: float, outer: float) -> float:
 LIGHTS = {"point": "PointLight", "spot": "SpotLight", "directional": "DirectionalLight"}
 
 
+#: Mesh compression extensions: their meshes are not decoded.
+COMPRESSED = {"KHR_draco_mesh_compression": "Draco", "EXT_meshopt_compression": "meshopt",
+              "KHR_meshopt_compression": "meshopt"}
+
+
 def _check_extensions(gltf: Any, path: Path) -> None:
+    for name in gltf.extensionsRequired or []:
+        if name in COMPRESSED:
+            raise SceneError(f"{name}: its meshes are {COMPRESSED[name]}-compressed, which "
+                             "raytrace does not decode; save the model without mesh "
+                             "compression", "extensionsRequired", str(path))
     required = [e for e in (gltf.extensionsRequired or []) if e not in SUPPORTED]
     if required:
         raise SceneError(f"requires extensions raytrace cannot read: {', '.join(required)}",
@@ -290,7 +322,9 @@ def _check_extensions(gltf: Any, path: Path) -> None:
 
 
 @functools.lru_cache(maxsize=4)
-def _load_cached(path: str, stamp: tuple) -> GltfScene:
+def _load_cached(path: str, resolved: str, stamp: tuple) -> GltfScene:
+    """:func:`_load` of ``path`` (as the user wrote it, named by its errors and warnings),
+    kept while the file at ``resolved`` keeps its ``stamp`` (modification time, size)."""
     try:
         return _load(Path(path))
     except SceneError as e:
@@ -305,7 +339,7 @@ def load_gltf(path: Path) -> GltfScene:
     path = Path(path)
     input_file(path, "glTF file", file=str(path))
     st = path.stat()
-    return _load_cached(str(path.resolve()), (st.st_mtime_ns, st.st_size))
+    return _load_cached(str(path), str(path.resolve()), (st.st_mtime_ns, st.st_size))
 
 
 def _load(path: Path) -> GltfScene:
@@ -407,11 +441,10 @@ def gltf_texture(gltf: Any, info: Any, path: Path, key: str, alpha_mode: str) ->
         wrap = (GLTF_WRAPS.get(s.wrapS or 10497, "repeat"),
                 GLTF_WRAPS.get(s.wrapT or 10497, "repeat"))
     if image.bufferView is not None:
-        view = gltf.bufferViews[image.bufferView]
-        data = _buffers(gltf, path)[view.buffer]
-        start = view.byteOffset or 0
+        data, start, end = view_bytes(gltf, _buffers(gltf, path), image.bufferView, path,
+                                      f"images[{tex.source}].bufferView")
         return Texture.from_file(Path(f"{path.name}#images[{tex.source}]"), key, wrap=wrap,
-                                 where=where, data=data[start:start + view.byteLength])
+                                 where=where, data=data[start:end])
     uri = image.uri or ""
     if uri.startswith("data:"):
         return Texture.from_file(Path(f"{path.name}#images[{tex.source}]"), key, wrap=wrap,
