@@ -246,7 +246,7 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
         t = texture(gltf, tex, path, f"materials[{index}].pbrMetallicRoughness."
                     "baseColorTexture", mode)
         scale = base * (1 - metallic) * (1 - trans)
-        fields["kd"] = t.scaled(scale)
+        fields["kd"] = t.scaled(scale) if np.any(scale) else 0.0  # metallic: no copy of 0s
         if mode in ("BLEND", "MASK"):  # the texture's alpha times the factor's
             fields["alpha"] = t
             fields["opacity"] = alpha
@@ -361,6 +361,8 @@ def _load(path: Path) -> GltfScene:
         warnings.warn(f"{path}: {note}", RenderWarning, stacklevel=2)
     _check_extensions(gltf, path)
     buffers = _buffers(gltf, path)
+    # each image decoded once, from the buffers read once
+    texture = functools.partial(gltf_texture, buffers=buffers, decoded={})
     materials: dict = {}
     verts, faces, face_mat, uvs, sources = [], [], [], [], []
     camera, lights, offset = None, [], 0
@@ -405,7 +407,7 @@ def _load(path: Path) -> GltfScene:
             if np.linalg.det(world[:3, :3]) < 0:  # a mirroring transform flips the winding
                 idx = idx[:, ::-1]
             if prim.material not in materials:
-                materials[prim.material] = material(gltf, prim.material, gltf_texture, path)
+                materials[prim.material] = material(gltf, prim.material, texture, path)
             verts.append(w)
             faces.append(idx + offset)
             face_mat.append(np.full(len(idx), list(materials).index(prim.material)))
@@ -424,13 +426,16 @@ def _load(path: Path) -> GltfScene:
     return GltfScene(asset, camera, lights)
 
 
-def gltf_texture(gltf: Any, info: Any, path: Path, key: str, alpha_mode: str) -> Texture:
+def gltf_texture(gltf: Any, info: Any, path: Path, key: str, alpha_mode: str, *,
+                 buffers: list[bytes] | None = None, decoded: dict | None = None) -> Texture:
     """A glTF ``textureInfo``: its image (a file, a data URI or a buffer view) decoded as sRGB,
-    its sampler's wrapS / wrapT. TEXCOORD_0 only."""
+    its sampler's wrapS / wrapT. TEXCOORD_0 only. ``buffers``: the file's buffers, where
+    read already; ``decoded``: the textures made so far by (image, wrap), shared by the
+    materials that use the same image the same way."""
     where = str(path)
     try:
         tex = gltf.textures[info.index]
-        image = gltf.images[tex.source]
+        gltf.images[tex.source]  # noqa: B018 (that it exists)
     except (IndexError, TypeError):
         raise SceneError("names no texture with an image", f"{key}.index", where) from None
     if (info.texCoord or 0) != 0:
@@ -440,14 +445,24 @@ def gltf_texture(gltf: Any, info: Any, path: Path, key: str, alpha_mode: str) ->
         s = gltf.samplers[tex.sampler]
         wrap = (GLTF_WRAPS.get(s.wrapS or 10497, "repeat"),
                 GLTF_WRAPS.get(s.wrapT or 10497, "repeat"))
+    decoded = {} if decoded is None else decoded
+    if (tex.source, wrap) not in decoded:
+        decoded[tex.source, wrap] = _image(gltf, tex.source, path, key, wrap, buffers)
+    return decoded[tex.source, wrap]
+
+
+def _image(gltf: Any, index: int, path: Path, key: str, wrap: tuple[str, str],
+           buffers: list[bytes] | None) -> Texture:
+    """Image ``index`` (a file, a data URI or a buffer view) decoded as sRGB."""
+    image, where = gltf.images[index], str(path)
     if image.bufferView is not None:
-        data, start, end = view_bytes(gltf, _buffers(gltf, path), image.bufferView, path,
-                                      f"images[{tex.source}].bufferView")
-        return Texture.from_file(Path(f"{path.name}#images[{tex.source}]"), key, wrap=wrap,
+        data, start, end = view_bytes(gltf, buffers or _buffers(gltf, path), image.bufferView,
+                                      path, f"images[{index}].bufferView")
+        return Texture.from_file(Path(f"{path.name}#images[{index}]"), key, wrap=wrap,
                                  where=where, data=data[start:end])
     uri = image.uri or ""
     if uri.startswith("data:"):
-        return Texture.from_file(Path(f"{path.name}#images[{tex.source}]"), key, wrap=wrap,
+        return Texture.from_file(Path(f"{path.name}#images[{index}]"), key, wrap=wrap,
                                  where=where, data=base64.b64decode(uri.split(",", 1)[1]))
-    return Texture.from_file(path.parent / unquote(uri), f"images[{tex.source}].uri",
+    return Texture.from_file(path.parent / unquote(uri), f"images[{index}].uri",
                              wrap=wrap, where=where)
