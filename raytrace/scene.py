@@ -418,13 +418,13 @@ def _from_trimesh(mesh: Any, key: str) -> tuple[np.ndarray, np.ndarray]:
 TEXT_MESH_SUFFIXES = (".obj", ".off", ".stl")
 
 
-def _binary_stl(path: Path) -> bool:
-    """Whether an STL file is binary: an 80-byte header, a uint32 triangle count n, then n
-    records of 50 bytes, so 84 + 50·n bytes in all (the rule trimesh's reader applies)."""
+def _binary_stl_size(path: Path) -> int | None:
+    """The size a binary STL file has by its header: an 80-byte header, a uint32 triangle
+    count n, then n records of 50 bytes, so 84 + 50·n bytes in all (the rule trimesh's reader
+    applies: a file of another size is ASCII); None where it is shorter than the header."""
     with open(path, "rb") as f:
         head = f.read(84)
-    size = path.stat().st_size
-    return len(head) == 84 and size == 84 + 50 * int.from_bytes(head[80:], "little")
+    return 84 + 50 * int.from_bytes(head[80:], "little") if len(head) == 84 else None
 
 
 def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
@@ -443,11 +443,17 @@ def _load_mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | No
 
     source, kind = str(path), {}
     suffix = path.suffix.lower()
-    if suffix in TEXT_MESH_SUFFIXES and not (suffix == ".stl" and _binary_stl(path)):
+    binary = _binary_stl_size(path) if suffix == ".stl" else None
+    if suffix in TEXT_MESH_SUFFIXES and binary != path.stat().st_size:
         # binary bytes in a text format: one line naming the byte
-        what = "ASCII STL file (not binary: not 84 + 50·n bytes)" if suffix == ".stl" else (
-            f"{suffix[1:].upper()} file")
-        text = read_text(path, what, "file", a="an", strict=False)
+        what = f"{suffix[1:].upper()} file"
+        if binary is not None:  # (a binary STL cut short, or random bytes)
+            what = (f"ASCII STL file (a binary one of {(binary - 84) // 50} triangles, as its "
+                    f"header says, has {binary} bytes, not {path.stat().st_size})")
+        try:
+            text = read_text(path, what, a="an", strict=False)
+        except SceneError as e:
+            raise SceneError(f"cannot read mesh {path}: {e.problem}", "file") from None
         source = io.BytesIO(text.encode("utf-8"))
         kind = {"file_type": suffix[1:], "skip_materials": True}
     # trimesh warns on stderr about NaN while merging: the error below says it in one line.

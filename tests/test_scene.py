@@ -503,7 +503,8 @@ def test_binary_bytes_in_a_text_mesh_format_are_one_line_naming_the_byte(tmp_pat
     path.write_bytes(bytes(range(256)) * 8)  # 2048 bytes: no 84 + 50·n
     with pytest.raises(raytrace.SceneError) as e:
         raytrace.Mesh(file=str(path))
-    assert str(e.value).startswith("file: byte 0x00 on line 1 is not text")
+    assert str(e.value).startswith(f"file: cannot read mesh {path}: byte 0x00 on line 1 is "
+                                   "not text")
     assert "charset_normalizer" not in str(e.value) and "\n" not in str(e.value)
 
 
