@@ -7,6 +7,7 @@ stays in world coordinates here; :mod:`raytrace.accel` recentres it on the camer
 
 from __future__ import annotations
 
+import io
 import math
 import warnings
 from collections.abc import Mapping
@@ -23,7 +24,7 @@ from .material import Material, library, material_from_table
 from .readers.asset import GLTF_SUFFIXES
 from .readers.assets import load_with_materials
 from .readers.gltf import load_gltf
-from .readers.inputs import input_file
+from .readers.inputs import input_file, read_text
 from .readers.meshio import MeshFile, merge_vertices, read_mesh
 from .sampling import check_aa, check_filter
 
@@ -448,10 +449,26 @@ def world_normals(normals: np.ndarray, rotate: np.ndarray, scale: np.ndarray,
         return np.ascontiguousarray(np.where(length > 0, n / length, 0.0))
 
 
+#: Mesh formats that are text (STL where it is not binary): raytrace decodes them
+#: (:func:`~.readers.inputs.read_text`) and hands trimesh UTF-8, so trimesh never guesses an
+#: encoding (with charset_normalizer, an optional dependency of trimesh raytrace does not need).
+TEXT_MESH_SUFFIXES = (".obj", ".off", ".stl")
+
+
+def _binary_stl_size(path: Path) -> int | None:
+    """The size a binary STL file has by its header: an 80-byte header, a uint32 triangle
+    count n, then n records of 50 bytes, so 84 + 50·n bytes in all (the rule trimesh's reader
+    applies: a file of another size is ASCII); None where it is shorter than the header."""
+    with open(path, "rb") as f:
+        head = f.read(84)
+    return 84 + 50 * int.from_bytes(head[80:], "little") if len(head) == 84 else None
+
+
 def _load_mesh_file(path: Path) -> MeshFile:
     """Vertices, faces and, for a single textured mesh, texture coordinates (F, 3, 2), and the
     normals the file gives (F, 3, 3): a glTF from :func:`raytrace.readers.gltf.load_gltf`
-    (positions merged as trimesh merges them), binary PLY and OBJ triangles from
+    (the reader ``material = "from_file"`` uses, so one file gets one verdict; positions
+    merged as trimesh merges them), binary PLY and OBJ triangles from
     :func:`raytrace.readers.meshio.read_mesh`, anything else from trimesh
     (:func:`_trimesh_normals`)."""
     input_file(path, "mesh file", "file")
@@ -464,11 +481,26 @@ def _load_mesh_file(path: Path) -> MeshFile:
         return fast
     import trimesh
 
+    source, kind = str(path), {}
+    suffix = path.suffix.lower()
+    binary = _binary_stl_size(path) if suffix == ".stl" else None
+    if suffix in TEXT_MESH_SUFFIXES and binary != path.stat().st_size:
+        # binary bytes in a text format: one line naming the byte
+        what = f"{suffix[1:].upper()} file"
+        if binary is not None:  # (a binary STL cut short, or random bytes)
+            what = (f"ASCII STL file (a binary one of {(binary - 84) // 50} triangles, as its "
+                    f"header says, has {binary} bytes, not {path.stat().st_size})")
+        try:
+            text = read_text(path, what, a="an", strict=False)
+        except SceneError as e:
+            raise SceneError(f"cannot read mesh {path}: {e.problem}", "file") from None
+        source = io.BytesIO(text.encode("utf-8"))
+        kind = {"file_type": suffix[1:], "skip_materials": True}
     # trimesh warns on stderr about NaN while merging: the error below says it in one line.
     with warnings.catch_warnings(), np.errstate(invalid="ignore", over="ignore"):
         warnings.simplefilter("ignore")
         try:
-            loaded = trimesh.load(str(path), process=False)
+            loaded = trimesh.load(source, process=False, **kind)
         except Exception as e:  # trimesh raises many types for unreadable files
             # (the exception alone can mislead: random bytes in an .stl fail on a text codec)
             raise SceneError(f"cannot read mesh {path}: not a mesh file trimesh can load "

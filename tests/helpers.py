@@ -1,5 +1,5 @@
 """Small shared helpers for the tests: aiming a one-pixel camera, a scene builder, a
-brute-force Möller–Trumbore intersector and a minimal PNG reader.
+brute-force Möller–Trumbore intersector and a minimal PNG reader and writer.
 
 Nothing here calls the code under test to compute an expected value: the intersector and the
 PNG reader are independent references.
@@ -112,6 +112,27 @@ def read_png(path: str | Path) -> np.ndarray:
     raw = np.frombuffer(zlib.decompress(idat), np.uint8).reshape(height, 1 + 3 * width)
     assert not raw[:, 0].any(), "row filters other than None are not supported here"
     return raw[:, 1:].reshape(height, width, 3).copy()
+
+
+def write_png(path: str | Path, codes: np.ndarray) -> Path:
+    """A PNG of ``codes`` (H, W, C) uint8 or uint16, C = 1 grey, 2 grey + alpha, 3 RGB, 4 RGBA,
+    written by hand from the PNG spec (§11.2.2 IHDR: colour types 0, 4, 2, 6; samples
+    big-endian; each row led by filter byte 0), independent of the readers under test."""
+    codes = np.asarray(codes)
+    height, width, channels = codes.shape
+    depth = 8 * codes.dtype.itemsize
+    rows = codes.astype(codes.dtype.newbyteorder(">")).reshape(height, -1).view(np.uint8)
+    raw = np.hstack([np.zeros((height, 1), np.uint8), rows]).tobytes()
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return (struct.pack(">I", len(body)) + kind + body
+                + struct.pack(">I", zlib.crc32(kind + body) & 0xFFFFFFFF))
+
+    ihdr = struct.pack(">IIBBBBB", width, height, depth, {1: 0, 2: 4, 3: 2, 4: 6}[channels],
+                       0, 0, 0)
+    Path(path).write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr)
+                           + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+    return Path(path)
 
 
 def read_png_library(path: str | Path):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import subprocess
 import sys
 
@@ -331,3 +332,99 @@ def test_gltf_normals_shade_by_the_spec(tmp_path, normals):
     assert pixel(scene)[0] == pytest.approx(want, rel=1e-5)
     if normals:  # and the tilt shows: the flat value differs
         assert abs(want - (0.06 + 0.6 * light[2] * -1)) > 1e-3
+
+
+def _glb(path, gltf):
+    """The .gltf file ``gltf`` (its buffer a data URI) as a GLB (glTF 2.0 §4.4): a 12-byte
+    header (magic ``glTF``, version 2, total length), a JSON chunk padded with spaces and a BIN
+    chunk padded with zeros to 4 bytes, each led by its length and type."""
+    import base64
+    import struct
+
+    doc = json.loads(gltf.read_text())
+    blob = base64.b64decode(doc["buffers"][0].pop("uri").split(",", 1)[1])
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    blob += b"\0" * (-len(blob) % 4)
+    chunks = (struct.pack("<II", len(text), 0x4E4F534A) + text
+              + struct.pack("<II", len(blob), 0x004E4942) + blob)
+    path.write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + len(chunks)) + chunks)
+    return path
+
+
+def _edited(tmp_path, name, edit):
+    """The square's .gltf file with ``edit`` applied to its JSON."""
+    doc = json.loads(write_gltf(tmp_path / "base.gltf", [{"mesh": 0}], [SQUARE],
+                                MATTE).read_text())
+    edit(doc)
+    (tmp_path / name).write_text(json.dumps(doc))
+    return name
+
+
+def _truncated_glb(tmp_path):
+    whole = _glb(tmp_path / "whole.glb", write_gltf(tmp_path / "base.gltf", [{"mesh": 0}],
+                                                      [SQUARE], MATTE)).read_bytes()
+    (tmp_path / "t.glb").write_bytes(whole[:-40])  # the last 40 bytes of the BIN chunk lost
+    return "t.glb"
+
+
+#: Broken files → the problem their one error line states (after "FILE: key: ").
+BROKEN = {
+    # a GLB cut short: its buffer (byteLength 104: 4 positions × 12 bytes, 4 uv × 8, 6 uint32
+    # indices × 4) holds 104 − 40 = 64 bytes
+    "truncated glb": (_truncated_glb, r"buffers\[0\]: holds 64 bytes, its byteLength says 104: "
+                                      r"the file is truncated"),
+    "view past its buffer": (
+        lambda t: _edited(t, "v.gltf", lambda d: d["bufferViews"][0].update(byteLength=999)),
+        r"bufferViews\[0\]: bytes 0\.\.999 reach past the end of buffers\[0\] \(104 bytes\)"),
+    "no such view": (
+        lambda t: _edited(t, "n.gltf", lambda d: d["accessors"][0].update(bufferView=9)),
+        r"accessors\[0\]\.bufferView: no such bufferView 9"),
+    "count past its view": (  # 5 VEC3 floats = 60 bytes > the view's 48
+        lambda t: _edited(t, "c.gltf", lambda d: d["accessors"][0].update(count=5)),
+        r"accessors\[0\]: reaches past the end of bufferViews\[0\] \(48 bytes\): count 5"),
+    "offset past its view": (
+        lambda t: _edited(t, "o.gltf", lambda d: d["accessors"][0].update(byteOffset=40)),
+        r"accessors\[0\]: reaches past the end of bufferViews\[0\] \(48 bytes\): count 4 "
+        r"from byteOffset 40"),
+    "node cycle": (
+        lambda t: _edited(t, "y.gltf", lambda d: d["nodes"][0].update(children=[0])),
+        r"nodes\[0\]: is reached twice: the node hierarchy is not a tree"),
+    "draco": (lambda t: _edited(t, "d.gltf", lambda d: d.update(
+        extensionsUsed=["KHR_draco_mesh_compression"],
+        extensionsRequired=["KHR_draco_mesh_compression"])),
+        r"extensionsRequired: KHR_draco_mesh_compression: its meshes are Draco-compressed"),
+    "meshopt": (lambda t: _edited(t, "m.gltf", lambda d: d.update(
+        extensionsUsed=["EXT_meshopt_compression"],
+        extensionsRequired=["EXT_meshopt_compression"])),
+        r"extensionsRequired: EXT_meshopt_compression: its meshes are meshopt-compressed"),
+}
+
+
+@pytest.mark.parametrize("case", BROKEN)
+@pytest.mark.parametrize("how", ["alone", "in a scene", "from_file"])
+def test_a_broken_gltf_is_one_line_naming_the_file_as_written_in_every_path(
+        tmp_path, monkeypatch, case, how):
+    """The same verdict for a broken glTF rendered alone, named by a TOML scene's mesh (it
+    went to trimesh: 'FileNotFoundError: model.gltf', a node cycle accepted) or read with its
+    materials: one line naming the file as the user wrote it (not resolved) and the problem."""
+    make, problem = BROKEN[case]
+    name = make(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SceneError) as e:
+        if how == "alone":
+            raytrace.load_scene(name)
+        else:
+            raytrace.Mesh(file=name, material="from_file" if how == "from_file" else None)
+    line = str(e.value)
+    assert "\n" not in line and "model.gltf" not in line
+    assert re.match(rf"{re.escape(name)}: {problem}", line), line
+
+
+def test_a_broken_gltf_on_the_command_line_exits_2_with_one_line(tmp_path):
+    name = _truncated_glb(tmp_path)
+    r = subprocess.run([sys.executable, "-m", "raytrace", "render", name, "-o", "o.exr"],
+                       capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert r.stderr.startswith("raytrace: error: t.glb: buffers[0]: holds 64 bytes")
+    assert not (tmp_path / "o.exr").exists()

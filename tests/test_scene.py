@@ -511,3 +511,39 @@ def test_file_normals_transform_by_the_inverse_transpose(tmp_path):
     path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn nan 0 1\nf 1//1 2//1 3//1\n")
     with pytest.raises(raytrace.SceneError, match="normal of face 1, corner 1 is not finite"):
         raytrace.Mesh(file=path)
+
+
+@pytest.mark.parametrize("name", ["m.obj", "m.off", "m.stl"])
+def test_binary_bytes_in_a_text_mesh_format_are_one_line_naming_the_byte(tmp_path, name):
+    """Random bytes in a text format (an OBJ, an OFF, an STL whose size is not a binary STL's
+    84 + 50·n) are refused by raytrace's own text check, naming the first byte that is no
+    text (here 0x00 on line 1), where trimesh reached for its optional charset_normalizer
+    ('No module named ...' where it is not installed)."""
+    path = tmp_path / name
+    path.write_bytes(bytes(range(256)) * 8)  # 2048 bytes: no 84 + 50·n
+    with pytest.raises(raytrace.SceneError) as e:
+        raytrace.Mesh(file=str(path))
+    assert str(e.value).startswith(f"file: cannot read mesh {path}: byte 0x00 on line 1 is "
+                                   "not text")
+    assert "charset_normalizer" not in str(e.value) and "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("name,text", [
+    # a quad (trimesh's reading: read_mesh leaves polygons to it) with a Latin-1 comment
+    ("q.obj", b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n# caf\xe9\nf 1 2 3 4\n"),
+    ("q.off", b"OFF\n# caf\xe9\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n"),
+    ("q.stl", b"solid caf\xe9\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+              b"vertex 1 1 0\nendloop\nendfacet\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
+              b"vertex 1 1 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid\n"),
+])
+def test_a_text_mesh_with_latin1_bytes_is_read_without_guessing_its_encoding(
+        tmp_path, name, text):
+    """A byte that is not UTF-8 (é in Latin-1) in a comment or a name reads as U+FFFD, as
+    the OBJ + MTL reader reads it: the unit square's two triangles, four vertices after the
+    merge, with no encoding guessed (charset_normalizer, which raytrace does not need)."""
+    path = tmp_path / name
+    path.write_bytes(text)
+    mesh = raytrace.Mesh(file=str(path))
+    assert len(mesh.faces) == 2
+    assert sorted(map(tuple, mesh.vertices.tolist())) == [(0, 0, 0), (0, 1, 0), (1, 0, 0),
+                                                          (1, 1, 0)]

@@ -392,3 +392,74 @@ def test_a_mesh_file_without_materials_renders_alone_with_the_default_material(
     to_light = -np.asarray(light.direction) / np.linalg.norm(light.direction)
     image = raytrace.render(scene, width=9, height=9, threads=1)
     assert image.rgb[4, 4] == pytest.approx([0.05 + 0.5 * to_light[2]] * 3, rel=1e-6)
+
+
+def _box_obj(lo, hi, open_front: bool = False) -> str:
+    """An OBJ (no MTL) of the box lo..hi: its six faces, or five with the +z side open (a
+    Cornell box: floor, ceiling, back and side walls)."""
+    (x0, y0, z0), (x1, y1, z1) = lo, hi
+    v = [(x, y, z) for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)]  # index 4x + 2y + z
+    quads = [(1, 3, 2, 4), (5, 7, 8, 6), (1, 5, 6, 2), (3, 4, 8, 7), (1, 2, 4, 3)]
+    quads += [] if open_front else [(2, 6, 8, 4)]
+    return ("".join(f"v {x} {y} {z}\n" for x, y, z in v)
+            + "".join(f"f {a} {b} {c} {d}\n" for a, b, c, d in quads))
+
+
+def _view(camera, points, aspect=4 / 3):
+    """Image coordinates in [−1, 1] (x right, y up) of ``points`` seen by ``camera``, by the
+    pinhole's projection written out here: forward f = unit(look_at − position), right =
+    unit(f × up), true up = right × f; x = (p·right)/(p·f)/(aspect·tan(fov/2)), y =
+    (p·up)/(p·f)/tan(fov/2); and the depths p·f."""
+    f = np.subtract(camera.look_at, camera.position)
+    f /= np.linalg.norm(f)
+    right = np.cross(f, camera.up)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, f)
+    p = np.asarray(points) - camera.position
+    t = np.tan(np.radians(camera.fov) / 2)
+    return np.column_stack([p @ right / (p @ f) / (aspect * t), p @ up / (p @ f) / t]), p @ f
+
+
+def _corners(lo, hi):
+    return [(x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+
+
+@pytest.mark.parametrize("lo,hi,open_front,want", [
+    # a cube of half side 1, level: D = hz + hy/(0.9·tan 20°) = 1 + 1/(0.9·0.363970) = 4.05275
+    ((-1, -1, -1), (1, 1, 1), False, (0, 0, 4.05275)),
+    # a Cornell box (open at +z; x −1..1, y 0..2, z −1..1): in front of its opening, level
+    # with its centre, not behind a side wall: (0, 1, 4.05275) as the cube
+    ((-1, 0, -1), (1, 2, 1), True, (0, 1, 4.05275)),
+    # a flat wide panel 4 × 1 at z = 0 binds across: D = 2/(0.9·0.363970·4/3) = 4.57913
+    ((0, 0, 0), (4, 1, 0), False, (2, 0.5, 4.57913)),
+])
+def test_the_default_camera_is_in_front_of_a_model_and_frames_its_box(
+        tmp_path, lo, hi, open_front, want):
+    """A model without a camera is seen from the front (+z, glTF's front), and its bounding
+    box fills 90 % of the 640 × 480 view across or up: every corner in the image, none
+    behind the camera, and the box spanning at least 0.89 of the width or the height. The
+    former camera (a bounding sphere from (0.35, 0.3, 1)) stood at x = 1.69 behind the
+    Cornell box's right wall and framed the panel at 0.68 of the width."""
+    path = write_text(tmp_path / "box.obj", _box_obj(lo, hi, open_front))
+    with pytest.warns(raytrace.RenderWarning, match="no camera in the file"):
+        scene = raytrace.load_scene(path)
+    np.testing.assert_allclose(scene.camera.position, want, atol=1e-5)
+    xy, depth = _view(scene.camera, _corners(lo, hi))
+    assert (depth > 0).all() and (np.abs(xy) <= 0.9 + 1e-9).all()
+    span = xy.max(axis=0) - xy.min(axis=0)
+    assert max(span) >= 2 * 0.89
+
+
+def test_a_model_lying_flat_is_seen_from_above_the_front(tmp_path):
+    """A plate 2 × 0.01 × 2 (its height under a tenth of its depth) is seen from 30° above
+    its front, not edge-on: the camera's direction from the centre is (0, sin 30°, cos 30°),
+    the plate's corners are in the image and it spans at least 0.89 of the width."""
+    lo, hi = (-1, -0.005, -1), (1, 0.005, 1)
+    path = write_text(tmp_path / "plate.obj", _box_obj(lo, hi))
+    with pytest.warns(raytrace.RenderWarning, match="no camera in the file"):
+        scene = raytrace.load_scene(path)
+    w = scene.camera.position / np.linalg.norm(scene.camera.position)
+    np.testing.assert_allclose(w, [0, 0.5, np.sqrt(3) / 2], atol=1e-12)
+    xy, depth = _view(scene.camera, _corners(lo, hi))
+    assert (depth > 0).all() and (np.abs(xy) <= 0.9 + 1e-9).all()
+    assert xy[:, 0].max() - xy[:, 0].min() >= 2 * 0.89

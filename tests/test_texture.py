@@ -5,13 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import make_scene, pixel, write_gltf
+from helpers import make_scene, pixel, write_gltf, write_png
 from PIL import Image
 
 import raytrace
 from raytrace import shading
 from raytrace.errors import SceneError
+from raytrace.readers import texture
 from raytrace.readers.texture import Texture
+from raytrace.tables import MaterialTable
 
 #: 4 × 2 texels, RGBA, values exact in binary so every bilinear blend below is exact
 TEXELS = np.array([[[0.0, 0.25, 0.5, 1], [0.5, 0.5, 0.5, 1], [1.0, 0.0, 0.25, 1],
@@ -62,6 +64,40 @@ def test_an_srgb_png_is_decoded_to_linear(tmp_path):
     np.testing.assert_allclose(tex.texels[..., :3], by_hand, rtol=1e-6)
     linear = Texture.from_file(tmp_path / "g.png", "kd", srgb=False)
     np.testing.assert_allclose(linear.texels[..., :3], c, rtol=1e-6)
+
+
+#: 16-bit codes one apart, which 8 bits cannot tell apart (4660 / 257 = 18.13…, 4661 / 257 =
+#: 18.14…: both 8-bit code 18), in two rows of two texels, four channels.
+CODES16 = np.array([[[4660, 4661, 4662, 65535], [4663, 30000, 30001, 1]],
+                    [[0, 1, 65534, 32768], [65535, 12345, 12346, 12347]]], np.uint16)
+
+
+@pytest.mark.parametrize("channels", [1, 2, 3, 4])
+def test_a_16_bit_png_is_read_at_16_bits(tmp_path, channels):
+    """Grey, grey + alpha, RGB and RGBA 16-bit PNGs (written by hand, helpers.write_png) read
+    back as code / 65535 to float32's precision (≪ 1/65535): grey in R, G and B; alpha 1 where
+    the file has none, else its own, unassociated."""
+    codes = CODES16[..., :channels]
+    tex = Texture.from_file(write_png(tmp_path / "t.png", codes), "kd", srgb=False)
+    want = codes / 65535.0
+    rgb = want[..., :1].repeat(3, axis=2) if channels <= 2 else want[..., :3]
+    alpha = want[..., -1] if channels in (2, 4) else np.ones(codes.shape[:2])
+    np.testing.assert_allclose(tex.texels[..., :3], rgb, rtol=0, atol=1e-7)
+    np.testing.assert_allclose(tex.texels[..., 3], alpha, rtol=0, atol=1e-7)
+    assert tex.texels[0, 0, 0] < tex.texels[0, 1, 0]  # 4660 < 4663: one code at 8 bits
+
+
+def test_a_16_bit_png_in_a_gltf_buffer_is_decoded_from_srgb_at_16_bits(tmp_path):
+    """The bytes of a 16-bit RGBA PNG (a glTF image in a buffer or a data URI), sRGB: each
+    colour code c decodes to ((c/65535 + 0.055)/1.055)^2.4 (IEC 61966-2-1; all codes here
+    are above the linear segment's 0.04045·65535 = 2651), alpha stays c/65535."""
+    data = write_png(tmp_path / "t.png", CODES16).read_bytes()
+    tex = Texture.from_file(tmp_path / "model.glb#images[0]", "kd", data=data)
+    c = CODES16[..., :3] / 65535.0
+    by_hand = np.where(c > 0.04045, ((c + 0.055) / 1.055) ** 2.4, c / 12.92)
+    np.testing.assert_allclose(tex.texels[..., :3], by_hand, rtol=2e-6, atol=1e-9)
+    np.testing.assert_allclose(tex.texels[..., 3], CODES16[..., 3] / 65535.0, atol=1e-7)
+    assert tex.texels[0, 0, 0] != tex.texels[0, 0, 1]  # 4660 and 4661: apart at 16 bits
 
 
 def _square_obj(tmp_path, extra_mtl=""):
@@ -168,3 +204,55 @@ def test_gltf_texture_alpha_is_opacity_in_blend_and_mask_modes(tmp_path, mode, c
         cam, lights = _at(x, 0.0)
         got = pixel(make_scene([mesh], lights, cam, background=0.2))
         np.testing.assert_allclose(got, value, rtol=1e-6)
+
+
+def test_the_stored_8_bit_srgb_table_is_colour_sciences_decoding():
+    """The 256 values 8-bit images are decoded through (stored so that a load need not import
+    colour-science) are colour-science's cctf_decoding of c/255, bit for bit; spot values by
+    IEC 61966-2-1: code 10 is on the linear segment, 10/255/12.92; code 128 is
+    ((128/255 + 0.055)/1.055)^2.4 = 0.21586."""
+    stored = np.loadtxt(texture.SRGB8_FILE)
+    np.testing.assert_array_equal(stored, texture.srgb_decoding(8))
+    assert stored[10] == pytest.approx(10 / 255 / 12.92, rel=1e-15)
+    assert stored[128] == pytest.approx(((128 / 255 + 0.055) / 1.055) ** 2.4, rel=1e-12)
+    assert stored[0] == 0 and stored[255] == 1
+
+
+def test_a_texture_times_one_is_itself_and_its_max_is_found_once():
+    tex = Texture(TEXELS)
+    assert tex.scaled([1, 1, 1]) is tex
+    np.testing.assert_array_equal(tex.scaled(0.5).texels[..., :3], TEXELS[..., :3] * 0.5)
+    np.testing.assert_array_equal(tex.max, [1.0, 1.0, 1.0])  # by eye from TEXELS
+    assert tex.max is tex.max
+
+
+def test_a_gltf_image_is_decoded_once_for_the_materials_that_share_it(tmp_path):
+    """Two MASK materials on one image, factor 1: one Texture serves both as kd and as
+    alpha, so the material table holds its texels once (it held three copies)."""
+    _png(tmp_path / "t.png", [[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [255, 255, 255]]])
+    quads = [dict(positions=[[x, 0, 0], [x + 1, 0, 0], [x + 1, 1, 0], [x, 1, 0]],
+                  indices=[[0, 1, 2], [0, 2, 3]], uv=[[0, 1], [1, 1], [1, 0], [0, 0]],
+                  material=i) for i, x in enumerate((0, 2))]
+    mat = {"alphaMode": "MASK", "pbrMetallicRoughness": {
+        "metallicFactor": 0, "baseColorTexture": {"index": 0}}}
+    path = write_gltf(tmp_path / "t.gltf", [{"mesh": 0}, {"mesh": 1}], quads, [mat, mat],
+                      extra={"textures": [{"source": 0}], "images": [{"uri": "t.png"}]})
+    mesh = raytrace.Mesh(file=path, material="from_file")
+    a, b = mesh.file_materials
+    assert a.kd is b.kd is a.alpha is b.alpha
+    table = MaterialTable([a, b])
+    assert len(table.tex_info) == 1 and table.texels.size == 2 * 2 * 4
+
+
+def test_a_metallic_gltf_material_has_no_diffuse_texture(tmp_path):
+    """kd = baseColor·(1 − metallic): metallic 1 makes it 0, a constant, not a texture of
+    zeros the size of the image; the highlight colour F0 = baseColor factor (1) stays."""
+    _png(tmp_path / "t.png", [[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [255, 255, 255]]])
+    mat = [{"pbrMetallicRoughness": {"metallicFactor": 1, "baseColorTexture": {"index": 0}}}]
+    square = {"positions": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+              "indices": [[0, 1, 2], [0, 2, 3]], "uv": [[0, 1], [1, 1], [1, 0], [0, 0]],
+              "material": 0}
+    path = write_gltf(tmp_path / "m.gltf", [{"mesh": 0}], [square], mat, extra={
+        "textures": [{"source": 0}], "images": [{"uri": "t.png"}]})
+    (m,) = raytrace.Mesh(file=path, material="from_file").file_materials
+    assert not isinstance(m.kd, Texture) and not np.any(m.kd)

@@ -73,7 +73,27 @@ def _buffers(gltf: Any, path: Path) -> list[bytes]:
         else:
             file = input_file(path.parent / uri, "buffer file", f"buffers[{i}].uri", str(path))
             out.append(file.read_bytes())
+        if len(out[-1]) < (b.byteLength or 0):
+            raise SceneError(f"holds {len(out[-1])} bytes, its byteLength says {b.byteLength}: "
+                             "the file is truncated", f"buffers[{i}]", str(path))
     return out
+
+
+def view_bytes(gltf: Any, buffers: list[bytes], index: Any, path: Path, key: str
+               ) -> tuple[bytes, int, int]:
+    """Buffer view ``index`` (§3.6.1), named by ``key`` where it is referred to: its buffer's
+    bytes and the view's [start, end) in them, checked to lie inside the buffer."""
+    if not isinstance(index, int) or not 0 <= index < len(gltf.bufferViews or []):
+        raise SceneError(f"no such bufferView {index!r}", key, str(path))
+    view, where = gltf.bufferViews[index], f"bufferViews[{index}]"
+    if not isinstance(view.buffer, int) or not 0 <= view.buffer < len(buffers):
+        raise SceneError(f"no such buffer {view.buffer!r}", f"{where}.buffer", str(path))
+    start = view.byteOffset or 0
+    end = start + (view.byteLength or 0)
+    if end > len(buffers[view.buffer]):
+        raise SceneError(f"bytes {start}..{end} reach past the end of buffers[{view.buffer}] "
+                         f"({len(buffers[view.buffer])} bytes)", where, str(path))
+    return buffers[view.buffer], start, end
 
 
 def accessor(gltf: Any, buffers: list[bytes], index: int, path: Path) -> np.ndarray:
@@ -92,13 +112,15 @@ def accessor(gltf: Any, buffers: list[bytes], index: int, path: Path) -> np.ndar
     dtype, width = np.dtype(COMPONENT[a.componentType]).newbyteorder("<"), WIDTH[a.type]
     if a.bufferView is None:
         return np.zeros((a.count, width), np.float64)
-    view = gltf.bufferViews[a.bufferView]
-    data = buffers[view.buffer]
-    start = (view.byteOffset or 0) + (a.byteOffset or 0)
-    stride = view.byteStride or dtype.itemsize * width
+    data, view_start, view_end = view_bytes(gltf, buffers, a.bufferView, path,
+                                            f"{key}.bufferView")
+    start = view_start + (a.byteOffset or 0)
+    stride = gltf.bufferViews[a.bufferView].byteStride or dtype.itemsize * width
     end = start + stride * (a.count - 1) + dtype.itemsize * width
-    if a.count and end > (view.byteOffset or 0) + view.byteLength or end > len(data):
-        raise SceneError("reaches past the end of its buffer view", key, str(path))
+    if a.count < 0 or a.count and end > view_end:
+        raise SceneError(f"reaches past the end of bufferViews[{a.bufferView}] "
+                         f"({view_end - view_start} bytes): count {a.count} from byteOffset "
+                         f"{a.byteOffset or 0}", key, str(path))
     rows = np.ndarray((a.count, width), dtype, data, start, (stride, dtype.itemsize))
     out = rows.astype(np.float64 if a.componentType == 5126 or a.normalized else np.int64)
     if a.normalized and a.componentType != 5126:
@@ -226,7 +248,7 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
         t = texture(gltf, tex, path, f"materials[{index}].pbrMetallicRoughness."
                     "baseColorTexture", mode)
         scale = base * (1 - metallic) * (1 - trans)
-        fields["kd"] = t.scaled(scale)
+        fields["kd"] = t.scaled(scale) if np.any(scale) else 0.0  # metallic: no copy of 0s
         if mode in ("BLEND", "MASK"):  # the texture's alpha times the factor's
             fields["alpha"] = t
             fields["opacity"] = alpha
@@ -276,7 +298,17 @@ def _light(spec: dict, world: np.ndarray, where: str, path: Path):
 LIGHTS = {"point": "PointLight", "spot": "SpotLight", "directional": "DirectionalLight"}
 
 
+#: Mesh compression extensions: their meshes are not decoded.
+COMPRESSED = {"KHR_draco_mesh_compression": "Draco", "EXT_meshopt_compression": "meshopt",
+              "KHR_meshopt_compression": "meshopt"}
+
+
 def _check_extensions(gltf: Any, path: Path) -> None:
+    for name in gltf.extensionsRequired or []:
+        if name in COMPRESSED:
+            raise SceneError(f"{name}: its meshes are {COMPRESSED[name]}-compressed, which "
+                             "raytrace does not decode; save the model without mesh "
+                             "compression", "extensionsRequired", str(path))
     required = [e for e in (gltf.extensionsRequired or []) if e not in SUPPORTED]
     if required:
         raise SceneError(f"requires extensions raytrace cannot read: {', '.join(required)}",
@@ -288,7 +320,9 @@ def _check_extensions(gltf: Any, path: Path) -> None:
 
 
 @functools.lru_cache(maxsize=4)
-def _load_cached(path: str, stamp: tuple) -> GltfScene:
+def _load_cached(path: str, resolved: str, stamp: tuple) -> GltfScene:
+    """:func:`_load` of ``path`` (as the user wrote it, named by its errors and warnings),
+    kept while the file at ``resolved`` keeps its ``stamp`` (modification time, size)."""
     try:
         return _load(Path(path))
     except SceneError as e:
@@ -303,7 +337,7 @@ def load_gltf(path: Path) -> GltfScene:
     path = Path(path)
     input_file(path, "glTF file", file=str(path))
     st = path.stat()
-    return _load_cached(str(path.resolve()), (st.st_mtime_ns, st.st_size))
+    return _load_cached(str(path), str(path.resolve()), (st.st_mtime_ns, st.st_size))
 
 
 def _load(path: Path) -> GltfScene:
@@ -325,6 +359,8 @@ def _load(path: Path) -> GltfScene:
         warnings.warn(f"{path}: {note}", RenderWarning, stacklevel=2)
     _check_extensions(gltf, path)
     buffers = _buffers(gltf, path)
+    # each image decoded once, from the buffers read once
+    texture = functools.partial(gltf_texture, buffers=buffers, decoded={})
     materials: dict = {}
     verts, faces, face_mat, uvs, normals, sources = [], [], [], [], [], []
     camera, lights, offset = None, [], 0
@@ -373,7 +409,7 @@ def _load(path: Path) -> GltfScene:
             if np.linalg.det(world[:3, :3]) < 0:  # a mirroring transform flips the winding
                 idx = idx[:, ::-1]
             if prim.material not in materials:
-                materials[prim.material] = material(gltf, prim.material, gltf_texture, path)
+                materials[prim.material] = material(gltf, prim.material, texture, path)
             verts.append(w)
             faces.append(idx + offset)
             face_mat.append(np.full(len(idx), list(materials).index(prim.material)))
@@ -395,13 +431,16 @@ def _load(path: Path) -> GltfScene:
     return GltfScene(asset, camera, lights)
 
 
-def gltf_texture(gltf: Any, info: Any, path: Path, key: str, alpha_mode: str) -> Texture:
+def gltf_texture(gltf: Any, info: Any, path: Path, key: str, alpha_mode: str, *,
+                 buffers: list[bytes] | None = None, decoded: dict | None = None) -> Texture:
     """A glTF ``textureInfo``: its image (a file, a data URI or a buffer view) decoded as sRGB,
-    its sampler's wrapS / wrapT. TEXCOORD_0 only."""
+    its sampler's wrapS / wrapT. TEXCOORD_0 only. ``buffers``: the file's buffers, where
+    read already; ``decoded``: the textures made so far by (image, wrap), shared by the
+    materials that use the same image the same way."""
     where = str(path)
     try:
         tex = gltf.textures[info.index]
-        image = gltf.images[tex.source]
+        gltf.images[tex.source]  # noqa: B018 (that it exists)
     except (IndexError, TypeError):
         raise SceneError("names no texture with an image", f"{key}.index", where) from None
     if (info.texCoord or 0) != 0:
@@ -411,15 +450,24 @@ def gltf_texture(gltf: Any, info: Any, path: Path, key: str, alpha_mode: str) ->
         s = gltf.samplers[tex.sampler]
         wrap = (GLTF_WRAPS.get(s.wrapS or 10497, "repeat"),
                 GLTF_WRAPS.get(s.wrapT or 10497, "repeat"))
+    decoded = {} if decoded is None else decoded
+    if (tex.source, wrap) not in decoded:
+        decoded[tex.source, wrap] = _image(gltf, tex.source, path, key, wrap, buffers)
+    return decoded[tex.source, wrap]
+
+
+def _image(gltf: Any, index: int, path: Path, key: str, wrap: tuple[str, str],
+           buffers: list[bytes] | None) -> Texture:
+    """Image ``index`` (a file, a data URI or a buffer view) decoded as sRGB."""
+    image, where = gltf.images[index], str(path)
     if image.bufferView is not None:
-        view = gltf.bufferViews[image.bufferView]
-        data = _buffers(gltf, path)[view.buffer]
-        start = view.byteOffset or 0
-        return Texture.from_file(Path(f"{path.name}#images[{tex.source}]"), key, wrap=wrap,
-                                 where=where, data=data[start:start + view.byteLength])
+        data, start, end = view_bytes(gltf, buffers or _buffers(gltf, path), image.bufferView,
+                                      path, f"images[{index}].bufferView")
+        return Texture.from_file(Path(f"{path.name}#images[{index}]"), key, wrap=wrap,
+                                 where=where, data=data[start:end])
     uri = image.uri or ""
     if uri.startswith("data:"):
-        return Texture.from_file(Path(f"{path.name}#images[{tex.source}]"), key, wrap=wrap,
+        return Texture.from_file(Path(f"{path.name}#images[{index}]"), key, wrap=wrap,
                                  where=where, data=base64.b64decode(uri.split(",", 1)[1]))
-    return Texture.from_file(path.parent / unquote(uri), f"images[{tex.source}].uri",
+    return Texture.from_file(path.parent / unquote(uri), f"images[{index}].uri",
                              wrap=wrap, where=where)

@@ -255,7 +255,7 @@ def scene_from_model(path: Path) -> Any:
         if cam["aspect"]:
             render = RenderSettings(height=max(1, round(640 / cam["aspect"])))
     else:
-        camera = framing_camera(mesh.vertices)
+        camera = framing_camera(mesh.vertices, aspect=render.width / render.height)
         notes.append(f"no camera in the file: camera at {_vec(camera.position)} looking at "
                      f"{_vec(camera.look_at)}, fov {camera.fov:g}")
     lights = list(found.lights) if found is not None else []
@@ -271,14 +271,39 @@ def scene_from_model(path: Path) -> Any:
                  render=render, path=str(path))
 
 
-def framing_camera(vertices: np.ndarray, fov: float = 40.0) -> Any:
-    """A camera that sees the whole bounding sphere of ``vertices``: looking at the box's
-    centre from the front (+z), a little right and above, at the distance where the sphere
-    of the box's half-diagonal r fills the vertical field of view, r / sin(fov/2)."""
+#: The share of the field of view (across or up, whichever binds) that a framed model's
+#: bounding box fills.
+FILL = 0.9
+#: The camera's elevation over a model lying flat (its height under :data:`FLAT` of its
+#: depth), which a view along the horizon would see edge-on.
+FLAT, FLAT_ELEVATION = 0.1, 30.0
+
+
+def framing_camera(vertices: np.ndarray, fov: float = 40.0, aspect: float = 4 / 3) -> Any:
+    """A camera in front of the model, framing its bounding box, as the Khronos glTF Sample
+    Viewer places its default camera: the front of a model faces +z (glTF 2.0 §3.4, "the
+    front of a glTF asset faces +Z"), so the camera looks at the box's centre from the +z
+    side with +y up, outside the box; it is level with the centre, or raised by
+    :data:`FLAT_ELEVATION` over a flat model.
+
+    With w the unit vector from the centre to the camera, right r and up u, a corner p
+    (relative to the centre) is at depth D − p·w from a camera at distance D, and fills no
+    more than :data:`FILL` of the view when |p·r| ≤ FILL·aspect·tan(fov/2)·(D − p·w) and
+    |p·u| ≤ FILL·tan(fov/2)·(D − p·w) (``fov`` vertical, ``aspect`` = width / height); D is
+    the least distance where all eight corners do, so the box fills FILL of the view across
+    or up. Level (w = +z), that is D = hz + max(hx / (FILL·aspect·tan(fov/2)),
+    hy / (FILL·tan(fov/2))) for half extents (hx, hy, hz)."""
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-    centre, r = (lo + hi) / 2, max(float(np.linalg.norm(hi - lo)) / 2, 1e-9)
-    view = np.array([0.35, 0.3, 1.0]) / np.linalg.norm([0.35, 0.3, 1.0])
-    return Camera(centre + view * r / np.sin(np.radians(fov / 2)), centre, (0, 1, 0), fov)
+    centre, half = (lo + hi) / 2, (hi - lo) / 2
+    e = np.radians(FLAT_ELEVATION) if half[1] < FLAT * half[2] else 0.0
+    w, u = np.array([0, np.sin(e), np.cos(e)]), np.array([0, np.cos(e), -np.sin(e)])
+    corners = half * np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+    tan_up = FILL * np.tan(np.radians(fov / 2))
+    depth = corners @ w
+    d = np.maximum(depth + np.abs(corners[:, 0]) / (tan_up * aspect),
+                   depth + np.abs(corners @ u) / tan_up).max()
+    d = max(d, depth.max() + 1e-9 * (1 + np.abs(lo).max()))  # a point: just outside it
+    return Camera(centre + d * w, centre, (0, 1, 0), fov)
 
 
 def _vec(v: np.ndarray) -> str:

@@ -3,15 +3,21 @@ glTF ``baseColorTexture``.
 
 A :class:`Texture` holds the image as linear float32 RGBA (H, W, 4), row 0 at the top: 8- and
 16-bit sRGB images are decoded with colour-science (``colour.cctf_decoding(x,
-function="sRGB")``, IEC 61966-2-1), alpha stays linear. The renderer samples it at the hit's
+function="sRGB")``, IEC 61966-2-1), code by code through a table of its values
+(:func:`decoding_table`; at 8 bits the table colour-science gave, stored in
+:data:`SRGB8_FILE`), alpha stays linear. The renderer samples it at the hit's
 texture coordinates (s, t) (t = 0 at the top row, as in glTF; OBJ's t is flipped on loading)
 with bilinear filtering between texel centres (texel (i, j) is at ((i + ½)/W, (j + ½)/H)),
 and the wrap mode per axis from :data:`WRAPS` (:func:`raytrace.kernels.core.texture1`). Images are
-read with Pillow.
+read with Pillow, but for 16-bit PNGs (grey, grey + alpha, RGB, RGBA): Pillow opens a 16-bit
+colour PNG as 8-bit, so those are read by OpenImageIO at the file's 16 bits (a code c is
+c / 65535), their alpha kept unassociated as the PNG stores it (PNG spec §12.8).
 """
 
 from __future__ import annotations
 
+import functools
+import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -53,36 +59,133 @@ class Texture:
         if data is None:
             input_file(file, "texture file", key, where)
         try:
-            with Image.open(io.BytesIO(data) if data is not None else file) as im:
-                im.load()
-                rgba = _pixels(im)
+            if png_bit_depth(data if data is not None else _head(file)) == 16:
+                codes, bits = _png16(file, data), 16
+            else:
+                with Image.open(io.BytesIO(data) if data is not None else file) as im:
+                    im.load()
+                    codes, bits = _pixels(im)
         except (OSError, UnidentifiedImageError, ValueError, Image.DecompressionBombError) as e:
             raise SceneError(f"cannot read texture {file}: {e}", key, where) from None
-        if srgb:
-            colour = quiet_colour()
-            rgba[..., :3] = colour.cctf_decoding(rgba[..., :3], function="sRGB")
+        if bits is None:  # float values (Pillow's "I" and "F" modes)
+            rgba = codes
+            if srgb:
+                rgba[..., :3] = quiet_colour().cctf_decoding(rgba[..., :3], function="sRGB")
+        else:  # integer codes: each colour through its decoded value, alpha c / (2^bits − 1)
+            rgba = np.take(decoding_table(bits, srgb), codes)
+            rgba[..., 3] = np.take(decoding_table(bits, False), codes[..., 3])
         return cls(rgba, wrap, Path(file) if data is None else None)
 
     def scaled(self, factor: Any) -> Texture:
-        """The texture times a colour (glTF's baseColorFactor), alpha kept."""
+        """The texture times a colour (glTF's baseColorFactor), alpha kept; the texture itself
+        for a factor of 1 (no copy, so a material's colour and alpha can share it)."""
+        factor = np.asarray(factor, np.float32)
+        if np.all(factor == 1):
+            return self
         t = self.texels.copy()
-        t[..., :3] *= np.asarray(factor, np.float32)
+        t[..., :3] *= factor
         return Texture(t, self.wrap, self.file)
 
-    @property
+    @functools.cached_property
     def max(self) -> np.ndarray:
-        return self.texels[..., :3].reshape(-1, 3).max(axis=0).astype(np.float64)
+        """The largest value of each colour channel (3,) float64, found once: a texture's
+        texels are not edited after it is made (the material table asks for it at every
+        build)."""
+        return np.array([self.texels[..., c].max() for c in range(3)], np.float64)
 
 
-def _pixels(im: Any) -> np.ndarray:
-    """RGBA in [0, 1] from any Pillow image (8 or 16 bits a channel)."""
-    if im.mode in ("I;16", "I;16B", "I;16L", "I"):
-        grey = np.asarray(im, np.float64) / 65535.0
-        return np.dstack([grey, grey, grey, np.ones_like(grey)])
-    if im.mode == "F":
-        grey = np.asarray(im, np.float64)
-        return np.dstack([grey, grey, grey, np.ones_like(grey)])
-    return np.asarray(im.convert("RGBA"), np.float64) / 255.0
+#: The eight bytes every PNG file begins with (PNG spec §5.2).
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def png_bit_depth(head: bytes) -> int | None:
+    """The bit depth a PNG's header chunk states, or None for bytes that are not a PNG: the
+    signature, then IHDR (length, ``IHDR``, width, height), its bit depth at byte 24 (PNG spec
+    §5.2, §11.2.2).
+
+    >>> png_bit_depth(PNG_SIGNATURE + bytes(4) + b"IHDR" + bytes(8) + bytes([16]))
+    16
+    """
+    if head[:8] == PNG_SIGNATURE and head[12:16] == b"IHDR" and len(head) > 24:
+        return head[24]
+    return None
+
+
+def _head(file: Path) -> bytes:
+    with open(file, "rb") as f:
+        return f.read(25)
+
+
+def _png16(file: Path, data: bytes | None) -> np.ndarray:
+    """RGBA codes (H, W, 4) uint16 of a 16-bit PNG (the file, or its bytes), read by
+    OpenImageIO at 16 bits. OpenImageIO's Python binding reads only from a path, so bytes
+    (a glTF image in a buffer or a data URI) pass through a temporary file."""
+    import OpenImageIO as oiio  # a library's import: where it is used
+
+    if data is not None:
+        with tempfile.TemporaryDirectory(prefix="raytrace-texture-") as folder:
+            copy = Path(folder) / "texture.png"
+            copy.write_bytes(data)
+            return _png16(copy, None)
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)  # the PNG's own alpha, not premultiplied
+    f = oiio.ImageInput.open(str(file), config)
+    if f is None:
+        raise OSError(oiio.geterror())
+    try:
+        codes = f.read_image(oiio.UINT16)
+        if codes is None:
+            raise OSError(f.geterror())
+    finally:
+        f.close()
+    return _rgba(codes.reshape(codes.shape[0], codes.shape[1], -1), 65535)
+
+
+def _rgba(c: np.ndarray, opaque: Any) -> np.ndarray:
+    """(H, W, 4) from grey (1), grey and alpha (2), RGB (3) or RGBA (4) channels: grey in R,
+    G and B; ``opaque`` as the alpha where there is none."""
+    if c.shape[2] <= 2:
+        c = np.concatenate([c[..., :1].repeat(3, axis=2), c[..., 1:]], axis=2)
+    if c.shape[2] == 3:
+        c = np.concatenate([c, np.full((*c.shape[:2], 1), opaque, c.dtype)], axis=2)
+    return c
+
+
+def _pixels(im: Any) -> tuple[np.ndarray, int | None]:
+    """RGBA (H, W, 4) from any Pillow image: integer codes and their bits (8 or 16), or floats
+    in [0, 1] and None (32-bit "I" read as 16-bit codes, "F")."""
+    if im.mode in ("I;16", "I;16B", "I;16L"):
+        return _rgba(np.asarray(im, np.uint16)[..., None], 65535), 16
+    if im.mode in ("I", "F"):
+        scale = 65535.0 if im.mode == "I" else 1.0
+        return _rgba(np.asarray(im, np.float64)[..., None] / scale, 1.0), None
+    return np.asarray(im.convert("RGBA")), 8
+
+
+#: sRGB codes 0..255 decoded to linear by colour-science, one value a line, as
+#: :func:`srgb_decoding` gives them (``np.savetxt(SRGB8_FILE, srgb_decoding(8), fmt="%.17g")``;
+#: tests/test_texture.py checks that they still are): importing colour-science takes
+#: longer (2.7 s) than reading a textured model, so 8-bit images are decoded without it.
+SRGB8_FILE = Path(__file__).with_name("srgb8.txt")
+
+
+def srgb_decoding(bits: int) -> np.ndarray:
+    """The linear values (2^bits,) float64 of the sRGB codes c = 0 … 2^bits − 1 at
+    ``bits`` bits: colour-science's ``cctf_decoding(c / (2^bits − 1), function="sRGB")``
+    (IEC 61966-2-1)."""
+    codes = np.arange(2**bits) / (2.0**bits - 1)
+    return quiet_colour().cctf_decoding(codes, function="sRGB")
+
+
+@functools.cache
+def decoding_table(bits: int, srgb: bool) -> np.ndarray:
+    """float32 value of each code at ``bits`` bits: sRGB-decoded (:data:`SRGB8_FILE` at 8
+    bits, :func:`srgb_decoding` at 16), or c / (2^bits − 1) read as linear."""
+    if not srgb:
+        values = np.arange(2**bits) / (2.0**bits - 1)
+    else:
+        values = np.loadtxt(SRGB8_FILE) if bits == 8 else srgb_decoding(bits)
+    return values.astype(np.float32)
 
 
 def parse_texture(table: Mapping, key: str) -> Texture:
