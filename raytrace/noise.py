@@ -3,7 +3,8 @@
 Each pixel is sampled by two independent streams of samples (A and B, the "two half
 buffers" of Cycles' adaptive sampling), each the first ``n`` points of an Owen-scrambled
 (0, 2)-sequence (Sobol's first two dimensions with Burley's hash-based nested uniform
-scrambling: B. Burley, "Practical Hash-based Owen Scrambling", JCGT 9(4), 2020), scrambled
+scrambling: B. Burley, "Practical Hash-based Owen Scrambling", JCGT 9(4), 2020,
+:func:`owen_scramble`), scrambled
 by its own seed, hashed from the render's seed, the pixel and the stream. So:
 
 * every sample is uniformly distributed over its pixel, a true sample of the box filter, and
@@ -77,14 +78,21 @@ def reverse_bits(x: np.ndarray) -> np.ndarray:
 
 
 def owen_scramble(x: np.ndarray, seed: np.ndarray) -> np.ndarray:
-    """Burley's nested uniform scramble of 32-bit fractions ``x`` by ``seed`` (uint32 each):
-    the bits reversed, the Laine–Karras permutation (each bit flipped by a hash of the bits
-    below it), reversed back, so each bit of ``x`` is flipped by a hash of the bits above it:
-    an Owen scrambling (Burley 2020, listing 3)."""
+    """A nested uniform (Owen) scramble of 32-bit fractions ``x`` by ``seed`` (uint32 each),
+    Burley's way (2020, listing 3): the bits reversed, a hash in which each bit is flipped by
+    a function of the bits below it, reversed back, so each bit of ``x`` is flipped by a hash
+    of the bits above it. The hash is Vegdahl's improvement of Laine and Karras's ("Building
+    a Better LK Hash", 2021: xor-multiplies by even constants and a multiply by an odd one,
+    each of which moves information only upward); Burley's original constants left a 10×10
+    histogram of 20 000 streams' first points 4.9σ off uniform in one bin."""
     with np.errstate(over="ignore"):
-        v = reverse_bits(x) + np.asarray(seed, np.uint32)
-        for m in (0x6C50B47C, 0xB82F1E52, 0xC7AFE638, 0x8D22F6E6):
-            v ^= v * np.uint32(m)
+        seed = np.asarray(seed, np.uint32)
+        v = reverse_bits(x)
+        v ^= v * np.uint32(0x3D20ADEA)
+        v += seed
+        v *= (seed >> 16) | np.uint32(1)
+        v ^= v * np.uint32(0x05526C56)
+        v ^= v * np.uint32(0x53A22864)
     return reverse_bits(v)
 
 
@@ -248,8 +256,9 @@ class Result:
     """A noise-driven render: ``pixels`` (n, 3) float64, the mean of each pixel's samples,
     ``counts`` (n,) its samples, the ``estimate`` of the relative RMSE
     (:func:`relative_rmse`), the ``rounds`` traced, the last ``threshold`` and why it
-    stopped (``stopped``: "threshold", "target_error", "time_limit", "max_spp" or
-    "converged", every pixel's estimated error 0)."""
+    stopped (``stopped``: "threshold", "target_error", "time_limit", "max_spp" (every
+    pixel whose variance estimate is not 0 has ``max_spp``) or "converged" (every pixel's
+    variance estimate is 0))."""
 
     pixels: np.ndarray
     counts: np.ndarray
@@ -350,9 +359,9 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
         else:
             new = next_counts(n, pixel_error(a, b), budget.threshold, most, cols, grew)
         grew = new > n
-        if not (new > n).any():
-            stopped = "threshold" if not goal else "max_spp" if (n >= most).all() \
-                else "converged"
+        if not (new > n).any():  # by target or time: every noisy pixel has the most
+            stopped = "threshold" if not goal else "max_spp" if (
+                pixel_variance(a, b).sum(-1) > 0).any() else "converged"
             break
     return Result(0.5 * (a + b), STREAMS * n, estimate, rounds, budget.threshold, stopped)
 
