@@ -225,8 +225,9 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     ``crop`` = (x0, y0, x1, y1) renders only those pixels (half-open bounds, like pbrt's
     ``--pixelbounds``): ``rgb`` is then (y1 − y0, x1 − x0, 3), bit-identical to that window
     of the full render. ``aovs``: names from :data:`raytrace.film.aov.AOVS` (depth, normal,
-    albedo, id, uv, position) to render besides the colour, read with ``Image.aov(name)``.
-    ``filter`` (:data:`raytrace.sampling.FILTERS`), ``aa`` ("uniform" or "adaptive"),
+    albedo, id, uv, position, samples) to render besides the colour, read with
+    ``Image.aov(name)``. ``filter`` (:data:`raytrace.sampling.FILTERS`), ``aa`` ("uniform",
+    "adaptive" or "noise"),
     ``aa_threshold``, ``aa_depth``, ``aa_min_depth``, ``noise_threshold``, ``min_spp`` and
     ``max_spp`` override the scene's ``[render]`` keys of the same names.
 
