@@ -465,7 +465,9 @@ class WhittedIntegrator:
 
         def trace(r: noise.Round, first: bool) -> tuple[np.ndarray, np.ndarray]:
             values = np.zeros((len(r.x), 3))
-            size = min(opt.pass_samples, max(MIN_PASS_SAMPLES, -(-len(r.x) // MIN_PASSES)))
+            # two passes a thread: a round is small, and each pass costs Python per depth
+            size = min(opt.pass_samples,
+                       max(MIN_PASS_SAMPLES, -(-len(r.x) // (2 * opt.threads))))
             self._round = r
             done = self._run(noise.passes(r.bounds, size), values, progress, len(r.x), stop,
                              None if first else deadline)
