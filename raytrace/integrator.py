@@ -943,16 +943,14 @@ class WhittedIntegrator:
     def _noise_record(self) -> dict:
         """What a noise-driven render (:mod:`raytrace.noise`) asked for and spent: its
         settings, the samples (in all and a pixel on average), rounds, the estimated relative
-        RMSE (:func:`raytrace.noise.relative_rmse`), the last noise threshold and why it
-        stopped."""
+        RMSE (:func:`raytrace.noise.relative_rmse`) and why it stopped."""
         opt, res = self.opt, self._noise
         return {"mode": "noise", "noise_threshold": opt.noise_threshold,
                 "min_spp": opt.min_spp, "max_spp": opt.max_spp,
                 "target_error": opt.target_error, "time_limit": opt.time_limit,
                 "samples": int(res.counts.sum()),
                 "samples_per_pixel": float(res.counts.mean()), "rounds": res.rounds,
-                "estimated_relative_rmse": res.estimate, "final_threshold": res.threshold,
-                "stopped_by": res.stopped}
+                "estimated_relative_rmse": res.estimate, "stopped_by": res.stopped}
 
     def _metadata(self, nonfinite: int, seconds: float) -> dict:
         opt = self.opt

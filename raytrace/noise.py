@@ -4,12 +4,13 @@ Each pixel is sampled by two independent streams of samples (A and B, the "two h
 buffers" of Cycles' adaptive sampling), each the first ``n`` points of an Owen-scrambled
 (0, 2)-sequence (Sobol's first two dimensions with Burley's hash-based nested uniform
 scrambling: B. Burley, "Practical Hash-based Owen Scrambling", JCGT 9(4), 2020,
-:func:`owen_scramble`), scrambled
-by its own seed, hashed from the render's seed, the pixel and the stream. So:
+:func:`owen_scramble`), scrambled by its own seed, hashed from the render's seed, the pixel
+and the stream. So:
 
 * every sample is uniformly distributed over its pixel, a true sample of the box filter, and
-  the pixel's value, the mean of its ``2n`` samples, is unbiased at every ``n`` (more samples
-  always mean less error);
+  the pixel's value, the mean of its ``2n`` samples, is unbiased for any ``n`` fixed in
+  advance (counts chosen from the samples add a selection bias, which vanishes as
+  ``min_spp`` grows; tests/test_noise.py bounds it over 64 seeds);
 * the first ``2^m`` points of a stream are a (0, m, 2)-net: stratified at every power of two,
   as a uniform render's jittered grid is at its one ``spp``;
 * the two streams are independent estimates with one distribution, so ``I = (A + B)/2`` has
@@ -17,22 +18,22 @@ by its own seed, hashed from the render's seed, the pixel and the stream. So:
   ``v = (A − B)²/4`` is an unbiased estimate of the variance of the pixel's value, for any
   sampling pattern inside a stream (stratified points have no simple per-sample variance).
 
-**Allocation** (:func:`pixel_error`, :func:`next_counts`): a pixel starts with ``min_spp``
-samples; after each round, a pixel whose error
+**By threshold** (:func:`pixel_error`, :func:`next_counts`): a pixel starts with ``min_spp``
+samples; after each round, a pixel whose error, or a neighbour's (3×3), is above the noise
+threshold doubles its samples, up to ``max_spp``; the error is
 
     e = Σ_c |A_c − B_c|/2 / (10⁻⁴ + √(Σ_c I_c))
 
 (Dammertz et al. 2010, "A hierarchical automatic stopping condition for Monte Carlo global
 illumination", §2.1, as Cycles' ``film_adaptive_sampling_convergence_check`` computes it, with
-``|I − A| = |A − B|/2``) is above the noise threshold doubles its samples, up to ``max_spp``.
-Every decision reads only the pixel's own samples, so a crop, a tile or a pass split gives the
-same pixels bit for bit.
+``|I − A| = |A − B|/2``). A pixel that stops stays stopped, so a pixel depends on pixels at
+most :func:`margin` away: a crop that traces that margin has the full frame's pixels.
 
-**Stopping** (:func:`relative_rmse`): the image's relative RMSE is estimated as
-``√(mean over pixels and channels of v) / mean over pixels and channels of I``. A render with a
-target error or a time limit lowers the threshold (halves it) each time every pixel has
-converged, and stops after the first round whose estimate is at or below the target, once the
-time is up (no new pass is started: each pixel keeps whole rounds), or when every pixel has
+**By target error or time** (:func:`relative_rmse`, :func:`neyman_counts`): the image's
+relative RMSE is estimated as ``√(mean over pixels and channels of v) / mean over pixels and
+channels of I``; between rounds the pixels of highest ``σ/n`` double, and the render stops
+after the first round whose estimate is at most the target, once the deadline has passed (no
+pass starts after it, so each pixel keeps whole rounds), or when every noisy pixel has
 ``max_spp``.
 """
 
@@ -242,7 +243,8 @@ class Budget:
     """What a noise-driven render may spend: ``min_spp`` and ``max_spp`` samples a pixel
     (even: half to each stream), the noise ``threshold`` (:func:`pixel_error`), and the
     optional ``target_error`` (relative RMSE, :func:`relative_rmse`) and ``deadline``
-    (``time.perf_counter()`` seconds) that keep lowering the threshold until either is met."""
+    (``time.perf_counter()`` seconds), either of which makes the rounds follow
+    :func:`neyman_counts` instead of the threshold."""
 
     min_spp: int
     max_spp: int
@@ -255,16 +257,15 @@ class Budget:
 class Result:
     """A noise-driven render: ``pixels`` (n, 3) float64, the mean of each pixel's samples,
     ``counts`` (n,) its samples, the ``estimate`` of the relative RMSE
-    (:func:`relative_rmse`), the ``rounds`` traced, the last ``threshold`` and why it
-    stopped (``stopped``: "threshold", "target_error", "time_limit", "max_spp" (every
-    pixel whose variance estimate is not 0 has ``max_spp``) or "converged" (every pixel's
-    variance estimate is 0))."""
+    (:func:`relative_rmse`), the ``rounds`` traced and why it stopped (``stopped``:
+    "threshold", "target_error", "time_limit", "max_spp" (every pixel whose variance
+    estimate is not 0 has ``max_spp``) or "converged" (every pixel's variance estimate
+    is 0))."""
 
     pixels: np.ndarray
     counts: np.ndarray
     estimate: float
     rounds: int
-    threshold: float
     stopped: str
 
 
@@ -363,5 +364,5 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
             stopped = "threshold" if not goal else "max_spp" if (
                 pixel_variance(a, b).sum(-1) > 0).any() else "converged"
             break
-    return Result(0.5 * (a + b), STREAMS * n, estimate, rounds, budget.threshold, stopped)
+    return Result(0.5 * (a + b), STREAMS * n, estimate, rounds, stopped)
 
