@@ -6,8 +6,9 @@
                           [--stats STATS.json] [--compression none|rle|zips|zip|piz|zstd]
                           [--quiet] [--aov depth,normal,albedo,id,uv,position] [--crop X0 Y0 X1 Y1]
                           [--filter box|tent|gaussian|mitchell]
-                          [--aa uniform|adaptive] [--aa-threshold T] [--aa-depth D]
-                          [--aa-min-depth M]
+                          [--aa uniform|adaptive|noise] [--aa-threshold T] [--aa-depth D]
+                          [--aa-min-depth M] [--noise-threshold T] [--min-spp N]
+                          [--max-spp N] [--target-error E] [--time-limit S]
                           [--max-memory SIZE] [--frames LIST [--overwrite]]
                           [--workers N | --scheduler ADDRESS
                           [--tls-ca-file CA --tls-cert CERT --tls-key KEY]] [--tile PIXELS]
@@ -169,13 +170,26 @@ def _parser() -> argparse.ArgumentParser:
                         "in the full frame's display window)")
     r.add_argument("--filter", help="pixel reconstruction filter: box (default), tent, "
                                     "gaussian or mitchell")
-    r.add_argument("--aa", help="anti-aliasing: uniform (spp stratified samples, default) or "
-                                "adaptive (pixel corners, refined where they differ)")
+    r.add_argument("--aa", help="anti-aliasing: uniform (spp stratified samples, default), "
+                                "adaptive (pixel corners, refined where they differ) or noise "
+                                "(samples doubled where a pixel's noise is over "
+                                "--noise-threshold)")
     r.add_argument("--aa-threshold", type=float,
                    help="adaptive: refine where corners differ by this or more")
     r.add_argument("--aa-depth", type=int, help="adaptive: most halvings of a pixel")
     r.add_argument("--aa-min-depth", type=int,
                    help="adaptive: halvings of every pixel whatever its corners (default 0)")
+    r.add_argument("--noise-threshold", type=float,
+                   help="noise: a pixel's error (Dammertz 2010, as Cycles) above which it gets "
+                        "more samples (default 0.01)")
+    r.add_argument("--min-spp", type=int, help="noise: samples every pixel gets (default 8)")
+    r.add_argument("--max-spp", type=int, help="noise: most samples a pixel gets (default 1024)")
+    r.add_argument("--target-error", type=float, metavar="E",
+                   help="stop once the estimated relative RMSE is at most E (e.g. 0.01; "
+                        "sets --aa noise unless the scene asks for another aa)")
+    r.add_argument("--time-limit", type=float, metavar="S",
+                   help="start no pass after S seconds (sets --aa noise likewise); with "
+                        "--target-error, whichever comes first")
     f = r.add_argument_group("sequences (docs/distributed.md)")
     f.add_argument("--frames", metavar="LIST",
                    help="render frames 1-24, 1..24 or 1,5,9-12: SCENE is a pattern of scene "
@@ -250,7 +264,9 @@ FLAGS = {"width": "--width", "height": "--height", "spp": "--spp", "max_depth": 
          "min_weight": "--min-weight", "seed": "--seed", "threads": "--threads",
          "crop": "--crop", "aovs": "--aov", "filter": "--filter", "aa": "--aa",
          "aa_threshold": "--aa-threshold", "aa_depth": "--aa-depth",
-         "aa_min_depth": "--aa-min-depth", "tile": "--tile", "pixel": "--pixel",
+         "aa_min_depth": "--aa-min-depth", "noise_threshold": "--noise-threshold",
+         "min_spp": "--min-spp", "max_spp": "--max-spp", "target_error": "--target-error",
+         "time_limit": "--time-limit", "tile": "--tile", "pixel": "--pixel",
          "sample": "--sample", "max_memory": "--max-memory", "worker_timeout": "--worker-timeout"}
 
 
@@ -315,7 +331,10 @@ class Progress:
 def _progress_unit(aa: str, distributed: bool) -> str:
     """What a render's ``progress(done, total)`` counts: camera samples, a camera ray each,
     with uniform anti-aliasing; rows with adaptive (:mod:`raytrace.integrator`), whose
-    distributed tiles count the samples a uniform render takes (:mod:`raytrace.distributed`)."""
+    distributed tiles count the samples a uniform render takes (:mod:`raytrace.distributed`);
+    a noise-driven render's samples, a bar a round (:mod:`raytrace.noise`)."""
+    if aa == "noise":
+        return "samples"
     if aa != "adaptive":
         return "camera rays"
     return "samples" if distributed else "rows"
@@ -412,7 +431,9 @@ def _render(args: argparse.Namespace) -> int:
                      max_depth=args.max_depth, min_weight=args.min_weight, seed=args.seed,
                      threads=args.threads, crop=args.crop, aovs=aovs, filter=args.filter,
                      aa=args.aa, aa_threshold=args.aa_threshold, aa_depth=args.aa_depth,
-                     aa_min_depth=args.aa_min_depth)
+                     aa_min_depth=args.aa_min_depth, noise_threshold=args.noise_threshold,
+                     min_spp=args.min_spp, max_spp=args.max_spp,
+                     target_error=args.target_error, time_limit=args.time_limit)
     if batch is None:
         main = main_writer()  # -o, or the scene's name with its suffix; the others' flags
         files = {w.suffix: (args.output or Path(args.scene).stem + w.suffix) if w is main

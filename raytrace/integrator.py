@@ -52,7 +52,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import adaptive, fast_phong, sampling
+from . import adaptive, fast_phong, noise, sampling
 from .accel import Hits, Surface
 from .accel_cache import accelerator
 from .camera import camera_columns, camera_rays, directions_at, global_samples, grid
@@ -145,6 +145,12 @@ class RenderOptions(RenderSettings):
     crop: tuple[int, int, int, int] | None = None
     #: The AOVs to render besides the colour (:data:`raytrace.film.aov.AOVS`' names).
     aovs: tuple[str, ...] = ()
+    #: ``aa = "noise"``: stop once the estimated relative RMSE is at most this (None: no
+    #: target; :func:`raytrace.noise.relative_rmse`).
+    target_error: float | None = None
+    #: ``aa = "noise"``: start no pass after this many seconds from the render's start, the
+    #: build included (None: no limit; the first round, ``min_spp`` a pixel, always ends).
+    time_limit: float | None = None
 
 
 class Stop:
@@ -307,6 +313,8 @@ class WhittedIntegrator:
         self._worker = Worker()
         self._compiled: tuple[Tracer, LightTable, PassSettings] | None = None
         self._stop = Stop()  # the render in progress's (render's argument)
+        self._noise: noise.Result | None = None  # aa = "noise": the last render's result
+        self._round: noise.Round | None = None  # aa = "noise": the round being traced
 
     def _set_options(self, options: RenderOptions) -> None:
         """The options and the windows they give: the window of the image (the crop or the
@@ -315,10 +323,14 @@ class WhittedIntegrator:
         self.opt = options
         #: The columns of the AOVs asked for (:func:`raytrace.film.aov.layout`).
         self.aov_layout = aov_images.layout(options.aovs)
+        #: The AOVs the kernels record at hits (all but the sample count).
+        self.traced_aovs = aov_images.traced(options.aovs)
         #: Whether missed rays add anything (the background is not black).
         self.any_background = bool(np.any(options.background))
         self.window = options.crop or (0, 0, options.width, options.height)
-        self.reach = sampling.margin(options.filter)
+        self.reach = noise.margin(options.min_spp, options.max_spp) if (
+            options.aa == "noise" and options.target_error is None
+            and options.time_limit is None) else sampling.margin(options.filter)
         x0, y0, x1, y1 = self.window
         m = self.reach
         self.traced = (max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, options.width),
@@ -391,6 +403,9 @@ class WhittedIntegrator:
             self._renders += 1
             self._stats_per_thread = []
         cols, rows = self.size
+        self._noise = None
+        if opt.aa == "noise":
+            return self._finish(*self._render_noise(progress, stop, t_start), t_start)
         if opt.aa == "adaptive":  # passes of whole rows, counted in rows
             total, per_pass = rows, self._adaptive_rows(cols, rows)
         else:
@@ -404,18 +419,25 @@ class WhittedIntegrator:
                           dtype=np.float64 if filtered else np.float32)
         self._aov_out = NO_AOV_PIXELS
         self._compiled = self._loop_records() if self.compiled else None
-        if opt.aovs:  # one table, a row per pixel (raytrace.film.aov.layout's columns)
+        if self.traced_aovs:  # one table, a row per pixel (raytrace.film.aov.layout's columns)
             self._aov_out = np.empty((cols * rows, len(self.aov_layout.miss)))
             self._aov_out[:] = self.aov_layout.miss
         self._run(passes, pixels, progress, total, stop)
-        aovs = aov_images.images(self._aov_out, opt.aovs, (rows, cols))
+        aovs = aov_images.images(self._aov_out, self.traced_aovs, (rows, cols))
         if filtered:
             pixels, (cols, rows) = self._filter(pixels), self.window_size
             dx, dy = self.window[0] - self.traced[0], self.window[1] - self.traced[1]
             aovs = {name: np.ascontiguousarray(a[dy:dy + rows, dx:dx + cols])
                     for name, a in aovs.items()}
+        if "samples" in opt.aovs:  # every pixel its own spp samples
+            aovs["samples"] = np.full((rows, cols), opt.spp, np.int32)
+        return self._finish(pixels.reshape(rows, cols, 3), aovs, t_start)
+
+    def _finish(self, rgb: np.ndarray, aovs: dict[str, np.ndarray], t_start: float) -> Image:
+        """The :class:`Image` of the pixels ``rgb`` (rows, cols, 3) float32, non-finite ones
+        counted and written as 0, with its stats and metadata."""
+        opt = self.opt
         t_passes = time.perf_counter() - t_start
-        rgb = pixels.reshape(rows, cols, 3)
         bad = ~np.isfinite(rgb)
         nonfinite, first = 0, None
         if bad.any():
@@ -427,7 +449,45 @@ class WhittedIntegrator:
             rgb[bad] = 0.0
         seconds = time.perf_counter() - t_start + self.build_seconds
         return Image(rgb, self._stats(nonfinite, first, seconds, t_passes),
-                     self._metadata(nonfinite), aovs, opt.crop, (opt.width, opt.height))
+                     self._metadata(nonfinite, seconds), aovs, opt.crop, (opt.width, opt.height))
+
+    def _render_noise(self, progress: Callable[[int, int], None] | None, stop: Stop,
+                      t_start: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """The window's pixels (rows, cols, 3) float32, and its samples AOV if asked for, by
+        adaptive sampling to a noise threshold (:func:`raytrace.noise.sample`) over the
+        traced window (a crop's grown by :func:`raytrace.noise.margin`): each round's samples
+        are cut into passes at pixel bounds and run on the threads (:meth:`_run`); with a time
+        limit no pass starts after the deadline (the first round's always run), so each pixel
+        keeps whole rounds. The result (counts, estimate) is kept for the stats and metadata."""
+        opt = self.opt
+        deadline = None if opt.time_limit is None else (
+            t_start + opt.time_limit - self.build_seconds)
+
+        def trace(r: noise.Round, first: bool) -> tuple[np.ndarray, np.ndarray]:
+            values = np.zeros((len(r.x), 3))
+            # two passes a thread: a round is small, and each pass costs Python per depth
+            size = min(opt.pass_samples,
+                       max(MIN_PASS_SAMPLES, -(-len(r.x) // (2 * opt.threads))))
+            self._round = r
+            done = self._run(noise.passes(r.bounds, size), values, progress, len(r.x), stop,
+                             None if first else deadline)
+            traced = np.zeros(len(r.x), bool)
+            for a, b in done:
+                traced[a:b] = True
+            return values, traced
+
+        result = noise.sample(self.traced, opt.width, opt.seed, noise.Budget(
+            opt.min_spp, opt.max_spp, opt.noise_threshold, opt.target_error, deadline), trace)
+        (x0, y0, x1, y1), (tx, ty) = self.window, self.traced[:2]
+        cols = self.size[0]
+        inside = ((np.arange(y0, y1) - ty)[:, None] * cols + (np.arange(x0, x1) - tx)).ravel()
+        result.pixels, result.counts = result.pixels[inside], result.counts[inside]
+        self._noise = result
+        shape = (y1 - y0, x1 - x0)
+        aovs = {"samples": result.counts.astype(np.int32).reshape(shape)} \
+            if "samples" in opt.aovs else {}
+        with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
+            return result.pixels.astype(np.float32).reshape(*shape, 3), aovs
 
     def _loop_records(self) -> tuple[Tracer, LightTable, PassSettings]:
         """What the compiled loop (:func:`raytrace.kernels.loop.trace_paths`) reads of this
@@ -447,7 +507,7 @@ class WhittedIntegrator:
             np.array([em.color for em in self.emitters], np.float64).reshape(-1, 3),
             np.ascontiguousarray(np.concatenate(fast)),
             np.cumsum([0, *(len(f) for f in fast[1:])]).astype(np.int64))
-        per_pass = self.opt.pass_samples if self.opt.aa == "adaptive" else self.pass_size
+        per_pass = self.opt.pass_samples if self.opt.aa != "uniform" else self.pass_size
         settings = PassSettings(per_pass, opt.max_depth, float(opt.min_weight),
                                 self.any_background, self.background, self.ambient, *CLOCK)
         return tracer, lights, settings
@@ -477,22 +537,28 @@ class WhittedIntegrator:
                               Sampling(opt.width, opt.spp, grid(opt.spp), opt.seed))
 
     def _run(self, passes: list[tuple[int, int]], pixels: np.ndarray,
-             progress: Callable[[int, int], None] | None, total: int, stop: Stop) -> None:
+             progress: Callable[[int, int], None] | None, total: int, stop: Stop,
+             deadline: float | None = None) -> list[tuple[int, int]]:
         """Render ``passes`` into ``pixels``: worker threads take the next pass from a shared
         queue until none is left, while this thread waits (so that it takes a Ctrl-C at
         once). A stop asked for (``stop``), an exception in any thread, or a Ctrl-C while
         waiting stops them all at their next batch, and the first of these is raised once
-        all have stopped."""
-        queue, done = iter(passes), [0]
+        all have stopped. No pass starts after ``deadline`` (``time.perf_counter()``; None:
+        none). Returns the passes rendered."""
+        queue, done, finished = iter(passes), [0], []
 
         def work() -> None:
             while not stop.requested:
+                if deadline is not None and time.perf_counter() >= deadline:
+                    return
                 with self._lock:
                     item = next(queue, None)
                 if item is None:
                     return
                 try:
                     self._render_pass(*item, pixels)
+                    with self._lock:
+                        finished.append(item)
                     if progress is not None and not stop.requested:
                         with self._lock:
                             done[0] += item[1] - item[0]
@@ -512,6 +578,7 @@ class WhittedIntegrator:
             stop.request(e)  # (a pass whose submission it cut short finds the stop at once)
             wait_for(workers)  # each ends at its pass's next batch
         stop.check()
+        return finished
 
     def _render_pass(self, start: int, stop: int, pixels: np.ndarray) -> None:
         """Camera samples ``start`` to ``stop`` (whole pixels), depth by depth, into their
@@ -522,10 +589,16 @@ class WhittedIntegrator:
             self._render_rows(start, stop, pixels)
             self.stats.pass_seconds += time.perf_counter() - t0
             return
+        if opt.aa == "noise":  # samples start to stop of the round (raytrace.noise.Round)
+            r = self._round
+            pixels[start:stop] = self.trace_points(r.x[start:stop], r.y[start:stop],
+                                                   r.keys[start:stop])
+            self.stats.pass_seconds += time.perf_counter() - t0
+            return
         keep = pixels.dtype == np.float64  # every sample kept for the filter
         samples = pixels[start:stop] if keep else self.scratch("samples", n, 3)
         samples.fill(0.0)
-        if opt.aovs:  # every camera sample a miss until its ray hits
+        if self.traced_aovs:  # every camera sample a miss until its ray hits
             w.aov = self.scratch("aov", n, len(self.aov_layout.miss))
             w.aov[:] = self.aov_layout.miss
         self.trace_samples(start, stop, samples)
@@ -534,7 +607,7 @@ class WhittedIntegrator:
             with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
                 pixels[first:last] = (
                     samples if opt.spp == 1 else samples.reshape(-1, opt.spp, 3).mean(1))
-        if opt.aovs:
+        if self.traced_aovs:
             aov_pixels(last - first, opt.spp, w.aov, self.aov_layout,
                        self._aov_out[first:last])
         self.stats.pass_seconds += time.perf_counter() - t0
@@ -592,8 +665,8 @@ class WhittedIntegrator:
         if self.compiled and self.observer is None and not DEBUG:
             self._trace_compiled(rays, n, samples)
             return
-        # an adaptive level's points are single samples: batches of the whole pass size
-        per_pass = self.opt.pass_samples if self.opt.aa == "adaptive" else self.pass_size
+        # an adaptive level's or round's points are single samples: batches of the pass size
+        per_pass = self.opt.pass_samples if self.opt.aa != "uniform" else self.pass_size
         pending, stop = [rays], self._stop.flag
         while pending and not stop[0]:  # a stop asked for ends the pass here
             rays = pending.pop()
@@ -620,7 +693,7 @@ class WhittedIntegrator:
                       np.zeros(2, np.int64))
         loop.trace_paths(tracer, lights, settings, rays.record,
                          PassIO(samples, None if keys is None else np.ascontiguousarray(
-                             keys, np.int64), w.aov if opt.aovs else None, self._stop.flag),
+                             keys, np.int64), w.aov if self.traced_aovs else None, self._stop.flag),
                          tally)
         st, counters = self.stats, tally.counters.tolist()
         for name, count in zip(KIND_NAMES, counters, strict=False):
@@ -634,7 +707,7 @@ class WhittedIntegrator:
 
     def trace(self, rays: RayBatch, samples: np.ndarray) -> RayBatch:
         """One depth: intersect, add background and local shading, return the next depth."""
-        st, opt, n = self.stats, self.opt, len(rays)
+        st, n = self.stats, len(rays)
         counts = np.zeros(len(KIND_NAMES), np.int64)
         count_kinds(rays.kind, counts)
         for name, count in zip(KIND_NAMES, counts.tolist(), strict=True):
@@ -665,7 +738,7 @@ class WhittedIntegrator:
             rays = RayBatch(taken.origin, taken.direction, taken.sample, taken.weight,
                             rays.depth, taken.origin_shape, taken.kind)
         surf = self.accel.surface(hits, rays.origin, rays.direction)
-        if rays.depth == 0 and opt.aovs:  # the camera rays' first hits
+        if rays.depth == 0 and self.traced_aovs:  # the camera rays' first hits
             self.aov_hits(rays, hits, surf, self.aov_layout, self._worker.aov)
         if self.observer is not None:
             self.observer.hits(rays, hits, surf)
@@ -864,9 +937,22 @@ class WhittedIntegrator:
                                                               if not opt.crop else
                                                               self.size[0] * self.size[1])}}
                if opt.aa == "adaptive" else {}),
+            **({"aa": self._noise_record()} if self._noise is not None else {}),
         }
 
-    def _metadata(self, nonfinite: int) -> dict:
+    def _noise_record(self) -> dict:
+        """What a noise-driven render (:mod:`raytrace.noise`) asked for and spent: its
+        settings, the samples (in all and a pixel on average), rounds, the estimated relative
+        RMSE (:func:`raytrace.noise.relative_rmse`) and why it stopped."""
+        opt, res = self.opt, self._noise
+        return {"mode": "noise", "noise_threshold": opt.noise_threshold,
+                "min_spp": opt.min_spp, "max_spp": opt.max_spp,
+                "target_error": opt.target_error, "time_limit": opt.time_limit,
+                "samples": int(res.counts.sum()),
+                "samples_per_pixel": float(res.counts.mean()), "rounds": res.rounds,
+                "estimated_relative_rmse": res.estimate, "stopped_by": res.stopped}
+
+    def _metadata(self, nonfinite: int, seconds: float) -> dict:
         opt = self.opt
         return {"scene": self.scene.path or "<python>", "width": opt.width, "height": opt.height,
                 "spp": opt.spp, "max_depth": opt.max_depth, "min_weight": opt.min_weight,
@@ -876,7 +962,10 @@ class WhittedIntegrator:
                 **({"filter": opt.filter} if opt.filter != "box" else {}),
                 **({"aa": f"adaptive threshold {opt.aa_threshold} depth {opt.aa_depth}"
                           + (f" min_depth {opt.aa_min_depth}" if opt.aa_min_depth else "")}
-                   if opt.aa == "adaptive" else {})}
+                   if opt.aa == "adaptive" else {}),
+                **({f"noise_{k}": v for k, v in self._noise_record().items()
+                    if k != "mode" and v is not None} | {"render_seconds": seconds}
+                   if self._noise is not None else {})}
 
 
 #: The scene features that select a variant of the shading kernels, name -> whether a

@@ -209,6 +209,9 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
            aovs: str | Iterable[str] | None = None, filter: str | None = None,
            aa: str | None = None, aa_threshold: float | None = None,
            aa_depth: int | None = None, aa_min_depth: int | None = None,
+           noise_threshold: float | None = None, min_spp: int | None = None,
+           max_spp: int | None = None, target_error: float | None = None,
+           time_limit: float | None = None,
            client: Client | None = None, tile: int | None = None,
            max_memory: int | str | None = None,
            worker_timeout: float | None = None) -> Image:
@@ -222,10 +225,17 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     ``crop`` = (x0, y0, x1, y1) renders only those pixels (half-open bounds, like pbrt's
     ``--pixelbounds``): ``rgb`` is then (y1 − y0, x1 − x0, 3), bit-identical to that window
     of the full render. ``aovs``: names from :data:`raytrace.film.aov.AOVS` (depth, normal,
-    albedo, id, uv, position) to render besides the colour, read with ``Image.aov(name)``.
-    ``filter`` (:data:`raytrace.sampling.FILTERS`), ``aa`` ("uniform" or "adaptive"),
-    ``aa_threshold``, ``aa_depth`` and ``aa_min_depth`` override the scene's ``[render]`` keys
-    of the same names.
+    albedo, id, uv, position, samples) to render besides the colour, read with
+    ``Image.aov(name)``. ``filter`` (:data:`raytrace.sampling.FILTERS`), ``aa`` ("uniform",
+    "adaptive" or "noise"),
+    ``aa_threshold``, ``aa_depth``, ``aa_min_depth``, ``noise_threshold``, ``min_spp`` and
+    ``max_spp`` override the scene's ``[render]`` keys of the same names.
+
+    ``target_error`` (a relative RMSE, e.g. 0.01) and ``time_limit`` (seconds) render by noise-
+    driven sampling (``aa = "noise"``, :mod:`raytrace.noise`; the scene's ``aa`` unless it is
+    uniform and ``aa`` is not given) until the renderer's estimate of the relative RMSE is at
+    most the target or the time is up, whichever comes first; ``stats["aa"]`` and the EXR's
+    metadata then record the estimate, the samples spent and why the render stopped.
 
     Every argument is checked before any work (a SceneError, or a TypeError for a
     ``progress`` that is not callable or a ``client`` that is no Client), including the
@@ -267,7 +277,9 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
                              min_weight=min_weight, seed=seed, threads=threads,
                              pass_samples=pass_samples, crop=crop, aovs=aovs, filter=filter,
                              aa=aa, aa_threshold=aa_threshold, aa_depth=aa_depth,
-                             aa_min_depth=aa_min_depth)
+                             aa_min_depth=aa_min_depth, noise_threshold=noise_threshold,
+                             min_spp=min_spp, max_spp=max_spp, target_error=target_error,
+                             time_limit=time_limit)
     x0, y0, x1, y1 = options.crop or (0, 0, options.width, options.height)
     try:
         ceiling = memory_ceiling(max_memory)
@@ -277,6 +289,10 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
         if client is None and worker_timeout is not None:
             raise SceneError("a worker timeout needs a client: render(scene, client=..., "
                              "worker_timeout=...)", "worker_timeout")
+        if client is not None and (target_error is not None or time_limit is not None):
+            raise SceneError("a target error or time limit is the whole image's: render it "
+                             "on one process (no client)",
+                             "target_error" if target_error is not None else "time_limit")
         if client is not None:
             tile, worker_timeout = check_tile(tile), check_worker_timeout(worker_timeout)
     except SceneError as e:
@@ -354,7 +370,10 @@ def render_options(scene: Scene, *, width: int | None = None, height: int | None
                    aovs: str | Iterable[str] | None = None, filter: str | None = None,
                    aa: str | None = None, aa_threshold: float | None = None,
                    aa_depth: int | None = None,
-                   aa_min_depth: int | None = None) -> RenderOptions:
+                   aa_min_depth: int | None = None, noise_threshold: float | None = None,
+                   min_spp: int | None = None, max_spp: int | None = None,
+                   target_error: float | None = None,
+                   time_limit: float | None = None) -> RenderOptions:
     """The integrator's options: the scene's ``[render]`` settings with the overrides that
     are not None, checked (a :class:`SceneError` locating a bad one in the scene's file),
     after the scene itself (:meth:`~raytrace.scene.Scene.check`): every render, ``explain``
@@ -374,7 +393,11 @@ def render_options(scene: Scene, *, width: int | None = None, height: int | None
             filter=r.filter if filter is None else filter, aa=r.aa if aa is None else aa,
             aa_threshold=r.aa_threshold if aa_threshold is None else aa_threshold,
             aa_depth=r.aa_depth if aa_depth is None else aa_depth,
-            aa_min_depth=r.aa_min_depth if aa_min_depth is None else aa_min_depth)
+            aa_min_depth=r.aa_min_depth if aa_min_depth is None else aa_min_depth,
+            noise_threshold=r.noise_threshold if noise_threshold is None else noise_threshold,
+            min_spp=r.min_spp if min_spp is None else min_spp,
+            max_spp=r.max_spp if max_spp is None else max_spp)
+        target_error, time_limit = stopping_rules(settings, aa, target_error, time_limit)
         if threads is None:
             threads = os.cpu_count() or 1
         threads = values.number(threads, "threads", lo=1, hi=256, integer=True)
@@ -387,11 +410,41 @@ def render_options(scene: Scene, *, width: int | None = None, height: int | None
         if names and settings.aa == "adaptive":
             raise SceneError('not available with aa = "adaptive" (its pixels are no mean of '
                              'their own samples); render AOVs with aa = "uniform"', "aovs")
+        if set(names) - {"samples"} and settings.aa == "noise":
+            raise SceneError('only "samples" is available with aa = "noise" (its pixels have '
+                             'different sample counts); render the others with aa = '
+                             '"uniform"', "aovs")
     except SceneError as e:
         raise SceneError(e.problem, e.key, scene.path) from None
     return RenderOptions(**vars(settings), threads=threads,
                          pass_samples=pass_samples,
-                         crop=window, aovs=names)
+                         crop=window, aovs=names, target_error=target_error,
+                         time_limit=time_limit)
+
+
+def stopping_rules(settings: RenderSettings, aa: str | None, target_error: float | None,
+                   time_limit: float | None) -> tuple[float | None, float | None]:
+    """``target_error`` (> 0) and ``time_limit`` (seconds > 0) checked; either one makes a
+    render noise-driven: ``settings.aa`` becomes "noise" where it is "uniform" and no ``aa``
+    was given, and any other ``aa`` is a :class:`SceneError` (its samples are fixed in
+    advance)."""
+    if target_error is not None:
+        target_error = values.number(target_error, "target_error", lo=0, lo_open=True)
+    if time_limit is not None:
+        time_limit = values.number(time_limit, "time_limit", lo=0, lo_open=True)
+    if target_error is None and time_limit is None:
+        return None, None
+    if settings.aa == "uniform" and aa is None:
+        settings.aa = "noise"
+        if settings.filter != "box":
+            raise SceneError(f"must be box to stop by error or time (noise-driven sampling: "
+                             f"each pixel the mean of its own samples), got "
+                             f"{settings.filter!r}", "render.filter")
+    if settings.aa != "noise":
+        raise SceneError(f'needs aa = "noise" (the samples of aa = "{settings.aa}" are fixed '
+                         'in advance)', "target_error" if target_error is not None
+                         else "time_limit")
+    return target_error, time_limit
 
 
 def check_crop(crop: Sequence[int], width: int, height: int,

@@ -2,8 +2,8 @@
 
 * ``filter``: :data:`FILTERS`, the pixel reconstruction filters with their radius in pixels
   (the formulas and the kernel: :mod:`raytrace.film.filters`);
-* ``aa``: :data:`AA_MODES`, uniform stratified samples or adaptive corner refinement
-  (:mod:`raytrace.adaptive`).
+* ``aa``: :data:`AA_MODES`, uniform stratified samples, adaptive corner refinement
+  (:mod:`raytrace.adaptive`) or noise-driven sampling (:mod:`raytrace.noise`).
 
 Scenes are loaded and checked without numba: this module is all they import of the two.
 """
@@ -30,7 +30,8 @@ FILTERS = {"box": Filter(BOX, 0.5), "tent": Filter(TENT, 1.0),
            "gaussian": Filter(GAUSSIAN, 1.5), "mitchell": Filter(MITCHELL, 2.0)}
 #: The anti-aliasing modes by their ``[render] aa`` name.
 AA_MODES = {"uniform": "spp stratified jittered samples a pixel",
-            "adaptive": "pixel corners, cells halved where their corners differ"}
+            "adaptive": "pixel corners, cells halved where their corners differ",
+            "noise": "samples doubled where a pixel's noise is over noise_threshold"}
 
 
 def check_filter(name: object, key: str = "render.filter") -> str:

@@ -56,6 +56,13 @@ class RenderSettings:
     #: Adaptive: the times every pixel is halved whatever its corners (1: each pixel starts
     #: as 2×2 cells, so detail between its corners is seen); at most ``aa_depth``.
     aa_min_depth: int = 0
+    #: Noise-driven sampling (``aa = "noise"``, :mod:`raytrace.noise`): a pixel whose error
+    #: (Dammertz et al. 2010, as Cycles) is above this gets more samples.
+    noise_threshold: float = 0.01
+    #: Noise-driven: the samples every pixel gets first (even: half to each stream).
+    min_spp: int = 8
+    #: Noise-driven: the most samples a pixel gets (even).
+    max_spp: int = 1024
 
     def __post_init__(self) -> None:
         self.width = values.number(self.width, "render.width", lo=1, hi=MAX_SIDE, integer=True)
@@ -80,6 +87,19 @@ class RenderSettings:
         if self.aa == "adaptive" and self.filter != "box":
             raise SceneError(f"must be box with aa = \"adaptive\" (its pixels are the area "
                              f"average of their cells), got {self.filter!r}", "render.filter")
+        self.noise_threshold = values.number(self.noise_threshold, "render.noise_threshold",
+                                             lo=0)
+        self.min_spp = values.number(self.min_spp, "render.min_spp", lo=2, hi=65536,
+                                     integer=True)
+        self.max_spp = values.number(self.max_spp, "render.max_spp", lo=self.min_spp,
+                                     hi=65536, integer=True)
+        for key in ("min_spp", "max_spp"):
+            if getattr(self, key) % 2:
+                raise SceneError(f"must be even (half of a pixel's samples go to each of its "
+                                 f"two streams), got {getattr(self, key)}", f"render.{key}")
+        if self.aa == "noise" and self.filter != "box":
+            raise SceneError(f"must be box with aa = \"noise\" (each pixel is the mean of "
+                             f"its own samples), got {self.filter!r}", "render.filter")
 
 
 @dataclass

@@ -230,7 +230,8 @@ def test_only_what_is_asked_for_is_computed(monkeypatch):
 
 def test_unknown_aov_names_are_one_clear_error():
     with pytest.raises(raytrace.SceneError, match=r"aovs: unknown AOV 'deph' \(choose from "
-                                                  r"depth, normal, albedo, id, uv, position\)"):
+                                                  r"depth, normal, albedo, id, uv, position, "
+                                                  r"samples\)"):
         raytrace.render(scene(), width=4, height=3, aovs=["deph"])
     img = raytrace.render(scene(), width=4, height=3, aovs=["id"])
     with pytest.raises(KeyError, match="rendered: id"):

@@ -410,6 +410,31 @@ def test_children_of_one_hit_draw_their_own_light_points():
     np.testing.assert_allclose(same[0], same[1], rtol=1e-12)
 
 
+def test_children_of_one_hit_draw_uncorrelated_light_points():
+    """20 000 camera samples, each hitting a beam splitter at a random point: the draws
+    (:func:`raytrace.kernels.core.light_uniform`'s first number, the point's position along
+    the light's first edge) of its reflected child (leaving up) and refracted child (leaving
+    down) at depth 1. Their correlation is within 4/√n ≈ 0.028 of 0 (its standard deviation
+    for independent draws is 1/√n); keyed by the camera sample alone, as before per-path
+    keys, the two draws are the same number (correlation 1)."""
+    from raytrace.shading import path_keys
+
+    n = 20_000
+    rng = np.random.default_rng(4)
+    keys = np.arange(n, dtype=np.int64)
+    origin = np.column_stack([rng.random(n), np.ones(n), rng.random(n)])
+    up = np.tile([0.0, 1.0, 0.0], (n, 1))
+
+    def first_draw(k: np.ndarray) -> np.ndarray:
+        return (light_words(k, 3, 1) >> 32).astype(np.float64) * 2.0**-31
+
+    reflected = first_draw(path_keys(keys, origin, up))
+    refracted = first_draw(path_keys(keys, origin, -up))
+    assert abs(np.corrcoef(reflected, refracted)[0, 1]) < 4 / math.sqrt(n)
+    assert abs(reflected.mean() - 0.5) < 4 * math.sqrt(1 / 12 / n)
+    assert np.corrcoef(first_draw(keys), first_draw(keys))[0, 1] == pytest.approx(1.0)
+
+
 def test_path_keys_differ_by_path_and_keep_camera_keys():
     from raytrace.shading import path_keys
 

@@ -21,6 +21,9 @@ uv        ``uv.U uv.V``: a mesh's texture 0, 0                mean of the sample
           file gives them, else 0, 0
 position  ``P.X P.Y P.Z``: the world-     0, 0, 0             the nearest sample's
           space hit point
+samples   ``samples``: the pixel's camera     —                   their count
+          samples (``spp``, or as many as
+          ``aa = "noise"`` spent)
 ========  ==============================  ==================  ======================
 
 Depth, id and position are not averaged (an average of two depths, two ids or two points on
@@ -73,6 +76,7 @@ AOVS: dict[str, AOV] = {
     "id": AOV(("id",), -1.0, np.int32, "nearest"),
     "uv": AOV(("uv.U", "uv.V"), 0.0, np.float32, "mean"),
     "position": AOV(("P.X", "P.Y", "P.Z"), 0.0, np.float32, "nearest"),
+    "samples": AOV(("samples",), 0.0, np.int32, "count"),
 }
 
 
@@ -94,11 +98,18 @@ def check_aovs(names: str | Iterable[str] | None, key: str = "aovs") -> tuple[st
     return tuple(n for n in AOVS if n in names)
 
 
+def traced(names: tuple[str, ...]) -> tuple[str, ...]:
+    """The AOVs of ``names`` that the kernels record at the camera rays' hits: all but
+    ``samples``, each pixel's sample count, which the integrator writes itself."""
+    return tuple(n for n in names if AOVS[n].combine != "count")
+
+
 def layout(names: tuple[str, ...]) -> AOVLayout:
     """The columns of the AOVs ``names`` (checked, in :data:`AOVS`' order) in the kernels'
     per-sample and per-pixel tables: column ``AOV_DISTANCE`` (0) the hit's distance, then each
     AOV's channels; a row of the layout's table per AOV, its columns named by
     ``kernels.records`` (``AOV_KIND``, …)."""
+    names = traced(names)
     table = np.zeros((len(names), AOV_COLUMNS), np.int64)
     miss, col = [np.inf], AOV_DISTANCE + 1
     for k, name in enumerate(names):
@@ -113,6 +124,7 @@ def layout(names: tuple[str, ...]) -> AOVLayout:
 
 def columns(names: tuple[str, ...]) -> dict[str, slice]:
     """Each AOV's columns in the tables of :func:`layout` (``names``' order)."""
+    names = traced(names)
     table = layout(names).table
     return {name: slice(int(row[AOV_FIRST]), int(row[AOV_FIRST] + row[AOV_COUNT]))
             for name, row in zip(names, table, strict=True)}
