@@ -53,6 +53,20 @@ def test_a_child_of_a_rotated_and_scaled_parent_lands_where_it_should(tmp_path):
                                [[1, 2, 0], [1, 2.2, 0], [0.8, 2, 0]], atol=1e-6)
 
 
+
+def test_a_file_without_scenes_takes_the_nodes_that_are_no_nodes_child_as_roots(tmp_path):
+    """No ``scenes``: the roots are the nodes no node names as a child, so the child is drawn
+    once, under its parent's translation (0, 0, 1): its local (0, 0, 0) lands at (0, 0, 1).
+    (Taking every node as a root met the child twice: "not a tree".)"""
+    tri = {"positions": [[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0]], "indices": [[0, 1, 2]]}
+    path = write_gltf(tmp_path / "n.gltf", [{"translation": [0, 0, 1], "children": [1]},
+                                            {"mesh": 0}], [tri])
+    doc = json.loads(path.read_text())
+    del doc["scene"], doc["scenes"]
+    path.write_text(json.dumps(doc))
+    np.testing.assert_allclose(raytrace.Mesh(file=path, material="from_file").vertices,
+                               [[0, 0, 1], [0.1, 0, 1], [0, 0.1, 1]], atol=1e-6)
+
 def test_the_gltf_camera_reproduces_a_known_pixel_ray(tmp_path):
     """A camera node at (1, 2, 5) turned 30° about y (its −z looks towards −x a little), yfov
     0.6 rad: pixel (row 1, col 6) of an 8×6 image goes along forward + x·right + y·up with

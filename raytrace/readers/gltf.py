@@ -149,7 +149,10 @@ def world_matrices(gltf: Any) -> list[tuple[int, np.ndarray]]:
     node met twice (a cycle, or a child of two parents: not a tree, against the glTF spec) is
     an error."""
     scene = gltf.scenes[gltf.scene or 0] if gltf.scenes else None
-    roots = scene.nodes if scene is not None else range(len(gltf.nodes))
+    # no scene: the nodes that are no node's child (a child listed as a root too is met twice)
+    children = {c for node in gltf.nodes for c in node.children or []}
+    roots = (scene.nodes if scene is not None else
+             [n for n in range(len(gltf.nodes)) if n not in children])
     out, stack = [], [(n, np.eye(4)) for n in reversed(roots or [])]
     seen: set[int] = set()
     while stack:
@@ -303,12 +306,26 @@ COMPRESSED = {"KHR_draco_mesh_compression": "Draco", "EXT_meshopt_compression": 
               "KHR_meshopt_compression": "meshopt"}
 
 
+def _compressed(name: str, key: str, path: Path) -> SceneError:
+    return SceneError(f"{name}: its meshes are {COMPRESSED[name]}-compressed, which raytrace "
+                      "does not decode; save the model without mesh compression", key,
+                      str(path))
+
+
+def _check_uncompressed(gltf: Any, prim: Any, key: str, path: Path) -> None:
+    """A primitive compressed with an extension only in ``extensionsUsed`` may carry its
+    uncompressed data as a fallback (KHR_draco_mesh_compression, "Conformance"); one whose
+    POSITION has no buffer view has none, and is refused as a required one is."""
+    for name in COMPRESSED:
+        if name in (prim.extensions or {}) and (
+                gltf.accessors[prim.attributes.POSITION].bufferView is None):
+            raise _compressed(name, f"{key}.extensions", path)
+
+
 def _check_extensions(gltf: Any, path: Path) -> None:
     for name in gltf.extensionsRequired or []:
         if name in COMPRESSED:
-            raise SceneError(f"{name}: its meshes are {COMPRESSED[name]}-compressed, which "
-                             "raytrace does not decode; save the model without mesh "
-                             "compression", "extensionsRequired", str(path))
+            raise _compressed(name, "extensionsRequired", path)
     required = [e for e in (gltf.extensionsRequired or []) if e not in SUPPORTED]
     if required:
         raise SceneError(f"requires extensions raytrace cannot read: {', '.join(required)}",
@@ -391,6 +408,7 @@ def _load(path: Path) -> GltfScene:
                                  str(path))
             if prim.attributes.POSITION is None:
                 continue
+            _check_uncompressed(gltf, prim, f"meshes[{node.mesh}].primitives[{p}]", path)
             pos = accessor(gltf, buffers, prim.attributes.POSITION, path)
             idx = (accessor(gltf, buffers, prim.indices, path).reshape(-1, 3)
                    if prim.indices is not None else np.arange(len(pos)).reshape(-1, 3))
