@@ -43,9 +43,9 @@ WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MA
 SUPPORTED = ("KHR_lights_punctual", "KHR_materials_ior", "KHR_materials_transmission",
              "KHR_materials_specular", "KHR_materials_emissive_strength",
              "KHR_materials_unlit")
-#: Extensions that do not change how the scene looks.
-NEUTRAL = ("KHR_mesh_quantization", "KHR_xmp_json_ld", "KHR_materials_variants",
-           "EXT_mesh_gpu_instancing")
+#: Extensions that do not change how the scene looks (EXT_mesh_gpu_instancing does: its
+#: copies are not drawn, and it is warned about).
+NEUTRAL = ("KHR_mesh_quantization", "KHR_xmp_json_ld", "KHR_materials_variants")
 TRIANGLES = 4
 
 
@@ -188,7 +188,8 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
     as the seeds' kd is: a rough material stays matte, roughness 1 a Lambertian F0·(N·L)),
     ``kr = F0·(1 − roughness)²``; transmission t: ``kt = t·baseColor·(1 −
     metallic)``, ``kr = 1`` and the dielectric Fresnel split; ``ke = emissive·strength``;
-    BLEND alpha as opacity, MASK as 0 or 1 by the cutoff; unlit: ``ke = baseColor``."""
+    BLEND alpha as opacity, MASK as 0 or 1 by the cutoff; unlit: ``ke = baseColor`` (its
+    texture times the factor), nothing else."""
     if index is None:
         m = None
         name = "default"
@@ -244,14 +245,18 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
     elif mode == "MASK":
         cutoff = m.alphaCutoff if m.alphaCutoff is not None else 0.5
         fields["opacity"] = 1.0 if alpha >= cutoff else 0.0
-    if m is not None and "KHR_materials_unlit" in (m.extensions or {}):
+    unlit = m is not None and "KHR_materials_unlit" in (m.extensions or {})
+    if unlit:
         fields.update(ke=base, kd=0.0, ks=0.0, kr=0.0, ka=0.0)
     tex = pbr.baseColorTexture if pbr is not None else None
     if tex is not None and texture is not None:
         t = texture(gltf, tex, path, f"materials[{index}].pbrMetallicRoughness."
                     "baseColorTexture", mode)
         scale = base * (1 - metallic) * (1 - trans)
-        fields["kd"] = t.scaled(scale) if np.any(scale) else 0.0  # metallic: no copy of 0s
+        if unlit:  # the textured base colour is the colour seen, unlit
+            fields["ke"] = t.scaled(base)
+        else:
+            fields["kd"] = t.scaled(scale) if np.any(scale) else 0.0  # metallic: no 0s copied
         if mode in ("BLEND", "MASK"):  # the texture's alpha times the factor's
             fields["alpha"] = t
             fields["opacity"] = alpha
