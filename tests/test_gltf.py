@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 import pytest
-from helpers import aimed_camera, make_scene, pixel, write_gltf
+from helpers import aimed_camera, make_scene, pixel, write_gltf, write_png
 
 import raytrace
 from raytrace.camera import camera_rays
@@ -52,6 +52,20 @@ def test_a_child_of_a_rotated_and_scaled_parent_lands_where_it_should(tmp_path):
     np.testing.assert_allclose(raytrace.Mesh(file=path, material="from_file").vertices,
                                [[1, 2, 0], [1, 2.2, 0], [0.8, 2, 0]], atol=1e-6)
 
+
+
+def test_a_file_without_scenes_takes_the_nodes_that_are_no_nodes_child_as_roots(tmp_path):
+    """No ``scenes``: the roots are the nodes no node names as a child, so the child is drawn
+    once, under its parent's translation (0, 0, 1): its local (0, 0, 0) lands at (0, 0, 1).
+    (Taking every node as a root met the child twice: "not a tree".)"""
+    tri = {"positions": [[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0]], "indices": [[0, 1, 2]]}
+    path = write_gltf(tmp_path / "n.gltf", [{"translation": [0, 0, 1], "children": [1]},
+                                            {"mesh": 0}], [tri])
+    doc = json.loads(path.read_text())
+    del doc["scene"], doc["scenes"]
+    path.write_text(json.dumps(doc))
+    np.testing.assert_allclose(raytrace.Mesh(file=path, material="from_file").vertices,
+                               [[0, 0, 1], [0.1, 0, 1], [0, 0.1, 1]], atol=1e-6)
 
 def test_the_gltf_camera_reproduces_a_known_pixel_ray(tmp_path):
     """A camera node at (1, 2, 5) turned 30° about y (its −z looks towards −x a little), yfov
@@ -172,6 +186,26 @@ def test_a_khr_spot_light_with_a_range_renders_the_hand_value(tmp_path):
     kd_i = np.array([0.8, 0.4, 0.2]) * 3.0 * np.array([1.0, 0.5, 0.25])
     np.testing.assert_allclose(got, kd_i * 0.1305225, rtol=2e-6)
 
+
+
+def test_an_unlit_textured_material_shows_its_texture_unlit(tmp_path):
+    """KHR_materials_unlit with a baseColorTexture: the colour seen is texture × factor, with
+    no light's share (the extension: "the base color ... as the final color"). Texel code 128
+    everywhere, sRGB-decoded ((128/255 + 0.055)/1.055)^2.4 = 0.2158605; factor
+    (1, 0.5, 0.25): the pixel is 0.2158605·(1, 0.5, 0.25), whatever the point light at the
+    eye adds to a lit surface (it added the texture's kd·N·L before)."""
+    write_png(tmp_path / "grey.png", np.full((2, 2, 3), 128, np.uint8))
+    unlit = [{"pbrMetallicRoughness": {"baseColorFactor": [1.0, 0.5, 0.25, 1.0],
+                                       "baseColorTexture": {"index": 0}},
+              "extensions": {"KHR_materials_unlit": {}}}]
+    path = write_gltf(tmp_path / "u.gltf", [{"mesh": 0}], [SQUARE], unlit, extra={
+        "images": [{"uri": "grey.png"}], "textures": [{"source": 0}],
+        "extensionsUsed": ["KHR_materials_unlit"]})
+    scene = make_scene([raytrace.Mesh(file=path, material="from_file")],
+                       [raytrace.PointLight(position=[0, 0, 3], color=[1, 1, 1])],
+                       camera=aimed_camera([0, 0, 3], [0.1, 0.2, 0]), max_depth=0)
+    np.testing.assert_allclose(pixel(scene), 0.2158605 * np.array([1, 0.5, 0.25]),
+                               rtol=1e-5)
 
 @pytest.mark.parametrize("change,key,problem", [
     ({"spot": {"innerConeAngle": 0.6, "outerConeAngle": 0.5}}, "spot.innerConeAngle",

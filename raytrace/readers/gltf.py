@@ -43,9 +43,9 @@ WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MA
 SUPPORTED = ("KHR_lights_punctual", "KHR_materials_ior", "KHR_materials_transmission",
              "KHR_materials_specular", "KHR_materials_emissive_strength",
              "KHR_materials_unlit")
-#: Extensions that do not change how the scene looks.
-NEUTRAL = ("KHR_mesh_quantization", "KHR_xmp_json_ld", "KHR_materials_variants",
-           "EXT_mesh_gpu_instancing")
+#: Extensions that do not change how the scene looks (EXT_mesh_gpu_instancing does: its
+#: copies are not drawn, and it is warned about).
+NEUTRAL = ("KHR_mesh_quantization", "KHR_xmp_json_ld", "KHR_materials_variants")
 TRIANGLES = 4
 
 
@@ -149,7 +149,10 @@ def world_matrices(gltf: Any) -> list[tuple[int, np.ndarray]]:
     node met twice (a cycle, or a child of two parents: not a tree, against the glTF spec) is
     an error."""
     scene = gltf.scenes[gltf.scene or 0] if gltf.scenes else None
-    roots = scene.nodes if scene is not None else range(len(gltf.nodes))
+    # no scene: the nodes that are no node's child (a child listed as a root too is met twice)
+    children = {c for node in gltf.nodes for c in node.children or []}
+    roots = (scene.nodes if scene is not None else
+             [n for n in range(len(gltf.nodes)) if n not in children])
     out, stack = [], [(n, np.eye(4)) for n in reversed(roots or [])]
     seen: set[int] = set()
     while stack:
@@ -185,7 +188,8 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
     as the seeds' kd is: a rough material stays matte, roughness 1 a Lambertian F0·(N·L)),
     ``kr = F0·(1 − roughness)²``; transmission t: ``kt = t·baseColor·(1 −
     metallic)``, ``kr = 1`` and the dielectric Fresnel split; ``ke = emissive·strength``;
-    BLEND alpha as opacity, MASK as 0 or 1 by the cutoff; unlit: ``ke = baseColor``."""
+    BLEND alpha as opacity, MASK as 0 or 1 by the cutoff; unlit: ``ke = baseColor`` (its
+    texture times the factor), nothing else."""
     if index is None:
         m = None
         name = "default"
@@ -241,14 +245,18 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
     elif mode == "MASK":
         cutoff = m.alphaCutoff if m.alphaCutoff is not None else 0.5
         fields["opacity"] = 1.0 if alpha >= cutoff else 0.0
-    if m is not None and "KHR_materials_unlit" in (m.extensions or {}):
+    unlit = m is not None and "KHR_materials_unlit" in (m.extensions or {})
+    if unlit:
         fields.update(ke=base, kd=0.0, ks=0.0, kr=0.0, ka=0.0)
     tex = pbr.baseColorTexture if pbr is not None else None
     if tex is not None and texture is not None:
         t = texture(gltf, tex, path, f"materials[{index}].pbrMetallicRoughness."
                     "baseColorTexture", mode)
         scale = base * (1 - metallic) * (1 - trans)
-        fields["kd"] = t.scaled(scale) if np.any(scale) else 0.0  # metallic: no copy of 0s
+        if unlit:  # the textured base colour is the colour seen, unlit
+            fields["ke"] = t.scaled(base)
+        else:
+            fields["kd"] = t.scaled(scale) if np.any(scale) else 0.0  # metallic: no 0s copied
         if mode in ("BLEND", "MASK"):  # the texture's alpha times the factor's
             fields["alpha"] = t
             fields["opacity"] = alpha
@@ -303,12 +311,26 @@ COMPRESSED = {"KHR_draco_mesh_compression": "Draco", "EXT_meshopt_compression": 
               "KHR_meshopt_compression": "meshopt"}
 
 
+def _compressed(name: str, key: str, path: Path) -> SceneError:
+    return SceneError(f"{name}: its meshes are {COMPRESSED[name]}-compressed, which raytrace "
+                      "does not decode; save the model without mesh compression", key,
+                      str(path))
+
+
+def _check_uncompressed(gltf: Any, prim: Any, key: str, path: Path) -> None:
+    """A primitive compressed with an extension only in ``extensionsUsed`` may carry its
+    uncompressed data as a fallback (KHR_draco_mesh_compression, "Conformance"); one whose
+    POSITION has no buffer view has none, and is refused as a required one is."""
+    for name in COMPRESSED:
+        if name in (prim.extensions or {}) and (
+                gltf.accessors[prim.attributes.POSITION].bufferView is None):
+            raise _compressed(name, f"{key}.extensions", path)
+
+
 def _check_extensions(gltf: Any, path: Path) -> None:
     for name in gltf.extensionsRequired or []:
         if name in COMPRESSED:
-            raise SceneError(f"{name}: its meshes are {COMPRESSED[name]}-compressed, which "
-                             "raytrace does not decode; save the model without mesh "
-                             "compression", "extensionsRequired", str(path))
+            raise _compressed(name, "extensionsRequired", path)
     required = [e for e in (gltf.extensionsRequired or []) if e not in SUPPORTED]
     if required:
         raise SceneError(f"requires extensions raytrace cannot read: {', '.join(required)}",
@@ -391,6 +413,7 @@ def _load(path: Path) -> GltfScene:
                                  str(path))
             if prim.attributes.POSITION is None:
                 continue
+            _check_uncompressed(gltf, prim, f"meshes[{node.mesh}].primitives[{p}]", path)
             pos = accessor(gltf, buffers, prim.attributes.POSITION, path)
             idx = (accessor(gltf, buffers, prim.indices, path).reshape(-1, 3)
                    if prim.indices is not None else np.arange(len(pos)).reshape(-1, 3))

@@ -32,8 +32,9 @@ from .inputs import read_text
 COLOR_STATEMENTS = ("Ka", "Kd", "Ks", "Ke", "Tf")
 #: Statements read as one number, with their range.
 NUMBER_STATEMENTS = {"Ns": (0.0, None), "Ni": (0.0, None), "d": (0.0, 1.0), "Tr": (0.0, 1.0)}
-#: Statements that carry no appearance (or only for other renderers' features).
-IGNORED = ("Pr", "Pm", "Ps", "Pc", "Pcr", "aniso", "anisor", "norm")
+#: Statements that carry no appearance (or only for other renderers' features). ``norm``
+#: (a normal map) is not one: it changes the look, and is warned about as ``bump`` is.
+IGNORED = ("Pr", "Pm", "Ps", "Pc", "Pcr", "aniso", "anisor")
 #: Defaults where a material omits a statement (Ka omitted follows Kd, as in scene files).
 DEFAULTS: dict[str, Any] = {"Ka": None, "Kd": np.full(3, 0.8), "Ks": np.zeros(3),
                             "Ke": np.zeros(3), "Tf": np.ones(3), "Ns": 32.0, "Ni": 1.0,
