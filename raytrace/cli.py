@@ -851,7 +851,9 @@ def _warmup(args: argparse.Namespace) -> int:
               f"{time.perf_counter() - t0:.1f} s")
     for w in failed:
         print(f"raytrace: error: {w.error}", file=sys.stderr)
-    return max((w.status for w in failed), default=EXIT_DONE)  # 3 (the engine) over 2
+    # a render's own status (3 the engine over 2 bad input), else 1: it crashed
+    return max((w.returncode if w.returncode in (EXIT_BAD_INPUT, EXIT_ENGINE) else EXIT_INTERNAL
+                for w in failed), default=EXIT_DONE)
 
 
 def _frames_written(args: argparse.Namespace) -> str:

@@ -310,6 +310,8 @@ class Mesh(values.Checked):
         values.check_length(float(np.ptp(world, axis=0).max()), "scale",
                             "the transformed mesh's size (its bounding box's longest side)",
                             longest=False)
+        if self.normals is not None:  # numbered as the file's faces, before any is dropped
+            check_normals(self.normals, self.file)
         if np.prod(np.sign(scale)) < 0:
             # A mirroring scale turns counter-clockwise into clockwise: reverse each face so
             # the winding still gives the outward normal (entering vs leaving for refraction).
@@ -328,7 +330,7 @@ class Mesh(values.Checked):
         if self.texcoords is not None:
             self.texcoords = np.ascontiguousarray(self.texcoords[keep])
         if self.normals is not None:
-            self.normals = world_normals(self.normals[keep], rotate, scale, self.file)
+            self.normals = world_normals(self.normals[keep], rotate, scale)
         self.check()
 
     def check(self) -> None:
@@ -450,20 +452,24 @@ def _from_trimesh(mesh: Any, key: str) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)
 
 
-def world_normals(normals: np.ndarray, rotate: np.ndarray, scale: np.ndarray,
-                  file: Any) -> np.ndarray:
-    """A file's normals (F, 3, 3) in world space, unit: transformed by the inverse transpose
-    of the linear part ``M = R·S`` of the mesh's transform, ``n' = R·S⁻¹·n / |R·S⁻¹·n|``
-    (normals stay perpendicular to the transformed surface; pbrt-v4 ``Transform::operator()
-    (Normal3)``). A zero normal stays zero (its corner is shaded with its face's normal); a
-    non-finite one is refused, naming the file."""
-    n = np.asarray(normals, np.float64)
-    bad = ~np.isfinite(n).all(axis=2)
+def check_normals(normals: np.ndarray, file: Any) -> None:
+    """Refuse a file's normals (F, 3, 3) where one is not finite, naming the file, the face
+    (counted from 1 in the order read) and the corner."""
+    bad = ~np.isfinite(np.asarray(normals, np.float64)).all(axis=2)
     if bad.any():
         face, corner = np.argwhere(bad)[0]
         raise SceneError(f"{file}: the normal of face {face + 1}, corner {corner + 1} is not "
-                         f"finite ({n[face, corner].tolist()})", "file")
-    n = (n / scale) @ rotation_matrix(rotate).T
+                         f"finite ({np.asarray(normals)[face, corner].tolist()})", "file")
+
+
+def world_normals(normals: np.ndarray, rotate: np.ndarray,
+                  scale: np.ndarray) -> np.ndarray:
+    """A file's normals (F, 3, 3), finite (:func:`check_normals`), in world space, unit:
+    transformed by the inverse transpose of the linear part ``M = R·S`` of the mesh's
+    transform, ``n' = R·S⁻¹·n / |R·S⁻¹·n|`` (normals stay perpendicular to the transformed
+    surface; pbrt-v4 ``Transform::operator()(Normal3)``). A zero normal stays zero (its
+    corner is shaded with its face's normal)."""
+    n = (np.asarray(normals, np.float64) / scale) @ rotation_matrix(rotate).T
     length = np.linalg.norm(n, axis=2, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.ascontiguousarray(np.where(length > 0, n / length, 0.0))

@@ -193,7 +193,8 @@ def shading_of(mesh: Mesh, v: np.ndarray, faces: np.ndarray, out: Triangles) -> 
 
     **Below the surface.** A corner normal that points below its face (``n_k·N_g < 0``, N_g
     the outward face normal of the winding) is turned over, ``−n_k``: a file whose normals
-    and winding disagree then shades as the normals say, and an interpolated normal
+    and winding disagree then shades as its winding says (a normal only slightly below its
+    face has its tilt reversed too: a choice, docs/shading.md), and an interpolated normal
     ``Σ b_k·n_k`` never points below the face (each term is above it), nor do the normals
     that Gouraud shading and Hanika's lift read at the corners (docs/shading.md, "Shading
     normals below the surface").

@@ -69,14 +69,13 @@ def shipped_scenes() -> list[Path]:
 class Warmed:
     """One scene's warm-up: its process's wall seconds, the seconds it spent compiling (0:
     every kernel came from the cache), and for a scene that did not render its error line
-    and the exit status of its render (``raytrace.cli``'s table: 2 bad input, 3 the
-    engine)."""
+    (naming the scene) and its render's exit status (negative: the signal that killed it)."""
 
     scene: Path
     seconds: float
     compile_seconds: float
     error: str | None = None
-    status: int = 0
+    returncode: int = 0
 
 
 def warm(scene: Path, out: Path, size: tuple[int, int] = SIZE) -> Warmed:
@@ -92,8 +91,13 @@ def warm(scene: Path, out: Path, size: tuple[int, int] = SIZE) -> Warmed:
     compiled = sum(float(m.group(1)) for m in _COMPILED.finditer(done.stderr))
     if done.returncode:
         lines = [line for line in done.stderr.splitlines() if line.startswith("raytrace: error")]
-        error = lines[-1] if lines else (done.stderr.strip().splitlines() or ["failed"])[-1]
-        return Warmed(scene, seconds, compiled, error.removeprefix("raytrace: error: "),
+        if lines:  # its own error line, which names the file
+            return Warmed(scene, seconds, compiled, lines[-1].removeprefix("raytrace: error: "),
+                          done.returncode)
+        last = (done.stderr.strip().splitlines() or ["no output"])[-1]
+        how = (f"killed by signal {-done.returncode}" if done.returncode < 0
+               else f"exit status {done.returncode}")
+        return Warmed(scene, seconds, compiled, f"{scene}: the render crashed ({how}): {last}",
                       done.returncode)
     return Warmed(scene, seconds, compiled)
 

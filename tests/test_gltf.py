@@ -339,6 +339,21 @@ def _dome_square(tmp_path, name: str, normals: bool):
                       MATTE), corners
 
 
+def test_a_node_scaled_to_zero_hides_its_part_and_the_rest_loads(tmp_path):
+    """glTF allows a node's scale to be 0 (exporters hide parts so): its linear part has no
+    inverse, so its normals have no inverse transpose; its faces have no area and are
+    dropped. The model loads with the other node's two triangles and their file normals."""
+    corners = np.asarray(SQUARE["positions"], float)
+    mesh = {**SQUARE, "normals": [[0, 0, 1]] * 4}
+    path = write_gltf(tmp_path / "hidden.gltf", [{"mesh": 0}, {"mesh": 0, "scale": [0, 0, 0]}],
+                      [mesh], MATTE)
+    loaded = raytrace.Mesh(file=path)
+    assert len(loaded.faces) == 2 and loaded.degenerate == 2
+    np.testing.assert_array_equal(loaded.normals, [[[0, 0, 1]] * 3] * 2)
+    used = loaded.vertices[np.unique(loaded.faces)]
+    assert sorted(map(tuple, used.tolist())) == sorted(map(tuple, corners.tolist()))
+
+
 @pytest.mark.parametrize("normals", [True, False])
 def test_gltf_normals_shade_by_the_spec(tmp_path, normals):
     """With NORMAL, the point of triangle (0, 1, 2) at barycentrics b = (0.2, 0.5, 0.3) shades

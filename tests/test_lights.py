@@ -87,7 +87,8 @@ def test_smooth_spot_between_its_cones_falls_off_as_the_khr_spec():
     """KHR_lights_punctual's recommended falloff at α = 20°, between inner 10° and outer 30°:
     t = (cos 20° − cos 30°)/(cos 10° − cos 30°) = (0.9396926 − 0.8660254)/(0.9848078 −
     0.8660254) = 0.0736672/0.1187824 = 0.620184; the light is t² = 0.384628 of the cone's."""
-    t = 0.0736672 / 0.1187824
+    cos = [math.cos(math.radians(a)) for a in (20.0, 30.0, 10.0)]
+    t = (cos[0] - cos[1]) / (cos[2] - cos[1])
     np.testing.assert_allclose(_smooth_spot_pixel(20.0), _lit_floor(20.0, t), rtol=1e-6)
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from raytrace import warmup
+from raytrace import cli, warmup
 from raytrace.kernels.compile import COMPILING
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -74,3 +74,21 @@ def test_a_render_after_warmup_compiles_nothing(tmp_path):
                        "--height", "48", env=env)
     assert render.returncode == 0, render.stderr
     assert COMPILING not in render.stderr
+
+
+@pytest.mark.parametrize("crash,how", [("echo 'ValueError: boom' >&2; exit 1", "exit status 1"),
+                                       ("kill -SEGV $$", "killed by signal 11")])
+def test_a_render_that_crashes_is_one_line_naming_its_scene_and_exit_1(
+        tmp_path, monkeypatch, capsys, crash, how):
+    # A render process that dies without its own error line (a traceback, a signal): the
+    # line names the scene and how it ended, and warmup exits 1 (an internal error), not the
+    # raw status (a signal's would be negative).
+    fake = tmp_path / "python"
+    fake.write_text(f"#!/bin/sh\n{crash}\n")
+    fake.chmod(0o755)
+    monkeypatch.setattr(sys, "executable", str(fake))
+    scene = tmp_path / "s.toml"
+    assert cli.main(["warmup", str(scene), "-q"]) == 1
+    line = capsys.readouterr().err.strip()
+    assert line.startswith(f"raytrace: error: {scene}: the render crashed ({how})")
+    assert "\n" not in line

@@ -113,11 +113,11 @@ kernel = _cached()
 inline = _cached(inline="always")
 #: Decorator for a per-ray helper that only other kernels call: compiled without the wrappers
 #: that let Python (and C) call it, so its first compile lowers and emits less machine code
-#: (a matte scene's first render, 44 helpers: 14.8–14.9 s of CPU against 16.7–16.8 s;
-#: docs/performance.md, "Cold compile"). LLVM links and inlines it into its callers exactly
-#: as a :data:`kernel`. Calling one from Python raises numba's error; a test that checks a
-#: helper against hand-worked values calls it through a kernel, or the helper stays a
-#: :data:`kernel`.
+#: (a matte scene's first render, measured with 40 helpers: 14.8–14.9 s of CPU against
+#: 16.7–16.8 s; docs/performance.md, "Cold compile"). LLVM links and inlines it into its
+#: callers exactly as a :data:`kernel`. Calling one from Python raises numba's error; a test
+#: that checks a helper against hand-worked values calls it through a kernel, or the helper
+#: stays a :data:`kernel`.
 helper = _cached(no_cpython_wrapper=True, no_cfunc_wrapper=True)
 
 

@@ -440,7 +440,7 @@ def _load(path: Path) -> GltfScene:
             # normals by the inverse transpose of the node's matrix (they stay perpendicular
             # to the transformed surface); none: zeros, flat (glTF 2.0 §3.7.2.1: "client
             # implementations MUST calculate flat normals")
-            normals.append((normal @ np.linalg.inv(world[:3, :3]))[idx] if normal is not None
+            normals.append((normal @ normal_matrix(world[:3, :3]))[idx] if normal is not None
                            else np.zeros((len(idx), 3, 3)))
             offset += len(pos)
     if not faces:
@@ -494,3 +494,13 @@ def _image(gltf: Any, index: int, path: Path, key: str, wrap: tuple[str, str],
                                  where=where, data=base64.b64decode(uri.split(",", 1)[1]))
     return Texture.from_file(path.parent / unquote(uri), f"images[{index}].uri",
                              wrap=wrap, where=where)
+
+
+def normal_matrix(linear: np.ndarray) -> np.ndarray:
+    """The matrix that takes row normals through a node's linear part ``linear`` (3×3):
+    its inverse (rows times M⁻¹ are M⁻ᵀ·n, the inverse transpose), or zeros where it is
+    singular (a node scaled by 0, which glTF allows to hide a part: its faces have no area
+    and are dropped, and their normals with them)."""
+    if np.linalg.det(linear) == 0.0:
+        return np.zeros((3, 3))
+    return np.linalg.inv(linear)
