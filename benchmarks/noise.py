@@ -2,6 +2,7 @@
 
     python3 benchmarks/noise.py                       # whitted, mesh_model, area_light 160×120
     python3 benchmarks/noise.py --json out.json       # the table's numbers as JSON too
+    python3 benchmarks/noise.py --curves docs/sampling  # + error-against-time curves, PNG each
 
 For each scene (2 threads, a reference of ``--reference-spp`` uniform samples with another
 seed, kept in ``--cache``): uniform 16 spp, timed (best of ``--repeats`` after a warm-up);
@@ -15,6 +16,13 @@ then noise-driven renders (best of ``--repeats`` each)
   renderer's estimate;
 * the default threshold (0.01, 8 to 1024 samples).
 
+``--curves FOLDER`` adds, per scene, the error-against-time curves of four ways to spend
+time: uniform stratified spp (:data:`CURVE_SPP`), the corner-adaptive mode at its defaults
+and at ``aa_min_depth`` 1, noise-driven sampling stopped by ``--target-error``
+(:data:`CURVE_TARGETS`) and by ``--time-limit`` (:data:`CURVE_TIMES` times uniform 16 spp's
+wall seconds): a table, and ``noise_curves_<scene>.png`` (relative RMSE against CPU seconds,
+log-log; matplotlib, the ``dev`` extra, imported there).
+
 RMSE over linear RGB; relative RMSE is the RMSE over the reference's mean. Wall seconds of
 ``raytrace.render`` (build included), as ``--stats`` reports them, and CPU seconds (every
 thread's), which a loaded machine moves less.
@@ -24,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 from pathlib import Path
 
@@ -60,6 +69,62 @@ def reference(scene, name: str, spp: int, cache: Path, **common) -> np.ndarray:
     return rgb
 
 
+#: Uniform stratified sample counts of the curves (perfect squares: a k×k jittered grid).
+CURVE_SPP = (1, 4, 16, 64, 256)
+#: ``--target-error`` values of the curves (relative RMSE).
+CURVE_TARGETS = (0.1, 0.05, 0.02, 0.01, 0.005)
+#: ``--time-limit`` values of the curves, in multiples of uniform 16 spp's wall seconds.
+CURVE_TIMES = (0.25, 0.5, 1.0, 2.0, 4.0)
+
+
+def curves(scene, common: dict, rmse, level: float, t_u: float, repeats: int) -> dict:
+    """The four series of the curves (module docstring), each a list of rows (label, wall
+    seconds, CPU seconds, samples a pixel, relative RMSE, the renderer's estimate or None)."""
+    def row(label: str, **kw) -> dict:
+        image, seconds, cpu = timed(scene, repeats, **common, **kw)
+        st = image.stats.get("aa", {})
+        return {"label": label, "seconds": seconds, "cpu": cpu,
+                "spp": st.get("samples_per_pixel", kw.get("spp", 1)),
+                "relative_rmse": rmse(image) / level,
+                "estimate": st.get("estimated_relative_rmse")}
+    return {
+        "uniform": [row(f"{n}", spp=n) for n in CURVE_SPP],
+        "adaptive": [row("defaults", aa="adaptive"),
+                     row("min depth 1", aa="adaptive", aa_min_depth=1)],
+        "noise, by target error": [row(f"{e:g}", target_error=e) for e in CURVE_TARGETS],
+        "noise, by time limit": [row(f"{f:g}x", time_limit=f * t_u) for f in CURVE_TIMES]}
+
+
+def plot_curves(name: str, size: tuple[int, int], threads: int, series: dict,
+                folder: Path) -> Path:
+    """``noise_curves_<name>.png``: relative RMSE against CPU seconds, log-log, a series each
+    way of spending time, each point labelled (spp, target, or time multiple)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 5))
+    for (label, rows), fmt in zip(series.items(), ("o-", "s", "^-", "v-"), strict=True):
+        ax.plot([r["cpu"] for r in rows], [r["relative_rmse"] for r in rows], fmt, label=label)
+        for r in rows:
+            ax.annotate(r["label"], (r["cpu"], r["relative_rmse"]), textcoords="offset points",
+                        xytext=(4, 4), fontsize=7)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(f"render CPU seconds ({threads} threads, all threads' time)")
+    ax.set_ylabel("relative RMSE against the reference")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(f"{name} {size[0]}×{size[1]}", fontsize=10)
+    fig.tight_layout()
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"noise_curves_{name}.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--size", type=int, nargs=2, default=(160, 120))
@@ -69,6 +134,8 @@ def main() -> None:
     p.add_argument("--scenes", nargs="*", default=["whitted", "mesh_model", "area_light"])
     p.add_argument("--cache", type=Path, default=Path("/tmp/raytrace-noise-references"))
     p.add_argument("--json", type=Path)
+    p.add_argument("--curves", type=Path, metavar="FOLDER",
+                   help="also measure the error-against-time curves; their PNGs go here")
     a = p.parse_args()
     w, h = a.size
     out = {}
@@ -112,6 +179,18 @@ def main() -> None:
         out[name] = {"mean": level, "rows": {k: dict(zip(
             ("seconds", "cpu", "spp", "rmse", "estimate"), v, strict=True))
             for k, v in rows.items()}}
+        if a.curves:
+            series = curves(scene, common, rmse, level, t_u, a.repeats)
+            print(f"\n{name}: error against time ({'wall s':>6}, CPU s, spp, relative RMSE, "
+                  "estimate)")
+            for label, series_rows in series.items():
+                for r in series_rows:
+                    est = "" if r["estimate"] is None else f"{r['estimate']:10.4f}"
+                    print(f"{label + ' ' + r['label']:<34}{r['seconds']:>8.3f}{r['cpu']:>8.3f}"
+                          f"{r['spp']:>7.1f}{r['relative_rmse']:>10.4f}{est}")
+            out[name]["curves"] = series
+            print("wrote", plot_curves(name, (w, h), a.threads, series, a.curves))
+    out["load_average_end"] = list(os.getloadavg())
     if a.json:
         a.json.write_text(json.dumps(out, indent=1) + "\n")
 

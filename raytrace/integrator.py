@@ -328,9 +328,13 @@ class WhittedIntegrator:
         #: Whether missed rays add anything (the background is not black).
         self.any_background = bool(np.any(options.background))
         self.window = options.crop or (0, 0, options.width, options.height)
-        self.reach = noise.margin(options.min_spp, options.max_spp) if (
-            options.aa == "noise" and options.target_error is None
-            and options.time_limit is None) else sampling.margin(options.filter)
+        # noise-driven: each pixel made of its own samples (drawn from the filter), but its
+        # counts, by threshold, read its neighbours'
+        if options.aa == "noise":
+            self.reach = noise.margin(options.min_spp, options.max_spp) if (
+                options.target_error is None and options.time_limit is None) else 0
+        else:
+            self.reach = sampling.margin(options.filter)
         x0, y0, x1, y1 = self.window
         m = self.reach
         self.traced = (max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, options.width),
@@ -477,7 +481,8 @@ class WhittedIntegrator:
             return values, traced
 
         result = noise.sample(self.traced, opt.width, opt.seed, noise.Budget(
-            opt.min_spp, opt.max_spp, opt.noise_threshold, opt.target_error, deadline), trace)
+            opt.min_spp, opt.max_spp, opt.noise_threshold, opt.target_error, deadline), trace,
+            opt.filter)
         (x0, y0, x1, y1), (tx, ty) = self.window, self.traced[:2]
         cols = self.size[0]
         inside = ((np.arange(y0, y1) - ty)[:, None] * cols + (np.arange(x0, x1) - tx)).ravel()

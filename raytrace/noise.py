@@ -7,10 +7,13 @@ scrambling: B. Burley, "Practical Hash-based Owen Scrambling", JCGT 9(4), 2020,
 :func:`owen_scramble`), scrambled by its own seed, hashed from the render's seed, the pixel
 and the stream. So:
 
-* every sample is uniformly distributed over its pixel, a true sample of the box filter, and
-  the pixel's value, the mean of its ``2n`` samples, is unbiased for any ``n`` fixed in
-  advance (counts chosen from the samples add a selection bias, which vanishes as
-  ``min_spp`` grows; tests/test_noise.py bounds it over 64 seeds);
+* every sample is a true sample of the pixel filter: uniform over the pixel for the box, and
+  for the others drawn from the filter around the pixel's centre with its weight ``f/p``
+  (1 for a positive filter; filter importance sampling,
+  :func:`raytrace.film.filters.importance`), so the pixel's value, the mean of its ``2n`` weighted samples, is an unbiased estimate of the
+  filtered image for any ``n`` fixed in advance (counts chosen from the samples add a
+  selection bias, which vanishes as ``min_spp`` grows; tests/test_noise.py bounds it over 64
+  seeds), and depends on the pixel's own samples alone;
 * the first ``2^m`` points of a stream are a (0, m, 2)-net: stratified at every power of two,
   as a uniform render's jittered grid is at its one ``spp``;
 * the two streams are independent estimates with one distribution, so ``I = (A + B)/2`` has
@@ -46,6 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .camera import hash_uniform
+from .film.filters import importance
 
 #: Each pixel's independent sample streams (A and B): the pixel's variance is read from their
 #: difference (:func:`pixel_variance`).
@@ -199,8 +203,9 @@ def margin(min_spp: int, max_spp: int) -> int:
 class Round:
     """The samples of one round, pixel by pixel, each pixel's stream A then B, each in
     sample order: ``pixel`` (m,) index in the window, ``stream`` (m,) 0 or 1, ``x``, ``y``
-    (m,) image positions (pixels of the frame), ``keys`` (m,) light keys, and ``bounds``, the
-    first sample of each pixel (and m at the end), where passes may be cut."""
+    (m,) image positions (pixels of the frame), ``keys`` (m,) light keys, ``bounds``, the
+    first sample of each pixel (and m at the end), where passes may be cut, and ``weight``
+    (m,), each sample's filter weight ``f/p`` (None where all are 1)."""
 
     pixel: np.ndarray
     stream: np.ndarray
@@ -208,12 +213,16 @@ class Round:
     y: np.ndarray
     keys: np.ndarray
     bounds: np.ndarray
+    weight: np.ndarray | None = None
 
 
 def plan(window: tuple[int, int, int, int], width: int, seed: int, old: np.ndarray,
-         new: np.ndarray) -> Round:
+         new: np.ndarray, filter: str = "box") -> Round:
     """The samples ``old[p]`` to ``new[p]`` of each stream of each pixel p (window order) of
-    ``window`` = (x0, y0, x1, y1) in a ``width``-wide frame, as a :class:`Round`."""
+    ``window`` = (x0, y0, x1, y1) in a ``width``-wide frame, as a :class:`Round`: each a
+    stream's Owen-scrambled Sobol point (:func:`offsets`), uniform over the pixel for the
+    box ``filter``, else mapped through the filter around the pixel's centre
+    (:func:`raytrace.film.filters.importance`)."""
     x0, y0, x1, _ = window
     grow = new - old
     pixel = np.repeat(np.arange(len(old)), STREAMS * grow)
@@ -225,8 +234,14 @@ def plan(window: tuple[int, int, int, int], width: int, seed: int, old: np.ndarr
     stream_id = ((row + y0) * width + col + x0) * STREAMS + stream
     sx, sy = offsets(seed, stream_id, k)
     bounds = np.concatenate([[0], np.cumsum(STREAMS * grow)])
+    weight = None
+    if filter != "box":
+        (dx, wx), (dy, wy) = importance(filter, sx), importance(filter, sy)
+        sx, sy = 0.5 + dx, 0.5 + dy
+        if (wx != 1.0).any() or (wy != 1.0).any():  # a filter with negative lobes
+            weight = wx * wy
     return Round(pixel, stream, col + x0 + sx, row + y0 + sy, light_keys(stream_id, k),
-                 bounds)
+                 bounds, weight)
 
 
 def passes(bounds: np.ndarray, size: int) -> list[tuple[int, int]]:
@@ -315,13 +330,14 @@ def neyman_counts(n: np.ndarray, a: np.ndarray, b: np.ndarray, most: int, cols: 
 
 
 def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Budget,
-           trace: RoundTracer) -> Result:
+           trace: RoundTracer, filter: str = "box") -> Result:
     """Adaptive sampling of the pixels of ``window`` (module docstring): a first round of
     ``min_spp`` samples each, then rounds that double some pixels' samples: by threshold,
     those whose error or a neighbour's is over it (:func:`next_counts`, a pixel that stopped
     stays stopped); by target error or time, the pixels of highest priority
     (:func:`neyman_counts`). Each pixel's streams are summed one round's block after
-    another, so its value depends on its own samples only."""
+    another, so its value depends on its own samples only; each sample weighted by its
+    ``filter``'s ``f/p`` (:func:`plan`)."""
     most = budget.max_spp // STREAMS
     cols = window[2] - window[0]
     n_pixels = cols * (window[3] - window[1])
@@ -332,8 +348,10 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
     grew = np.ones(n_pixels, bool)  # the pixels the last round sampled
     goal = budget.target_error is not None or budget.deadline is not None
     while True:
-        r = plan(window, width, seed, n, new)
+        r = plan(window, width, seed, n, new, filter)
         values, traced = trace(r, rounds == 0)
+        if r.weight is not None:
+            values = values * r.weight[:, None]
         # each (pixel, stream)'s samples of the round are one block, summed in order; a
         # deadline leaves out whole pixels (passes are cut at pixel bounds)
         block = np.repeat(new - n, STREAMS)

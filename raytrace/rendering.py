@@ -436,10 +436,6 @@ def stopping_rules(settings: RenderSettings, aa: str | None, target_error: float
         return None, None
     if settings.aa == "uniform" and aa is None:
         settings.aa = "noise"
-        if settings.filter != "box":
-            raise SceneError(f"must be box to stop by error or time (noise-driven sampling: "
-                             f"each pixel the mean of its own samples), got "
-                             f"{settings.filter!r}", "render.filter")
     if settings.aa != "noise":
         raise SceneError(f'needs aa = "noise" (the samples of aa = "{settings.aa}" are fixed '
                          'in advance)', "target_error" if target_error is not None

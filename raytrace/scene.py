@@ -97,9 +97,6 @@ class RenderSettings:
             if getattr(self, key) % 2:
                 raise SceneError(f"must be even (half of a pixel's samples go to each of its "
                                  f"two streams), got {getattr(self, key)}", f"render.{key}")
-        if self.aa == "noise" and self.filter != "box":
-            raise SceneError(f"must be box with aa = \"noise\" (each pixel is the mean of "
-                             f"its own samples), got {self.filter!r}", "render.filter")
 
 
 @dataclass
