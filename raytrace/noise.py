@@ -10,10 +10,11 @@ and the stream. So:
 * every sample is a true sample of the pixel filter: uniform over the pixel for the box, and
   for the others drawn from the filter around the pixel's centre with its weight ``f/p``
   (1 for a positive filter; filter importance sampling,
-  :func:`raytrace.film.filters.importance`), so the pixel's value, the mean of its ``2n`` weighted samples, is an unbiased estimate of the
-  filtered image for any ``n`` fixed in advance (counts chosen from the samples add a
-  selection bias, which vanishes as ``min_spp`` grows; tests/test_noise.py bounds it over 64
-  seeds), and depends on the pixel's own samples alone;
+  :func:`raytrace.film.filters.importance`), so the pixel's value, the mean of its ``2n``
+  weighted samples, is an unbiased estimate of the filtered image for any ``n`` fixed in
+  advance (counts chosen from the samples add a selection bias, which vanishes as
+  ``min_spp`` grows; tests/test_noise.py bounds it over 64 seeds), and depends on the
+  pixel's own samples alone;
 * the first ``2^m`` points of a stream are a (0, m, 2)-net: stratified at every power of two,
   as a uniform render's jittered grid is at its one ``spp``;
 * the two streams are independent estimates with one distribution, so ``I = (A + B)/2`` has
