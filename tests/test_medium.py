@@ -143,28 +143,30 @@ def gltf_pane(tmp_path, volume: dict | None) -> Mesh:
     return Mesh(file=path, material="from_file")
 
 
-def edge_pixel(c: float, pane: Mesh | None) -> np.ndarray:
+def edge_pixel(c: float, pane: Mesh | None, toward: int = 1) -> np.ndarray:
     """The one pixel of a camera at (c, 0, 0) looking down at θ = 40° from the vertical
-    (towards +x) through ``pane`` at the ambient-only checker floor y = −2."""
+    (towards +x, or −x with ``toward`` −1) through ``pane`` at the ambient-only checker floor
+    y = −2."""
     floor = Material(ka=Checker((A, B), 10.0), kd=0.0)
-    cam = Camera([c, 0, 0], [c + math.sin(THETA), -math.cos(THETA), 0], up=[0, 0, 1])
+    cam = Camera([c, 0, 0], [c + toward * math.sin(THETA), -math.cos(THETA), 0], up=[0, 0, 1])
     objects = [Plane([0, -2.0, 0], [0, 1, 0], floor), *([pane] if pane else [])]
     return pixel(make_scene(objects, [], cam, ambient=1.0, max_depth=3))
 
 
 @pytest.mark.parametrize("volume", [None, {"thicknessFactor": 0.0}])
-@pytest.mark.parametrize("side", [+1, -1])
-def test_a_thin_walled_pane_does_not_displace_what_is_behind_it(tmp_path, volume, side):
+@pytest.mark.parametrize("toward", [+1, -1])
+def test_a_thin_walled_pane_does_not_displace_what_is_behind_it(tmp_path, volume, toward):
     # Without a volume (or with thickness 0) glTF transmission is a thin wall: the ray goes
-    # straight on, landing on the floor at x = c + 2·tan θ as without the pane. Put that
-    # 2e-5 to one side of the checker edge: the pane must show the same cell as no pane, times
-    # (1 − F)² (Fresnel at θ on both faces; max_depth 3 keeps the light reflected between the
-    # faces (depth ≥ 4) out, and the reflection off the top sees a black background). A
-    # refracting pane would shift the landing by 0.5·(tan θ − tan θt) = 0.19 to −x.
-    c = EDGE - 2 * math.tan(THETA) + side * 2e-5
-    bare = edge_pixel(c, None)
-    np.testing.assert_allclose(bare, B if side > 0 else A, rtol=1e-6)
-    got = edge_pixel(c, gltf_pane(tmp_path, volume))
+    # straight on, landing on the floor at x = c ± 2·tan θ (looking towards ±x) as without the
+    # pane. Put that 2e-5 beyond the checker edge: the pane must show the same cell as no
+    # pane, times (1 − F)² (Fresnel at θ on both faces; max_depth 3 keeps the light reflected
+    # between the faces (depth ≥ 4) out, and the reflection off the top sees a black
+    # background). A refracting pane would pull the landing back towards the camera by
+    # 0.5·(tan θ − tan θt) = 0.19, across the edge, into the other cell.
+    c = EDGE - toward * (2 * math.tan(THETA) - 2e-5)
+    bare = edge_pixel(c, None, toward)
+    np.testing.assert_allclose(bare, B if toward > 0 else A, rtol=1e-6)
+    got = edge_pixel(c, gltf_pane(tmp_path, volume), toward)
     np.testing.assert_allclose(got, (1 - fresnel(math.cos(THETA), 1, 1.5)) ** 2 * bare,
                                rtol=1e-6)
 
