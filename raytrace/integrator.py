@@ -988,6 +988,8 @@ KERNEL_FEATURES: dict[str, Callable] = {
     # hit_terms' reflected, refracted and see-through children, and the spawn kernels
     "children": lambda table, triangles: bool(table.reflects.any())
     or bool(table.transparent.any()),
+    # hit_terms' and cross_surfaces' Beer's law and thin walls (the scene record's ``media``)
+    "media": lambda table, triangles: any(m.absorbs or m.thin_walled for m in table.materials),
 }
 
 

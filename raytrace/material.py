@@ -4,7 +4,11 @@ A :class:`Material` holds per-channel colours ``ka kd ks kr kt`` (each a constan
 :class:`Checker` pattern), the highlight exponent ``shininess`` with its model (``"phong"``
 (V·R)^n, Phong 1975; ``"blinn"`` (N·H)^n, Blinn 1977; ``"blinn_cosine"`` (N·H)^n·(N·L), the
 lobe inside the reflectance equation, as glTF materials map), the index of refraction and the
-opacity t of the blend ``I = t·I_surface + (1 − t)·I_behind`` (seed 003).
+opacity t of the blend ``I = t·I_surface + (1 − t)·I_behind`` (seed 003); what lies behind
+the surface: an interior that absorbs by Beer's law (``attenuation_color`` after
+``attenuation_distance``, KHR_materials_volume; POV-Ray's ``fade_color``/``fade_distance``)
+or a thin wall (``thin_walled``: light passes without bending, KHR_materials_transmission),
+read by :mod:`raytrace.kernels.medium`.
 
 The named library lives in the top-level ``materials/`` folder, one TOML file per material
 (its source in the file), and is shipped inside the wheel as ``raytrace/_materials``:
@@ -17,6 +21,7 @@ The named library lives in the top-level ``materials/`` folder, one TOML file pe
 from __future__ import annotations
 
 import dataclasses
+import math
 import tomllib
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
@@ -37,7 +42,8 @@ HIGHLIGHTS = tuple(HIGHLIGHT_CODES)
 #: "none" constant; "schlick" kr + (1 − kr)(1 − cos θ)⁵ (Schlick 1994, F0 = kr); "dielectric"
 #: kr·F and kt·(1 − F), F the exact unpolarised Fresnel reflectance for ``ior``.
 FRESNELS = tuple(FRESNEL_CODES)
-MATERIAL_KEYS = ("base", *COLOR_KEYS, "shininess", "highlight", "ior", "opacity", "fresnel")
+MATERIAL_KEYS = ("base", *COLOR_KEYS, "shininess", "highlight", "ior", "opacity", "fresnel",
+                 "attenuation_color", "attenuation_distance", "thin_walled")
 LIBRARY_ONLY_KEYS = ("description", "source")
 
 
@@ -123,6 +129,12 @@ class Material:
     #: or with ``alpha_cutoff`` ≥ 0 makes it 1 or 0 (MASK); Python and model files only.
     alpha: Any = None
     alpha_cutoff: float = -1.0
+    #: Beer's law inside the surface: light keeps ``attenuation_color`` (RGB in (0, 1]) of
+    #: itself per ``attenuation_distance`` travelled inside (> 0; inf: a clear interior).
+    attenuation_color: Any = 1.0
+    attenuation_distance: float = math.inf
+    #: A thin wall: a transmitted ray goes straight on, nothing is absorbed.
+    thin_walled: bool = False
     name: str = field(default="", compare=False)
     #: The library files this material was read from (its own and its bases'): inputs that
     #: no output of a render may overwrite.
@@ -159,8 +171,41 @@ class Material:
             self.alpha_cutoff = values.number(self.alpha_cutoff, "alpha_cutoff", lo=-1, hi=1)
             if self.alpha is not None and not hasattr(self.alpha, "texels"):
                 raise SceneError("must be a raytrace.readers.texture.Texture or None", "alpha")
+            self._check_interior()
         except SceneError as e:
             raise e.at(key_prefix=where) from None
+
+    def _check_interior(self) -> None:
+        """``attenuation_color`` in (0, 1] per channel, ``attenuation_distance`` > 0 or inf,
+        ``thin_walled`` a boolean, and no absorption in a thin wall (it has no inside)."""
+        c = values.color(self.attenuation_color, "attenuation_color", hi=1.0)
+        if not np.all(c > 0):
+            raise SceneError("must be > 0 in every channel (the range is (0, 1]; 0 would "
+                             f"absorb everything at once), got {c.tolist()}",
+                             "attenuation_color")
+        self.attenuation_color = c
+        d = self.attenuation_distance
+        if not (isinstance(d, (float, np.floating)) and d == math.inf):
+            d = values.number(d, "attenuation_distance", lo=0, lo_open=True)
+        self.attenuation_distance = float(d)
+        self.thin_walled = values.boolean(self.thin_walled, "thin_walled")
+        if self.thin_walled and self.absorbs:
+            raise SceneError("a thin wall has no inside to absorb in: leave out "
+                             "attenuation_color and attenuation_distance, or set "
+                             "thin_walled = false", "thin_walled")
+
+    @property
+    def sigma(self) -> np.ndarray:
+        """Beer's law coefficient per unit length, per channel: ``σ = −ln(attenuation_color)
+        / attenuation_distance`` (KHR_materials_volume), 0 for a clear interior."""
+        return -np.log(self.attenuation_color) / self.attenuation_distance + 0.0
+
+    @property
+    def absorbs(self) -> bool:
+        """Its interior absorbs (some channel of attenuation_color under 1 at a finite
+        distance)."""
+        return math.isfinite(self.attenuation_distance) and bool(
+            np.any(self.attenuation_color < 1))
 
     @property
     def ambient(self) -> Color:

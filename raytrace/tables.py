@@ -37,6 +37,7 @@ from .kernels.records import (
     TEX_WRAP_S,
     TEX_WRAP_T,
     Materials,
+    Media,
     Scene,
     Shapes,
     Triangles,
@@ -275,8 +276,20 @@ class MaterialTable:
 
 def scene_record(origin: np.ndarray, table: MaterialTable, triangles: Triangles) -> Scene:
     """What every shading kernel needs of the scene, as one record: the texture coordinates
-    only where some material has an image texture (the kernels' texture code is compiled
-    only then)."""
+    only where some material has an image texture, the materials' interiors only where some
+    material absorbs or is thin-walled (the kernels' texture and medium code is compiled only
+    then)."""
     textured = bool(table.textured.any()) if len(table.materials) else False
     return Scene(np.ascontiguousarray(origin, dtype=np.float64), table.record, triangles,
-                 texcoords=triangles.texcoords if textured else None)
+                 texcoords=triangles.texcoords if textured else None,
+                 media=media_table(table.materials))
+
+
+def media_table(materials: list[Material]) -> Media | None:
+    """The materials' interiors (:class:`raytrace.kernels.records.Media`: Beer's σ per
+    channel, thin walls), or None where no material absorbs or is thin-walled."""
+    if not any(m.absorbs or m.thin_walled for m in materials):
+        return None
+    sigma = np.array([m.sigma for m in materials], np.float64).reshape(-1, 3)
+    return Media(np.ascontiguousarray(sigma), np.array([m.thin_walled for m in materials],
+                                                       np.bool_))

@@ -234,6 +234,65 @@ def test_transmission_and_ior_make_fresnel_glass(tmp_path):
     np.testing.assert_allclose(got, 1.0, rtol=1e-6)  # F + (1 − F)·1 head on, no absorption
 
 
+def _glass(volume: dict | None = None, transmission: float = 1.0) -> list[dict]:
+    ext: dict = {"KHR_materials_ior": {"ior": 1.5}}
+    if transmission:
+        ext["KHR_materials_transmission"] = {"transmissionFactor": transmission}
+    if volume is not None:
+        ext["KHR_materials_volume"] = volume
+    return [{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0,
+                                      "roughnessFactor": 0}, "extensions": ext}]
+
+
+@pytest.mark.parametrize(("volume", "thin", "color", "distance"), [
+    (None, True, [1, 1, 1], math.inf),                     # transmission alone: a thin wall
+    ({"thicknessFactor": 0.0, "attenuationColor": [0.5, 0.5, 0.5],
+      "attenuationDistance": 1.0}, True, [1, 1, 1], math.inf),  # thickness 0: thin, clear
+    ({"thicknessFactor": 0.3}, False, [1, 1, 1], math.inf),     # a clear closed volume
+    ({"thicknessFactor": 0.3, "attenuationColor": [0.5, 0.8, 0.0],
+      "attenuationDistance": 0.25}, False, [0.5, 0.8, 2.2250738585072014e-308], 0.25),
+])
+def test_transmission_with_and_without_volume(tmp_path, volume, thin, color, distance):
+    """KHR_materials_transmission without KHR_materials_volume (or with thicknessFactor 0) is
+    thin-walled; with a thickness it is a volume with the file's attenuationColor and
+    attenuationDistance (defaults white and +∞); a channel of 0 is the smallest normal
+    float64, 2⁻¹⁰²², so that σ = −ln(c)/D stays finite (708.4/D)."""
+    path = write_gltf(tmp_path / "v.gltf", [{"mesh": 0}], [SQUARE], _glass(volume))
+    m = raytrace.Mesh(file=path, material="from_file").material
+    assert m.thin_walled is thin
+    assert m.attenuation_color.tolist() == color and m.attenuation_distance == distance
+    if distance < math.inf:
+        np.testing.assert_allclose(m.sigma, [math.log(2) / 0.25, -math.log(0.8) / 0.25,
+                                             1022 * math.log(2) / 0.25], rtol=1e-15)
+
+
+def test_a_volume_without_transmission_changes_nothing(tmp_path):
+    """KHR_materials_volume only acts through transmission (its spec): an opaque material
+    keeps no interior."""
+    path = write_gltf(tmp_path / "o.gltf", [{"mesh": 0}], [SQUARE], _glass(
+        {"thicknessFactor": 1.0, "attenuationColor": [0.5, 0.5, 0.5],
+         "attenuationDistance": 1.0}, transmission=0.0))
+    m = raytrace.Mesh(file=path, material="from_file").material
+    assert not m.thin_walled and not m.absorbs and not m.transmits
+
+
+@pytest.mark.parametrize(("volume", "key", "problem"), [
+    ({"thicknessFactor": 1.0, "attenuationDistance": 0}, "attenuationDistance", "must be > 0"),
+    ({"thicknessFactor": -1.0}, "thicknessFactor", "must be >= 0"),
+    ({"thicknessFactor": 1.0, "attenuationColor": [0.5, 2.0, 0.5]}, "attenuationColor[1]",
+     "must be <= 1"),
+    ({"thicknessFactor": 1.0, "attenuationColor": [0.5]}, "attenuationColor",
+     "must be a list of three numbers"),
+])
+def test_a_bad_volume_is_one_line_naming_file_and_field(tmp_path, volume, key, problem):
+    path = write_gltf(tmp_path / "bad.gltf", [{"mesh": 0}], [SQUARE], _glass(volume))
+    with pytest.raises(SceneError) as e:
+        raytrace.Mesh(file=path, material="from_file")
+    assert str(e.value).startswith(
+        f"{path}: materials[0].extensions.KHR_materials_volume.{key}: {problem}")
+    assert "\n" not in str(e.value)
+
+
 def test_unsupported_extensions_are_one_warning_and_required_ones_an_error(tmp_path):
     extra = {"extensionsUsed": ["KHR_materials_clearcoat", "KHR_texture_transform",
                                 "KHR_materials_ior"]}

@@ -35,6 +35,7 @@ CASES = [
     pytest.param("spotlights.toml", {}, marks=SLOW),
     pytest.param("tir.toml", {"max_depth": 3}, marks=SLOW),
     pytest.param("mesh_model.toml", {"min_weight": 0.05}, marks=SLOW),
+    pytest.param("glass_model.glb", {"max_depth": 4}, marks=SLOW),  # Beer's law, thin walls
 ]
 
 

@@ -285,3 +285,39 @@ def test_a_rough_model_material_stays_matte(tmp_path, source, make):
     front, grazing = _front_and_grazing(make(tmp_path))
     assert np.all(front > 0.01), source
     assert np.all(grazing <= 0.35 * front), (source, grazing / front)
+
+
+def test_interior_keys_from_a_scene_file_give_beers_sigma(tmp_path):
+    # σ = −ln(c)/D per channel: c = (0.5, 0.25, 1), D = 2 → (ln 2/2, ln 4/2, 0) =
+    # (0.34657, 0.69315, 0); thin_walled and inf (TOML's `inf`) as written.
+    scene = _scene_materials(tmp_path, """
+[materials.x]
+kt = 1.0
+attenuation_color = [0.5, 0.25, 1.0]
+attenuation_distance = 2.0
+[materials.pane]
+kt = 1.0
+thin_walled = true
+attenuation_distance = inf
+""")
+    x, pane = scene.materials["x"], scene.materials["pane"]
+    np.testing.assert_allclose(x.sigma, [math.log(2) / 2, math.log(4) / 2, 0.0], rtol=1e-15)
+    assert x.absorbs and not x.thin_walled
+    assert pane.thin_walled and not pane.absorbs and pane.sigma.tolist() == [0.0] * 3
+    assert Material().sigma.tolist() == [0.0] * 3 and not Material().absorbs
+
+
+@pytest.mark.parametrize(("table", "key", "problem"), [
+    ('attenuation_color = [0.5, 0.0, 0.5]', "attenuation_color", "must be > 0 in every channel"),
+    ('attenuation_color = 1.5', "attenuation_color", "must be <= 1"),
+    ('attenuation_distance = 0.0', "attenuation_distance", "must be > 0"),
+    ('attenuation_distance = -inf', "attenuation_distance", "must be finite"),
+    ('thin_walled = 1', "thin_walled", "must be true or false"),
+    ('thin_walled = true\nattenuation_distance = 3.0\nattenuation_color = 0.5', "thin_walled",
+     "a thin wall has no inside to absorb in"),
+])
+def test_bad_interior_keys_are_one_line_naming_the_key(tmp_path, table, key, problem):
+    with pytest.raises(raytrace.SceneError) as e:
+        _scene_materials(tmp_path, f"[materials.x]\nkt = 1.0\n{table}\n")
+    assert f"materials.x.{key}: {problem}" in str(e.value)
+    assert "\n" not in str(e.value)

@@ -27,7 +27,7 @@ import trimesh
 import raytrace
 from raytrace.film import read_exr, write_exr
 from raytrace.material import Checker
-from raytrace.scene import Sphere
+from raytrace.scene import Sphere, object_materials
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE_DIR = ROOT / "scenes"
@@ -192,6 +192,26 @@ def test_obj_and_gltf_models_are_what_make_models_generates():
     glb = (SCENE_DIR / "gltf_scene.glb").read_bytes()
     assert blob in glb  # the binary chunk, byte for byte
     assert b'"KHR_lights_punctual"' in glb and len(doc["nodes"]) == 9
+
+
+def test_the_glass_model_is_what_make_glass_generates(monkeypatch):
+    """scenes/glass_model.glb comes from scenes/models/make_glass.py (byte for byte in its
+    binary chunk), and its glass is read as the script means it: two closed volumes with
+    σ = −ln(attenuationColor)/attenuationDistance and a thin-walled bubble."""
+    monkeypatch.syspath_prepend(str(MODELS))  # make_glass imports make_models' helpers
+    spec = importlib.util.spec_from_file_location("make_glass", MODELS / "make_glass.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    doc, blob = module.glass_model()
+    assert blob in (SCENE_DIR / "glass_model.glb").read_bytes()
+    scene = raytrace.load_scene(SCENE_DIR / "glass_model.glb")
+    glass = {m.name: m for o in scene.objects for m in object_materials(o)}
+    np.testing.assert_allclose(glass["blue_green_glass"].sigma,
+                               -np.log([0.25, 0.6, 0.9]) / 0.5, rtol=1e-15)
+    np.testing.assert_allclose(glass["amber_glass"].sigma, -np.log([0.95, 0.55, 0.1]) / 0.4,
+                               rtol=1e-15)
+    assert not glass["blue_green_glass"].thin_walled and glass["bubble"].thin_walled
+    assert not glass["bubble"].absorbs
 
 
 def test_model_files_are_small():

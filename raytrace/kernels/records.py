@@ -19,6 +19,7 @@ record                   what it holds (n rays or hits, M materials, T triangles
 :class:`Triangles`       the float64 triangle tables (``raytrace.tables.SceneArrays.triangles``)
 :class:`Scene`           what every shading kernel needs of the scene: camera position,
                          materials, triangles (and a light pass's fast-Phong table)
+:class:`Media`           the materials' absorbing interiors and thin walls (``Scene.media``)
 :class:`Emitter`         one point-like light sample, 23 floats
                          (``raytrace.lights.Emitter.record``)
 :class:`Shadows`         the shadow rays a light pass spawns
@@ -192,6 +193,17 @@ FAST_DIFFUSE, FAST_SPECULAR = 0, 6
 FAST_TERMS, FAST_COLUMNS = 6, 12
 
 
+class Media(NamedTuple):
+    """What lies behind each material's surface (``raytrace.material.Material``'s
+    ``attenuation_color``, ``attenuation_distance`` and ``thin_walled``), indexed by
+    ``Surface.material`` (``kernels.medium``)."""
+
+    #: (M, 3) float64 Beer's law coefficient σ = −ln(attenuation colour)/distance per unit
+    #: length, per channel; 0: a clear interior
+    sigma: np.ndarray
+    thin: np.ndarray   #: (M,) bool a thin wall: a transmitted ray goes straight on
+
+
 class Scene(NamedTuple):
     """What the shading kernels need of the scene."""
 
@@ -206,6 +218,9 @@ class Scene(NamedTuple):
     #: else None: the material lookup's texture code (``kernels.material``) is compiled, and
     #: its tables bound, only where they are an array
     texcoords: np.ndarray | None = None
+    #: the materials' interiors (:class:`Media`) where some material absorbs or is thin-walled,
+    #: else None: the absorption and thin-wall code (``kernels.medium``) is compiled only then
+    media: Media | None = None
 
 
 class Emitter(NamedTuple):

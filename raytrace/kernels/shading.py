@@ -69,6 +69,7 @@ from .kinds import (  # noqa: F401  (the codes, as this module's names)
     SPOT,
 )
 from .material import alpha_tables1, surface_color1, surface_opacity1, texture_tables1
+from .medium import arriving1, crossing1, thin_walled1
 from .records import (
     FAST_DIFFUSE,
     FAST_SPECULAR,
@@ -468,7 +469,9 @@ def crossing_rays(hits, origin, direction, tmax, live):
 def cross_surfaces(factor, live, surf, walk, scene):
     """Transparent shadow rays ``walk`` (a :class:`raytrace.kernels.records.ShadowWalk`)
     crossing the surfaces they hit (``surf``, a :class:`raytrace.kernels.records.Surface`):
-    ``S *= t·kt + (1 − t)`` (seed 003, t the opacity) on row ``live[j]`` of ``factor``. Those
+    ``S *= t·kt + (1 − t)`` (seed 003, t the opacity) on row ``live[j]`` of ``factor``, and
+    where the ray leaves an absorbing material, by Beer's law over the segment it crossed
+    inside (:func:`raytrace.kernels.medium.crossing1`: no code in a scene without media). Those
     that still let some channel through go on from the far side (:func:`leave1` along their
     ``direction``) for the rest of their ``tmax`` (minus the hit's ``t``): returns their
     (origin, direction, start shape, tmax, live) as new arrays. A scene without image
@@ -491,8 +494,10 @@ def cross_surfaces(factor, live, surf, walk, scene):
         kt = surface_color1(palette, textures, mj, KT, hit)
         op = surface_opacity1(opacity, alphas, mj, hit)
         r = live[j]
+        beer = crossing1(scene.media, mj, walk, surf, j)  # (1, 1, 1) in a scene without media
         for c in range(3):
             factor[r, c] *= op * kt[c] + (1.0 - op)
+            factor[r, c] *= beer[c]
         through[j] = factor[r, 0] > 0.0 or factor[r, 1] > 0.0 or factor[r, 2] > 0.0
         on += through[j]
     origin_out, direction_out = np.empty((on, 3)), np.empty((on, 3))
@@ -530,6 +535,12 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children):
       not crossing it, a TIR ray crossing it) it is refracted about N_g instead;
     * see-through: straight on with weight ``w·(1 − t)``.
 
+    A ray that leaves a material with an absorbing interior reaches its hit with ``w`` times
+    Beer's ``exp(−σ·t)`` over the distance t it travelled inside, before any term of the hit
+    (:func:`raytrace.kernels.medium.arriving1`); on a thin-walled material the refracted ray
+    goes straight on (``d``) and Fresnel takes the hit as entering from either side. With
+    ``scene.media`` None (no such material) none of that code is compiled.
+
     Under TIR the kt share and the reflection leave along the same mirror direction from the
     same point: the two rays would trace the same path. With ``min_weight`` 0, where there is
     a reflected child and the directions are equal (bit for bit), they become one reflected
@@ -555,7 +566,7 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children):
     its largest channel is under ``min_weight`` (Hall & Greenberg 1983), else KEEP. ``tir`` is
     set on transmitting hits only.
     """
-    direction, weight = rays.direction, rays.weight
+    direction = rays.direction
     geometric, shading, material, point = surf.geometric, surf.shading, surf.material, surf.point
     origin, materials = scene.origin, scene.materials
     palette = Palette(materials.colors, materials.pattern, materials.checkers)
@@ -573,8 +584,10 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children):
     reflects, transmits = materials.reflects, materials.transmits
     emits, fresnel = materials.emits, materials.fresnel
     lit = lights.shape[0] > 0
+    media = scene.media  # None: no absorption or thin-wall code compiled
     for i in range(direction.shape[0]):
         m = material[i]
+        w = arriving1(media, m, rays, surf, i)  # Beer's law inside the material it leaves
         hit = MaterialHit(world=(point[i, 0] + origin[0], point[i, 1] + origin[1],
                                  point[i, 2] + origin[2]),
                           triangle=surf.triangle[i], u=surf.uv[i, 0], v=surf.uv[i, 1])
@@ -587,7 +600,7 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children):
                 here += lights[i, c]
             if emits[m]:
                 here += ke[c]
-            samples[sample[i], c] += weight[i, c] * (op * here)
+            samples[sample[i], c] += w[c] * (op * here)
         if children is None:  # compiled only for scenes with reflective or transparent ones
             continue
         status[i, 0] = status[i, 1] = status[i, 2] = NONE
@@ -603,7 +616,7 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children):
         if transmits[m]:
             kt = surface_color1(palette, textures, m, KT, hit)
         if fresnel[m] != NO_FRESNEL:  # kr, kt for this angle (V = −d, N facing the viewer)
-            entering = dx * gx + dy * gy + dz * gz < 0.0
+            entering = dx * gx + dy * gy + dz * gz < 0.0 or thin_walled1(media, m)
             kr, kt = fresnel_weights1(fresnel[m], -(dx * nx + dy * ny + dz * nz),
                                       1.0 / ior[m] if entering else ior[m], kr, kt)
         if reflects[m]:
@@ -612,29 +625,32 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children):
                 rx, ry, rz = reflect3(dx, dy, dz, fx, fy, fz)
             r_dir[i, 0], r_dir[i, 1], r_dir[i, 2] = rx, ry, rz
             for c in range(3):
-                w_r[i, c] = weight[i, c] * op * kr[c]
+                w_r[i, c] = w[c] * op * kr[c]
             status[i, 0] = _status((w_r[i, 0], w_r[i, 1], w_r[i, 2]), min_weight)
         if transmits[m]:
             eta = 1.0 / ior[m] if dx * gx + dy * gy + dz * gz < 0.0 else ior[m]
-            tx, ty, tz, total = refract3(dx, dy, dz, nx, ny, nz, eta)
-            side = tx * fx + ty * fy + tz * fz
-            if (side <= 0.0) if total else (side >= 0.0):
-                tx, ty, tz, total = refract3(dx, dy, dz, fx, fy, fz, eta)
+            if thin_walled1(media, m):  # a thin wall: straight through, no TIR
+                tx, ty, tz, total = dx, dy, dz, False
+            else:
+                tx, ty, tz, total = refract3(dx, dy, dz, nx, ny, nz, eta)
+                side = tx * fx + ty * fy + tz * fz
+                if (side <= 0.0) if total else (side >= 0.0):
+                    tx, ty, tz, total = refract3(dx, dy, dz, fx, fy, fz, eta)
             t_dir[i, 0], t_dir[i, 1], t_dir[i, 2] = tx, ty, tz
             tir[i] = total
             for c in range(3):
-                w_t[i, c] = weight[i, c] * op * kt[c]
+                w_t[i, c] = w[c] * op * kt[c]
             if (total and not min_weight > 0.0 and reflects[m] and status[i, 0] != NONE
                     and tx == r_dir[i, 0] and ty == r_dir[i, 1]
                     and tz == r_dir[i, 2]):  # one path, one ray (no weight pruning)
                 for c in range(3):
-                    w_r[i, c] = weight[i, c] * op * (kr[c] + kt[c])
+                    w_r[i, c] = w[c] * op * (kr[c] + kt[c])
                     w_t[i, c] = 0.0
                 status[i, 0] = _status((w_r[i, 0], w_r[i, 1], w_r[i, 2]), min_weight)
             status[i, 1] = _status((w_t[i, 0], w_t[i, 1], w_t[i, 2]), min_weight)
         if op < 1.0:
             for c in range(3):
-                w_s[i, c] = weight[i, c] * (1.0 - op)
+                w_s[i, c] = w[c] * (1.0 - op)
             status[i, 2] = _status((w_s[i, 0], w_s[i, 1], w_s[i, 2]), min_weight)
 
 

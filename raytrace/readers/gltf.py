@@ -42,7 +42,7 @@ WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MA
 #: Extensions read (the rest of ``extensionsUsed`` that changes appearance is warned about).
 SUPPORTED = ("KHR_lights_punctual", "KHR_materials_ior", "KHR_materials_transmission",
              "KHR_materials_specular", "KHR_materials_emissive_strength",
-             "KHR_materials_unlit")
+             "KHR_materials_unlit", "KHR_materials_volume")
 #: Extensions that do not change how the scene looks (EXT_mesh_gpu_instancing does: its
 #: copies are not drawn, and it is warned about).
 NEUTRAL = ("KHR_mesh_quantization", "KHR_xmp_json_ld", "KHR_materials_variants")
@@ -177,6 +177,44 @@ def roughness_exponent(roughness: float) -> float:
     return min(max(2.0 / alpha2 - 2.0, 0.0), 10_000.0)
 
 
+def volume(ext: dict, key: str, path: Path | None) -> dict[str, Any]:
+    """The :class:`Material` fields of a transmitting glTF material's
+    ``KHR_materials_volume`` (``ext``, {} where absent), by the Khronos extension specs: no
+    volume, or ``thicknessFactor`` 0, is a thin wall (KHR_materials_transmission: "the
+    material is thin-walled", light passes without refraction); a thickness > 0 is a closed
+    volume, refracting with ior, absorbing by Beer's law with ``attenuationColor`` (default
+    white) after ``attenuationDistance`` (world units, default +∞: no absorption). The
+    thickness itself (and ``thicknessTexture``) is a rasteriser's stand-in for the distance
+    through the mesh, which a ray tracer measures: only whether it is 0 is read. A colour
+    channel of 0 (all absorbed) is read as the smallest normal float64 (σ = 708/distance).
+
+    >>> volume({}, "v", None)
+    {'thin_walled': True}
+    >>> volume({"thicknessFactor": 1.0, "attenuationDistance": 2.0}, "v", None)["thin_walled"]
+    False
+    """
+    def number(value: Any, field: str, **bounds: Any) -> float:
+        try:
+            return values.number(value, f"{key}.{field}", **bounds)
+        except SceneError as e:
+            raise SceneError(e.problem, e.key, str(path)) from None
+
+    if not number(ext.get("thicknessFactor", 0.0), "thicknessFactor", lo=0) > 0:
+        return {"thin_walled": True}
+    out: dict[str, Any] = {"thin_walled": False}
+    if "attenuationDistance" in ext:
+        out["attenuation_distance"] = number(ext["attenuationDistance"], "attenuationDistance",
+                                             lo=0, lo_open=True)
+    color = ext.get("attenuationColor", [1.0, 1.0, 1.0])
+    if not isinstance(color, list) or len(color) != 3:
+        raise SceneError("must be a list of three numbers", f"{key}.attenuationColor",
+                         str(path))
+    out["attenuation_color"] = np.maximum(
+        [number(x, f"attenuationColor[{i}]", lo=0, hi=1) for i, x in enumerate(color)],
+        np.finfo(np.float64).tiny)
+    return out
+
+
 def material(gltf: Any, index: int | None, texture: Any = None, path: Path | None = None
              ) -> Material:
     """A glTF material as a raytrace :class:`Material` (docs/scene_format.md has the table):
@@ -187,7 +225,10 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
     equation, Akenine-Möller et al., Real-Time Rendering 4th ed., eq. 7.48 and §9.3, times π
     as the seeds' kd is: a rough material stays matte, roughness 1 a Lambertian F0·(N·L)),
     ``kr = F0·(1 − roughness)²``; transmission t: ``kt = t·baseColor·(1 −
-    metallic)``, ``kr = 1`` and the dielectric Fresnel split; ``ke = emissive·strength``;
+    metallic)``, ``kr = 1`` and the dielectric Fresnel split, a thin wall (no bending, no
+    absorption) unless ``KHR_materials_volume`` gives a thicknessFactor > 0, then a closed
+    volume refracting with ior and absorbing by Beer's law (:func:`volume`);
+    ``ke = emissive·strength``;
     BLEND alpha as opacity, MASK as 0 or 1 by the cutoff; unlit: ``ke = baseColor`` (its
     texture times the factor), nothing else."""
     if index is None:
@@ -238,7 +279,9 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
                        np.float64) * strength}
     if trans > 0:
         fields.update(kt=np.clip(trans * base * (1 - metallic), 0, 1), kr=1.0,
-                      fresnel="dielectric")
+                      fresnel="dielectric", **volume(_ext(m, "KHR_materials_volume"),
+                                                     f"{key}.extensions.KHR_materials_volume",
+                                                     path))
     mode = (m.alphaMode if m is not None else None) or "OPAQUE"
     if mode == "BLEND":
         fields["opacity"] = alpha

@@ -284,7 +284,9 @@ def gltf_scene() -> tuple[dict, bytes]:
         {"name": "glass", pbr: {"baseColorFactor": [0.9, 1.0, 0.95, 1], "metallicFactor": 0.0,
                                 "roughnessFactor": 0.0},
          "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
-                        "KHR_materials_ior": {"ior": 1.5}}},
+                        "KHR_materials_ior": {"ior": 1.5},
+                        # a closed ball (its diameter): it refracts; no volume = thin-walled
+                        "KHR_materials_volume": {"thicknessFactor": 1.1}}},
         {"name": "red_plastic", pbr: {"baseColorFactor": [0.7, 0.05, 0.04, 1],
                                       "metallicFactor": 0.0, "roughnessFactor": 0.35}},
     ]
@@ -312,7 +314,7 @@ def gltf_scene() -> tuple[dict, bytes]:
         "cameras": [{"type": "perspective",
                      "perspective": {"yfov": 0.7, "aspectRatio": 4 / 3, "znear": 0.1}}],
         "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_transmission",
-                           "KHR_materials_ior"],
+                           "KHR_materials_ior", "KHR_materials_volume"],
         "extensions": {"KHR_lights_punctual": {"lights": [
             {"type": "point", "color": [1.0, 0.95, 0.85], "intensity": 40.0},
             {"type": "spot", "color": [0.7, 0.8, 1.0], "intensity": 25.0,
@@ -326,8 +328,9 @@ def gltf_scene() -> tuple[dict, bytes]:
         "A glTF scene alone, no TOML: its own camera (yfov 0.7 rad, aspect 4:3), a point and a",
         "spot light (KHR_lights_punctual), a textured crate (baseColorTexture) that is the child",
         "of a rotated and scaled node, a polished gold ball (metallic 1, roughness 0: a tinted",
-        "mirror), a glass ball (KHR_materials_transmission + ior: Fresnel glass) and a red",
-        "plastic ball (roughness 0.35) on a tiled floor. Made by scenes/models/make_models.py.",
+        "mirror), a glass ball (KHR_materials_transmission + ior + volume: refracting Fresnel",
+        "glass) and a red plastic ball (roughness 0.35) on a tiled floor. Made by",
+        "scenes/models/make_models.py.",
         "Shows: raytrace render on a GLB, the glTF material mapping, textures, KHR lights.",
         "Render: raytrace render scenes/gltf_scene.glb -o gltf_scene.exr --png gltf_scene.png"]}
     return doc, blob
