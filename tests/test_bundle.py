@@ -131,3 +131,22 @@ def test_a_process_that_reads_other_arrays_is_refused_in_one_line(tmp_path):
                        r"its files into other arrays than the client did \(") as e:
         bundle.unpack(b, other)
     assert e.value.file == b.source
+
+
+def test_frames_that_share_a_gltf_decode_it_once_per_process(tmp_path):
+    # Two frames' scene files naming one model: on a worker the model's bytes land at one
+    # path in one folder, so the second frame's read is load_gltf's cache hit.
+    from raytrace.readers.gltf import _load_cached
+
+    first = load_scene(shot(tmp_path))
+    second_file = tmp_path / "shot" / "second.toml"
+    second_file.write_text((tmp_path / "shot" / "scene.toml").read_text().replace(
+        "position = [0, 0, 4]", "position = [0.5, 0, 4]"))
+    second = load_scene(second_file)
+    bundles = [bundle.pack(s) for s in (first, second)]
+    assert bundles[0].key() != bundles[1].key()
+    bundle.unpack(bundles[0], load_scene)
+    hits = _load_cached.cache_info().hits
+    back = bundle.unpack(bundles[1], load_scene)
+    assert _load_cached.cache_info().hits == hits + 1
+    assert same_bits(raytrace.render(back, **KW).rgb, raytrace.render(second, **KW).rgb)

@@ -104,7 +104,7 @@ def cached_reads(maxsize: int) -> Callable[[Callable[..., Any]], Callable[..., A
                 reads_now.extend(reads)
             return result
 
-        call.cache_clear = cached.cache_clear
+        call.cache_clear, call.cache_info = cached.cache_clear, cached.cache_info
         return call
 
     return wrap
