@@ -187,17 +187,16 @@ def pack(scene: Any) -> Bundle:
                                                                      strict=True)]
     numbers = {id(o): n for n, (o, a, b) in enumerate(zip(origin.made, origin.arrays, now,
                                                            strict=True)) if a == b}
-    out = io.BytesIO()
-    _Numbering(out, numbers).dump(scene)
-    light = out.getvalue()
     decoded = sum(o.texels.nbytes if isinstance(o, Texture) else o.nbytes
                   for o in origin.made if id(o) in numbers)
     if decoded <= sum(map(len, files.values())):  # the objects are no bigger than the files
         return Bundle(pickle.dumps(scene, protocol=pickle.HIGHEST_PROTOCOL))
+    out = io.BytesIO()
+    _Numbering(out, numbers).dump(scene)
     made = tuple(a if a is not None else fingerprint(o) for o, a in zip(origin.made,
                                                                          origin.arrays,
                                                                          strict=True))
-    return Bundle(light, origin.source, files, made)
+    return Bundle(out.getvalue(), origin.source, files, made)
 
 
 def _files(origin: Origin) -> dict[str, bytes] | None:
