@@ -38,6 +38,7 @@ from .film.exr import exr_compression
 from .film.image import Image
 from .film.tonemap import check_exposure, check_tonemap
 from .integrator import Stop
+from .readers.bundle import Bundle, pack, unpack
 from .readers.inputs import input_file
 from .readers.scene_file import load_scene
 from .rendering import memory_ceiling, memory_size, render, watch_memory
@@ -207,11 +208,14 @@ def load_function(path: str, name: str, key: str) -> Callable[[int], Scene]:
 
 
 def render_frame(source: SceneSource | bytes, frame: int, overrides: dict) -> Image:
-    """One frame: its scene (from the source, or ``source`` pickled: a Scene or a
-    SceneSource) rendered with ``overrides`` (keywords of :func:`raytrace.render`). A worker
-    task, and the local loop's step, so both raise the same errors."""
+    """One frame: its scene (from the source, or ``source`` pickled: a SceneSource, or a
+    scene as :func:`raytrace.readers.bundle.pack` sends it, read again here from its files'
+    bytes) rendered with ``overrides`` (keywords of :func:`raytrace.render`). A worker task,
+    and the local loop's step, so both raise the same errors."""
     if isinstance(source, bytes):
         source = pickle.loads(source)
+    if isinstance(source, Bundle):
+        source = unpack(source, load_scene)
     scene = source if isinstance(source, Scene) else source.scene(frame)
     return render(scene, **overrides)
 
@@ -322,8 +326,9 @@ def render_frames(scenes: str | os.PathLike | Callable[[int], Scene] | SceneSour
         token = time.time_ns()
         futures = []
         for frame in todo:
-            # Scene files are read here (no shared filesystem); functions run on the workers.
-            what = (pickle.dumps(source.scene(frame), protocol=pickle.HIGHEST_PROTOCOL)
+            # Scene files are read here (no shared filesystem) and sent as their bytes;
+            # functions run on the workers.
+            what = (pickle.dumps(pack(source.scene(frame)), protocol=pickle.HIGHEST_PROTOCOL)
                     if source.files is not None else by_value(source))
             futures.append(client.submit(framed, what, frame, remote, pure=False,
                                          key=f"raytrace-frame-{frame}-{token}"))

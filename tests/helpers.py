@@ -155,11 +155,13 @@ def write_text(path: Path, text: str) -> Path:
 
 
 def write_gltf(path: Path, nodes: list[dict], meshes: list[dict] | None = None,
-               materials: list[dict] | None = None, extra: dict | None = None) -> Path:
-    """A small glTF 2.0 file (JSON, its buffer as a data URI) built by
-    scenes/models/make_models.py's ``write_gltf_doc``, which writes the specification's JSON
-    by hand, independent of the loader under test. ``nodes`` and ``materials`` are glTF JSON
-    objects as the specification writes them; ``extra`` is merged into the top level."""
+               materials: list[dict] | None = None, extra: dict | None = None,
+               buffer_file: str | None = None) -> Path:
+    """A small glTF 2.0 file (JSON, its buffer as a data URI, or in the file ``buffer_file``
+    beside it) built by scenes/models/make_models.py's ``write_gltf_doc``, which writes the
+    specification's JSON by hand, independent of the loader under test. ``nodes`` and
+    ``materials`` are glTF JSON objects as the specification writes them; ``extra`` is merged
+    into the top level."""
     import base64
     import importlib.util
     import json
@@ -171,5 +173,8 @@ def write_gltf(path: Path, nodes: list[dict], meshes: list[dict] | None = None,
     doc, blob = make_models.write_gltf_doc(nodes, meshes or [], materials, extra)
     doc["buffers"][0]["uri"] = ("data:application/octet-stream;base64,"
                                 + base64.b64encode(blob).decode())
+    if buffer_file is not None:
+        (path.parent / buffer_file).write_bytes(blob)
+        doc["buffers"][0]["uri"] = buffer_file
     path.write_text(json.dumps(doc))
     return path

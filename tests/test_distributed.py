@@ -562,6 +562,38 @@ def test_the_local_cluster_listens_on_loopback_only(clusters):
     assert {a.ip for a in listening} == {"127.0.0.1"}, listening
 
 
+def test_a_textured_gltf_travels_as_its_file_and_renders_the_same(clusters, tmp_path):
+    # scenes/gltf_scene.glb (79 kB: two textures, a camera, lights) loaded on the client: the
+    # workers get the file's bytes and read it themselves, once each. Its decoded scene
+    # pickles to 490 kB; the files' bytes with the rest of the scene to 83 kB.
+    path = ROOT / "scenes" / "gltf_scene.glb"
+    scene = raytrace.load_scene(path)
+    kw = {"width": W, "height": H}
+    reference = raytrace.render(scene, threads=1, **kw)
+    client = clusters.get(2)
+    builds = 0
+    for tile in TILES:
+        image = raytrace.render(scene, client=client, tile=tile, **kw)
+        assert same_bits(image.rgb, reference.rgb), tile
+        d = image.stats["distributed"]
+        assert d["file_bytes"] == path.stat().st_size
+        assert d["scene_bytes"] <= 2 * d["file_bytes"] < len(pickle.dumps(scene))
+        builds += sum(w["builds"] for w in d["workers"].values())
+    assert 1 <= builds <= 2  # read and built once per worker for both tile sizes
+    # frames: scene files naming the model, read here and sent as their files
+    shutil.copy(path, tmp_path / "model.glb")
+    for f in (1, 2):
+        (tmp_path / f"shot_{f}.toml").write_text(
+            f"[render]\nwidth = 24\nheight = 16\n[camera]\nposition = [0, 2, {5 + f}]\n"
+            "look_at = [0, 0.5, 0]\n[[lights]]\ntype = \"point\"\nposition = [2, 4, 5]\n"
+            "[[objects]]\ntype = \"mesh\"\nfile = \"model.glb\"\nmaterial = \"from_file\"\n")
+    raytrace.render_frames(str(tmp_path / "shot_#.toml"), str(tmp_path / "out.#.exr"), "1-2",
+                           client=client)
+    for f in (1, 2):
+        local = raytrace.render(raytrace.load_scene(tmp_path / f"shot_{f}.toml"), threads=1)
+        assert same_bits(raytrace.read_exr(tmp_path / f"out.{f}.exr")[0], local.rgb), f
+
+
 def test_a_scene_with_a_file_mesh_pickles_with_its_triangles(mesh_scene, scenes):
     assert not (Path(mesh_scene.path).parent / "models").exists()  # deleted by the fixture
     back = pickle.loads(pickle.dumps(mesh_scene))

@@ -6,10 +6,15 @@ command line: status 2, one exact line."""
 
 from __future__ import annotations
 
+import os
+
+import numpy as np
 import pytest
-from helpers import write_text
+from helpers import write_gltf, write_png, write_text
 
 from raytrace import cli
+from raytrace.readers.gltf import load_gltf
+from raytrace.readers.inputs import recording
 
 CAMERA = "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n"
 TRIANGLE = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
@@ -93,3 +98,21 @@ def test_the_doctests():
     from raytrace.readers import inputs
 
     assert doctest.testmod(inputs).failed == 0
+
+
+def test_recording_lists_every_file_read_even_from_a_cached_gltf(tmp_path):
+    # A .gltf naming its buffer and image files: the reader opens three files; the second
+    # load comes from load_gltf's cache, and must list the same three (what a cluster's
+    # workers are sent: raytrace/readers/bundle.py).
+    square = {"positions": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "indices": [[0, 1, 2]],
+              "uv": [[0, 0], [1, 0], [0, 1]], "material": 0}
+    mat = [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]
+    path = write_gltf(tmp_path / "m.gltf", [{"mesh": 0}], [square], mat, extra={
+        "textures": [{"source": 0}], "images": [{"uri": "t.png"}]}, buffer_file="m.bin")
+    write_png(tmp_path / "t.png", np.zeros((2, 2, 3), np.uint8))
+    want = [str(tmp_path / n) for n in ("m.gltf", "m.bin", "t.png")]
+    for _ in range(2):
+        with recording() as reads, recording() as inner:
+            load_gltf(path)
+        assert [r.path for r in reads] == [r.path for r in inner] == want
+        assert [r.size for r in reads] == [os.path.getsize(p) for p in want]

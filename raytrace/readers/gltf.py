@@ -33,7 +33,7 @@ from ..errors import RenderWarning, SceneError
 from ..lights import DirectionalLight, PointLight, SpotLight
 from ..material import Material
 from .asset import Asset
-from .inputs import input_file
+from .inputs import cached_reads, input_file
 from .texture import GLTF_WRAPS, Texture
 
 COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32,
@@ -384,7 +384,7 @@ def _check_extensions(gltf: Any, path: Path) -> None:
                       f"{', '.join(dropped)}", RenderWarning, stacklevel=3)
 
 
-@functools.lru_cache(maxsize=4)
+@cached_reads(maxsize=4)
 def _load_cached(path: str, resolved: str, stamp: tuple) -> GltfScene:
     """:func:`_load` of ``path`` (as the user wrote it, named by its errors and warnings),
     kept while the file at ``resolved`` keeps its ``stamp`` (modification time, size)."""

@@ -1,13 +1,21 @@
 """The files an input names (a scene file, a mesh, an MTL library, a texture, a Python file of
 frames): each is checked here, once, to be a regular file before it is read, so that a folder
-or a device given in its place is reported as what it is, not as "not found"."""
+or a device given in its place is reported as what it is, not as "not found". Being the one
+door every reader's file passes, it also lists them: inside :func:`recording`, each file
+checked is noted as a :class:`Read` (what a scene sends to a cluster's workers:
+:mod:`raytrace.readers.bundle`), and :func:`cached_reads` keeps a cached loader's list."""
 
 from __future__ import annotations
 
 import codecs
+import contextvars
+import functools
 import os
 import re
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any, NamedTuple
 
 from ..errors import SceneError
 
@@ -26,6 +34,7 @@ def input_file(path: str | os.PathLike, what: str, key: str | None = None,
     """
     p = Path(path)
     if p.is_file():
+        _note(p)
         return p
     if p.is_dir():
         problem = f"is a folder, not {a} {what}"
@@ -35,6 +44,70 @@ def input_file(path: str | os.PathLike, what: str, key: str | None = None,
         problem = f"{what} not found"
     shown = "" if file is not None and file == os.fspath(path) else f": {os.fspath(path)}"
     raise SceneError(problem + shown, key, file)
+
+
+class Read(NamedTuple):
+    """A file an input read: its absolute path (``os.path.abspath``: made absolute against
+    the working folder, ``..`` taken lexically), and its modification time (ns) and size when
+    it was checked, by which a later reader sees whether it is still the same file."""
+
+    path: str
+    mtime_ns: int
+    size: int
+
+
+#: The lists of the :func:`recording` blocks open in this context (thread), innermost last.
+_recorders: contextvars.ContextVar[tuple[list[Read], ...]] = contextvars.ContextVar(
+    "raytrace_reads", default=())
+
+
+@contextmanager
+def recording() -> Iterator[list[Read]]:
+    """A list that collects every file :func:`input_file` passes in this thread while the
+    block runs (also the files of blocks nested in it), in the order they were checked."""
+    reads: list[Read] = []
+    token = _recorders.set((*_recorders.get(), reads))
+    try:
+        yield reads
+    finally:
+        _recorders.reset(token)
+
+
+def _note(path: Path) -> None:
+    """``path`` noted in every open :func:`recording` list (nothing when none is open)."""
+    lists = _recorders.get()
+    if lists:
+        st = path.stat()
+        read = Read(os.path.abspath(path), st.st_mtime_ns, st.st_size)
+        for reads in lists:
+            reads.append(read)
+
+
+def cached_reads(maxsize: int) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """``functools.lru_cache(maxsize)`` for a loader that reads files: a call answered from
+    the cache notes the files the loader read when it ran (:func:`recording`), as if it had
+    read them again."""
+    def wrap(load: Callable[..., Any]) -> Callable[..., Any]:
+        @functools.lru_cache(maxsize=maxsize)
+        def cached(*args: Any) -> tuple[Any, tuple[Read, ...]]:
+            reads: list[Read] = []
+            token = _recorders.set((reads,))  # its own list only: the caller's get them below
+            try:
+                return load(*args), tuple(reads)
+            finally:
+                _recorders.reset(token)
+
+        @functools.wraps(load)
+        def call(*args: Any) -> Any:
+            result, reads = cached(*args)
+            for reads_now in _recorders.get():
+                reads_now.extend(reads)
+            return result
+
+        call.cache_clear, call.cache_info = cached.cache_clear, cached.cache_info
+        return call
+
+    return wrap
 
 
 #: Byte-order marks of the encodings a text editor may save in instead of UTF-8 (UTF-32's

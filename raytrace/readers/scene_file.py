@@ -22,8 +22,9 @@ from ..lights import DirectionalLight
 from ..material import Material, library, material_from_table
 from ..scene import FROM_FILE, LIGHT_TYPES, OBJECT_TYPES, Camera, Mesh, RenderSettings, Scene
 from .asset import GLTF_SUFFIXES, MESH_SUFFIXES, OBJ_SUFFIXES
+from .bundle import remember
 from .gltf import load_gltf
-from .inputs import input_file, read_text
+from .inputs import input_file, read_text, recording
 from .obj import names_mtl
 
 TOP_KEYS = ("render", "camera", "ambient", "materials", "lights", "objects")
@@ -57,11 +58,22 @@ REQUIRED = {cls: _required(cls) for cls in (*LIGHT_TYPES.values(), *OBJECT_TYPES
 def load_scene(path: str | Path) -> Scene:
     """Read a ``.toml`` or ``.json`` scene file into a :class:`Scene`; a model or mesh file
     alone (``.obj``, ``.gltf``, ``.glb``, ``.ply``, ``.stl``, ``.off``) becomes a scene too
-    (:func:`scene_from_model`)."""
-    path = Path(path)
+    (:func:`scene_from_model`). The scene is remembered with the files read for it
+    (:func:`raytrace.readers.bundle.remember`): a cluster's workers get those files' bytes
+    and read them again, rather than the decoded arrays."""
+    with recording() as reads:
+        scene, portable = _read_scene(Path(path))
+    if portable:
+        remember(scene, path, reads)
+    return scene
+
+
+def _read_scene(path: Path) -> tuple[Scene, bool]:
+    """The scene of :func:`load_scene`, and whether its files can be read again elsewhere
+    from their bytes alone: not where the scene file names one by an absolute path."""
     name = str(path)
     if path.suffix.lower() in GLTF_SUFFIXES + OBJ_SUFFIXES + MESH_SUFFIXES:  # no TOML
-        return scene_from_model(path)
+        return scene_from_model(path), True
     text = read_text(path, "scene file", file=name)
     if not text.strip():  # (a file of only comments is a scene of defaults: no objects)
         raise SceneError("the scene file is empty", file=name)
@@ -77,9 +89,18 @@ def load_scene(path: str | Path) -> Scene:
         raise SceneError(f"nested too deep to read (a scene is at most {MAX_NESTING} levels "
                          "deep)", file=name) from None
     try:
-        return scene_from_dict(data, path.parent, name)
+        return scene_from_dict(data, path.parent, name), not _names_absolute(data)
     except SceneError as e:
         raise SceneError(e.problem, e.key, e.file or name) from None
+
+
+def _names_absolute(data: Any) -> bool:
+    """Whether a scene file's tables name a file (``file``, ``texture``) by an absolute
+    path, at any depth."""
+    if isinstance(data, Mapping):
+        return any((k in ("file", "texture") and isinstance(v, str) and Path(v).is_absolute())
+                   or _names_absolute(v) for k, v in data.items())
+    return isinstance(data, list) and any(_names_absolute(v) for v in data)
 
 
 def scene_from_dict(data: Mapping, folder: str | Path = ".", name: str | None = None) -> Scene:
