@@ -32,7 +32,9 @@ from .kernels.records import (
     Mips,
 )
 from .kernels.records import Scene as SceneRecord
-from .readers.texture import WRAPS
+from .readers.texture import WRAPS, Texture
+from .scene import Camera, RenderSettings
+from .tables import MaterialTable
 
 #: Each texture's pyramid (levels 1 … L), built on its first trilinear render.
 _PYRAMIDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -74,7 +76,7 @@ def pyramid(texels: np.ndarray, wrap: tuple[int, int]) -> list[np.ndarray]:
     return levels
 
 
-def texture_pyramid(texture) -> list[np.ndarray]:
+def texture_pyramid(texture: Texture) -> list[np.ndarray]:
     """:func:`pyramid` of ``texture`` (a ``raytrace.readers.texture.Texture``), built once a
     texture and kept while it lives."""
     if texture not in _PYRAMIDS:
@@ -83,7 +85,7 @@ def texture_pyramid(texture) -> list[np.ndarray]:
     return _PYRAMIDS[texture]
 
 
-def pyramids(table) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def pyramids(table: MaterialTable) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every texture's :func:`texture_pyramid` in ``table`` (a
     :class:`raytrace.tables.MaterialTable`), in one table: (texels (N,) float32, levels
     (R, TEX_COLUMNS), first (K,), count (K,)), the fields of
@@ -126,7 +128,8 @@ def spread_angle(fov: float, height: int, spp: int, aa: str) -> float:
     return gamma / math.sqrt(spp) if aa == "uniform" else gamma
 
 
-def with_mips(record: SceneRecord, table, camera, options) -> SceneRecord:
+def with_mips(record: SceneRecord, table: MaterialTable, camera: Camera,
+              options: RenderSettings) -> SceneRecord:
     """``record`` (the scene's :class:`raytrace.kernels.records.Scene`) with its ``mips`` where
     ``options.texture_filter`` is "trilinear" and the scene has image textures (``record``
     itself otherwise, so a bilinear render is the same record bit for bit): the pyramids of
