@@ -9,7 +9,8 @@
                           [--aa uniform|adaptive|noise] [--aa-threshold T] [--aa-depth D]
                           [--aa-min-depth M] [--noise-threshold T] [--min-spp N]
                           [--max-spp N] [--target-error E] [--time-limit S]
-                          [--max-memory SIZE] [--frames LIST [--overwrite]]
+                          [--texture-filter bilinear|trilinear] [--max-memory SIZE]
+                          [--frames LIST [--overwrite]]
                           [--workers N | --scheduler ADDRESS
                           [--tls-ca-file CA --tls-cert CERT --tls-key KEY]] [--tile PIXELS]
                           [--worker-timeout SECONDS]
@@ -184,6 +185,9 @@ def _parser() -> argparse.ArgumentParser:
                         "more samples (default 0.01)")
     r.add_argument("--min-spp", type=int, help="noise: samples every pixel gets (default 8)")
     r.add_argument("--max-spp", type=int, help="noise: most samples a pixel gets (default 1024)")
+    r.add_argument("--texture-filter",
+                   help="image-texture lookups: bilinear (default) or trilinear (mip-mapped "
+                        "by ray cones, for textures seen from afar)")
     r.add_argument("--target-error", type=float, metavar="E",
                    help="stop once the estimated relative RMSE is at most E (e.g. 0.01; "
                         "sets --aa noise unless the scene asks for another aa)")
@@ -266,6 +270,7 @@ FLAGS = {"width": "--width", "height": "--height", "spp": "--spp", "max_depth": 
          "aa_threshold": "--aa-threshold", "aa_depth": "--aa-depth",
          "aa_min_depth": "--aa-min-depth", "noise_threshold": "--noise-threshold",
          "min_spp": "--min-spp", "max_spp": "--max-spp", "target_error": "--target-error",
+         "texture_filter": "--texture-filter",
          "time_limit": "--time-limit", "tile": "--tile", "pixel": "--pixel",
          "sample": "--sample", "max_memory": "--max-memory", "worker_timeout": "--worker-timeout"}
 
@@ -433,7 +438,8 @@ def _render(args: argparse.Namespace) -> int:
                      aa=args.aa, aa_threshold=args.aa_threshold, aa_depth=args.aa_depth,
                      aa_min_depth=args.aa_min_depth, noise_threshold=args.noise_threshold,
                      min_spp=args.min_spp, max_spp=args.max_spp,
-                     target_error=args.target_error, time_limit=args.time_limit)
+                     target_error=args.target_error, time_limit=args.time_limit,
+                     texture_filter=args.texture_filter)
     if batch is None:
         main = main_writer()  # -o, or the scene's name with its suffix; the others' flags
         files = {w.suffix: (args.output or Path(args.scene).stem + w.suffix) if w is main
@@ -698,7 +704,7 @@ def _render_frames(args: argparse.Namespace, cluster) -> int:
                  "max_depth": args.max_depth, "min_weight": args.min_weight, "seed": args.seed,
                  "threads": args.threads, "aovs": aovs, "filter": args.filter, "aa": args.aa,
                  "aa_threshold": args.aa_threshold, "aa_depth": args.aa_depth,
-                 "aa_min_depth": args.aa_min_depth}
+                 "aa_min_depth": args.aa_min_depth, "texture_filter": args.texture_filter}
     try:  # the flags' values, found now (the crop is checked against each frame's size)
         render_options(Scene(), **_scene_independent(overrides))
     except SceneError as e:

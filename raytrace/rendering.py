@@ -214,7 +214,8 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
            time_limit: float | None = None,
            client: Client | None = None, tile: int | None = None,
            max_memory: int | str | None = None,
-           worker_timeout: float | None = None) -> Image:
+           worker_timeout: float | None = None,
+           texture_filter: str | None = None) -> Image:
     """Render ``scene``; keyword arguments override its ``[render]`` settings.
 
     Returns an :class:`Image` whose ``rgb`` is (height, width, 3) float32 linear RGB and whose
@@ -229,7 +230,9 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
     ``Image.aov(name)``. ``filter`` (:data:`raytrace.sampling.FILTERS`), ``aa`` ("uniform",
     "adaptive" or "noise"),
     ``aa_threshold``, ``aa_depth``, ``aa_min_depth``, ``noise_threshold``, ``min_spp`` and
-    ``max_spp`` override the scene's ``[render]`` keys of the same names.
+    ``max_spp`` override the scene's ``[render]`` keys of the same names, and so does
+    ``texture_filter`` ("bilinear" or "trilinear": mip-mapped by ray cones,
+    :mod:`raytrace.mipmap`).
 
     ``target_error`` (a relative RMSE, e.g. 0.01) and ``time_limit`` (seconds) render by noise-
     driven sampling (``aa = "noise"``, :mod:`raytrace.noise`; the scene's ``aa`` unless it is
@@ -279,7 +282,7 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
                              aa=aa, aa_threshold=aa_threshold, aa_depth=aa_depth,
                              aa_min_depth=aa_min_depth, noise_threshold=noise_threshold,
                              min_spp=min_spp, max_spp=max_spp, target_error=target_error,
-                             time_limit=time_limit)
+                             time_limit=time_limit, texture_filter=texture_filter)
     x0, y0, x1, y1 = options.crop or (0, 0, options.width, options.height)
     try:
         ceiling = memory_ceiling(max_memory)
@@ -373,7 +376,8 @@ def render_options(scene: Scene, *, width: int | None = None, height: int | None
                    aa_min_depth: int | None = None, noise_threshold: float | None = None,
                    min_spp: int | None = None, max_spp: int | None = None,
                    target_error: float | None = None,
-                   time_limit: float | None = None) -> RenderOptions:
+                   time_limit: float | None = None,
+                   texture_filter: str | None = None) -> RenderOptions:
     """The integrator's options: the scene's ``[render]`` settings with the overrides that
     are not None, checked (a :class:`SceneError` locating a bad one in the scene's file),
     after the scene itself (:meth:`~raytrace.scene.Scene.check`): every render, ``explain``
@@ -396,7 +400,8 @@ def render_options(scene: Scene, *, width: int | None = None, height: int | None
             aa_min_depth=r.aa_min_depth if aa_min_depth is None else aa_min_depth,
             noise_threshold=r.noise_threshold if noise_threshold is None else noise_threshold,
             min_spp=r.min_spp if min_spp is None else min_spp,
-            max_spp=r.max_spp if max_spp is None else max_spp)
+            max_spp=r.max_spp if max_spp is None else max_spp,
+            texture_filter=r.texture_filter if texture_filter is None else texture_filter)
         target_error, time_limit = stopping_rules(settings, aa, target_error, time_limit)
         if threads is None:
             threads = os.cpu_count() or 1

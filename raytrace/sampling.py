@@ -3,7 +3,9 @@
 * ``filter``: :data:`FILTERS`, the pixel reconstruction filters with their radius in pixels
   (the formulas and the kernel: :mod:`raytrace.film.filters`);
 * ``aa``: :data:`AA_MODES`, uniform stratified samples, adaptive corner refinement
-  (:mod:`raytrace.adaptive`) or noise-driven sampling (:mod:`raytrace.noise`).
+  (:mod:`raytrace.adaptive`) or noise-driven sampling (:mod:`raytrace.noise`);
+* ``texture_filter``: :data:`TEXTURE_FILTERS`, bilinear or trilinear (mip-mapped by ray
+  cones, :mod:`raytrace.mipmap`) image-texture lookups.
 
 Scenes are loaded and checked without numba: this module is all they import of the two.
 """
@@ -32,6 +34,14 @@ FILTERS = {"box": Filter(BOX, 0.5), "tent": Filter(TENT, 1.0),
 AA_MODES = {"uniform": "spp stratified jittered samples a pixel",
             "adaptive": "pixel corners, cells halved where their corners differ",
             "noise": "samples doubled where a pixel's noise is over noise_threshold"}
+#: The texture filters by their ``[render] texture_filter`` name (:mod:`raytrace.mipmap`,
+#: :mod:`raytrace.kernels.mip`).
+TEXTURE_FILTERS = {
+    "bilinear": "the four texels around the point, whatever the footprint (aliases when "
+                "minified)",
+    "trilinear": "a mip-map level by the ray cone's footprint, bilinear in the two nearest "
+                 "levels and linear between them",
+}
 
 
 def check_filter(name: object, key: str = "render.filter") -> str:

@@ -26,7 +26,7 @@ from .readers.assets import load_with_materials
 from .readers.gltf import load_gltf
 from .readers.inputs import input_file, read_text
 from .readers.meshio import MeshFile, merge_vertices, read_mesh
-from .sampling import check_aa, check_filter
+from .sampling import TEXTURE_FILTERS, check_aa, check_filter
 
 #: Largest accepted image, in pixels (the float32 image alone is 12 bytes a pixel).
 MAX_PIXELS = 100_000_000
@@ -63,6 +63,9 @@ class RenderSettings:
     min_spp: int = 8
     #: Noise-driven: the most samples a pixel gets (even).
     max_spp: int = 1024
+    #: Image-texture lookups (:data:`raytrace.sampling.TEXTURE_FILTERS`): "bilinear", or
+    #: "trilinear" (mip-mapped by ray cones, :mod:`raytrace.mipmap`).
+    texture_filter: str = "bilinear"
 
     def __post_init__(self) -> None:
         self.width = values.number(self.width, "render.width", lo=1, hi=MAX_SIDE, integer=True)
@@ -93,6 +96,8 @@ class RenderSettings:
                                      integer=True)
         self.max_spp = values.number(self.max_spp, "render.max_spp", lo=self.min_spp,
                                      hi=65536, integer=True)
+        self.texture_filter = values.string(self.texture_filter, "render.texture_filter",
+                                            TEXTURE_FILTERS)
         for key in ("min_spp", "max_spp"):
             if getattr(self, key) % 2:
                 raise SceneError(f"must be even (half of a pixel's samples go to each of its "

@@ -256,6 +256,8 @@ class MaterialTable:
                     textures.append(m.alpha)
                 self.alpha[i] = textures.index(m.alpha)
         self.textured = (self.texture >= 0).any(axis=1) | (self.alpha >= 0)
+        #: The image textures (``raytrace.readers.texture.Texture``), in ``tex_info``'s rows.
+        self.textures = textures
         # only scenes with textures pay for them: one float a texture channel, else none
         sizes = [t.texels.size for t in textures]
         self.tex_info = np.zeros((len(textures), TEX_COLUMNS), np.int64)

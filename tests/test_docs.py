@@ -259,10 +259,11 @@ def test_every_choice_by_name_is_listed(doc):
     # Each key that takes a name lists every name of its registry, and only those.
     from raytrace.material import FRESNELS, HIGHLIGHTS
     from raytrace.readers.texture import WRAPS
-    from raytrace.sampling import AA_MODES, FILTERS
+    from raytrace.sampling import AA_MODES, FILTERS, TEXTURE_FILTERS
     from raytrace.scene import SHADINGS
 
     for title, key, names in (("render", "filter", FILTERS), ("render", "aa", AA_MODES),
+                              ("render", "texture_filter", TEXTURE_FILTERS),
                               ("materials", "highlight", HIGHLIGHTS),
                               ("materials", "fresnel", FRESNELS), ("mesh", "shading", SHADINGS),
                               ("Image textures", "wrap", WRAPS),
@@ -273,7 +274,7 @@ def test_every_choice_by_name_is_listed(doc):
 def test_every_tone_map_and_aov_is_documented(doc):
     from raytrace.film.aov import AOVS
     from raytrace.film.tonemap import TONEMAPS
-    from raytrace.sampling import AA_MODES, FILTERS
+    from raytrace.sampling import AA_MODES, FILTERS, TEXTURE_FILTERS
 
     assert set(keys(doc["Tone maps"])) == set(TONEMAPS)
     assert doc["Tone maps"]["parent"] == "Command line"
@@ -282,6 +283,7 @@ def test_every_tone_map_and_aov_is_documented(doc):
     described = set(re.findall(r"`(\w+)`\s+\(`", cli.split("`--aov` adds AOVs")[1]))
     assert set(AOVS) <= described  # each named, its channels in brackets after it
     assert f"[--filter {'|'.join(FILTERS)}]" in cli and f"[--aa {'|'.join(AA_MODES)}]" in cli
+    assert f"[--texture-filter {'|'.join(TEXTURE_FILTERS)}]" in cli
 
 
 def test_the_section_reader_finds_tables_and_choices(tmp_path):

@@ -344,7 +344,8 @@ def test_a_colour_slot_does_not_compile_a_kernel_per_value(tmp_path):
 
 
 def test_a_texel_channel_does_not_compile_a_kernel_per_value(tmp_path):
-    # The same for bilinear1's channel: texture1 reads R, G and B with one compilation.
+    # The same for the texel channel: texture1 reads R, G and B through blend1 (bilinear1's
+    # arithmetic, the texels' indices found once) with one compilation.
     probe = (
         "import numpy as np, numba\n"
         "from raytrace.kernels import core\n"
@@ -353,7 +354,7 @@ def test_a_texel_channel_does_not_compile_a_kernel_per_value(tmp_path):
         "    return core.texture1(texels, info, 0, 0.5, 0.5)\n"
         "texels = np.array([1, 2, 3, 4], np.float32)  # one RGBA texel\n"
         "info = np.array([[0, 1, 1, 0, 0]], np.int64)\n"
-        "print(*rgb(texels, info), len(core.bilinear1.signatures))\n")
+        "print(*rgb(texels, info), len(core.blend1.signatures))\n")
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
                          check=True, env=env, cwd=tmp_path).stdout.split()

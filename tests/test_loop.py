@@ -32,6 +32,7 @@ CASES = [
     pytest.param("cornell_box.toml", {"filter": "gaussian"}, marks=SLOW),
     pytest.param("materials_showcase.toml", {}, marks=SLOW),
     pytest.param("obj_mtl.toml", {"aovs": "albedo,uv"}, marks=SLOW),
+    pytest.param("obj_mtl.toml", {"texture_filter": "trilinear", "spp": 4}, marks=SLOW),
     pytest.param("spotlights.toml", {}, marks=SLOW),
     pytest.param("tir.toml", {"max_depth": 3}, marks=SLOW),
     pytest.param("mesh_model.toml", {"min_weight": 0.05}, marks=SLOW),

@@ -69,6 +69,8 @@ BAD_KEYWORDS = {
     "pass_samples": (0, raytrace.SceneError, "pass_samples: must be >= 1, got 0"),
     "crop": ((0, 0, 0, 0), raytrace.SceneError, "crop: x bounds 0..0 must satisfy"),
     "aovs": ("colour", raytrace.SceneError, "aovs: unknown AOV 'colour'"),
+    "texture_filter": ("nearest", raytrace.SceneError,
+                       "render.texture_filter: must be one of 'bilinear', 'trilinear'"),
     "filter": ("gauss", raytrace.SceneError, "render.filter: unknown filter 'gauss'"),
     "aa": ("x", raytrace.SceneError, "render.aa: unknown anti-aliasing 'x'"),
     "aa_threshold": (-1, raytrace.SceneError, "render.aa_threshold: must be >= 0, got -1"),

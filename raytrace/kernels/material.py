@@ -23,11 +23,14 @@ two are used by them alone.
 
 from __future__ import annotations
 
+import math
+
 from numba.core import types
 from numba.extending import overload
 
 from .core import ALPHA, bilinear1, checker1, texture1
 from .jit import helper, inline
+from .mip import cone_lod1, trilinear1
 from .records import (
     CHECKER_COLOR0,
     CHECKER_COLOR1,
@@ -37,25 +40,32 @@ from .records import (
 )
 
 
-def texture_tables1(materials, texcoords):
+def texture_tables1(materials, texcoords, mips=None):
     """What :func:`surface_color1` reads of image textures, taken once at a kernel's top (each
     array a per-hit helper is handed costs reference counts on every hit), a
     :class:`raytrace.kernels.records.TextureTables`; None where ``texcoords`` is None (a scene
     without image textures), and the lookup's texture code is then not compiled. Chosen by type
     when a kernel compiles (``numba.extending.overload``), so no kernel sees an optional value;
-    the same in Python (``raytrace explain``)."""
+    the same in Python (``raytrace explain``). ``mips``: the scene's
+    :class:`raytrace.kernels.records.Mips` (trilinear lookups, :mod:`raytrace.kernels.mip`), or
+    None (bilinear; no trilinear code compiled)."""
     if texcoords is None:
         return None
     return TextureTables(materials.textured, materials.texture, materials.texels,
-                         materials.tex_info, texcoords)
+                         materials.tex_info, texcoords, mips)
 
 
 @overload(texture_tables1, inline="always")
-def _texture_tables1(materials, texcoords):
+def _texture_tables1(materials, texcoords, mips=None):
     if isinstance(texcoords, types.NoneType):
-        return lambda materials, texcoords: None
-    return lambda materials, texcoords: TextureTables(
-        materials.textured, materials.texture, materials.texels, materials.tex_info, texcoords)
+        return lambda materials, texcoords, mips=None: None
+    if isinstance(mips, (types.NoneType, types.Omitted)):
+        return lambda materials, texcoords, mips=None: TextureTables(
+            materials.textured, materials.texture, materials.texels, materials.tex_info,
+            texcoords, None)
+    return lambda materials, texcoords, mips=None: TextureTables(
+        materials.textured, materials.texture, materials.texels, materials.tex_info, texcoords,
+        mips)
 
 
 def alpha_tables1(materials, texcoords):
@@ -104,7 +114,9 @@ def surface_opacity1(opacity, alphas, m, hit):
 def texel1(textures, m, slot, hit, other):
     """Colour ``slot`` of material ``m`` at ``hit`` from its image texture where the material
     has one for that slot (:func:`raytrace.kernels.core.texture1` at the hit's texture
-    coordinates), else ``other``; ``other`` itself where ``textures`` is None (no code)."""
+    coordinates), else ``other``; ``other`` itself where ``textures`` is None (no code).
+    The lookup is bilinear, or trilinear with ``texture_filter = "trilinear"``
+    (:func:`filtered1`)."""
 
 
 @overload(texel1, inline="always")
@@ -119,8 +131,28 @@ def _texel1(textures, m, slot, hit, other):
         if q < 0:
             return other
         s, t = texcoord1(textures.texcoords, hit.triangle, hit.u, hit.v)
-        return texture1(textures.texels, textures.tex_info, q, s, t)
+        return filtered1(textures, q, s, t, hit)
     return texel
+
+
+def filtered1(textures, q, s, t, hit):
+    """The RGB of texture ``q`` at (s, t): bilinear (:func:`raytrace.kernels.core.texture1`)
+    where ``textures.mips`` is None, else trilinear for the ray-cone footprint at ``hit``
+    (:func:`raytrace.kernels.mip.trilinear1` at :func:`raytrace.kernels.mip.cone_lod1`; off a
+    triangle, level 0). Chosen by type when a kernel compiles."""
+
+
+@overload(filtered1, inline="always")
+def _filtered1(textures, q, s, t, hit):
+    if isinstance(textures.types[textures.fields.index("mips")], types.NoneType):
+        return lambda textures, q, s, t, hit: texture1(textures.texels, textures.tex_info, q,
+                                                       s, t)
+
+    def trilinear(textures, q, s, t, hit):
+        lod = cone_lod1(textures.mips, hit.triangle, hit.world) if hit.triangle >= 0 \
+            else -math.inf
+        return trilinear1(textures.texels, textures.tex_info, textures.mips, q, s, t, lod)
+    return trilinear
 
 
 def alpha1(alphas, m, hit, constant):

@@ -59,6 +59,7 @@ record                   what it holds (n rays or hits, M materials, T triangles
 :class:`Finish`          what the local model reads of a material at a hit
 :class:`Palette`         the material table's constant colours and checkers
 :class:`SmoothTriangles` the corners and vertex normals of the triangles
+:class:`Mips`            the mip-map pyramids and ray-cone footprints of trilinear lookups
 =======================  ==============================================================
 
 **Packed rows.** Where a table packs several values in a row (a shape's parameters, a
@@ -221,6 +222,9 @@ class Scene(NamedTuple):
     #: the materials' interiors (:class:`Media`) where some material absorbs or is thin-walled,
     #: else None: the absorption and thin-wall code (``kernels.medium``) is compiled only then
     media: Media | None = None
+    #: the mip-map pyramids and ray-cone footprints of ``texture_filter = "trilinear"``
+    #: (:class:`Mips`, ``raytrace.mipmap.with_mips``), else None: no trilinear code compiled
+    mips: Mips | None = None
 
 
 class Emitter(NamedTuple):
@@ -610,6 +614,25 @@ class TextureTables(NamedTuple):
     texels: np.ndarray     #: ``Materials.texels``
     tex_info: np.ndarray   #: ``Materials.tex_info``
     texcoords: np.ndarray  #: ``Triangles.texcoords``
+    mips: Mips | None = None  #: ``Scene.mips``: None, bilinear lookups
+
+
+class Mips(NamedTuple):
+    """What a trilinear lookup reads besides the textures' level 0 (``raytrace.mipmap``,
+    ``kernels.mip``): every texture's box-filtered levels 1 … L, each triangle's
+    texel-to-world ratio Δ and the camera's pixel spread angle (ray cones, Akenine-Möller et
+    al. 2019)."""
+
+    texels: np.ndarray  #: (N,) float32 the levels ≥ 1 of every texture, RGBA rows, flat
+    levels: np.ndarray  #: (R, TEX_COLUMNS) int64 each level's offset into ``texels``, width,
+                        #: height and wrap modes (``tex_info``'s columns)
+    first: np.ndarray   #: (K,) int64 row of ``levels`` of texture q's level 1
+    count: np.ndarray   #: (K,) int64 levels of texture q beyond level 0 (0 for a 1 × 1 one)
+    size_lod: np.ndarray  #: (K,) float64 ½·log₂(w·h) of texture q's level 0 (w × h texels)
+    delta: np.ndarray   #: (T,) float64 Δ = ½·log₂(t_a/p_a) per triangle (−inf: no UV area)
+    normal: np.ndarray  #: (T, 3) float64 ``Triangles.normal``
+    origin: tuple       #: (x, y, z) the camera's world position (cones start there)
+    spread: float       #: γ, the cone's spread angle per camera sample (radians)
 
 
 class AlphaTables(NamedTuple):

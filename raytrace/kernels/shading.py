@@ -353,7 +353,8 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
     point, geometric, shading, material = surf.point, surf.geometric, surf.shading, surf.material
     materials, triangles, origin = scene.materials, scene.triangles, scene.origin
     palette = Palette(materials.colors, materials.pattern, materials.checkers)
-    textures = texture_tables1(materials, scene.texcoords)  # None: no texture code compiled
+    # None: no texture code compiled; scene.mips: trilinear lookups (kernels.mip)
+    textures = texture_tables1(materials, scene.texcoords, scene.mips)
     code = triangles.shading
     smooth_tables = SmoothTriangles(triangles.corners, triangles.vnormals)
     rows, s_origin, s_direction = shadow.rows, shadow.origin, shadow.direction
@@ -482,7 +483,7 @@ def cross_surfaces(factor, live, surf, walk, scene):
     palette = Palette(materials.colors, materials.pattern, materials.checkers)
     opacity = materials.opacity
     # None without image textures: the lookup's texture code is then not compiled
-    textures = texture_tables1(materials, scene.texcoords)
+    textures = texture_tables1(materials, scene.texcoords, scene.mips)
     alphas = alpha_tables1(materials, scene.texcoords)
     n, on = live.shape[0], 0
     through = np.empty(n, np.bool_)
@@ -572,7 +573,7 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children):
     palette = Palette(materials.colors, materials.pattern, materials.checkers)
     opacity = materials.opacity
     # None without image textures: the lookup's texture code is then not compiled
-    textures = texture_tables1(materials, scene.texcoords)
+    textures = texture_tables1(materials, scene.texcoords, scene.mips)
     alphas = alpha_tables1(materials, scene.texcoords)
     ambient, lights = local.ambient, local.lights
     samples, sample = into.sums, into.row

@@ -30,7 +30,7 @@ from .obj import names_mtl
 TOP_KEYS = ("render", "camera", "ambient", "materials", "lights", "objects")
 RENDER_KEYS = ("width", "height", "spp", "max_depth", "min_weight", "background", "seed",
                "filter", "aa", "aa_threshold", "aa_depth", "aa_min_depth", "noise_threshold",
-               "min_spp", "max_spp")
+               "min_spp", "max_spp", "texture_filter")
 CAMERA_KEYS = ("position", "look_at", "up", "fov")
 
 
