@@ -194,6 +194,17 @@ def test_obj_and_gltf_models_are_what_make_models_generates():
     assert b'"KHR_lights_punctual"' in glb and len(doc["nodes"]) == 9
 
 
+def test_the_normal_mapped_model_is_what_its_generator_writes():
+    spec = importlib.util.spec_from_file_location("make_normal_mapped",
+                                                  MODELS / "make_normal_mapped.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    doc, blob = module.normal_mapped()
+    glb = (SCENE_DIR / "normal_mapped.glb").read_bytes()
+    assert blob in glb and b'"normalTexture"' in glb and b'"TANGENT"' in glb
+    assert len(glb) < 300 * 1024
+
+
 def test_model_files_are_small():
     total = sum(p.stat().st_size for p in MODELS.iterdir() if p.is_file())
     assert total < 2 * 1024 * 1024

@@ -102,7 +102,7 @@ def normal_mapped(tangents: bool = True) -> tuple[dict, bytes]:
                                   images=[mm.png_bytes(normal_map(bricks()))])
     doc["asset"]["extras"] = {"description": [
         "A normal-mapped glTF model alone, no TOML, no camera, no light: a smooth UV sphere",
-        "(4,032 triangles) whose normalTexture embosses bevelled bricks; the base colour is",
+        "(3,968 triangles) whose normalTexture embosses bevelled bricks; the base colour is",
         "constant, so all the relief is the map's (tangent frames from its TANGENT attribute;",
         "without it, MikkTSpace's). The default camera and light. Made by",
         "scenes/models/make_normal_mapped.py.",
