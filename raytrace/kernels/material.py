@@ -32,7 +32,7 @@ import math
 from numba.core import types
 from numba.extending import overload
 
-from .core import ALPHA, bilinear1, checker1, texture1
+from .core import ALPHA, bilinear1, checker1, cross3, texture1
 from .jit import helper, inline
 from .kinds import NORMAL_MAP
 from .records import (
@@ -244,8 +244,8 @@ def normal_map1(image, st, scale, tangents, at, n):
     sign = w0 * tangents[tri, 0, 3] + u * tangents[tri, 1, 3] + v * tangents[tri, 2, 3]
     sign = -1.0 if sign < 0.0 else 1.0
     nx, ny, nz = n
-    bx, by, bz = (sign * (ny * tz - nz * ty), sign * (nz * tx - nx * tz),
-                  sign * (nx * ty - ny * tx))
+    bx, by, bz = cross3(n, (tx, ty, tz))
+    y *= sign  # B = w·(N × T)
     return (x * tx + y * bx + z * nx, x * ty + y * by + z * ny, x * tz + y * bz + z * nz)
 
 
@@ -277,17 +277,15 @@ def bump1(image, st, scale, corners, st3, n):
         corners[0, 2]
     ps = ((e2t * ax - e1t * bx) / det, (e2t * ay - e1t * by) / det, (e2t * az - e1t * bz) / det)
     pt = ((e1s * bx - e2s * ax) / det, (e1s * by - e2s * ay) / det, (e1s * bz - e2s * az) / det)
-    cx, cy, cz = (ps[1] * pt[2] - ps[2] * pt[1], ps[2] * pt[0] - ps[0] * pt[2],
-                  ps[0] * pt[1] - ps[1] * pt[0])
+    cx, cy, cz = cross3(ps, pt)
     area = math.sqrt(cx * cx + cy * cy + cz * cz)
     if not area > 0.0:
         return nx, ny, nz
     f = (1.0 if cx * nx + cy * ny + cz * nz >= 0.0 else -1.0) / area
-    # h_t·(P_s × N) + h_s·(N × P_t)
-    dx = ht * (ps[1] * nz - ps[2] * ny) + hs * (ny * pt[2] - nz * pt[1])
-    dy = ht * (ps[2] * nx - ps[0] * nz) + hs * (nz * pt[0] - nx * pt[2])
-    dz = ht * (ps[0] * ny - ps[1] * nx) + hs * (nx * pt[1] - ny * pt[0])
-    return nx + f * dx, ny + f * dy, nz + f * dz
+    ax, ay, az = cross3(ps, n)  # h_t·(P_s × N) + h_s·(N × P_t)
+    bx, by, bz = cross3(n, pt)
+    return (nx + f * (ht * ax + hs * bx), ny + f * (ht * ay + hs * by),
+            nz + f * (ht * az + hs * bz))
 
 
 @helper
