@@ -34,7 +34,16 @@ from .kernels import accel as ak  # the compiled passes of this stage
 from .kernels import embree as ek
 from .kernels import loop
 from .kernels.core import SHADOW_SHORTEN, leave_rows
-from .kernels.records import EmbreeHits, EmbreeRays, Hits, Query, Redo, ShadowQuery, Surface
+from .kernels.records import (
+    EmbreeHits,
+    EmbreeRays,
+    Hits,
+    Query,
+    Redo,
+    Reliefs,
+    ShadowQuery,
+    Surface,
+)
 from .rays import NO_SHAPE
 from .tables import SceneArrays
 
@@ -199,8 +208,10 @@ class Accelerator:
                       np.ascontiguousarray(direction, dtype=np.float32), far)
 
     # -- surfaces ------------------------------------------------------------------------
-    def surface(self, hits: Hits, origin: np.ndarray, direction: np.ndarray) -> Surface:
-        """Points, normals and materials at the hits (every row of ``hits`` must be a hit).
+    def surface(self, hits: Hits, origin: np.ndarray, direction: np.ndarray,
+                reliefs: Reliefs | None = None) -> Surface:
+        """Points, normals and materials at the hits (every row of ``hits`` must be a hit);
+        ``reliefs``: the scene's normal and height maps (``Scene.reliefs``), or None.
 
         One kernel over the hits: :func:`raytrace.kernels.accel.hit_surfaces`.
         """
@@ -211,7 +222,7 @@ class Accelerator:
                           hits.triangle, hits.uv)
         hits = Hits(f64(hits.t), i64(hits.shape), i64(hits.triangle), f64(hits.uv))
         ak.hit_surfaces(hits, f64(origin), f64(direction), self.shapes.table, self.triangles,
-                        surface)
+                        reliefs, surface)
         return surface
 
 

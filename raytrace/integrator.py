@@ -744,7 +744,7 @@ class WhittedIntegrator:
             hits = kept
             rays = RayBatch(taken.origin, taken.direction, taken.sample, taken.weight,
                             rays.depth, taken.origin_shape, taken.kind)
-        surf = self.accel.surface(hits, rays.origin, rays.direction)
+        surf = self.accel.surface(hits, rays.origin, rays.direction, self.tables.reliefs)
         if rays.depth == 0 and self.traced_aovs:  # the camera rays' first hits
             self.aov_hits(rays, hits, surf, self.aov_layout, self._worker.aov)
         if self.observer is not None:
@@ -898,7 +898,8 @@ class WhittedIntegrator:
                 hits, origin, direction, tmax, live)
             if not len(live):
                 break
-            s2 = self.accel.surface(Hits(t, hit_shape, triangle, uv), origin, direction)
+            s2 = self.accel.surface(Hits(t, hit_shape, triangle, uv), origin, direction,
+                                    self.tables.reliefs)
             origin, direction, shape, tmax, live = sk.cross_surfaces(
                 factor, live, s2, ShadowWalk(direction, t, tmax), self.tables)
             if not len(live):

@@ -35,7 +35,7 @@ from . import values
 from .errors import SceneError
 from .kernels.kinds import COLOR_KEYS, FRESNEL_CODES, HIGHLIGHT_CODES
 from .kernels.records import MATERIAL_COLUMNS
-from .readers.texture import Texture, parse_texture
+from .readers.texture import WRAPS, Texture, parse_texture
 
 HIGHLIGHTS = tuple(HIGHLIGHT_CODES)
 #: How kr and kt vary with the angle of incidence (``raytrace.kernels.core.fresnel_weights1``):
@@ -43,7 +43,8 @@ HIGHLIGHTS = tuple(HIGHLIGHT_CODES)
 #: kr·F and kt·(1 − F), F the exact unpolarised Fresnel reflectance for ``ior``.
 FRESNELS = tuple(FRESNEL_CODES)
 MATERIAL_KEYS = ("base", *COLOR_KEYS, "shininess", "highlight", "ior", "opacity", "fresnel",
-                 "attenuation_color", "attenuation_distance", "thin_walled")
+                 "attenuation_color", "attenuation_distance", "thin_walled",
+                 "normal_map", "bump")
 LIBRARY_ONLY_KEYS = ("description", "source")
 
 
@@ -75,6 +76,42 @@ class Checker:
 
 Color = np.ndarray | Checker
 PATTERN_KEYS = ("pattern", "colors", "scale")
+#: The keys of a ``normal_map`` or ``bump`` table.
+RELIEF_KEYS = ("texture", "scale", "wrap")
+
+
+@dataclass(frozen=True, eq=False)
+class Relief:
+    """A texture that perturbs the shading normal, its texels read as linear values (never
+    sRGB-decoded): a tangent-space normal map (``normal_map``, glTF ``normalTexture``, MTL
+    ``norm``; ``scale`` multiplies the texel's x and y, glTF's ``normalTexture.scale``) or a
+    height map (``bump``, MTL ``bump``/``map_Bump``; ``scale`` the height in scene units of a
+    texel value 1, MTL's ``-bm``). docs/shading.md has the formulas."""
+
+    texture: Texture
+    scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.texture, Texture):
+            raise SceneError("must be a raytrace.readers.texture.Texture", "texture")
+        object.__setattr__(self, "scale", values.number(self.scale, "scale"))
+
+
+def parse_relief(value: Any, key: str) -> Relief | None:
+    """``{ texture = "file.png", scale = 1.0, wrap = "repeat" | "clamp" | "mirror" }`` (the
+    texels linear), a :class:`Relief`, or None."""
+    if value is None or isinstance(value, Relief):
+        return value
+    if not isinstance(value, Mapping) or "texture" not in value:
+        raise SceneError("must be a table { texture = \"file.png\", scale = 1.0 }", key)
+    values.check_keys(value, RELIEF_KEYS, key)
+    wrap = values.string(value.get("wrap", "repeat"), f"{key}.wrap", WRAPS)
+    file = Path(values.string(value["texture"], f"{key}.texture"))
+    texture = Texture.from_file(file, f"{key}.texture", srgb=False, wrap=(wrap, wrap))
+    try:
+        return Relief(texture, value.get("scale", 1.0))
+    except SceneError as e:
+        raise SceneError(e.problem, f"{key}.{e.key}") from None
 
 
 def parse_color(value: Any, key: str, *, hi: float | None = None) -> Color:
@@ -135,6 +172,10 @@ class Material:
     attenuation_distance: float = math.inf
     #: A thin wall: a transmitted ray goes straight on, nothing is absorbed.
     thin_walled: bool = False
+    #: A tangent-space normal map or a height map (a :class:`Relief`, or its table in a scene
+    #: file), or None; a material has at most one of the two.
+    normal_map: Any = None
+    bump: Any = None
     name: str = field(default="", compare=False)
     #: The library files this material was read from (its own and its bases'): inputs that
     #: no output of a render may overwrite.
@@ -172,6 +213,10 @@ class Material:
             if self.alpha is not None and not hasattr(self.alpha, "texels"):
                 raise SceneError("must be a raytrace.readers.texture.Texture or None", "alpha")
             self._check_interior()
+            for key in ("normal_map", "bump"):
+                object.__setattr__(self, key, parse_relief(getattr(self, key), key))
+            if self.normal_map is not None and self.bump is not None:
+                raise SceneError("a material takes normal_map or bump, not both", "bump")
         except SceneError as e:
             raise e.at(key_prefix=where) from None
 
@@ -250,8 +295,14 @@ class Material:
     @property
     def files(self) -> tuple[Path, ...]:
         """The files this material was read from: its library files and its textures'."""
-        return (*self.sources, *(c.file for c in (getattr(self, k) for k in COLOR_KEYS)
+        return (*self.sources, *(c.file for c in (*(getattr(self, k) for k in COLOR_KEYS),
+                                                  *(r.texture for r in self.reliefs))
                                  if getattr(c, "file", None) is not None))
+
+    @property
+    def reliefs(self) -> tuple[Relief, ...]:
+        """The normal or height map, if the material has one."""
+        return tuple(r for r in (self.normal_map, self.bump) if r is not None)
 
     def replace(self, **changes: Any) -> Material:
         return dataclasses.replace(self, **changes)

@@ -26,6 +26,7 @@ from .readers.assets import load_with_materials
 from .readers.gltf import load_gltf
 from .readers.inputs import input_file, read_text
 from .readers.meshio import MeshFile, merge_vertices, read_mesh
+from .readers.tangents import given_tangents
 from .sampling import TEXTURE_FILTERS, check_aa, check_filter
 
 #: Largest accepted image, in pixels (the float32 image alone is 12 bytes a pixel).
@@ -263,6 +264,10 @@ class Mesh(values.Checked):
     #: (F, 3, 3) unit world-space normals per face corner, as the file gives them (None where
     #: it gives none; a corner without one: zeros, shaded with its face's normal).
     normals: Any = field(default=None, init=False, repr=False)
+    #: (F, 3, 4) unit world-space tangents and signs w per face corner, as the file gives
+    #: them (glTF ``TANGENT``; None where it gives none; a corner without one: zeros, which
+    #: takes MikkTSpace's, ``raytrace.tables.relief_tables``).
+    tangents: Any = field(default=None, init=False, repr=False)
     sources: tuple = field(default=(), init=False, repr=False)
     #: What the vertices were made from (file, mesh, and translate, rotate, scale as a 3×3
     #: array), for :meth:`check` to refuse a change of them that would not be seen.
@@ -322,6 +327,8 @@ class Mesh(values.Checked):
                 self.texcoords = self.texcoords[:, ::-1]
             if self.normals is not None:
                 self.normals = self.normals[:, ::-1]
+            if self.tangents is not None:
+                self.tangents = self.tangents[:, ::-1]
         keep = _nonzero_area(world, faces)
         self.degenerate = int((~keep).sum())
         if not keep.any():
@@ -333,6 +340,9 @@ class Mesh(values.Checked):
             self.texcoords = np.ascontiguousarray(self.texcoords[keep])
         if self.normals is not None:
             self.normals = world_normals(self.normals[keep], rotate, scale)
+        if self.tangents is not None:  # directions along the surface: through R·S
+            self.tangents = given_tangents(self.tangents[keep],
+                                           rotation_matrix(rotate) * scale)
         self.check()
 
     def check(self) -> None:
@@ -370,7 +380,7 @@ class Mesh(values.Checked):
                             "the mesh's size (its bounding box's longest side)", longest=False)
         rows = len(self.faces)
         for name, shape in (("face_material", (rows,)), ("texcoords", (rows, 3, 2)),
-                            ("normals", (rows, 3, 3))):
+                            ("normals", (rows, 3, 3)), ("tangents", (rows, 3, 4))):
             if getattr(self, name) is not None and np.shape(getattr(self, name)) != shape:
                 raise SceneError(f"must have the shape {shape} (one row a face), got "
                                  f"{np.shape(getattr(self, name))}", name)
@@ -381,7 +391,7 @@ class Mesh(values.Checked):
         asset = load_with_materials(input_file(path, "mesh file", "file"))
         self.file_materials, self.face_material = asset.materials, asset.face_material
         self.texcoords, self.sources = asset.texcoords, asset.sources
-        self.normals = asset.normals
+        self.normals, self.tangents = asset.normals, asset.tangents
         self.material = asset.materials[0]
         return asset.vertices, asset.faces
 

@@ -24,6 +24,7 @@ import numpy as np
 
 from .kernels import accel as ak  # the build kernels of the triangle tables
 from .kernels.core import FAST_PHONG, FLAT, GOURAUD, SMOOTH
+from .kernels.kinds import RELIEF_CODES
 from .kernels.records import (
     CHECKER_COLOR0,
     CHECKER_COLOR1,
@@ -38,11 +39,13 @@ from .kernels.records import (
     TEX_WRAP_T,
     Materials,
     Media,
+    Reliefs,
     Scene,
     Shapes,
     Triangles,
 )
 from .material import COLOR_KEYS, COLUMNS, Checker, Material
+from .readers.tangents import mikktspace
 from .readers.texture import WRAPS, Texture
 from .scene import SHAPE_TYPES, Mesh, object_materials
 from .scene import Scene as SceneDescription
@@ -102,7 +105,8 @@ class SceneArrays:
     @cached_property
     def record(self) -> Scene:
         """What every shading kernel needs (:func:`scene_record`)."""
-        return scene_record(self.origin, self.table, self.triangles)
+        return scene_record(self.origin, self.table, self.triangles,
+                            relief_tables(self.table, self.triangles, self._meshes))
 
     @property
     def n_triangles(self) -> int:
@@ -255,6 +259,19 @@ class MaterialTable:
                 if m.alpha not in textures:
                     textures.append(m.alpha)
                 self.alpha[i] = textures.index(m.alpha)
+        # normal and height maps (Material.normal_map, bump): their texture, kind and scale
+        self.relief = np.full(len(materials), -1, np.int64)
+        self.relief_kind = np.zeros(len(materials), np.int64)
+        self.relief_scale = np.ones(len(materials))
+        for i, m in enumerate(materials):
+            for kind in RELIEF_CODES:
+                r = getattr(m, kind)
+                if r is not None:
+                    if r.texture not in textures:
+                        textures.append(r.texture)
+                    self.relief[i], self.relief_kind[i] = (textures.index(r.texture),
+                                                           RELIEF_CODES[kind])
+                    self.relief_scale[i] = r.scale
         self.textured = (self.texture >= 0).any(axis=1) | (self.alpha >= 0)
         #: The image textures (``raytrace.readers.texture.Texture``), in ``tex_info``'s rows.
         self.textures = textures
@@ -276,15 +293,17 @@ class MaterialTable:
         self.record = Materials(**{name: getattr(self, name) for name in Materials._fields})
 
 
-def scene_record(origin: np.ndarray, table: MaterialTable, triangles: Triangles) -> Scene:
+def scene_record(origin: np.ndarray, table: MaterialTable, triangles: Triangles,
+                 reliefs: Reliefs | None = None) -> Scene:
     """What every shading kernel needs of the scene, as one record: the texture coordinates
     only where some material has an image texture, the materials' interiors only where some
-    material absorbs or is thin-walled (the kernels' texture and medium code is compiled only
-    then)."""
+    material absorbs or is thin-walled, the normal and height maps (:func:`relief_tables`)
+    only where some material has one (the kernels' texture, medium and relief code is
+    compiled only then)."""
     textured = bool(table.textured.any()) if len(table.materials) else False
     return Scene(np.ascontiguousarray(origin, dtype=np.float64), table.record, triangles,
                  texcoords=triangles.texcoords if textured else None,
-                 media=media_table(table.materials))
+                 media=media_table(table.materials), reliefs=reliefs)
 
 
 def media_table(materials: list[Material]) -> Media | None:
@@ -295,3 +314,30 @@ def media_table(materials: list[Material]) -> Media | None:
     sigma = np.array([m.sigma for m in materials], np.float64).reshape(-1, 3)
     return Media(np.ascontiguousarray(sigma), np.array([m.thin_walled for m in materials],
                                                        np.bool_))
+
+
+def relief_tables(table: MaterialTable, triangles: Triangles, meshes: list[Mesh]
+                  ) -> Reliefs | None:
+    """The normal and height maps as the kernels read them (``Scene.reliefs``), or None where
+    no material has one or no mesh has texture coordinates (a scene then compiles no relief
+    code: bit for bit the image it had without). Each corner's tangent frame: the file's
+    (glTF ``TANGENT``, :attr:`raytrace.Mesh.tangents`) where it gives one, else MikkTSpace's
+    rule (:func:`raytrace.readers.tangents.mikktspace`, glTF 2.0 §3.7.2.1) over the normals
+    the corners are shaded with (the face normal on a flat triangle)."""
+    if not len(table.materials) or not (table.relief >= 0).any() or not len(
+            triangles.texcoords):
+        return None
+    tangents = np.zeros((len(triangles.material), 3, 4))
+    for m, first in zip(meshes, triangles.geom_first, strict=True):
+        rows = slice(first, first + len(m.faces))
+        if m.texcoords is None or not (table.relief[triangles.material[rows]] >= 0).any():
+            continue
+        flat = (triangles.shading[rows] == FLAT)[:, None, None]
+        normals = np.where(flat, triangles.normal[rows][:, None, :], triangles.vnormals[rows])
+        tangents[rows] = mikktspace(triangles.corners[rows], normals, m.texcoords)
+        if m.tangents is not None:
+            given = np.any(m.tangents != 0.0, axis=2)
+            tangents[rows][given] = m.tangents[given]
+    return Reliefs(table.relief, table.relief_kind, table.relief_scale, table.texels,
+                   table.tex_info, triangles.corners, triangles.texcoords,
+                   np.ascontiguousarray(tangents))

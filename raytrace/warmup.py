@@ -43,8 +43,8 @@ SIZE = (48, 36)
 #: Suffixes of the files :func:`shipped_scenes` lists (scene files and model files).
 SCENE_SUFFIXES = (".toml", ".json", ".glb", ".gltf", ".obj", ".ply", ".stl", ".off")
 #: Shipped scenes started first: between them they use every kernel variant the shipped
-#: scenes use (matte analytic, mirrors and glass, meshes, textured meshes).
-FIRST = ("spotlights", "whitted", "mesh_model", "gltf_scene")
+#: scenes use (matte analytic, mirrors and glass, meshes, textured meshes, normal maps).
+FIRST = ("spotlights", "whitted", "mesh_model", "gltf_scene", "normal_mapped")
 #: numba's notice of a compile on stderr, piped (``raytrace.kernels.compile.COMPILED``).
 _COMPILED = re.compile(re.escape(COMPILED).replace(r"\{:\.1f\}", r"([0-9.]+)"))
 

@@ -536,3 +536,76 @@ def test_a_broken_gltf_on_the_command_line_exits_2_with_one_line(tmp_path):
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
     assert r.stderr.startswith("raytrace: error: t.glb: buffers[0]: holds 64 bytes")
     assert not (tmp_path / "o.exr").exists()
+
+
+# -- normalTexture and TANGENT ----------------------------------------------------------------
+def _normal_mapped_square(tmp_path, name: str, normal_texture: dict) -> raytrace.Scene:
+    """SQUARE (MATTE) with ``normalTexture`` the 2 × 2 PNG of codes (204, 128, 230), lit by
+    a point light at the camera (0, 0, 3), looking at the centre."""
+    write_png(tmp_path / "n.png", np.tile(np.array([204, 128, 230], np.uint8), (2, 2, 1)))
+    material = [dict(MATTE[0], normalTexture=normal_texture)] if normal_texture else MATTE
+    path = write_gltf(tmp_path / f"{name}.gltf", [{"mesh": 0}], [SQUARE], material, extra={
+        "images": [{"uri": "n.png"}], "textures": [{"source": 0}]})
+    return make_scene([raytrace.Mesh(file=path, material="from_file")],
+                      [raytrace.PointLight(position=[0, 0, 3])],
+                      camera=aimed_camera([0, 0, 3], [0, 0, 0]))
+
+
+def test_a_normal_texture_tilts_the_normal_by_its_linear_texel_and_scale(tmp_path):
+    """glTF 2.0 §3.9.3: n_t = (2·code/255 − 1)·(scale, scale, 1), the codes read as linear
+    values (not sRGB), in the frame T = ∂P/∂s = +x, B = +y, N = +z of SQUARE. Codes (204,
+    128, 230) at scale 0.5: n_t = (0.6·0.5, (1/255)·0.5, 205/255) = (0.3, 0.0019608,
+    0.8039216), |n_t| = 0.8580756, and with the light at the eye (L = V = N) every term of the
+    material (its Lambert kd and its blinn_cosine highlight, both ∝ N·L here) scales by
+    N_s·L = 0.8039216/0.8580756 = 0.9368890 against the unmapped square. Decoded as sRGB the
+    codes would give (0.6038, 0.2159, 0.7913) and a ratio 0.872."""
+    flat = pixel(_normal_mapped_square(tmp_path, "flat", None))
+    mapped = pixel(_normal_mapped_square(tmp_path, "mapped", {"index": 0, "scale": 0.5}))
+    n_t = np.array([(2 * 204 / 255 - 1) * 0.5, (2 * 128 / 255 - 1) * 0.5, 2 * 230 / 255 - 1])
+    np.testing.assert_allclose(mapped / flat, n_t[2] / np.linalg.norm(n_t), rtol=1e-6)
+    assert abs(n_t[2] / np.linalg.norm(n_t) - 0.9368890) < 1e-7
+
+
+def test_a_normal_mapped_model_renders_alike_with_and_without_tangent(tmp_path):
+    """#27's requirement, on the gallery's model (scenes/models/make_normal_mapped.py): the
+    sphere whose TANGENT is the analytic ∂P/∂s, and the same file without TANGENT, whose
+    tangents are then MikkTSpace's (tests/test_tangents.py: within 1.3e-6° of ∂P/∂s away from
+    the seam, which lies at the back). Tolerance 1e-5 per channel (measured: 6e-8, the float32
+    TANGENT accessor's rounding); the map itself moves the picture by 0.015 on average and up
+    to 0.32 (the same model drawn without its normalTexture), so the comparison can fail."""
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location(
+        "make_normal_mapped", Path(__file__).resolve().parent.parent
+        / "scenes/models/make_normal_mapped.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    writer = module._make_models()
+    images = {}
+    for tangents in (True, False):
+        path = tmp_path / f"ball{int(tangents)}.glb"
+        writer.write_glb(path, *module.normal_mapped(tangents))
+        mesh = raytrace.Mesh(file=path, material="from_file")
+        assert (mesh.tangents is not None) == tangents
+        scene = make_scene([mesh], [raytrace.DirectionalLight([0.4, -0.4, -0.8])],
+                           aimed_camera([0, 0, 4], [0, 0, 0]))
+        images[tangents] = raytrace.render(scene, width=64, height=48).rgb
+    plain = make_scene([raytrace.Mesh(file=tmp_path / "ball1.glb", material="from_file")],
+                       [raytrace.DirectionalLight([0.4, -0.4, -0.8])],
+                       aimed_camera([0, 0, 4], [0, 0, 0]))
+    plain.objects[0].file_materials[0].normal_map = None
+    unmapped = raytrace.render(plain, width=64, height=48).rgb
+    assert np.abs(images[True] - images[False]).max() < 1e-5
+    assert np.abs(images[True] - unmapped).max() > 0.1
+
+
+def test_a_tangent_of_the_wrong_shape_is_one_line(tmp_path):
+    doc = write_gltf(tmp_path / "t.gltf", [{"mesh": 0}], [SQUARE], MATTE)
+    gl = json.loads(doc.read_text())
+    gl["meshes"][0]["primitives"][0]["attributes"]["TANGENT"] = 0  # POSITION's VEC3
+    doc.write_text(json.dumps(gl))
+    with pytest.raises(SceneError) as e:
+        raytrace.Mesh(file=doc, material="from_file")
+    assert str(e.value).startswith(f"{doc}: meshes[0].primitives[0].attributes.TANGENT: "
+                                   "TANGENT has (4, 3), POSITION (4, 3)")

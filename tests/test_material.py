@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import RTOL, aimed_camera, make_scene, pixel, write_gltf, write_text
+from helpers import RTOL, aimed_camera, make_scene, pixel, write_gltf, write_png, write_text
 
 import raytrace
 from raytrace import cli, shading
@@ -321,3 +321,40 @@ def test_bad_interior_keys_are_one_line_naming_the_key(tmp_path, table, key, pro
         _scene_materials(tmp_path, f"[materials.x]\nkt = 1.0\n{table}\n")
     assert f"materials.x.{key}: {problem}" in str(e.value)
     assert "\n" not in str(e.value)
+
+
+def test_normal_map_and_bump_tables_read_linear_texels_from_the_scene_folder(tmp_path):
+    """``normal_map = { texture, scale, wrap }`` and ``bump = …``: the file relative to the
+    scene's folder, its 8-bit codes read as linear c/255 (a normal map's are vectors, not
+    colours: 204 → 0.8, where sRGB would give 0.6038), the scale kept."""
+    write_png(tmp_path / "n.png", np.tile(np.array([204, 128, 230], np.uint8), (2, 2, 1)))
+    scene = _scene_materials(tmp_path, """
+[materials.x]
+kd = 0.5
+normal_map = { texture = "n.png", scale = 0.5, wrap = "clamp" }
+[materials.y]
+bump = { texture = "n.png", scale = 0.02 }
+""")
+    m = scene.materials["x"]
+    assert m.normal_map.scale == 0.5 and m.bump is None
+    np.testing.assert_allclose(m.normal_map.texture.texels[0, 0, :3], [0.8, 128 / 255, 230 / 255],
+                               rtol=1e-6)
+    assert m.normal_map.texture.wrap == ("clamp", "clamp")
+    assert scene.materials["y"].bump.scale == 0.02
+    assert tmp_path / "n.png" in m.files
+
+
+@pytest.mark.parametrize("text,key,problem", [
+    ('normal_map = { texture = "n.png" }\nbump = { texture = "n.png" }', "materials.x.bump",
+     "a material takes normal_map or bump, not both"),
+    ('normal_map = { texture = "n.png", srgb = true }', "materials.x.normal_map.srgb",
+     "unknown key"),
+    ('bump = { texture = "n.png", scale = "big" }', "materials.x.bump.scale",
+     "must be a number"),
+    ('normal_map = "n.png"', "materials.x.normal_map", "must be a table"),
+])
+def test_a_bad_normal_map_or_bump_is_one_line_naming_the_key(tmp_path, text, key, problem):
+    write_png(tmp_path / "n.png", np.full((2, 2, 3), 128, np.uint8))
+    with pytest.raises(raytrace.SceneError) as e:
+        _scene_materials(tmp_path, f"[materials.x]\n{text}\n")
+    assert f"{key}: {problem}" in str(e.value)

@@ -177,7 +177,6 @@ CORE = {
         lambda p: p.update(mode=5)), False),
     "`TEXCOORD_1` and higher": (_prim(lambda p: p["attributes"].update(TEXCOORD_1=1)), False),
     "`COLOR_0`": (_prim(lambda p: p["attributes"].update(COLOR_0=0)), False),
-    "`TANGENT`": (_prim(lambda p: p["attributes"].update(TANGENT=0)), False),
     "sparse accessors": (lambda d: d["accessors"][0].update(sparse={
         "count": 1, "indices": {"bufferView": 0, "componentType": 5125},
         "values": {"bufferView": 0}}), False),
@@ -231,7 +230,7 @@ MTL_ARGS = {**dict.fromkeys(mtl.COLOR_STATEMENTS, "0.5 0.5 0.5"), "Ns": "10", "N
 
 def test_every_statement_the_mtl_reader_knows_has_its_row():
     rows = {name: state for name, state, _ in MTL_ROWS}
-    known = (*mtl.COLOR_STATEMENTS, *mtl.NUMBER_STATEMENTS, "map_Kd")
+    known = (*mtl.COLOR_STATEMENTS, *mtl.NUMBER_STATEMENTS, *mtl.MAP_STATEMENTS)
     assert {n: rows.get(n) for n in known} == dict.fromkeys(known, "read")
     assert {n: rows.get(n) for n in mtl.IGNORED} == dict.fromkeys(mtl.IGNORED, "silent")
 
@@ -261,7 +260,7 @@ def test_each_mtl_row_is_what_raytrace_does(tmp_path, monkeypatch, stmt, state, 
 def test_the_mtl_lines_the_page_quotes_are_the_ones_raytrace_prints(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     text = PAGE.read_text(encoding="utf-8")
-    error, notes = run(mesh(_obj_with(tmp_path, "newmtl m\nmap_Bump tex.png\nnorm tex.png\n")))
+    error, notes = run(mesh(_obj_with(tmp_path, "newmtl m\nmap_Ks tex.png\ndisp tex.png\n")))
     assert error is None and len(notes) == 1 and f"`{notes[0]}`" in text
     error, notes = run(mesh(_obj_with(tmp_path, "newmtl m\nTr 1\n")))
     assert error is None and len(notes) == 1 and f"`{notes[0]}`" in text

@@ -9,7 +9,7 @@ import sys
 
 import numpy as np
 import pytest
-from helpers import make_scene, pixel
+from helpers import make_scene, pixel, write_png
 
 import raytrace
 from raytrace import cli
@@ -235,8 +235,8 @@ def test_a_missing_mtl_file_is_one_line_through_the_cli(tmp_path):
 
 
 def test_unmodelled_statements_are_listed_on_one_warning(tmp_path):
-    with pytest.warns(RenderWarning, match=r"not modelled.*bump, map_Ks, refl"):
-        quad(tmp_path, "newmtl m\nmap_Ks a.png\nbump b.png\nrefl -type sphere c.png\n")
+    with pytest.warns(RenderWarning, match=r"not modelled.*disp, map_Ks, refl"):
+        quad(tmp_path, "newmtl m\nmap_Ks a.png\ndisp b.png\nrefl -type sphere c.png\n")
 
 
 def test_from_file_needs_a_file_and_a_format_with_materials(tmp_path):
@@ -299,3 +299,53 @@ def test_obj_normals_come_with_the_materials(tmp_path):
         lit_value(), rel=1e-5)
     tilted = raytrace.Camera(position=(0.5, -0.5, 2), look_at=(0.5, -0.5, 0))
     assert abs(pixel(make_scene([mesh], [LIGHT], tilted, ambient=0.2))[0] - lit_value()) > 0.01
+
+
+# -- norm, bump, map_Bump -------------------------------------------------------------------
+def _at_eye(tmp_path, mtl: str) -> np.ndarray:
+    """The quad's centre pixel, lit by a point light of 1 at the camera (0, 0, 2), no
+    ambient: Kd·N·L with L = V = +z."""
+    scene = make_scene([quad(tmp_path, "newmtl m\nKa 0\nKd 0.5\nKs 0\n" + mtl)],
+                       [raytrace.PointLight(position=[0, 0, 2])], camera_at(0.0), ambient=0.0)
+    return pixel(scene)
+
+
+def test_norm_is_a_tangent_space_normal_map_of_linear_codes(tmp_path):
+    """``norm`` as glTF's normalTexture: codes (204, 128, 230) read linear (not sRGB),
+    n_t = 2·c/255 − 1 = (0.6, 0.0039216, 0.8039216), OBJ's vt with t flipped gives T = +x,
+    B = +y on the quad: N_s·L = 0.8039216/1.0031477 = 0.8013990; Kd 0.5: 0.4006995. Without
+    the map 0.5."""
+    write_png(tmp_path / "n.png", np.tile(np.array([204, 128, 230], np.uint8), (2, 2, 1)))
+    n_t = np.array([2 * 204 / 255 - 1, 2 * 128 / 255 - 1, 2 * 230 / 255 - 1])
+    assert abs(n_t[2] / np.linalg.norm(n_t) - 0.8013990) < 1e-7
+    np.testing.assert_allclose(_at_eye(tmp_path, "norm n.png\n"),
+                               0.5 * n_t[2] / np.linalg.norm(n_t), rtol=1e-6)
+
+
+@pytest.mark.parametrize("stmt", ["bump", "map_Bump"])
+def test_a_bump_map_of_a_linear_height_ramp_tilts_the_normal_by_its_slope(tmp_path, stmt):
+    """Blinn 1978: a height map ``-bm 0.5`` whose 256 columns hold the codes 0 … 255 (grey,
+    linear): texel i (centre s = (i + ½)/256) is i/255, so between texel centres the bilinear
+    height is H(s) = (256·s − ½)/255 and ∂H/∂s = 256/255; h = 0.5·H rises along s at
+    h_s = 0.5·256/255 = 0.5019608 per unit s. The quad spans s over 2 units of x: P_s =
+    (2, 0, 0), P_t = (0, −2, 0) (t down the image), N = +z, σ = sign((P_s × P_t)·N) = −1,
+    |P_s × P_t| = 4: N′ = N + σ·h_s·(N × P_t)/4 = (−h_s/2, 0, 1) (tilted away from the
+    rise). With the light at the eye, Kd·N′·L/|N′| = 0.5/√(1 + 0.2509804²) = 0.4849592."""
+    write_png(tmp_path / "ramp.png", np.tile(np.arange(256, dtype=np.uint8), (4, 1))[..., None])
+    want = 0.5 / math.sqrt(1 + (0.5 * 256 / 255 / 2) ** 2)
+    assert abs(want - 0.4849592) < 1e-7
+    np.testing.assert_allclose(_at_eye(tmp_path, f"{stmt} -bm 0.5 ramp.png\n"), want,
+                               rtol=1e-6)
+    # the tilt's side: a directional light from −x at 45° sees the slope facing it
+    light = raytrace.DirectionalLight(direction=[1.0, 0.0, -1.0])
+    scene = make_scene([quad(tmp_path, f"newmtl m\nKa 0\nKd 0.5\nKs 0\n{stmt} -bm 0.5 "
+                             "ramp.png\n")], [light], camera_at(0.0), ambient=0.0)
+    a = 0.5 * 256 / 255 / 2
+    np.testing.assert_allclose(pixel(scene), 0.5 * (a + 1) / math.sqrt(2) / math.sqrt(1 + a * a),
+                               rtol=1e-6)
+
+
+def test_a_bad_bm_is_one_line_naming_the_statement(tmp_path):
+    with pytest.raises(SceneError) as e:
+        quad(tmp_path, "newmtl m\nbump -bm x ramp.png\n")
+    assert "line 2: bump -bm: must be a number, got 'x'" in str(e.value)

@@ -75,7 +75,8 @@ ALLOWED = {"raytrace", "raytrace.scene", "raytrace.material", "raytrace.values",
            # decodes sRGB with (their libraries load with a file that needs them)
            "raytrace.readers", "raytrace.readers.asset", "raytrace.readers.assets",
            "raytrace.readers.gltf", "raytrace.readers.inputs", "raytrace.readers.meshio",
-           "raytrace.readers.mtl", "raytrace.readers.obj", "raytrace.readers.texture",
+           "raytrace.readers.mtl", "raytrace.readers.obj", "raytrace.readers.tangents",
+           "raytrace.readers.texture",
            "raytrace.film",
            "raytrace.film.tonemap",
            # the codes and records every stage shares with the kernels (no numba)

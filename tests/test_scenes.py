@@ -214,6 +214,17 @@ def test_the_glass_model_is_what_make_glass_generates(monkeypatch):
     assert not glass["bubble"].absorbs
 
 
+def test_the_normal_mapped_model_is_what_its_generator_writes():
+    spec = importlib.util.spec_from_file_location("make_normal_mapped",
+                                                  MODELS / "make_normal_mapped.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    doc, blob = module.normal_mapped()
+    glb = (SCENE_DIR / "normal_mapped.glb").read_bytes()
+    assert blob in glb and b'"normalTexture"' in glb and b'"TANGENT"' in glb
+    assert len(glb) < 300 * 1024
+
+
 def test_model_files_are_small():
     total = sum(p.stat().st_size for p in MODELS.iterdir() if p.is_file())
     assert total < 2 * 1024 * 1024

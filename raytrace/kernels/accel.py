@@ -23,6 +23,7 @@ import numpy as np
 from .core import FLAT
 from .jit import helper, inline, kernel
 from .kinds import NO_SHAPE
+from .material import relief1
 from .records import (
     Ray,
 )
@@ -518,7 +519,7 @@ def retrace_rays(redo, query, t, out, kept):
 
 # -- surfaces -------------------------------------------------------------------------------
 @kernel
-def hit_surfaces(hits, o, d, shapes, tables, out):
+def hit_surfaces(hits, o, d, shapes, tables, reliefs, out):
     """Everything the shading needs at each of ``hits`` (:class:`raytrace.kernels.records.Hits`) of
     rays ``o``, ``d``, written into the point, geometric, shading, material and offset
     columns of ``out`` (:class:`raytrace.kernels.records.Surface`).
@@ -534,7 +535,10 @@ def hit_surfaces(hits, o, d, shapes, tables, out):
     (a small triangle: Embree never reports it again to such a ray). Elsewhere a ray leaving
     the hit may meet its own triangle as a float32 artefact, which the queries discard
     (:func:`refine_hits`). ``shapes``: the :class:`raytrace.kernels.records.Shapes`; ``tables`` the
-    :class:`raytrace.kernels.records.Triangles`.
+    :class:`raytrace.kernels.records.Triangles`; ``reliefs``: the
+    :class:`raytrace.kernels.records.Reliefs` whose normal and height maps then perturb a
+    triangle's shading normal (:func:`raytrace.kernels.material.relief1`), or None (a scene
+    without any: none of that code is compiled).
     """
     kinds, rows, shape_material = shapes.kind, shapes.rows, shapes.material
     t, shape, triangle, uv = hits.t, hits.shape, hits.triangle, hits.uv
@@ -570,6 +574,9 @@ def hit_surfaces(hits, o, d, shapes, tables, out):
                 shading[i, 0], shading[i, 1], shading[i, 2] = (nx / length, ny / length,
                                                                nz / length)
         material[i] = tri_material[tri]
+        shading[i, 0], shading[i, 1], shading[i, 2] = relief1(
+            reliefs, material[i], tri, u, v, (shading[i, 0], shading[i, 1], shading[i, 2]),
+            (face_normal[tri, 0], face_normal[tri, 1], face_normal[tri, 2]))
         own = SPAWN_OFFSET * max(max(max(abs(point[i, 0]), abs(point[i, 1])),
                                      abs(point[i, 2])), F32_TINY)
         offset[i] = band[tri] if band[tri] <= 2.0 * own else own

@@ -132,6 +132,13 @@ def pixel_offset(spp, k, seed, sample, cell):
     return (cell % k + u1) / k, (cell // k + u2) / k
 
 
+# -- vectors --------------------------------------------------------------------------------
+@helper
+def cross3(a, b):
+    """The cross product ``a × b`` of two 3-tuples."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
 # -- optics ---------------------------------------------------------------------------------
 @helper
 def reflect3(dx, dy, dz, nx, ny, nz):

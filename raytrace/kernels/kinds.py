@@ -43,6 +43,10 @@ COLOR_KEYS = ("ka", "kd", "ks", "kr", "kt", "ke")
 #: Python int constant passed to another kernel as its literal value and compiles that kernel
 #: once per value.
 KA, KD, KS, KR, KT, KE = (np.int64(3 * i) for i in range(len(COLOR_KEYS)))
+#: What a material's relief texture holds (``Reliefs.kind``): a tangent-space normal map
+#: (glTF ``normalTexture``, MTL ``norm``) or a height map (MTL ``bump``: Blinn 1978).
+RELIEF_CODES = {"normal_map": 1, "bump": 2}
+NORMAL_MAP, HEIGHT_MAP = RELIEF_CODES.values()
 
 # -- meshes -----------------------------------------------------------------------------------
 #: Mesh shading by ``shading =`` name (``Triangles.shading``).

@@ -235,7 +235,8 @@ def surfaces(tracer, hits, origin, direction):
     n = hits.t.shape[0]
     surface = Surface(np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)),
                       np.empty(n, np.int64), np.empty(n), hits.shape, hits.triangle, hits.uv)
-    ak.hit_surfaces(hits, origin, direction, tracer.shapes, tracer.scene.triangles, surface)
+    ak.hit_surfaces(hits, origin, direction, tracer.shapes, tracer.scene.triangles,
+                    tracer.scene.reliefs, surface)
     return surface
 
 

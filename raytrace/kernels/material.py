@@ -19,6 +19,10 @@ material's colour has an image texture, the texture's bilinear texel at the hit'
 coordinates (:func:`raytrace.kernels.core.texture1`); the opacity is the material's constant t,
 times the alpha texture's alpha (glTF BLEND) or cut at its cutoff (MASK). The pieces below the
 two are used by them alone.
+
+The shading normal at a triangle hit is perturbed by its material's normal or height map
+where it has one (:func:`relief1`, called by ``kernels.accel.hit_surfaces``; ``reliefs`` None
+in a scene without one, which compiles none of that code).
 """
 
 from __future__ import annotations
@@ -28,13 +32,16 @@ import math
 from numba.core import types
 from numba.extending import overload
 
-from .core import ALPHA, bilinear1, checker1, texture1
+from .core import ALPHA, bilinear1, checker1, cross3, texture1
 from .jit import helper, inline
+from .kinds import NORMAL_MAP
 from .mip import cone_lod1, trilinear1
 from .records import (
     CHECKER_COLOR0,
     CHECKER_COLOR1,
     CHECKER_SCALE,
+    TEX_HEIGHT,
+    TEX_WIDTH,
     AlphaTables,
     TextureTables,
 )
@@ -213,3 +220,107 @@ def texcoord1(tc, tri, u, v):
     w = 1.0 - u - v
     return (w * tc[tri, 0, 0] + u * tc[tri, 1, 0] + v * tc[tri, 2, 0],
             w * tc[tri, 0, 1] + u * tc[tri, 1, 1] + v * tc[tri, 2, 1])
+
+
+def relief1(reliefs, m, tri, u, v, n, g):
+    """The shading normal (a unit 3-tuple) of material ``m`` at barycentrics (u, v) of
+    triangle ``tri``: ``n``, the interpolated one, perturbed by the material's normal map
+    (:func:`normal_map1`) or height map (:func:`bump1`) where it has one, turned over where it
+    points below the face ``g`` (the rule of file normals, docs/shading.md); ``n`` itself
+    off a mesh, without a map, or where ``reliefs`` is None (no code compiled)."""
+
+
+@overload(relief1, inline="always")
+def _relief1(reliefs, m, tri, u, v, n, g):
+    if isinstance(reliefs, types.NoneType):
+        return lambda reliefs, m, tri, u, v, n, g: n
+
+    def relief(reliefs, m, tri, u, v, n, g):
+        q = reliefs.texture[m]
+        if tri < 0 or q < 0:
+            return n
+        st = texcoord1(reliefs.texcoords, tri, u, v)
+        image = (reliefs.texels, reliefs.tex_info, q)
+        if reliefs.kind[m] == NORMAL_MAP:
+            x, y, z = normal_map1(image, st, reliefs.scale[m], reliefs.tangents, (tri, u, v), n)
+        else:
+            x, y, z = bump1(image, st, reliefs.scale[m], reliefs.corners[tri],
+                            reliefs.texcoords[tri], n)
+        length = math.sqrt(x * x + y * y + z * z)
+        if not length > 1e-300:
+            return n
+        if x * g[0] + y * g[1] + z * g[2] < 0.0:  # below its face: turned over
+            length = -length
+        return x / length, y / length, z / length
+    return relief
+
+
+@helper
+def normal_map1(image, st, scale, tangents, at, n):
+    """A tangent-space normal map's normal, unnormalised (glTF 2.0 §3.9.3): the texel's
+    ``n_t = (2·rgb − 1)·(scale, scale, 1)`` (linear texels, bilinear at ``st``) in the frame
+    ``n_t.x·T + n_t.y·B + n_t.z·N``, with T the corners' tangents interpolated by the
+    barycentrics ``at`` = (tri, u, v) like the normals, w their interpolated sign and
+    ``B = w·(N × T)`` (glTF's bitangent; mikktspace.h's pixel-shader rule, T not
+    renormalised); ``image`` = (texels, tex_info, texture row), ``n`` the unit normal N."""
+    texels, info, q = image
+    tri, u, v = at
+    r, gr, b = texture1(texels, info, q, st[0], st[1])
+    x, y, z = (2.0 * r - 1.0) * scale, (2.0 * gr - 1.0) * scale, 2.0 * b - 1.0
+    w0 = 1.0 - u - v
+    tx = w0 * tangents[tri, 0, 0] + u * tangents[tri, 1, 0] + v * tangents[tri, 2, 0]
+    ty = w0 * tangents[tri, 0, 1] + u * tangents[tri, 1, 1] + v * tangents[tri, 2, 1]
+    tz = w0 * tangents[tri, 0, 2] + u * tangents[tri, 1, 2] + v * tangents[tri, 2, 2]
+    sign = w0 * tangents[tri, 0, 3] + u * tangents[tri, 1, 3] + v * tangents[tri, 2, 3]
+    sign = -1.0 if sign < 0.0 else 1.0
+    nx, ny, nz = n
+    bx, by, bz = cross3(n, (tx, ty, tz))
+    y *= sign  # B = w·(N × T)
+    return (x * tx + y * bx + z * nx, x * ty + y * by + z * ny, x * tz + y * bz + z * nz)
+
+
+@helper
+def bump1(image, st, scale, corners, st3, n):
+    """A height map's normal, unnormalised (Blinn, "Simulation of wrinkled surfaces",
+    SIGGRAPH 1978, eq. for N′): the surface displaced by ``h = scale·H(s, t)`` along N (H the
+    texel's mean of R, G, B, linear), so ``N′ = N + σ·(h_t·(P_s × N) + h_s·(N × P_t))/|P_s × P_t|``
+    with ``P_s``, ``P_t`` the triangle's ∂P/∂s, ∂P/∂t (from its ``corners`` and their
+    texture coordinates ``st3``), σ the sign of ``(P_s × P_t)·N`` (a mirrored mapping), and
+    ``h_s``, ``h_t`` central differences one texel apart in texture space; N itself where the
+    mapping is degenerate. ``image`` = (texels, tex_info, texture row), ``n`` the unit N."""
+    texels, info, q = image
+    s, t = st
+    ds, dt = 1.0 / info[q, TEX_WIDTH], 1.0 / info[q, TEX_HEIGHT]
+    hs = scale * (height1(texels, info, q, s + ds, t) - height1(texels, info, q, s - ds, t)) / (
+        2.0 * ds)
+    ht = scale * (height1(texels, info, q, s, t + dt) - height1(texels, info, q, s, t - dt)) / (
+        2.0 * dt)
+    e1s, e1t = st3[1, 0] - st3[0, 0], st3[1, 1] - st3[0, 1]
+    e2s, e2t = st3[2, 0] - st3[0, 0], st3[2, 1] - st3[0, 1]
+    det = e1s * e2t - e2s * e1t
+    nx, ny, nz = n
+    if det == 0.0:
+        return nx, ny, nz
+    ax, ay, az = corners[1, 0] - corners[0, 0], corners[1, 1] - corners[0, 1], corners[1, 2] - \
+        corners[0, 2]
+    bx, by, bz = corners[2, 0] - corners[0, 0], corners[2, 1] - corners[0, 1], corners[2, 2] - \
+        corners[0, 2]
+    ps = ((e2t * ax - e1t * bx) / det, (e2t * ay - e1t * by) / det, (e2t * az - e1t * bz) / det)
+    pt = ((e1s * bx - e2s * ax) / det, (e1s * by - e2s * ay) / det, (e1s * bz - e2s * az) / det)
+    cx, cy, cz = cross3(ps, pt)
+    area = math.sqrt(cx * cx + cy * cy + cz * cz)
+    if not area > 0.0:
+        return nx, ny, nz
+    f = (1.0 if cx * nx + cy * ny + cz * nz >= 0.0 else -1.0) / area
+    ax, ay, az = cross3(ps, n)  # h_t·(P_s × N) + h_s·(N × P_t)
+    bx, by, bz = cross3(n, pt)
+    return (nx + f * (ht * ax + hs * bx), ny + f * (ht * ay + hs * by),
+            nz + f * (ht * az + hs * bz))
+
+
+@helper
+def height1(texels, info, q, s, t):
+    """A height map's value at (s, t): the mean of its bilinear R, G and B (grey maps have
+    the three equal)."""
+    r, g, b = texture1(texels, info, q, s, t)
+    return (r + g + b) / 3.0

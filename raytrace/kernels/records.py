@@ -60,6 +60,7 @@ record                   what it holds (n rays or hits, M materials, T triangles
 :class:`Palette`         the material table's constant colours and checkers
 :class:`SmoothTriangles` the corners and vertex normals of the triangles
 :class:`Mips`            the mip-map pyramids and ray-cone footprints of trilinear lookups
+:class:`Reliefs`         the normal and height maps that perturb the shading normals
 =======================  ==============================================================
 
 **Packed rows.** Where a table packs several values in a row (a shape's parameters, a
@@ -225,6 +226,9 @@ class Scene(NamedTuple):
     #: the mip-map pyramids and ray-cone footprints of ``texture_filter = "trilinear"``
     #: (:class:`Mips`, ``raytrace.mipmap.with_mips``), else None: no trilinear code compiled
     mips: Mips | None = None
+    #: the materials' normal and height maps and the triangles' tangent frames where some
+    #: material has one, else None: ``kernels.material.relief1`` is then compiled as nothing
+    reliefs: Reliefs | None = None
 
 
 class Emitter(NamedTuple):
@@ -644,3 +648,18 @@ class AlphaTables(NamedTuple):
     texels: np.ndarray        #: ``Materials.texels``
     tex_info: np.ndarray      #: ``Materials.tex_info``
     texcoords: np.ndarray     #: ``Triangles.texcoords``
+
+
+class Reliefs(NamedTuple):
+    """What perturbs a triangle hit's shading normal (``kernels.material.relief1``): each
+    material's normal or height map, and the triangles' texture coordinates and tangent
+    frames (``raytrace.tables.relief_tables``)."""
+
+    texture: np.ndarray    #: (M,) int64 row of ``tex_info`` of the material's map, or −1
+    kind: np.ndarray       #: (M,) int64 kinds.NORMAL_MAP or HEIGHT_MAP
+    scale: np.ndarray      #: (M,) float64 the normal map's scale, the height map's bm
+    texels: np.ndarray     #: ``Materials.texels``
+    tex_info: np.ndarray   #: ``Materials.tex_info``
+    corners: np.ndarray    #: ``Triangles.corners``
+    texcoords: np.ndarray  #: ``Triangles.texcoords``
+    tangents: np.ndarray   #: (T, 3, 4) unit tangent and sign w at the corners (glTF TANGENT)

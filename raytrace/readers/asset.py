@@ -33,3 +33,6 @@ class Asset:
     #: (F, 3, 3) per corner, the normals the file gives (OBJ ``vn``, glTF ``NORMAL``); None
     #: where it gives none, a zero row for a corner without one (glTF: a primitive without)
     normals: np.ndarray | None = None
+    #: (F, 3, 4) per corner, the tangents the file gives (glTF ``TANGENT``: xyz and the
+    #: bitangent's sign w); None where it gives none, a zero row for a corner without one
+    tangents: np.ndarray | None = None

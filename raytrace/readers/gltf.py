@@ -31,9 +31,10 @@ import numpy as np
 from .. import values
 from ..errors import RenderWarning, SceneError
 from ..lights import DirectionalLight, PointLight, SpotLight
-from ..material import Material
+from ..material import Material, Relief
 from .asset import Asset
 from .inputs import cached_reads, input_file
+from .tangents import given_tangents
 from .texture import GLTF_WRAPS, Texture
 
 COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32,
@@ -305,11 +306,24 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
             fields["opacity"] = alpha
             fields["alpha_cutoff"] = (m.alphaCutoff if m.alphaCutoff is not None else 0.5
                                       ) if mode == "MASK" else -1.0
+    normal = m.normalTexture if m is not None else None
+    if normal is not None and texture is not None:  # linear texels (glTF 2.0 §3.9.3)
+        fields["normal_map"] = Relief(
+            texture(gltf, normal, path, f"materials[{index}].normalTexture", mode, srgb=False),
+            _number(normal.scale, 1.0, f"materials[{index}].normalTexture.scale", path))
     try:
         out = Material(**fields, name=name)
     except SceneError as e:
         raise SceneError(e.problem, f"materials[{index}].{e.key}", str(path)) from None
     return out
+
+
+def _number(value: Any, default: float, key: str, path: Path | None) -> float:
+    """A finite number of the file (``default`` where absent), named by its key."""
+    try:
+        return values.number(default if value is None else value, key)
+    except SceneError as e:
+        raise SceneError(e.problem, e.key, str(path)) from None
 
 
 def _light(spec: dict, world: np.ndarray, where: str, path: Path):
@@ -428,6 +442,7 @@ def _load(path: Path) -> GltfScene:
     texture = functools.partial(gltf_texture, buffers=buffers, decoded={})
     materials: dict = {}
     verts, faces, face_mat, uvs, normals, sources = [], [], [], [], [], []
+    tangents = []
     camera, lights, offset = None, [], 0
     light_specs = _ext(gltf, "KHR_lights_punctual").get("lights", [])
     for n, world in world_matrices(gltf):
@@ -468,6 +483,12 @@ def _load(path: Path) -> GltfScene:
                 raise SceneError(f"NORMAL has {normal.shape}, POSITION {pos.shape}: one "
                                  "3-vector a vertex", f"meshes[{node.mesh}].primitives[{p}]."
                                  "attributes.NORMAL", str(path))
+            tangent = (accessor(gltf, buffers, prim.attributes.TANGENT, path)
+                       if prim.attributes.TANGENT is not None else None)
+            if tangent is not None and tangent.shape != (len(pos), 4):
+                raise SceneError(f"TANGENT has {tangent.shape}, POSITION {pos.shape}: one "
+                                 "4-vector a vertex", f"meshes[{node.mesh}].primitives[{p}]."
+                                 "attributes.TANGENT", str(path))
             if idx.size and (idx.min() < 0 or idx.max() >= len(pos)):
                 raise SceneError(f"index out of range 0..{len(pos) - 1}",
                                  f"meshes[{node.mesh}].primitives[{p}].indices", str(path))
@@ -485,6 +506,10 @@ def _load(path: Path) -> GltfScene:
             # implementations MUST calculate flat normals")
             normals.append((normal @ normal_matrix(world[:3, :3]))[idx] if normal is not None
                            else np.zeros((len(idx), 3, 3)))
+            # tangents along the surface: through the node's linear part (none: zeros,
+            # MikkTSpace's where a normal map needs them, glTF 2.0 §3.7.2.1)
+            tangents.append(given_tangents(tangent, world[:3, :3])[idx] if tangent is not None
+                            else np.zeros((len(idx), 3, 4)))
             offset += len(pos)
     if not faces:
         raise SceneError("holds no triangles", "meshes", str(path))
@@ -493,16 +518,19 @@ def _load(path: Path) -> GltfScene:
     asset = Asset(np.concatenate(verts), np.concatenate(faces).astype(np.int64),
                   np.concatenate(face_mat).astype(np.int64), mats,
                   np.concatenate(uvs) if any(len(u) for u in uvs) else None, tuple(sources),
-                  np.concatenate(normals) if any(n.any() for n in normals) else None)
+                  np.concatenate(normals) if any(n.any() for n in normals) else None,
+                  np.concatenate(tangents) if any(t.any() for t in tangents) else None)
     return GltfScene(asset, camera, lights)
 
 
 def gltf_texture(gltf: Any, info: Any, path: Path, key: str, alpha_mode: str, *,
-                 buffers: list[bytes] | None = None, decoded: dict | None = None) -> Texture:
+                 buffers: list[bytes] | None = None, decoded: dict | None = None,
+                 srgb: bool = True) -> Texture:
     """A glTF ``textureInfo``: its image (a file, a data URI or a buffer view) decoded as sRGB,
     its sampler's wrapS / wrapT. TEXCOORD_0 only. ``buffers``: the file's buffers, where
     read already; ``decoded``: the textures made so far by (image, wrap), shared by the
-    materials that use the same image the same way."""
+    materials that use the same image the same way; ``srgb`` False: its codes read as linear
+    values (a normal map's, glTF 2.0 §3.9.3)."""
     where = str(path)
     try:
         tex = gltf.textures[info.index]
@@ -517,26 +545,28 @@ def gltf_texture(gltf: Any, info: Any, path: Path, key: str, alpha_mode: str, *,
         wrap = (GLTF_WRAPS.get(s.wrapS or 10497, "repeat"),
                 GLTF_WRAPS.get(s.wrapT or 10497, "repeat"))
     decoded = {} if decoded is None else decoded
-    if (tex.source, wrap) not in decoded:
-        decoded[tex.source, wrap] = _image(gltf, tex.source, path, key, wrap, buffers)
-    return decoded[tex.source, wrap]
+    if (tex.source, wrap, srgb) not in decoded:
+        decoded[tex.source, wrap, srgb] = _image(gltf, tex.source, path, key, wrap, buffers,
+                                                 srgb)
+    return decoded[tex.source, wrap, srgb]
 
 
 def _image(gltf: Any, index: int, path: Path, key: str, wrap: tuple[str, str],
-           buffers: list[bytes] | None) -> Texture:
-    """Image ``index`` (a file, a data URI or a buffer view) decoded as sRGB."""
+           buffers: list[bytes] | None, srgb: bool = True) -> Texture:
+    """Image ``index`` (a file, a data URI or a buffer view) decoded as sRGB (or linear)."""
     image, where = gltf.images[index], str(path)
     if image.bufferView is not None:
         data, start, end = view_bytes(gltf, buffers or _buffers(gltf, path), image.bufferView,
                                       path, f"images[{index}].bufferView")
         return Texture.from_file(Path(f"{path.name}#images[{index}]"), key, wrap=wrap,
-                                 where=where, data=data[start:end])
+                                 where=where, data=data[start:end], srgb=srgb)
     uri = image.uri or ""
     if uri.startswith("data:"):
         return Texture.from_file(Path(f"{path.name}#images[{index}]"), key, wrap=wrap,
-                                 where=where, data=base64.b64decode(uri.split(",", 1)[1]))
+                                 where=where, data=base64.b64decode(uri.split(",", 1)[1]),
+                                 srgb=srgb)
     return Texture.from_file(path.parent / unquote(uri), f"images[{index}].uri",
-                             wrap=wrap, where=where)
+                             wrap=wrap, where=where, srgb=srgb)
 
 
 def normal_matrix(linear: np.ndarray) -> np.ndarray:

@@ -8,8 +8,9 @@ shininess, kr, kt, ior, opacity and the Fresnel weighting; docs/scene_format.md 
 The file is parsed here, line by line (trimesh's OBJ loader reads MTL files too, but keeps
 ``Ni``, ``d``, ``Tf`` and ``illum`` only as unchecked strings, with no line numbers for an
 error): ``newmtl``, ``Ka``, ``Kd``, ``Ks``, ``Ke``, ``Ns``, ``Ni``, ``d``, ``Tr``, ``Tf``,
-``illum`` and ``map_Kd`` (with ``-clamp on``). Statements that change the appearance but are
-not modelled (``map_Ks``, ``bump``, ``refl``, ``sharpness``, …) are listed on one warning
+``illum``, ``map_Kd`` (with ``-clamp on``), ``norm`` (a tangent-space normal map) and
+``bump``/``map_Bump`` (a height map, with ``-bm``). Statements that change the appearance but
+are not modelled (``map_Ks``, ``refl``, ``sharpness``, …) are listed on one warning
 line; a bad value is one :class:`~raytrace.errors.SceneError` naming the file, the line and
 the statement.
 """
@@ -25,20 +26,22 @@ import numpy as np
 
 from .. import values
 from ..errors import RenderWarning, SceneError
-from ..material import Material
+from ..material import Material, Relief
 from .inputs import read_text
 
 #: Statements read as colours: ``Ka r [g b]``.
 COLOR_STATEMENTS = ("Ka", "Kd", "Ks", "Ke", "Tf")
 #: Statements read as one number, with their range.
 NUMBER_STATEMENTS = {"Ns": (0.0, None), "Ni": (0.0, None), "d": (0.0, 1.0), "Tr": (0.0, 1.0)}
-#: Statements that carry no appearance (or only for other renderers' features). ``norm``
-#: (a normal map) is not one: it changes the look, and is warned about as ``bump`` is.
+#: Statements that carry no appearance (or only for other renderers' features).
 IGNORED = ("Pr", "Pm", "Ps", "Pc", "Pcr", "aniso", "anisor")
 #: Defaults where a material omits a statement (Ka omitted follows Kd, as in scene files).
 DEFAULTS: dict[str, Any] = {"Ka": None, "Kd": np.full(3, 0.8), "Ks": np.zeros(3),
                             "Ke": np.zeros(3), "Tf": np.ones(3), "Ns": 32.0, "Ni": 1.0,
-                            "d": 1.0, "illum": 2, "map_Kd": None}
+                            "d": 1.0, "illum": 2, "map_Kd": None, "norm": None,
+                            "bump": None}
+#: Texture statements, each to the key its map is kept under (``map_Bump`` is ``bump``).
+MAP_STATEMENTS = {"map_Kd": "map_Kd", "norm": "norm", "bump": "bump", "map_Bump": "bump"}
 
 
 #: The least highlight exponent: ``Ns`` below 1 is read as 1. The spec's ``Ks·(N·H)^Ns`` has no
@@ -155,8 +158,8 @@ def read_mtl(path: Path, texture: Callable[[Path, dict, str, str], Any] | None =
             if len(args) != 1 or not args[0].isdigit() or int(args[0]) not in ILLUM:
                 raise SceneError(f"must be one of 0..10, got {' '.join(args)!r}", stmt, where)
             current[stmt] = int(args[0])
-        elif stmt == "map_Kd":
-            current[stmt] = _map_options(args, path.parent, where)
+        elif stmt in MAP_STATEMENTS:
+            current[MAP_STATEMENTS[stmt]] = _map_options(args, path.parent, where, stmt)
         elif stmt not in IGNORED:
             unsupported.add(stmt)
     if unsupported:
@@ -180,6 +183,7 @@ def read_mtl(path: Path, texture: Callable[[Path, dict, str, str], Any] | None =
             fields["kd"] = texture(file, options, "map_Kd", f"{path}: material {name!r}")
             if f["Ka"] is None:
                 fields["ka"] = None
+        fields.update(_reliefs(f, texture, path, name))
         try:
             out[name] = Material(**fields, name=name)
         except SceneError as e:
@@ -188,9 +192,33 @@ def read_mtl(path: Path, texture: Callable[[Path, dict, str, str], Any] | None =
     return out
 
 
-def _map_options(args: list[str], folder: Path, where: str) -> tuple[Path, dict]:
-    """``map_Kd [-clamp on|off] [-o u v] [-s u v] file``: the file (relative to the MTL file)
-    and the options kept (``clamp``); other options are skipped with their values."""
+def _reliefs(f: dict, texture: Callable | None, path: Path, name: str) -> dict:
+    """A material's ``norm`` (a tangent-space normal map) or ``bump``/``map_Bump`` (a height
+    map, its values times ``-bm``: Blinn 1978) as ``normal_map`` or ``bump`` (a
+    :class:`~raytrace.material.Relief`), their texels linear; ``norm`` where it has both
+    (warned: a material takes one)."""
+    out = {}
+    for stmt, key in (("norm", "normal_map"), ("bump", "bump")):
+        if f[stmt] is None:
+            continue
+        if texture is None:
+            raise SceneError("textures are not supported here", stmt, str(path))
+        if out:
+            warnings.warn(f"{path}: material {name!r}: both norm and bump; drawn with norm "
+                          "(a material takes one)", RenderWarning, stacklevel=3)
+            break
+        file, options = f[stmt]
+        where = f"{path}: material {name!r}"
+        out[key] = Relief(texture(file, {**options, "srgb": False}, stmt, where),
+                          options.get("bm", 1.0))
+    return out
+
+
+def _map_options(args: list[str], folder: Path, where: str, stmt: str = "map_Kd"
+                 ) -> tuple[Path, dict]:
+    """``map_Kd [-clamp on|off] [-bm mult] [-o u v] [-s u v] file`` (and ``norm``, ``bump``,
+    ``map_Bump``): the file (relative to the MTL file) and the options kept (``clamp``,
+    ``bm``); other options are skipped with their values."""
     takes = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clamp": 1,
              "-imfchan": 1, "-mm": 2, "-o": 3, "-s": 3, "-t": 3, "-texres": 1}
     options: dict = {}
@@ -200,13 +228,15 @@ def _map_options(args: list[str], folder: Path, where: str) -> tuple[Path, dict]
         vals = args[i + 1:i + 1 + n]
         if opt == "-clamp":
             options["wrap"] = "clamp" if vals and vals[0] == "on" else "repeat"
+        if opt == "-bm":
+            options["bm"] = _number(vals[0] if vals else "", where, f"{stmt} -bm", None, None)
         i += 1
         # -o/-s/-t take 1 to 3 numbers: skip the ones present
         while n and i < len(args) - 1 and _is_number(args[i]):
             i += 1
             n -= 1
     if i >= len(args):
-        raise SceneError("needs a file name", "map_Kd", where)
+        raise SceneError("needs a file name", stmt, where)
     return folder / " ".join(args[i:]), options
 
 

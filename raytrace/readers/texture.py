@@ -202,6 +202,8 @@ def parse_texture(table: Mapping, key: str) -> Texture:
 
 
 def mtl_texture(file: Path, options: dict, key: str, where: str) -> Texture:
-    """An MTL ``map_Kd`` (sRGB; ``-clamp on`` clamps, else repeats)."""
+    """An MTL ``map_Kd`` (sRGB; ``-clamp on`` clamps, else repeats); with ``options["srgb"]``
+    False its codes are read as linear values (``norm``, ``bump``)."""
     wrap = options.get("wrap", "repeat")
-    return Texture.from_file(file, key, wrap=(wrap, wrap), where=where)
+    return Texture.from_file(file, key, wrap=(wrap, wrap), where=where,
+                             srgb=options.get("srgb", True))
