@@ -609,3 +609,20 @@ def test_a_tangent_of_the_wrong_shape_is_one_line(tmp_path):
         raytrace.Mesh(file=doc, material="from_file")
     assert str(e.value).startswith(f"{doc}: meshes[0].primitives[0].attributes.TANGENT: "
                                    "TANGENT has (4, 3), POSITION (4, 3)")
+
+
+def test_an_output_never_overwrites_a_gltf_buffer_file(tmp_path, capsys):
+    """A .gltf's buffers may live in files beside it (``"uri": "m.bin"``): they are inputs
+    like the .gltf itself, so ``--stats m.bin`` is refused in one line and the buffer keeps
+    its bytes (before, the stats JSON was written over it and the model was lost)."""
+    from raytrace import cli
+
+    tri = {"positions": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "indices": [[0, 1, 2]]}
+    write_gltf(tmp_path / "m.gltf", [{"mesh": 0}], [tri], buffer_file="m.bin")
+    before = (tmp_path / "m.bin").read_bytes()
+    rc = cli.main(["render", str(tmp_path / "m.gltf"), "-o", str(tmp_path / "o.exr"),
+                   "--width", "4", "--height", "3", "-q", "--stats", str(tmp_path / "m.bin")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and (tmp_path / "m.bin").read_bytes() == before
+    assert "m.bin is a file read by the mesh of objects[0], which this command reads" in err[-1]
+    assert not (tmp_path / "o.exr").exists()

@@ -72,12 +72,20 @@ def _buffers(gltf: Any, path: Path) -> list[bytes]:
         elif uri.startswith("data:"):
             out.append(base64.b64decode(uri.split(",", 1)[1]))
         else:
-            file = input_file(path.parent / uri, "buffer file", f"buffers[{i}].uri", str(path))
+            file = input_file(path.parent / unquote(uri), "buffer file", f"buffers[{i}].uri",
+                              str(path))
             out.append(file.read_bytes())
         if len(out[-1]) < (b.byteLength or 0):
             raise SceneError(f"holds {len(out[-1])} bytes, its byteLength says {b.byteLength}: "
                              "the file is truncated", f"buffers[{i}]", str(path))
     return out
+
+
+def buffer_files(gltf: Any, path: Path) -> list[Path]:
+    """The files beside ``path`` that its buffers name (a ``.bin``; not a data URI or the GLB
+    chunk): read with the model, so no output may be written over them."""
+    return [path.parent / unquote(b.uri) for b in gltf.buffers or []
+            if b.uri is not None and not b.uri.startswith("data:")]
 
 
 def view_bytes(gltf: Any, buffers: list[bytes], index: Any, path: Path, key: str
@@ -441,7 +449,8 @@ def _load(path: Path) -> GltfScene:
     # each image decoded once, from the buffers read once
     texture = functools.partial(gltf_texture, buffers=buffers, decoded={})
     materials: dict = {}
-    verts, faces, face_mat, uvs, normals, sources = [], [], [], [], [], []
+    verts, faces, face_mat, uvs, normals = [], [], [], [], []
+    sources = buffer_files(gltf, path)
     tangents = []
     camera, lights, offset = None, [], 0
     light_specs = _ext(gltf, "KHR_lights_punctual").get("lights", [])
