@@ -17,7 +17,7 @@ from raytrace import malloc
 ROOT = Path(__file__).resolve().parents[1]
 GLIBC = sys.platform.startswith("linux") and platform.libc_ver()[0] == "glibc"
 
-#: A second 640×480 render of the Whitted scene on one thread: 16 passes of 19 200 samples,
+#: A second 640×480 render of the Whitted scene at 1 spp on one thread: 16 passes of 19 200 samples,
 #: whose arrays (460 KB for three float64 a row) lie above glibc's default mmap threshold.
 SECOND_RENDER_FAULTS = textwrap.dedent("""
     import resource, sys
@@ -26,9 +26,9 @@ SECOND_RENDER_FAULTS = textwrap.dedent("""
     if sys.argv[1] == "tuned":
         assert malloc.tune()
     scene = raytrace.load_scene(sys.argv[2])
-    raytrace.render(scene, width=640, height=480, threads=1)
+    raytrace.render(scene, width=640, height=480, spp=1, threads=1)
     before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
-    raytrace.render(scene, width=640, height=480, threads=1)
+    raytrace.render(scene, width=640, height=480, spp=1, threads=1)
     print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
 """)
 
