@@ -123,6 +123,9 @@ class Material:
     #: or with ``alpha_cutoff`` ≥ 0 makes it 1 or 0 (MASK); Python and model files only.
     alpha: Any = None
     alpha_cutoff: float = -1.0
+    #: A texture whose RGB multiplies the ambient term ka per hit (glTF occlusionTexture,
+    #: made by :meth:`raytrace.readers.texture.Texture.occlusion`); Python and model files only.
+    occlusion: Any = None
     name: str = field(default="", compare=False)
     #: The library files this material was read from (its own and its bases'): inputs that
     #: no output of a render may overwrite.
@@ -157,8 +160,9 @@ class Material:
             self.opacity = values.number(self.opacity, "opacity", lo=0, hi=1)
             self.fresnel = values.string(self.fresnel, "fresnel", FRESNELS)
             self.alpha_cutoff = values.number(self.alpha_cutoff, "alpha_cutoff", lo=-1, hi=1)
-            if self.alpha is not None and not hasattr(self.alpha, "texels"):
-                raise SceneError("must be a raytrace.readers.texture.Texture or None", "alpha")
+            for k in ("alpha", "occlusion"):
+                if getattr(self, k) is not None and not hasattr(getattr(self, k), "texels"):
+                    raise SceneError("must be a raytrace.readers.texture.Texture or None", k)
         except SceneError as e:
             raise e.at(key_prefix=where) from None
 
@@ -201,6 +205,13 @@ class Material:
     def lit(self) -> bool:
         """Has a term that lights affect (kd or ks non-zero)."""
         return not (self._is_zero(self.kd) and self._is_zero(self.ks))
+
+    @property
+    def textures(self) -> list[Texture]:
+        """Every image texture the material reads: its colours', its alpha's, its
+        occlusion's."""
+        return [t for t in (*(getattr(self, k) for k in COLOR_KEYS), self.alpha,
+                            self.occlusion) if isinstance(t, Texture)]
 
     @property
     def files(self) -> tuple[Path, ...]:

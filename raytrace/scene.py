@@ -228,6 +228,11 @@ def rotation_matrix(degrees: np.ndarray) -> np.ndarray:
     return rz @ ry @ rx
 
 
+#: A mesh's per-corner arrays that follow its faces (reversed with a mirroring scale, dropped
+#: with a zero-area face); the normals, which the transform changes too, are apart.
+CORNER_ARRAYS = ("texcoords", "texcoords1", "colors")
+
+
 @dataclass
 class Mesh(values.Checked):
     """Triangles intersected by Embree.
@@ -261,6 +266,11 @@ class Mesh(values.Checked):
     #: (F, 3, 3) unit world-space normals per face corner, as the file gives them (None where
     #: it gives none; a corner without one: zeros, shaded with its face's normal).
     normals: Any = field(default=None, init=False, repr=False)
+    #: With ``material = "from_file"``, per face corner where the file gives them: a second
+    #: set of texture coordinates (F, 3, 2) (glTF TEXCOORD_1) and linear RGBA vertex colours
+    #: (F, 3, 4) (glTF COLOR_0, which multiply kd and ka).
+    texcoords1: Any = field(default=None, init=False, repr=False)
+    colors: Any = field(default=None, init=False, repr=False)
     sources: tuple = field(default=(), init=False, repr=False)
     #: What the vertices were made from (file, mesh, and translate, rotate, scale as a 3×3
     #: array), for :meth:`check` to refuse a change of them that would not be seen.
@@ -316,8 +326,9 @@ class Mesh(values.Checked):
             # A mirroring scale turns counter-clockwise into clockwise: reverse each face so
             # the winding still gives the outward normal (entering vs leaving for refraction).
             faces = faces[:, ::-1]
-            if self.texcoords is not None:
-                self.texcoords = self.texcoords[:, ::-1]
+            for name in CORNER_ARRAYS:
+                if getattr(self, name) is not None:
+                    setattr(self, name, getattr(self, name)[:, ::-1])
             if self.normals is not None:
                 self.normals = self.normals[:, ::-1]
         keep = _nonzero_area(world, faces)
@@ -327,8 +338,9 @@ class Mesh(values.Checked):
         self.vertices, self.faces = world, faces[keep]
         if from_file:
             self.face_material = self.face_material[keep]
-        if self.texcoords is not None:
-            self.texcoords = np.ascontiguousarray(self.texcoords[keep])
+        for name in CORNER_ARRAYS:
+            if getattr(self, name) is not None:
+                setattr(self, name, np.ascontiguousarray(getattr(self, name)[keep]))
         if self.normals is not None:
             self.normals = world_normals(self.normals[keep], rotate, scale)
         self.check()
@@ -368,7 +380,8 @@ class Mesh(values.Checked):
                             "the mesh's size (its bounding box's longest side)", longest=False)
         rows = len(self.faces)
         for name, shape in (("face_material", (rows,)), ("texcoords", (rows, 3, 2)),
-                            ("normals", (rows, 3, 3))):
+                            ("normals", (rows, 3, 3)), ("texcoords1", (rows, 3, 2)),
+                            ("colors", (rows, 3, 4))):
             if getattr(self, name) is not None and np.shape(getattr(self, name)) != shape:
                 raise SceneError(f"must have the shape {shape} (one row a face), got "
                                  f"{np.shape(getattr(self, name))}", name)
@@ -380,6 +393,7 @@ class Mesh(values.Checked):
         self.file_materials, self.face_material = asset.materials, asset.face_material
         self.texcoords, self.sources = asset.texcoords, asset.sources
         self.normals = asset.normals
+        self.texcoords1, self.colors = asset.texcoords1, asset.colors
         self.material = asset.materials[0]
         return asset.vertices, asset.faces
 

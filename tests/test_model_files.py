@@ -175,7 +175,8 @@ CORE = {
     "node hierarchy that is not a tree": (lambda d: d["nodes"][0].update(children=[0]), False),
     "primitive `mode` 0–3, 5, 6 (points, lines, strips, fans)": (_prim(
         lambda p: p.update(mode=5)), False),
-    "`TEXCOORD_1` and higher": (_prim(lambda p: p["attributes"].update(TEXCOORD_1=1)), False),
+    "`TEXCOORD_1`": (_prim(lambda p: p["attributes"].update(TEXCOORD_1=1)), False),
+    "`TEXCOORD_2` and higher": (_prim(lambda p: p["attributes"].update(TEXCOORD_2=1)), False),
     "`COLOR_0`": (_prim(lambda p: p["attributes"].update(COLOR_0=0)), False),
     "`TANGENT`": (_prim(lambda p: p["attributes"].update(TANGENT=0)), False),
     "sparse accessors": (lambda d: d["accessors"][0].update(sparse={
@@ -183,7 +184,7 @@ CORE = {
         "values": {"bufferView": 0}}), False),
     "no camera, no lights": (None, True),
     "images Pillow cannot open (KTX2, Basis)": (_ktx2, False),
-    "a `textureInfo` with `texCoord` ≠ 0": (_textured({"index": 0, "texCoord": 1}), False),
+    "a `textureInfo` with `texCoord` ≥ 2": (_textured({"index": 0, "texCoord": 2}), False),
     "`metallicRoughnessTexture`": (lambda d: (_textured({"index": 0})(d), d["materials"][0][
         "pbrMetallicRoughness"].update(metallicRoughnessTexture={"index": 0})), False),
     "`normalTexture`": (lambda d: (_textured({"index": 0})(d), d["materials"][0].update(
@@ -231,7 +232,7 @@ MTL_ARGS = {**dict.fromkeys(mtl.COLOR_STATEMENTS, "0.5 0.5 0.5"), "Ns": "10", "N
 
 def test_every_statement_the_mtl_reader_knows_has_its_row():
     rows = {name: state for name, state, _ in MTL_ROWS}
-    known = (*mtl.COLOR_STATEMENTS, *mtl.NUMBER_STATEMENTS, "map_Kd")
+    known = (*mtl.COLOR_STATEMENTS, *mtl.NUMBER_STATEMENTS, *mtl.MAPS)
     assert {n: rows.get(n) for n in known} == dict.fromkeys(known, "read")
     assert {n: rows.get(n) for n in mtl.IGNORED} == dict.fromkeys(mtl.IGNORED, "silent")
 

@@ -146,6 +146,14 @@ CHECKER_COLUMNS = 7
 #: width and height in texels, its wrap modes along s and t (``raytrace.readers.texture.WRAPS``).
 TEX_OFFSET, TEX_WIDTH, TEX_HEIGHT, TEX_WRAP_S, TEX_WRAP_T = range(5)
 TEX_COLUMNS = 5
+#: The columns of a row of ``Materials.tex_map``, one texture use's mapping (packed by
+#: ``raytrace.tables.MaterialTable`` from ``Texture.uv_set`` and ``Texture.transform``, read
+#: by ``raytrace.kernels.material.texture_st1``): its texture-coordinate set (0: the mesh's
+#: first, glTF TEXCOORD_0; 1: glTF TEXCOORD_1), 1.0 where it has an affine transform (0.0:
+#: the identity, read with no arithmetic), then that transform's rows a b c d e f:
+#: ``s' = a·s + b·t + c``, ``t' = d·s + e·t + f``.
+MAP_SET, MAP_AFFINE, MAP_MATRIX = 0, 1, 2
+MAP_COLUMNS = 8
 #: The material table's arrays besides its per-material columns (:data:`MATERIAL_COLUMNS`).
 MATERIAL_TABLES = {
     "colors": "(M, 3·C) constant colours of material.COLOR_KEYS (ka kd ks kr kt ke), three "
@@ -153,11 +161,14 @@ MATERIAL_TABLES = {
     "pattern": "(M, C) int64 row of checkers per colour, or −1 (constant)",
     "checkers": f"(P, {CHECKER_COLUMNS}) colour 0, colour 1, scale (CHECKER_COLOR0, …)",
     "texture": "(M, C) int64 image texture per colour (row of tex_info), or −1",
-    "textured": "(M,) bool: some colour is an image texture, or the alpha is",
+    "textured": "(M,) bool: some colour is an image texture, or the alpha or the occlusion is",
     "texels": "(N,) float32 every texture's RGBA rows, one after another",
     "tex_info": f"(K, {TEX_COLUMNS}) int64 offset into texels, width, height, wrap s, wrap t "
                 "(TEX_OFFSET, …)",
     "alpha": "(M,) int64 texture whose alpha multiplies the opacity, or −1",
+    "tex_map": f"(K, {MAP_COLUMNS}) float64 each texture's uv set and affine map (MAP_SET, …)",
+    "occlusion": "(M,) int64 texture (its RGB 1 + strength·(occlusion − 1)) that multiplies "
+                 "ka, or −1",
 }
 #: The material table, indexed by ``Surface.material``: the fields of
 #: :data:`MATERIAL_TABLES`, then one (M,) array per entry of ``material.COLUMNS``, in its
@@ -182,6 +193,11 @@ class Triangles(NamedTuple):
                             #: corners (accel_kernels.triangle_tables)
     #: (T, 3, 2) (s, t) at the corners; none (0, 3, 2) where no material has a texture
     texcoords: np.ndarray = np.zeros((0, 3, 2))
+    #: (T, 3, 2) the second set (glTF TEXCOORD_1) where some texture reads it, else none
+    texcoords1: np.ndarray = np.zeros((0, 3, 2))
+    #: (T, 3, 4) linear RGBA vertex colours at the corners (glTF COLOR_0; white on a mesh
+    #: without them) where some mesh has them, else none (0, 3, 4)
+    colors: np.ndarray = np.zeros((0, 3, 4))
 
 
 #: The columns of a row of ``Scene.fast``, one triangle's fast-Phong polynomials for one
@@ -206,6 +222,9 @@ class Scene(NamedTuple):
     #: else None: the material lookup's texture code (``kernels.material``) is compiled, and
     #: its tables bound, only where they are an array
     texcoords: np.ndarray | None = None
+    #: (T, 3, 4) ``Triangles.colors`` where some mesh has vertex colours, else None: the
+    #: lookup's vertex-colour code is compiled only where they are an array
+    colors: np.ndarray | None = None
 
 
 class Emitter(NamedTuple):
@@ -595,6 +614,10 @@ class TextureTables(NamedTuple):
     texels: np.ndarray     #: ``Materials.texels``
     tex_info: np.ndarray   #: ``Materials.tex_info``
     texcoords: np.ndarray  #: ``Triangles.texcoords``
+    texcoords1: np.ndarray  #: ``Triangles.texcoords1``
+    tex_map: np.ndarray    #: ``Materials.tex_map``
+    occlusion: np.ndarray  #: ``Materials.occlusion``
+    colors: np.ndarray | None  #: ``Scene.colors``: None compiles no vertex-colour code
 
 
 class AlphaTables(NamedTuple):
@@ -606,3 +629,5 @@ class AlphaTables(NamedTuple):
     texels: np.ndarray        #: ``Materials.texels``
     tex_info: np.ndarray      #: ``Materials.tex_info``
     texcoords: np.ndarray     #: ``Triangles.texcoords``
+    texcoords1: np.ndarray    #: ``Triangles.texcoords1``
+    tex_map: np.ndarray       #: ``Materials.tex_map``

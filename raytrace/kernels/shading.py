@@ -352,7 +352,7 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
     point, geometric, shading, material = surf.point, surf.geometric, surf.shading, surf.material
     materials, triangles, origin = scene.materials, scene.triangles, scene.origin
     palette = Palette(materials.colors, materials.pattern, materials.checkers)
-    textures = texture_tables1(materials, scene.texcoords)  # None: no texture code compiled
+    textures = texture_tables1(scene)  # None: no texture code compiled
     code = triangles.shading
     smooth_tables = SmoothTriangles(triangles.corners, triangles.vnormals)
     rows, s_origin, s_direction = shadow.rows, shadow.origin, shadow.direction
@@ -479,8 +479,8 @@ def cross_surfaces(factor, live, surf, walk, scene):
     palette = Palette(materials.colors, materials.pattern, materials.checkers)
     opacity = materials.opacity
     # None without image textures: the lookup's texture code is then not compiled
-    textures = texture_tables1(materials, scene.texcoords)
-    alphas = alpha_tables1(materials, scene.texcoords)
+    textures = texture_tables1(scene)
+    alphas = alpha_tables1(scene)
     n, on = live.shape[0], 0
     through = np.empty(n, np.bool_)
     for j in range(n):
@@ -561,8 +561,8 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children):
     palette = Palette(materials.colors, materials.pattern, materials.checkers)
     opacity = materials.opacity
     # None without image textures: the lookup's texture code is then not compiled
-    textures = texture_tables1(materials, scene.texcoords)
-    alphas = alpha_tables1(materials, scene.texcoords)
+    textures = texture_tables1(scene)
+    alphas = alpha_tables1(scene)
     ambient, lights = local.ambient, local.lights
     samples, sample = into.sums, into.row
     if children is not None:

@@ -33,3 +33,7 @@ class Asset:
     #: (F, 3, 3) per corner, the normals the file gives (OBJ ``vn``, glTF ``NORMAL``); None
     #: where it gives none, a zero row for a corner without one (glTF: a primitive without)
     normals: np.ndarray | None = None
+    #: (F, 3, 2) per corner, a second set of texture coordinates (glTF TEXCOORD_1), or None
+    texcoords1: np.ndarray | None = None
+    #: (F, 3, 4) per corner, linear RGBA vertex colours (glTF COLOR_0), or None
+    colors: np.ndarray | None = None
