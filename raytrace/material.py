@@ -126,6 +126,9 @@ class Material:
     #: A texture whose RGB multiplies the ambient term ka per hit (glTF occlusionTexture,
     #: made by :meth:`raytrace.readers.texture.Texture.occlusion`); Python and model files only.
     occlusion: Any = None
+    #: The colours a mesh's vertex colours multiply (glTF COLOR_0 multiplies the base colour:
+    #: kd and the ka that follows it, and a metal's ks and kr); Python and model files only.
+    vertex_colors: tuple[str, ...] = ("ka", "kd")
     name: str = field(default="", compare=False)
     #: The library files this material was read from (its own and its bases'): inputs that
     #: no output of a render may overwrite.
@@ -160,6 +163,8 @@ class Material:
             self.opacity = values.number(self.opacity, "opacity", lo=0, hi=1)
             self.fresnel = values.string(self.fresnel, "fresnel", FRESNELS)
             self.alpha_cutoff = values.number(self.alpha_cutoff, "alpha_cutoff", lo=-1, hi=1)
+            self.vertex_colors = tuple(values.string(k, "vertex_colors", COLOR_KEYS)
+                                       for k in self.vertex_colors)
             for k in ("alpha", "occlusion"):
                 if getattr(self, k) is not None and not hasattr(getattr(self, k), "texels"):
                     raise SceneError("must be a raytrace.readers.texture.Texture or None", k)

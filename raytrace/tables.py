@@ -278,6 +278,8 @@ class MaterialTable:
                         textures.append(t)
                     rows[i] = textures.index(t)
             setattr(self, name, rows)
+        self.tinted = np.array([[k in m.vertex_colors for k in COLOR_KEYS] for m in materials],
+                               bool).reshape(len(materials), len(COLOR_KEYS))
         self.textured = ((self.texture >= 0).any(axis=1) | (self.alpha >= 0)
                          | (self.occlusion >= 0))
         # only scenes with textures pay for them: one float a texture channel, else none;

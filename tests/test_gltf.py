@@ -599,3 +599,18 @@ def test_color_0_multiplies_the_base_colour(tmp_path, colors, at, want):
     got = pixel(make_scene([mesh], [], aimed_camera([x, y, 3], [x, y, 0]), ambient=1.0,
                            max_depth=0))
     np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-12)
+
+
+def test_color_0_tints_a_metals_specular_colour(tmp_path):
+    """For metallic 1 the specular colour F0 is the base colour, so COLOR_0 multiplies ks and
+    kr too: a white metal with red corners, lit by a point light at the eye (ambient 0), is
+    the plain metal's pixel times (1, 0, 0)."""
+    metal = {"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 1.0,
+                                      "roughnessFactor": 1.0}}
+    eye = [0.3, -0.6, 3.0]
+    cam, light = aimed_camera(eye, [0.3, -0.6, 0]), [raytrace.PointLight(position=eye)]
+    plain = pixel(make_scene([_matte_square(tmp_path, "p", metal)], light, cam, max_depth=0))
+    red = _matte_square(tmp_path, "r", metal, {"colors": np.tile([1.0, 0.0, 0.0], (4, 1))})
+    assert plain.min() > 0
+    np.testing.assert_allclose(pixel(make_scene([red], light, cam, max_depth=0)),
+                               plain * [1, 0, 0], rtol=1e-12)

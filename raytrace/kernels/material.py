@@ -18,7 +18,7 @@ A colour is its constant, or its checker at the world point (SCENE_FORMAT.md), o
 material's colour has an image texture, the texture's bilinear texel at the hit's texture
 coordinates (:func:`raytrace.kernels.core.texture1`), read through the texture's mapping
 (its uv set and affine transform, :func:`texture_st1`); KA times the material's occlusion
-texture and KA and KD times the vertex colour (:func:`modulate1`); the opacity is the
+texture and the colours it tints times the vertex colour (:func:`modulate1`); the opacity is the
 material's constant t, times the alpha texture's alpha (glTF BLEND) or cut at its cutoff
 (MASK). The pieces below the two are used by them alone.
 """
@@ -30,7 +30,7 @@ from numba.extending import overload
 
 from .core import ALPHA, bilinear1, checker1, texture1
 from .jit import helper, inline
-from .kinds import KA, KD
+from .kinds import KA
 from .records import (
     CHECKER_COLOR0,
     CHECKER_COLOR1,
@@ -47,7 +47,8 @@ def _texture_record(scene):
     return TextureTables(
         scene.materials.textured, scene.materials.texture, scene.materials.texels,
         scene.materials.tex_info, scene.texcoords, scene.triangles.texcoords1,
-        scene.materials.tex_map, scene.materials.occlusion, scene.colors)
+        scene.materials.tex_map, scene.materials.occlusion, scene.materials.tinted,
+        scene.colors)
 
 
 def _alpha_record(scene):
@@ -137,7 +138,7 @@ def _texel1(textures, m, slot, hit, other):
         q = textures.texture[m, slot // 3]
         if q < 0:
             return other
-        s, t = texture_st1(textures, q, hit)
+        s, t = texture_st1((textures.tex_map, textures.texcoords, textures.texcoords1), q, hit)
         return texture1(textures.texels, textures.tex_info, q, s, t)
     return texel
 
@@ -146,51 +147,59 @@ def modulate1(textures, m, slot, hit, c):
     """Colour ``c`` of slot ``slot`` of material ``m`` at ``hit`` times what varies over a
     surface besides its colour's texture: for KA, the material's occlusion texture where it
     has one (glTF 2.0 §3.9.3: ambient × (1 + strength·(occlusion − 1)), baked into the
-    texture's RGB when it is read); for KA and KD, the hit's vertex colour (glTF COLOR_0,
-    which multiplies the base colour, :func:`vertex_color1`). ``c`` itself where ``textures``
-    is None, and no vertex-colour code where the scene has none (``textures.colors`` None)."""
+    texture's RGB when it is read); for the slots the material's vertex colours tint
+    (``textures.tinted``: KA and KD, and a glTF metal's KS and KR), the hit's vertex colour
+    (glTF COLOR_0, which multiplies the base colour, :func:`vertex_color1`). ``c`` itself
+    where ``textures`` is None, and no vertex-colour code where the scene has none
+    (``textures.colors`` None)."""
 
 
 @overload(modulate1, inline="always")
 def _modulate1(textures, m, slot, hit, c):
     if isinstance(textures, types.NoneType):
         return lambda textures, m, slot, hit, c: c
-    if isinstance(_field(textures, "colors"), types.NoneType):
-        return lambda textures, m, slot, hit, c: occluded1(textures, m, slot, hit, c)
 
     def modulate(textures, m, slot, hit, c):
-        r, g, b = occluded1(textures, m, slot, hit, c)
-        if slot <= KD:
-            w = vertex_color1(textures.colors, hit.triangle, hit.u, hit.v)
-            return r * w[0], g * w[1], b * w[2]
-        return r, g, b
+        q = textures.occlusion[m]
+        tinted = textures.tinted[m, slot // 3]
+        if slot == KA and q >= 0:
+            s, t = texture_st1((textures.tex_map, textures.texcoords, textures.texcoords1), q,
+                               hit)
+            o = texture1(textures.texels, textures.tex_info, q, s, t)
+            return tint1(textures.colors, tinted, hit, (c[0] * o[0], c[1] * o[1], c[2] * o[2]))
+        return tint1(textures.colors, tinted, hit, c)
     return modulate
 
 
-@inline
-def occluded1(textures, m, slot, hit, c):
-    """``c`` times material ``m``'s occlusion texture at ``hit`` where ``slot`` is KA and it
-    has one (:func:`modulate1`), else ``c``."""
-    q = textures.occlusion[m]
-    if slot != KA or q < 0:
-        return c
-    s, t = texture_st1(textures, q, hit)
-    o = texture1(textures.texels, textures.tex_info, q, s, t)
-    return c[0] * o[0], c[1] * o[1], c[2] * o[2]
+def tint1(colors, tinted, hit, c):
+    """``c`` times the vertex colour at ``hit`` (:func:`vertex_color1`) where ``tinted``;
+    ``c`` itself where ``colors`` is None (no code)."""
 
 
-@inline
-def texture_st1(tables, q, hit):
-    """The coordinates (s, t) at which texture ``q`` is read at ``hit``: its row of
-    ``tables.tex_map`` (:data:`raytrace.kernels.records.MAP_SET`, …) picks the set
-    (``tables.texcoords``, or ``texcoords1`` where some mesh has a second set) and, where it
-    has one, the affine map ``(s', t') = (a·s + b·t + c, d·s + e·t + f)`` (glTF
-    KHR_texture_transform's T·R·S, MTL ``-o``/``-s``); an identity mapping does no
-    arithmetic."""
-    row = tables.tex_map
-    second = row[q, MAP_SET] == 1.0 and tables.texcoords1.shape[0] > 0
-    tc = tables.texcoords1 if second else tables.texcoords
-    s, t = texcoord1(tc, hit.triangle, hit.u, hit.v)
+@overload(tint1, inline="always")
+def _tint1(colors, tinted, hit, c):
+    if isinstance(colors, types.NoneType):
+        return lambda colors, tinted, hit, c: c
+
+    def tint(colors, tinted, hit, c):
+        if not tinted:
+            return c
+        w = vertex_color1(colors, hit.triangle, hit.u, hit.v)
+        return c[0] * w[0], c[1] * w[1], c[2] * w[2]
+    return tint
+
+
+@helper
+def texture_st1(maps, q, hit):
+    """The coordinates (s, t) at which texture ``q`` is read at ``hit``; ``maps`` = (the
+    textures' ``tex_map``, ``texcoords``, ``texcoords1``): its row of ``tex_map``
+    (:data:`raytrace.kernels.records.MAP_SET`, …) picks the set (``texcoords``, or
+    ``texcoords1`` where some mesh has a second set) and, where it has one, the affine map
+    ``(s', t') = (a·s + b·t + c, d·s + e·t + f)`` (glTF KHR_texture_transform's T·R·S, MTL
+    ``-o``/``-s``); an identity mapping does no arithmetic."""
+    row, texcoords, texcoords1 = maps
+    second = row[q, MAP_SET] == 1.0 and texcoords1.shape[0] > 0
+    s, t = texcoord1(texcoords1 if second else texcoords, hit.triangle, hit.u, hit.v)
     if row[q, MAP_AFFINE] == 0.0:
         return s, t
     a = MAP_MATRIX
@@ -214,7 +223,8 @@ def _alpha1(alphas, m, hit, constant):
             return constant
         return opacity1(constant, (alphas.alpha[m], alphas.alpha_cutoff[m]),
                         (alphas.texels, alphas.tex_info),
-                        texture_st1(alphas, alphas.alpha[m], hit))
+                        texture_st1((alphas.tex_map, alphas.texcoords, alphas.texcoords1),
+                                    alphas.alpha[m], hit))
     return alpha
 
 

@@ -167,6 +167,7 @@ MATERIAL_TABLES = {
                 "(TEX_OFFSET, …)",
     "alpha": "(M,) int64 texture whose alpha multiplies the opacity, or −1",
     "tex_map": f"(K, {MAP_COLUMNS}) float64 each texture's uv set and affine map (MAP_SET, …)",
+    "tinted": "(M, C) bool: the colours vertex colours multiply (material.vertex_colors)",
     "occlusion": "(M,) int64 texture (its RGB 1 + strength·(occlusion − 1)) that multiplies "
                  "ka, or −1",
 }
@@ -617,6 +618,7 @@ class TextureTables(NamedTuple):
     texcoords1: np.ndarray  #: ``Triangles.texcoords1``
     tex_map: np.ndarray    #: ``Materials.tex_map``
     occlusion: np.ndarray  #: ``Materials.occlusion``
+    tinted: np.ndarray     #: ``Materials.tinted``
     colors: np.ndarray | None  #: ``Scene.colors``: None compiles no vertex-colour code
 
 

@@ -245,9 +245,14 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
     elif mode == "MASK":
         cutoff = m.alphaCutoff if m.alphaCutoff is not None else 0.5
         fields["opacity"] = 1.0 if alpha >= cutoff else 0.0
+    # COLOR_0 multiplies the base colour: kd and the ka that follows it, kt, and F0 (so ks
+    # and kr) where it is the base colour (metallic 1; between 0 and 1 F0 keeps its share of
+    # the base colour untinted)
+    fields["vertex_colors"] = ("ka", "kd", *(("ks", "kr") if metallic == 1 else ()),
+                               *(("kt",) if trans > 0 else ()))
     unlit = m is not None and "KHR_materials_unlit" in (m.extensions or {})
     if unlit:
-        fields.update(ke=base, kd=0.0, ks=0.0, kr=0.0, ka=0.0)
+        fields.update(ke=base, kd=0.0, ks=0.0, kr=0.0, ka=0.0, vertex_colors=("ke",))
     tex = pbr.baseColorTexture if pbr is not None else None
     if tex is not None and texture is not None:
         t = texture(gltf, tex, path, f"materials[{index}].pbrMetallicRoughness."
