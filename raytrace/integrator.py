@@ -981,7 +981,7 @@ KERNEL_FEATURES: dict[str, Callable] = {
     # the material lookup's texture code in hit_terms and cross_surfaces (their ``texcoords``;
     # vertex colours are read by it too)
     "textures": lambda table, triangles: bool(table.textured.any())
-    or len(triangles.colors) > 0,
+    or triangles.colors is not None,
     # hit_terms' reflected, refracted and see-through children, and the spawn kernels
     "children": lambda table, triangles: bool(table.reflects.any())
     or bool(table.transparent.any()),

@@ -221,8 +221,7 @@ class Material:
     @property
     def files(self) -> tuple[Path, ...]:
         """The files this material was read from: its library files and its textures'."""
-        return (*self.sources, *(c.file for c in (getattr(self, k) for k in COLOR_KEYS)
-                                 if getattr(c, "file", None) is not None))
+        return (*self.sources, *(t.file for t in self.textures if t.file is not None))
 
     def replace(self, **changes: Any) -> Material:
         return dataclasses.replace(self, **changes)

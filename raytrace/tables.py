@@ -173,6 +173,8 @@ def triangle_tables(meshes: list[Mesh], origin: np.ndarray, index: dict[int, int
     # the texture coordinates of every triangle where some mesh's file gives them (image
     # textures and the uv AOV read them; zeros for the faces of a mesh without them)
     texcoords = corner_table(meshes, "texcoords", np.zeros(2))
+    if texcoords is None:
+        texcoords = np.zeros((0, 3, 2))
     # the second set where some mesh's file gives one (glTF TEXCOORD_1), the first set's
     # coordinates on a mesh whose file gives no second
     texcoords1 = corner_table(meshes, "texcoords1", np.zeros(2), "texcoords")
@@ -182,12 +184,12 @@ def triangle_tables(meshes: list[Mesh], origin: np.ndarray, index: dict[int, int
 
 
 def corner_table(meshes: list[Mesh], name: str, default: np.ndarray,
-                 fallback: str | None = None) -> np.ndarray:
+                 fallback: str | None = None) -> np.ndarray | None:
     """The per-corner array ``name`` of every mesh (F, 3, k) concatenated, where some mesh has
     one: a mesh without it gives its ``fallback`` array, else ``default`` (k,) at every
-    corner; (0, 3, k) where none has it."""
+    corner; None where none has it."""
     if not any(getattr(m, name) is not None for m in meshes):
-        return np.zeros((0, 3, len(default)))
+        return None
 
     def rows(m: Mesh) -> np.ndarray:
         for a in (getattr(m, name), getattr(m, fallback) if fallback else None):
@@ -282,6 +284,8 @@ class MaterialTable:
                                bool).reshape(len(materials), len(COLOR_KEYS))
         self.textured = ((self.texture >= 0).any(axis=1) | (self.alpha >= 0)
                          | (self.occlusion >= 0))
+        if not (self.occlusion >= 0).any():  # no occlusion code compiled
+            self.occlusion = None
         # only scenes with textures pay for them: one float a texture channel, else none;
         # an image used with two mappings (two Textures sharing texels) is stored once
         images = list({id(t.texels): t.texels for t in textures}.values())
@@ -297,6 +301,8 @@ class MaterialTable:
             if t.transform is not None:
                 row[MAP_AFFINE] = 1.0
                 row[MAP_MATRIX:MAP_MATRIX + 6] = np.reshape(t.transform, 6)
+        if not self.tex_map[:, MAP_SET:MAP_AFFINE + 1].any():  # every use set 0, unmapped:
+            self.tex_map = None  # the texture code reads as it would without mappings
         self.texels = (np.concatenate([x.reshape(-1) for x in images])
                        if images else np.zeros(0, np.float32))
         self.checkers = np.array(checkers, dtype=np.float64).reshape(-1, CHECKER_COLUMNS)
@@ -304,16 +310,18 @@ class MaterialTable:
             value = COLUMNS[name]
             setattr(self, name, np.array([value(m) for m in materials], dtype))
         self.transparent = np.array([m.transparent for m in materials], dtype=bool)
-        self.record = Materials(**{name: getattr(self, name) for name in Materials._fields})
+        # (tinted is bound by scene_record where the scene has vertex colours)
+        self.record = Materials(**{name: getattr(self, name) for name in Materials._fields
+                                   if name != "tinted"}, tinted=None)
 
 
 def scene_record(origin: np.ndarray, table: MaterialTable, triangles: Triangles) -> Scene:
     """What every shading kernel needs of the scene, as one record: the texture coordinates
     only where some material has an image texture or some mesh vertex colours (the kernels'
-    texture code is compiled only then), the vertex colours only where some mesh has them."""
+    texture code is compiled only then), and the materials' ``tinted`` only where some mesh has
+    vertex colours."""
     textured = bool(table.textured.any()) if len(table.materials) else False
-    colored = len(triangles.colors) > 0
-    textured = textured or colored
-    return Scene(np.ascontiguousarray(origin, dtype=np.float64), table.record, triangles,
-                 texcoords=triangles.texcoords if textured else None,
-                 colors=triangles.colors if colored else None)
+    colored = triangles.colors is not None
+    materials = table.record._replace(tinted=table.tinted) if colored else table.record
+    return Scene(np.ascontiguousarray(origin, dtype=np.float64), materials, triangles,
+                 texcoords=triangles.texcoords if textured or colored else None)

@@ -614,3 +614,17 @@ def test_color_0_tints_a_metals_specular_colour(tmp_path):
     assert plain.min() > 0
     np.testing.assert_allclose(pixel(make_scene([red], light, cam, max_depth=0)),
                                plain * [1, 0, 0], rtol=1e-12)
+
+
+@pytest.mark.parametrize("info,key,problem", [
+    ({"extensions": {"KHR_texture_transform": {"offset": [1.0]}}},
+     "baseColorTexture.extensions.KHR_texture_transform.offset", "must be a list of 2 numbers"),
+    ({"extensions": {"KHR_texture_transform": {"rotation": "a"}}},
+     "baseColorTexture.extensions.KHR_texture_transform.rotation", "must be a number"),
+    ({"extensions": {"KHR_texture_transform": {"texCoord": 3}}},
+     "baseColorTexture.extensions.KHR_texture_transform.texCoord", "only TEXCOORD_0 and"),
+])
+def test_a_bad_texture_transform_is_one_line_naming_its_field(tmp_path, info, key, problem):
+    with pytest.raises(SceneError, match=re.escape(f"t.gltf: materials[0].pbrMetallicRoughness."
+                                                   f"{key}: {problem}")):
+        _unlit_square_pixel(tmp_path, (0, 0), info)

@@ -295,3 +295,13 @@ def test_one_image_with_two_mappings_is_stored_once():
     np.testing.assert_array_equal(table.tex_info[:, TEX_OFFSET], [0, 0])
     np.testing.assert_array_equal(table.tex_map[:, MAP_SET], [0, 1])
     np.testing.assert_array_equal(table.tex_map[:, MAP_AFFINE], [0, 1])
+
+
+@pytest.mark.parametrize("key,value,problem", [
+    ("uv_set", 2, "must be <= 1"), ("uv_offset", [1], "must be a list of 2 numbers"),
+    ("uv_rotation", "a", "must be a number"), ("uv_scale", 2, "must be a list of 2 numbers"),
+])
+def test_a_bad_mapping_key_is_one_line_naming_it(tmp_path, key, value, problem):
+    _png(tmp_path / "t.png", [[[0, 0, 0]]])
+    with pytest.raises(SceneError, match=rf"kd\.{key}: {problem}"):
+        raytrace.Material(kd={"texture": str(tmp_path / "t.png"), key: value})

@@ -358,8 +358,7 @@ def _direct_lighting(tracer, lights, settings, rays, depth, pass_io, surf, tally
             words = np.empty(n, np.int64)
             core.light_words(key, np.int64(em.stream), np.int64(depth), words)
         fast = lights.fast[lights.fast_first[e]:lights.fast_first[e + 1]]
-        tables = Scene(scene.origin, scene.materials, scene.triangles, fast, scene.texcoords,
-                       scene.colors)
+        tables = Scene(scene.origin, scene.materials, scene.triangles, fast, scene.texcoords)
         k = sk.light_pass(rays, surf, tables, em, words, light_depth(tracer.shaded, depth),
                           term, shadows)
         if k:  # the camera rays' hits send coherent shadow rays to a point

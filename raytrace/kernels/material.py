@@ -48,7 +48,7 @@ def _texture_record(scene):
         scene.materials.textured, scene.materials.texture, scene.materials.texels,
         scene.materials.tex_info, scene.texcoords, scene.triangles.texcoords1,
         scene.materials.tex_map, scene.materials.occlusion, scene.materials.tinted,
-        scene.colors)
+        scene.triangles.colors)
 
 
 def _alpha_record(scene):
@@ -138,7 +138,7 @@ def _texel1(textures, m, slot, hit, other):
         q = textures.texture[m, slot // 3]
         if q < 0:
             return other
-        s, t = texture_st1((textures.tex_map, textures.texcoords, textures.texcoords1), q, hit)
+        s, t = mapped_st1(textures, q, hit)
         return texture1(textures.texels, textures.tex_info, q, s, t)
     return texel
 
@@ -156,50 +156,72 @@ def modulate1(textures, m, slot, hit, c):
 
 @overload(modulate1, inline="always")
 def _modulate1(textures, m, slot, hit, c):
-    if isinstance(textures, types.NoneType):
+    if isinstance(textures, types.NoneType) or (
+            isinstance(_field(textures, "occlusion"), types.NoneType)
+            and isinstance(_field(textures, "colors"), types.NoneType)):
         return lambda textures, m, slot, hit, c: c
+    if isinstance(_field(textures, "occlusion"), types.NoneType):
+        return lambda textures, m, slot, hit, c: tint1(textures.colors, textures.tinted, m,
+                                                       slot, hit, c)
 
     def modulate(textures, m, slot, hit, c):
         q = textures.occlusion[m]
-        tinted = textures.tinted[m, slot // 3]
         if slot == KA and q >= 0:
-            s, t = texture_st1((textures.tex_map, textures.texcoords, textures.texcoords1), q,
-                               hit)
+            s, t = mapped_st1(textures, q, hit)
             o = texture1(textures.texels, textures.tex_info, q, s, t)
-            return tint1(textures.colors, tinted, hit, (c[0] * o[0], c[1] * o[1], c[2] * o[2]))
-        return tint1(textures.colors, tinted, hit, c)
+            return tint1(textures.colors, textures.tinted, m, slot, hit,
+                         (c[0] * o[0], c[1] * o[1], c[2] * o[2]))
+        return tint1(textures.colors, textures.tinted, m, slot, hit, c)
     return modulate
 
 
-def tint1(colors, tinted, hit, c):
-    """``c`` times the vertex colour at ``hit`` (:func:`vertex_color1`) where ``tinted``;
-    ``c`` itself where ``colors`` is None (no code)."""
+def tint1(colors, tinted, m, slot, hit, c):
+    """``c`` times the vertex colour at ``hit`` (:func:`vertex_color1`) where material ``m``
+    tints ``slot`` (``tinted``); ``c`` itself where ``colors`` is None (no code)."""
 
 
 @overload(tint1, inline="always")
-def _tint1(colors, tinted, hit, c):
+def _tint1(colors, tinted, m, slot, hit, c):
     if isinstance(colors, types.NoneType):
-        return lambda colors, tinted, hit, c: c
+        return lambda colors, tinted, m, slot, hit, c: c
 
-    def tint(colors, tinted, hit, c):
-        if not tinted:
+    def tint(colors, tinted, m, slot, hit, c):
+        if not tinted[m, slot // 3]:
             return c
         w = vertex_color1(colors, hit.triangle, hit.u, hit.v)
         return c[0] * w[0], c[1] * w[1], c[2] * w[2]
     return tint
 
 
+def mapped_st1(tables, q, hit):
+    """The coordinates (s, t) at which texture ``q`` is read at ``hit`` (``tables``: a
+    :class:`raytrace.kernels.records.TextureTables` or ``AlphaTables``): the first set's
+    (:func:`texcoord1`) where no texture has a mapping (``tables.tex_map`` None: no mapping
+    code), else :func:`texture_st1`'s."""
+
+
+@overload(mapped_st1, inline="always")
+def _mapped_st1(tables, q, hit):
+    if isinstance(_field(tables, "tex_map"), types.NoneType):
+        return lambda tables, q, hit: texcoord1(tables.texcoords, hit.triangle, hit.u, hit.v)
+    if isinstance(_field(tables, "texcoords1"), types.NoneType):  # no mesh has a second set
+        return lambda tables, q, hit: texture_st1(
+            (tables.tex_map, tables.texcoords, tables.texcoords), q, hit)
+    return lambda tables, q, hit: texture_st1(
+        (tables.tex_map, tables.texcoords, tables.texcoords1), q, hit)
+
+
 @helper
 def texture_st1(maps, q, hit):
-    """The coordinates (s, t) at which texture ``q`` is read at ``hit``; ``maps`` = (the
-    textures' ``tex_map``, ``texcoords``, ``texcoords1``): its row of ``tex_map``
-    (:data:`raytrace.kernels.records.MAP_SET`, …) picks the set (``texcoords``, or
-    ``texcoords1`` where some mesh has a second set) and, where it has one, the affine map
-    ``(s', t') = (a·s + b·t + c, d·s + e·t + f)`` (glTF KHR_texture_transform's T·R·S, MTL
-    ``-o``/``-s``); an identity mapping does no arithmetic."""
+    """The coordinates (s, t) at which texture ``q`` is read at ``hit`` where some texture
+    has a mapping; ``maps`` = (the textures' ``tex_map``, the first set's ``texcoords``, the
+    second set's, or the first's where no mesh has a second): its row of ``tex_map``
+    (:data:`raytrace.kernels.records.MAP_SET`, …) picks the set and, where it has one, the
+    affine map ``(s', t') = (a·s + b·t + c, d·s + e·t + f)`` (glTF KHR_texture_transform's
+    T·R·S, MTL ``-o``/``-s``); an identity mapping does no arithmetic."""
     row, texcoords, texcoords1 = maps
-    second = row[q, MAP_SET] == 1.0 and texcoords1.shape[0] > 0
-    s, t = texcoord1(texcoords1 if second else texcoords, hit.triangle, hit.u, hit.v)
+    s, t = texcoord1(texcoords1 if row[q, MAP_SET] == 1.0 else texcoords, hit.triangle, hit.u,
+                     hit.v)
     if row[q, MAP_AFFINE] == 0.0:
         return s, t
     a = MAP_MATRIX
@@ -223,8 +245,7 @@ def _alpha1(alphas, m, hit, constant):
             return constant
         return opacity1(constant, (alphas.alpha[m], alphas.alpha_cutoff[m]),
                         (alphas.texels, alphas.tex_info),
-                        texture_st1((alphas.tex_map, alphas.texcoords, alphas.texcoords1),
-                                    alphas.alpha[m], hit))
+                        mapped_st1(alphas, alphas.alpha[m], hit))
     return alpha
 
 
@@ -271,7 +292,7 @@ def texcoord1(tc, tri, u, v):
 @helper
 def vertex_color1(colors, tri, u, v):
     """The RGB vertex colour at barycentrics (u, v) of triangle ``tri``,
-    ``(1 − u − v)·c₀ + u·c₁ + v·c₂`` from its corners' ``colors`` (T, 4) (as
+    ``(1 − u − v)·c₀ + u·c₁ + v·c₂`` from its corners' ``colors`` (T, 3, 4) (as
     :func:`texcoord1`); white off a triangle."""
     if tri < 0 or tri >= colors.shape[0]:
         return 1.0, 1.0, 1.0

@@ -166,10 +166,12 @@ MATERIAL_TABLES = {
     "tex_info": f"(K, {TEX_COLUMNS}) int64 offset into texels, width, height, wrap s, wrap t "
                 "(TEX_OFFSET, …)",
     "alpha": "(M,) int64 texture whose alpha multiplies the opacity, or −1",
-    "tex_map": f"(K, {MAP_COLUMNS}) float64 each texture's uv set and affine map (MAP_SET, …)",
-    "tinted": "(M, C) bool: the colours vertex colours multiply (material.vertex_colors)",
+    "tex_map": f"(K, {MAP_COLUMNS}) float64 each texture's uv set and affine map (MAP_SET, …); "
+               "None where every texture reads set 0 unmapped (no mapping code compiled)",
+    "tinted": "(M, C) bool: the colours vertex colours multiply (material.vertex_colors); None "
+              "in a scene without vertex colours",
     "occlusion": "(M,) int64 texture (its RGB 1 + strength·(occlusion − 1)) that multiplies "
-                 "ka, or −1",
+                 "ka, or −1; None where no material has one",
 }
 #: The material table, indexed by ``Surface.material``: the fields of
 #: :data:`MATERIAL_TABLES`, then one (M,) array per entry of ``material.COLUMNS``, in its
@@ -194,11 +196,12 @@ class Triangles(NamedTuple):
                             #: corners (accel_kernels.triangle_tables)
     #: (T, 3, 2) (s, t) at the corners; none (0, 3, 2) where no material has a texture
     texcoords: np.ndarray = np.zeros((0, 3, 2))
-    #: (T, 3, 2) the second set (glTF TEXCOORD_1) where some texture reads it, else none
-    texcoords1: np.ndarray = np.zeros((0, 3, 2))
+    #: (T, 3, 2) the second set (glTF TEXCOORD_1; the first on a mesh without one) where some
+    #: mesh has one, else None
+    texcoords1: np.ndarray | None = None
     #: (T, 3, 4) linear RGBA vertex colours at the corners (glTF COLOR_0; white on a mesh
-    #: without them) where some mesh has them, else none (0, 3, 4)
-    colors: np.ndarray = np.zeros((0, 3, 4))
+    #: without them) where some mesh has them, else None (no vertex-colour code compiled)
+    colors: np.ndarray | None = None
 
 
 #: The columns of a row of ``Scene.fast``, one triangle's fast-Phong polynomials for one
@@ -223,9 +226,6 @@ class Scene(NamedTuple):
     #: else None: the material lookup's texture code (``kernels.material``) is compiled, and
     #: its tables bound, only where they are an array
     texcoords: np.ndarray | None = None
-    #: (T, 3, 4) ``Triangles.colors`` where some mesh has vertex colours, else None: the
-    #: lookup's vertex-colour code is compiled only where they are an array
-    colors: np.ndarray | None = None
 
 
 class Emitter(NamedTuple):
@@ -615,11 +615,13 @@ class TextureTables(NamedTuple):
     texels: np.ndarray     #: ``Materials.texels``
     tex_info: np.ndarray   #: ``Materials.tex_info``
     texcoords: np.ndarray  #: ``Triangles.texcoords``
-    texcoords1: np.ndarray  #: ``Triangles.texcoords1``
-    tex_map: np.ndarray    #: ``Materials.tex_map``
-    occlusion: np.ndarray  #: ``Materials.occlusion``
-    tinted: np.ndarray     #: ``Materials.tinted``
-    colors: np.ndarray | None  #: ``Scene.colors``: None compiles no vertex-colour code
+    #: ``Triangles.texcoords1``, ``Materials.tex_map``, ``.occlusion``, ``.tinted`` and
+    #: ``Triangles.colors``: each None compiles none of its code (kernels.material)
+    texcoords1: np.ndarray | None
+    tex_map: np.ndarray | None
+    occlusion: np.ndarray | None
+    tinted: np.ndarray | None
+    colors: np.ndarray | None
 
 
 class AlphaTables(NamedTuple):
@@ -631,5 +633,5 @@ class AlphaTables(NamedTuple):
     texels: np.ndarray        #: ``Materials.texels``
     tex_info: np.ndarray      #: ``Materials.tex_info``
     texcoords: np.ndarray     #: ``Triangles.texcoords``
-    texcoords1: np.ndarray    #: ``Triangles.texcoords1``
-    tex_map: np.ndarray       #: ``Materials.tex_map``
+    texcoords1: np.ndarray | None  #: ``Triangles.texcoords1``
+    tex_map: np.ndarray | None     #: ``Materials.tex_map``
