@@ -79,6 +79,7 @@ def fingerprint(scene: Scene, materials: list) -> bytes:
         if isinstance(o, Mesh):
             h.update(o.shading.encode())
             add(o.vertices, o.faces, o.texcoords, o.normals, o.face_material, o.degenerate,
+                o.texcoords1, o.colors,
                 [index[id(m)] for m in o.materials])
         else:  # an analytic shape: its table row, as the stage makes it (tables.shape_tables)
             add(pack_row(o.type, o.row(origin)), index[id(o.material)])

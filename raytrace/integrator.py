@@ -986,8 +986,10 @@ KERNEL_FEATURES: dict[str, Callable] = {
     # light_pass' Gouraud, fast-Phong, Hanika-lift and texture code (its ``depth``)
     "meshes": lambda table, triangles: len(triangles.material) > 0
     or bool(table.textured.any()),
-    # the material lookup's texture code in hit_terms and cross_surfaces (their ``texcoords``)
-    "textures": lambda table, triangles: bool(table.textured.any()),
+    # the material lookup's texture code in hit_terms and cross_surfaces (their ``texcoords``;
+    # vertex colours are read by it too)
+    "textures": lambda table, triangles: bool(table.textured.any())
+    or triangles.colors is not None,
     # hit_terms' reflected, refracted and see-through children, and the spawn kernels
     "children": lambda table, triangles: bool(table.reflects.any())
     or bool(table.transparent.any()),

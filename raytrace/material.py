@@ -176,6 +176,12 @@ class Material:
     #: file), or None; a material has at most one of the two.
     normal_map: Any = None
     bump: Any = None
+    #: A texture whose RGB multiplies the ambient term ka per hit (glTF occlusionTexture,
+    #: made by :meth:`raytrace.readers.texture.Texture.occlusion`); Python and model files only.
+    occlusion: Any = None
+    #: The colours a mesh's vertex colours multiply (glTF COLOR_0 multiplies the base colour:
+    #: kd and the ka that follows it, and a metal's ks and kr); Python and model files only.
+    vertex_colors: tuple[str, ...] = ("ka", "kd")
     name: str = field(default="", compare=False)
     #: The library files this material was read from (its own and its bases'): inputs that
     #: no output of a render may overwrite.
@@ -210,8 +216,11 @@ class Material:
             self.opacity = values.number(self.opacity, "opacity", lo=0, hi=1)
             self.fresnel = values.string(self.fresnel, "fresnel", FRESNELS)
             self.alpha_cutoff = values.number(self.alpha_cutoff, "alpha_cutoff", lo=-1, hi=1)
-            if self.alpha is not None and not hasattr(self.alpha, "texels"):
-                raise SceneError("must be a raytrace.readers.texture.Texture or None", "alpha")
+            self.vertex_colors = tuple(values.string(k, "vertex_colors", COLOR_KEYS)
+                                       for k in self.vertex_colors)
+            for k in ("alpha", "occlusion"):
+                if getattr(self, k) is not None and not hasattr(getattr(self, k), "texels"):
+                    raise SceneError("must be a raytrace.readers.texture.Texture or None", k)
             self._check_interior()
             for key in ("normal_map", "bump"):
                 object.__setattr__(self, key, parse_relief(getattr(self, key), key))
@@ -293,11 +302,17 @@ class Material:
         return not (self._is_zero(self.kd) and self._is_zero(self.ks))
 
     @property
+    def textures(self) -> list[Texture]:
+        """Every image texture the material reads: its colours', its alpha's, its
+        occlusion's."""
+        return [t for t in (*(getattr(self, k) for k in COLOR_KEYS), self.alpha,
+                            self.occlusion) if isinstance(t, Texture)]
+
+    @property
     def files(self) -> tuple[Path, ...]:
         """The files this material was read from: its library files and its textures'."""
-        return (*self.sources, *(c.file for c in (*(getattr(self, k) for k in COLOR_KEYS),
-                                                  *(r.texture for r in self.reliefs))
-                                 if getattr(c, "file", None) is not None))
+        read = (*self.textures, *(r.texture for r in self.reliefs))
+        return (*self.sources, *(t.file for t in read if t.file is not None))
 
     @property
     def reliefs(self) -> tuple[Relief, ...]:

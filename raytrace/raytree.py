@@ -103,12 +103,12 @@ class Recorder:
             material = integ.materials[m]
             point = surf.point[j] + self.origin
             # the kernels' own material lookup (colour, checker, texture, alpha)
-            mats, texcoords = integ.tables.materials, integ.tables.texcoords
+            mats = integ.tables.materials
             hit = MaterialHit(tuple(float(x) for x in point), int(surf.triangle[j]),
                               *map(float, surf.uv[j]))
             ka = surface_color1(Palette(mats.colors, mats.pattern, mats.checkers),
-                                texture_tables1(mats, texcoords), m, KA, hit)
-            opacity = float(surface_opacity1(mats.opacity, alpha_tables1(mats, texcoords), m,
+                                texture_tables1(integ.tables), m, KA, hit)
+            opacity = float(surface_opacity1(mats.opacity, alpha_tables1(integ.tables), m,
                                              hit))
             obj = int(ident[j])
             entering = float(np.dot(rays.direction[j], surf.geometric[j])) < 0.0

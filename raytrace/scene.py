@@ -231,6 +231,11 @@ def rotation_matrix(degrees: np.ndarray) -> np.ndarray:
     return rz @ ry @ rx
 
 
+#: A mesh's per-corner arrays that follow its faces (reversed with a mirroring scale, dropped
+#: with a zero-area face); the normals, which the transform changes too, are apart.
+CORNER_ARRAYS = ("texcoords", "texcoords1", "colors")
+
+
 @dataclass
 class Mesh(values.Checked):
     """Triangles intersected by Embree.
@@ -268,6 +273,11 @@ class Mesh(values.Checked):
     #: them (glTF ``TANGENT``; None where it gives none; a corner without one: zeros, which
     #: takes MikkTSpace's, ``raytrace.tables.relief_tables``).
     tangents: Any = field(default=None, init=False, repr=False)
+    #: With ``material = "from_file"``, per face corner where the file gives them: a second
+    #: set of texture coordinates (F, 3, 2) (glTF TEXCOORD_1) and linear RGBA vertex colours
+    #: (F, 3, 4) (glTF COLOR_0, which multiply kd and ka).
+    texcoords1: Any = field(default=None, init=False, repr=False)
+    colors: Any = field(default=None, init=False, repr=False)
     sources: tuple = field(default=(), init=False, repr=False)
     #: What the vertices were made from (file, mesh, and translate, rotate, scale as a 3×3
     #: array), for :meth:`check` to refuse a change of them that would not be seen.
@@ -323,8 +333,9 @@ class Mesh(values.Checked):
             # A mirroring scale turns counter-clockwise into clockwise: reverse each face so
             # the winding still gives the outward normal (entering vs leaving for refraction).
             faces = faces[:, ::-1]
-            if self.texcoords is not None:
-                self.texcoords = self.texcoords[:, ::-1]
+            for name in CORNER_ARRAYS:
+                if getattr(self, name) is not None:
+                    setattr(self, name, getattr(self, name)[:, ::-1])
             if self.normals is not None:
                 self.normals = self.normals[:, ::-1]
             if self.tangents is not None:
@@ -336,8 +347,9 @@ class Mesh(values.Checked):
         self.vertices, self.faces = world, faces[keep]
         if from_file:
             self.face_material = self.face_material[keep]
-        if self.texcoords is not None:
-            self.texcoords = np.ascontiguousarray(self.texcoords[keep])
+        for name in CORNER_ARRAYS:
+            if getattr(self, name) is not None:
+                setattr(self, name, np.ascontiguousarray(getattr(self, name)[keep]))
         if self.normals is not None:
             self.normals = world_normals(self.normals[keep], rotate, scale)
         if self.tangents is not None:  # directions along the surface: through R·S
@@ -380,7 +392,8 @@ class Mesh(values.Checked):
                             "the mesh's size (its bounding box's longest side)", longest=False)
         rows = len(self.faces)
         for name, shape in (("face_material", (rows,)), ("texcoords", (rows, 3, 2)),
-                            ("normals", (rows, 3, 3)), ("tangents", (rows, 3, 4))):
+                            ("normals", (rows, 3, 3)), ("tangents", (rows, 3, 4)),
+                            ("texcoords1", (rows, 3, 2)), ("colors", (rows, 3, 4))):
             if getattr(self, name) is not None and np.shape(getattr(self, name)) != shape:
                 raise SceneError(f"must have the shape {shape} (one row a face), got "
                                  f"{np.shape(getattr(self, name))}", name)
@@ -392,6 +405,7 @@ class Mesh(values.Checked):
         self.file_materials, self.face_material = asset.materials, asset.face_material
         self.texcoords, self.sources = asset.texcoords, asset.sources
         self.normals, self.tangents = asset.normals, asset.tangents
+        self.texcoords1, self.colors = asset.texcoords1, asset.colors
         self.material = asset.materials[0]
         return asset.vertices, asset.faces
 

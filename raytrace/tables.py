@@ -30,6 +30,10 @@ from .kernels.records import (
     CHECKER_COLOR1,
     CHECKER_COLUMNS,
     CHECKER_SCALE,
+    MAP_AFFINE,
+    MAP_COLUMNS,
+    MAP_MATRIX,
+    MAP_SET,
     MATERIAL_COLUMNS,
     TEX_COLUMNS,
     TEX_HEIGHT,
@@ -173,12 +177,31 @@ def triangle_tables(meshes: list[Mesh], origin: np.ndarray, index: dict[int, int
         relative.append((v, faces))
     # the texture coordinates of every triangle where some mesh's file gives them (image
     # textures and the uv AOV read them; zeros for the faces of a mesh without them)
-    texcoords = np.ascontiguousarray(np.concatenate(
-        [m.texcoords if m.texcoords is not None else np.zeros((len(m.faces), 3, 2))
-         for m in meshes]) if any(m.texcoords is not None for m in meshes)
-        else np.zeros((0, 3, 2)))
+    texcoords = corner_table(meshes, "texcoords", np.zeros(2))
+    if texcoords is None:
+        texcoords = np.zeros((0, 3, 2))
+    # the second set where some mesh's file gives one (glTF TEXCOORD_1), the first set's
+    # coordinates on a mesh whose file gives no second
+    texcoords1 = corner_table(meshes, "texcoords1", np.zeros(2), "texcoords")
+    colors = corner_table(meshes, "colors", np.ones(4))
     return Triangles(geom_first, corners, normal, vnormals, shading, material, band,
-                     texcoords), relative
+                     texcoords, texcoords1, colors), relative
+
+
+def corner_table(meshes: list[Mesh], name: str, default: np.ndarray,
+                 fallback: str | None = None) -> np.ndarray | None:
+    """The per-corner array ``name`` of every mesh (F, 3, k) concatenated, where some mesh has
+    one: a mesh without it gives its ``fallback`` array, else ``default`` (k,) at every
+    corner; None where none has it."""
+    if not any(getattr(m, name) is not None for m in meshes):
+        return None
+
+    def rows(m: Mesh) -> np.ndarray:
+        for a in (getattr(m, name), getattr(m, fallback) if fallback else None):
+            if a is not None:
+                return np.asarray(a, np.float64)
+        return np.broadcast_to(default, (len(m.faces), 3, len(default)))
+    return np.ascontiguousarray(np.concatenate([rows(m) for m in meshes]))
 
 
 def shading_of(mesh: Mesh, v: np.ndarray, faces: np.ndarray, out: Triangles) -> None:
@@ -253,12 +276,15 @@ class MaterialTable:
                     self.texture[i, k] = textures.index(c)
                 else:
                     self.colors[i, 3 * k:3 * k + 3] = c
-        self.alpha = np.full(len(materials), -1, np.int64)
-        for i, m in enumerate(materials):
-            if m.alpha is not None:
-                if m.alpha not in textures:
-                    textures.append(m.alpha)
-                self.alpha[i] = textures.index(m.alpha)
+        for name in ("alpha", "occlusion"):  # a material's per-hit factors' textures
+            rows = np.full(len(materials), -1, np.int64)
+            for i, m in enumerate(materials):
+                t = getattr(m, name)
+                if t is not None:
+                    if t not in textures:
+                        textures.append(t)
+                    rows[i] = textures.index(t)
+            setattr(self, name, rows)
         # normal and height maps (Material.normal_map, bump): their texture, kind and scale
         self.relief = np.full(len(materials), -1, np.int64)
         self.relief_kind = np.zeros(len(materials), np.int64)
@@ -272,37 +298,56 @@ class MaterialTable:
                     self.relief[i], self.relief_kind[i] = (textures.index(r.texture),
                                                            RELIEF_CODES[kind])
                     self.relief_scale[i] = r.scale
-        self.textured = (self.texture >= 0).any(axis=1) | (self.alpha >= 0)
+        self.tinted = np.array([[k in m.vertex_colors for k in COLOR_KEYS] for m in materials],
+                               bool).reshape(len(materials), len(COLOR_KEYS))
+        self.textured = ((self.texture >= 0).any(axis=1) | (self.alpha >= 0)
+                         | (self.occlusion >= 0))
+        if not (self.occlusion >= 0).any():  # no occlusion code compiled
+            self.occlusion = None
         #: The image textures (``raytrace.readers.texture.Texture``), in ``tex_info``'s rows.
         self.textures = textures
-        # only scenes with textures pay for them: one float a texture channel, else none
-        sizes = [t.texels.size for t in textures]
+        # only scenes with textures pay for them: one float a texture channel, else none;
+        # an image used with two mappings (two Textures sharing texels) is stored once
+        images = list({id(t.texels): t.texels for t in textures}.values())
+        offsets = dict(zip((id(x) for x in images),
+                           np.cumsum([0, *(x.size for x in images)])[:-1], strict=True))
         self.tex_info = np.zeros((len(textures), TEX_COLUMNS), np.int64)
-        for info, off, t in zip(self.tex_info, np.cumsum([0, *sizes])[:-1], textures,
-                                strict=True):
-            info[TEX_OFFSET], info[TEX_WIDTH], info[TEX_HEIGHT] = (off, t.texels.shape[1],
-                                                                   t.texels.shape[0])
+        self.tex_map = np.zeros((len(textures), MAP_COLUMNS))
+        for info, row, t in zip(self.tex_info, self.tex_map, textures, strict=True):
+            info[TEX_OFFSET], info[TEX_WIDTH], info[TEX_HEIGHT] = (
+                offsets[id(t.texels)], t.texels.shape[1], t.texels.shape[0])
             info[TEX_WRAP_S], info[TEX_WRAP_T] = WRAPS[t.wrap[0]], WRAPS[t.wrap[1]]
-        self.texels = (np.concatenate([t.texels.reshape(-1) for t in textures])
-                       if textures else np.zeros(0, np.float32))
+            row[MAP_SET] = t.uv_set
+            if t.transform is not None:
+                row[MAP_AFFINE] = 1.0
+                row[MAP_MATRIX:MAP_MATRIX + 6] = np.reshape(t.transform, 6)
+        if not self.tex_map[:, MAP_SET:MAP_AFFINE + 1].any():  # every use set 0, unmapped:
+            self.tex_map = None  # the texture code reads as it would without mappings
+        self.texels = (np.concatenate([x.reshape(-1) for x in images])
+                       if images else np.zeros(0, np.float32))
         self.checkers = np.array(checkers, dtype=np.float64).reshape(-1, CHECKER_COLUMNS)
         for name, (dtype, _) in MATERIAL_COLUMNS.items():  # one declaration, records'
             value = COLUMNS[name]
             setattr(self, name, np.array([value(m) for m in materials], dtype))
         self.transparent = np.array([m.transparent for m in materials], dtype=bool)
-        self.record = Materials(**{name: getattr(self, name) for name in Materials._fields})
+        # (tinted is bound by scene_record where the scene has vertex colours)
+        self.record = Materials(**{name: getattr(self, name) for name in Materials._fields
+                                   if name != "tinted"}, tinted=None)
 
 
 def scene_record(origin: np.ndarray, table: MaterialTable, triangles: Triangles,
                  reliefs: Reliefs | None = None) -> Scene:
     """What every shading kernel needs of the scene, as one record: the texture coordinates
-    only where some material has an image texture, the materials' interiors only where some
-    material absorbs or is thin-walled, the normal and height maps (:func:`relief_tables`)
-    only where some material has one (the kernels' texture, medium and relief code is
-    compiled only then)."""
+    only where some material has an image texture or some mesh vertex colours, the
+    materials' ``tinted`` only where some mesh has vertex colours, the materials' interiors
+    only where some material absorbs or is thin-walled, the normal and height maps
+    (:func:`relief_tables`) only where some material has one (the kernels' texture, medium
+    and relief code is compiled only then)."""
     textured = bool(table.textured.any()) if len(table.materials) else False
-    return Scene(np.ascontiguousarray(origin, dtype=np.float64), table.record, triangles,
-                 texcoords=triangles.texcoords if textured else None,
+    colored = triangles.colors is not None
+    materials = table.record._replace(tinted=table.tinted) if colored else table.record
+    return Scene(np.ascontiguousarray(origin, dtype=np.float64), materials, triangles,
+                 texcoords=triangles.texcoords if textured or colored else None,
                  media=media_table(table.materials), reliefs=reliefs)
 
 

@@ -294,11 +294,11 @@ def test_a_bad_volume_is_one_line_naming_file_and_field(tmp_path, volume, key, p
 
 
 def test_unsupported_extensions_are_one_warning_and_required_ones_an_error(tmp_path):
-    extra = {"extensionsUsed": ["KHR_materials_clearcoat", "KHR_texture_transform",
+    extra = {"extensionsUsed": ["KHR_materials_clearcoat", "KHR_materials_sheen",
                                 "KHR_materials_ior"]}
     path = write_gltf(tmp_path / "w.gltf", [{"mesh": 0}], [SQUARE], MATTE, extra=extra)
     with pytest.warns(RenderWarning, match=r"w.gltf: extensions .*: KHR_materials_clearcoat, "
-                                           r"KHR_texture_transform$"):
+                                           r"KHR_materials_sheen$"):
         raytrace.Mesh(file=path, material="from_file")
     path = write_gltf(tmp_path / "r.gltf", [{"mesh": 0}], [SQUARE], MATTE, extra={
         "extensionsUsed": ["KHR_draco_mesh_compression"],
@@ -626,3 +626,154 @@ def test_an_output_never_overwrites_a_gltf_buffer_file(tmp_path, capsys):
     assert rc == 2 and (tmp_path / "m.bin").read_bytes() == before
     assert "m.bin is a file read by the mesh of objects[0], which this command reads" in err[-1]
     assert not (tmp_path / "o.exr").exists()
+
+
+# -- texture mapping: KHR_texture_transform, texCoord 1, occlusion, emission, COLOR_0 ----------
+#: SQUARE's (s, t) at the world point (x, y, 0): s = (x + 1)/2, t = (1 − y)/2.
+#: A 2 × 1 image, texel 0 black, texel 1 white (sRGB codes 0 and 255: exactly 0 and 1), read
+#: with REPEAT: its texel centres s = 0.25 (black) and 0.75 (white) give them exactly.
+BLACK_WHITE = np.array([[[0, 0, 0], [255, 255, 255]]], np.uint8)
+
+
+def _unlit_square_pixel(tmp_path, at, tex_info: dict, uv1=None, name="t"):
+    """The pixel seen at the point ``at`` (x, y) of SQUARE, unlit, its base colour the
+    :data:`BLACK_WHITE` texture read through ``tex_info`` (a glTF textureInfo): the texel
+    value there, with no light's share."""
+    write_png(tmp_path / "bw.png", BLACK_WHITE)
+    mat = [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0, **tex_info}},
+            "extensions": {"KHR_materials_unlit": {}}}]
+    path = write_gltf(tmp_path / f"{name}.gltf", [{"mesh": 0}], [{**SQUARE, "uv1": uv1}], mat,
+                      extra={"images": [{"uri": "bw.png"}], "textures": [{"source": 0}],
+                             "extensionsUsed": ["KHR_materials_unlit", "KHR_texture_transform"]})
+    x, y = at
+    scene = make_scene([raytrace.Mesh(file=path, material="from_file")], [],
+                       camera=aimed_camera([x, y, 3.0], [x, y, 0.0]), max_depth=0)
+    return pixel(scene)[0]
+
+
+@pytest.mark.parametrize("transform,at,value", [
+    # the identity: s = 0.25 black, s = 0.75 white
+    ({}, (-0.5, 0.5), 0.0), ({}, (0.5, 0.5), 1.0),
+    # offset (0.5, 0): s' = s + 0.5, the halves swap (1.25 wraps to 0.25)
+    ({"offset": [0.5, 0.0]}, (-0.5, 0.5), 1.0), ({"offset": [0.5, 0.0]}, (0.5, 0.5), 0.0),
+    # rotation 90°: s' = cos r·s + sin r·t = t, so the image runs down the square: at
+    # y = 0.5, t = 0.25 (black), at y = −0.5, t = 0.75 (white), whatever x; the opposite
+    # direction (s' = −t, 0.75 at y = 0.5 after the wrap) would read white and black
+    ({"rotation": math.pi / 2}, (0.5, 0.5), 0.0), ({"rotation": math.pi / 2}, (-0.5, -0.5), 1.0),
+    # scale 2: s' = 2s, two periods: s = 0.125, 0.375, 0.625, 0.875 (x = −0.75, −0.25, 0.25,
+    # 0.75) read s' = 0.25, 0.75, 1.25, 1.75: black, white, black, white
+    ({"scale": [2.0, 1.0]}, (-0.75, 0.5), 0.0), ({"scale": [2.0, 1.0]}, (-0.25, 0.5), 1.0),
+    ({"scale": [2.0, 1.0]}, (0.25, 0.5), 0.0), ({"scale": [2.0, 1.0]}, (0.75, 0.5), 1.0),
+])
+def test_khr_texture_transform_moves_the_texture_by_the_spec(tmp_path, transform, at, value):
+    """KHR_texture_transform's T·R·S of (s, t) (hand-worked values beside each case)."""
+    info = {"extensions": {"KHR_texture_transform": transform}} if transform else {}
+    assert _unlit_square_pixel(tmp_path, at, info) == pytest.approx(value, abs=1e-6)
+
+
+def test_texcoord_1_reads_the_second_set(tmp_path):
+    """texCoord 1 reads TEXCOORD_1, here the first set mirrored (s₁ = 1 − s): at x = −0.5,
+    s = 0.25 (black) and s₁ = 0.75 (white); the KHR_texture_transform's texCoord overrides
+    the textureInfo's (glTF KHR_texture_transform: "Overrides the textureInfo texCoord")."""
+    uv1 = [[1 - s, t] for s, t in SQUARE["uv"]]
+    at = (-0.5, 0.5)
+    assert _unlit_square_pixel(tmp_path, at, {}, uv1, "a") == 0.0
+    assert _unlit_square_pixel(tmp_path, at, {"texCoord": 1}, uv1, "b") == 1.0
+    override = {"texCoord": 0, "extensions": {"KHR_texture_transform": {"texCoord": 1}}}
+    assert _unlit_square_pixel(tmp_path, at, override, uv1, "c") == 1.0
+    with pytest.raises(SceneError, match=r"meshes\[0\]\.primitives\[0\]\.attributes: material "
+                                         r"'materials\[0\]' reads TEXCOORD_1"):
+        _unlit_square_pixel(tmp_path, at, {"texCoord": 1}, None, "d")
+    with pytest.raises(SceneError, match=r"baseColorTexture\.texCoord: only TEXCOORD_0 and "
+                                         r"TEXCOORD_1 are supported, got 2"):
+        _unlit_square_pixel(tmp_path, at, {"texCoord": 2}, uv1, "e")
+
+
+def _matte_square(tmp_path, name, material: dict, mesh: dict | None = None, images=()):
+    """SQUARE with the MATTE base colour (0.8, 0.4, 0.2) and ``material``'s other fields."""
+    for i, codes in enumerate(images):
+        write_png(tmp_path / f"{name}{i}.png", codes)
+    extra = {"images": [{"uri": f"{name}{i}.png"} for i in range(len(images))],
+             "textures": [{"source": i} for i in range(len(images))],
+             "extensionsUsed": ["KHR_materials_emissive_strength"]} if images else {}
+    path = write_gltf(tmp_path / f"{name}.gltf", [{"mesh": 0}], [{**SQUARE, **(mesh or {})}],
+                      [{**MATTE[0], **material}], extra=extra)
+    return raytrace.Mesh(file=path, material="from_file")
+
+
+def test_occlusion_halves_the_ambient_term_only(tmp_path):
+    """occlusionTexture with strength 1, read at 0.5: ambient × (1 + 1·(0.5 − 1)) = ½ (glTF
+    2.0 §3.9.3). The image is 2 × 1, R codes 0 and 255 read as linear 0 and 1, sampled at
+    s₁ = 0.5 (through TEXCOORD_1, s₁ = 1 − s, at x = 0), the midpoint of the texel centres:
+    0.5 exactly. Ambient light (1, 1, 1) alone: ka = kd = (0.8, 0.4, 0.2) becomes (0.4, 0.2,
+    0.1). A point light at the eye and no ambient: the same pixel with and without the map."""
+    uv1 = {"uv1": [[1 - s, t] for s, t in SQUARE["uv"]]}
+    occ = {"occlusionTexture": {"index": 0, "texCoord": 1, "strength": 1.0}}
+    cam = aimed_camera([0.0, 0.5, 3.0], [0.0, 0.5, 0.0])
+    light = [raytrace.PointLight(position=[0.0, 0.5, 3.0], color=[1, 1, 1])]
+    with_map = _matte_square(tmp_path, "o", occ, uv1, [BLACK_WHITE])
+    without = _matte_square(tmp_path, "n", {}, uv1)
+    ambient = pixel(make_scene([with_map], [], cam, ambient=1.0, max_depth=0))
+    np.testing.assert_allclose(ambient, [0.4, 0.2, 0.1], rtol=1e-6)
+    lit = pixel(make_scene([with_map], light, cam, max_depth=0))
+    assert lit.min() > 0
+    np.testing.assert_array_equal(lit, pixel(make_scene([without], light, cam, max_depth=0)))
+
+
+def test_emissive_texture_times_factor_times_strength(tmp_path):
+    """emissiveTexture (sRGB code 128 everywhere: ((128/255 + 0.055)/1.055)^2.4 = 0.2158605)
+    × emissiveFactor (1, 0.5, 0.25) × KHR_materials_emissive_strength 2 is the pixel with no
+    light and no ambient (glTF 2.0 §3.9.4)."""
+    mat = {"emissiveTexture": {"index": 0}, "emissiveFactor": [1.0, 0.5, 0.25],
+           "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2.0}}}
+    mesh = _matte_square(tmp_path, "e", mat, images=[np.full((2, 2, 3), 128, np.uint8)])
+    got = pixel(make_scene([mesh], [], aimed_camera([0.3, 0.2, 3], [0.3, 0.2, 0]), max_depth=0))
+    np.testing.assert_allclose(got, 0.2158605 * 2 * np.array([1, 0.5, 0.25]), rtol=1e-6)
+
+
+@pytest.mark.parametrize("colors,at,want", [
+    # float VEC3, red at every corner: kd × (1, 0, 0)
+    (np.tile([1.0, 0.0, 0.0], (4, 1)), (0.3, -0.6), [0.8, 0.0, 0.0]),
+    # normalised uint8 VEC4 (255 → 1): red, green, blue, white at corners 0…3; at (0.5, −0.5)
+    # in triangle (0, 1, 2) the barycentrics are (¼, ½, ¼) (P = v₀ + ½(v₁ − v₀) + ¼(v₂ − v₀)),
+    # so the colour is (¼, ½, ¼) and the pixel kd × it = (0.2, 0.2, 0.05)
+    (np.array([[255, 0, 0, 255], [0, 255, 0, 255], [0, 0, 255, 255], [255] * 4], np.uint8),
+     (0.5, -0.5), [0.2, 0.2, 0.05]),
+])
+def test_color_0_multiplies_the_base_colour(tmp_path, colors, at, want):
+    """COLOR_0 multiplies the base colour (glTF 2.0 §3.7.2.1), interpolated by barycentrics as
+    texture coordinates are: ambient light (1, 1, 1) alone shows ka = kd × colour."""
+    mesh = _matte_square(tmp_path, "c", {}, {"colors": colors})
+    x, y = at
+    got = pixel(make_scene([mesh], [], aimed_camera([x, y, 3], [x, y, 0]), ambient=1.0,
+                           max_depth=0))
+    np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-12)
+
+
+def test_color_0_tints_a_metals_specular_colour(tmp_path):
+    """For metallic 1 the specular colour F0 is the base colour, so COLOR_0 multiplies ks and
+    kr too: a white metal with red corners, lit by a point light at the eye (ambient 0), is
+    the plain metal's pixel times (1, 0, 0)."""
+    metal = {"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 1.0,
+                                      "roughnessFactor": 1.0}}
+    eye = [0.3, -0.6, 3.0]
+    cam, light = aimed_camera(eye, [0.3, -0.6, 0]), [raytrace.PointLight(position=eye)]
+    plain = pixel(make_scene([_matte_square(tmp_path, "p", metal)], light, cam, max_depth=0))
+    red = _matte_square(tmp_path, "r", metal, {"colors": np.tile([1.0, 0.0, 0.0], (4, 1))})
+    assert plain.min() > 0
+    np.testing.assert_allclose(pixel(make_scene([red], light, cam, max_depth=0)),
+                               plain * [1, 0, 0], rtol=1e-12)
+
+
+@pytest.mark.parametrize("info,key,problem", [
+    ({"extensions": {"KHR_texture_transform": {"offset": [1.0]}}},
+     "baseColorTexture.extensions.KHR_texture_transform.offset", "must be a list of 2 numbers"),
+    ({"extensions": {"KHR_texture_transform": {"rotation": "a"}}},
+     "baseColorTexture.extensions.KHR_texture_transform.rotation", "must be a number"),
+    ({"extensions": {"KHR_texture_transform": {"texCoord": 3}}},
+     "baseColorTexture.extensions.KHR_texture_transform.texCoord", "only TEXCOORD_0 and"),
+])
+def test_a_bad_texture_transform_is_one_line_naming_its_field(tmp_path, info, key, problem):
+    with pytest.raises(SceneError, match=re.escape(f"t.gltf: materials[0].pbrMetallicRoughness."
+                                                   f"{key}: {problem}")):
+        _unlit_square_pixel(tmp_path, (0, 0), info)

@@ -175,14 +175,15 @@ CORE = {
     "node hierarchy that is not a tree": (lambda d: d["nodes"][0].update(children=[0]), False),
     "primitive `mode` 0–3, 5, 6 (points, lines, strips, fans)": (_prim(
         lambda p: p.update(mode=5)), False),
-    "`TEXCOORD_1` and higher": (_prim(lambda p: p["attributes"].update(TEXCOORD_1=1)), False),
+    "`TEXCOORD_1`": (_prim(lambda p: p["attributes"].update(TEXCOORD_1=1)), False),
+    "`TEXCOORD_2` and higher": (_prim(lambda p: p["attributes"].update(TEXCOORD_2=1)), False),
     "`COLOR_0`": (_prim(lambda p: p["attributes"].update(COLOR_0=0)), False),
     "sparse accessors": (lambda d: d["accessors"][0].update(sparse={
         "count": 1, "indices": {"bufferView": 0, "componentType": 5125},
         "values": {"bufferView": 0}}), False),
     "no camera, no lights": (None, True),
     "images Pillow cannot open (KTX2, Basis)": (_ktx2, False),
-    "a `textureInfo` with `texCoord` ≠ 0": (_textured({"index": 0, "texCoord": 1}), False),
+    "a `textureInfo` with `texCoord` ≥ 2": (_textured({"index": 0, "texCoord": 2}), False),
     "`metallicRoughnessTexture`": (lambda d: (_textured({"index": 0})(d), d["materials"][0][
         "pbrMetallicRoughness"].update(metallicRoughnessTexture={"index": 0})), False),
     "`normalTexture`": (lambda d: (_textured({"index": 0})(d), d["materials"][0].update(

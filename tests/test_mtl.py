@@ -349,3 +349,50 @@ def test_a_bad_bm_is_one_line_naming_the_statement(tmp_path):
     with pytest.raises(SceneError) as e:
         quad(tmp_path, "newmtl m\nbump -bm x ramp.png\n")
     assert "line 2: bump -bm: must be a number, got 'x'" in str(e.value)
+
+
+# -- maps: map_d, map_Ke, -o and -s ------------------------------------------------------------
+#: QUAD's (s, t) at the world point (x, y, 0): s = (x + 1)/2 (OBJ's u). A 2 × 1 image, texel 0
+#: black, texel 1 white, read at its texel centres s = 0.25 and 0.75: exactly 0 and 1.
+BLACK_WHITE = np.array([[[0, 0, 0], [255, 255, 255]]], np.uint8)
+
+
+def map_pixel(tmp_path, mtl: str, x: float, ambient: float = 1.0) -> np.ndarray:
+    """The pixel at (x, 0.5) of QUAD with material ``mtl`` (bw.png beside it), no light:
+    ambient × ka + ke where seen, else the background B."""
+    write_png(tmp_path / "bw.png", BLACK_WHITE)
+    cam = raytrace.Camera(position=(x, 0.5, 2.0), look_at=(x, 0.5, 0.0))
+    return pixel(make_scene([quad(tmp_path, "newmtl m\n" + mtl)], [], cam, ambient=ambient,
+                            background=B))
+
+
+def test_map_d_cuts_out_where_the_map_is_black(tmp_path):
+    """map_d as an alpha texture (a scalar map: its luminance where the image has no alpha,
+    the MTL spec's default ``-imfchan l``): at s = 0.25 the map is 0, the quad unseen, the
+    background B; at s = 0.75 it is 1, the quad opaque: ka·Ia = Kd·1 = 0.6."""
+    mtl = "Kd 0.6 0.6 0.6\nillum 1\nmap_d bw.png\n"
+    np.testing.assert_allclose(map_pixel(tmp_path, mtl, -0.5), B, rtol=1e-6)
+    np.testing.assert_allclose(map_pixel(tmp_path, mtl, 0.5), [0.6] * 3, rtol=1e-6)
+
+
+@pytest.mark.parametrize("options,x,value", [
+    ("", -0.5, 0.0), ("", 0.5, 1.0),
+    # -o 0.5: u' = u + 0.5, the halves swap
+    ("-o 0.5 0 0 ", -0.5, 1.0), ("-o 0.5 ", 0.5, 0.0),
+    # -s 2: u' = 2u, two periods: u = 0.125, 0.375 (x = −0.75, −0.25) read 0.25, 0.75
+    ("-s 2 1 1 ", -0.75, 0.0), ("-s 2 1 ", -0.25, 1.0),
+])
+def test_map_options_o_and_s_offset_and_scale_the_map(tmp_path, options, x, value):
+    """``map_Kd -o u v w`` shifts the map's origin, ``-s u v w`` scales it (Wavefront MTL,
+    "Options for texture map statements"): (u', v') = (sᵤ·u + oᵤ, sᵥ·v + oᵥ). Kd is the map,
+    Ka follows it, ambient 1 alone: the pixel is the texel (hand values beside each case)."""
+    got = map_pixel(tmp_path, f"illum 1\nmap_Kd {options}bw.png\n", x)
+    np.testing.assert_allclose(got, [value] * 3, atol=1e-6)
+
+
+def test_map_ke_times_ke_is_the_emission(tmp_path):
+    """map_Ke times Ke (as the spec multiplies every map by its colour): at s = 0.75 the map
+    is 1, the pixel Ke = (1, 0.5, 0.25) with no light and no ambient; at s = 0.25 it is 0."""
+    mtl = "Kd 0\nKe 1 0.5 0.25\nillum 1\nmap_Ke bw.png\n"
+    np.testing.assert_allclose(map_pixel(tmp_path, mtl, 0.5, 0.0), [1, 0.5, 0.25], rtol=1e-6)
+    np.testing.assert_allclose(map_pixel(tmp_path, mtl, -0.5, 0.0), [0, 0, 0], atol=1e-9)

@@ -256,3 +256,52 @@ def test_a_metallic_gltf_material_has_no_diffuse_texture(tmp_path):
         "textures": [{"source": 0}], "images": [{"uri": "t.png"}]})
     (m,) = raytrace.Mesh(file=path, material="from_file").file_materials
     assert not isinstance(m.kd, Texture) and not np.any(m.kd)
+
+
+@pytest.mark.parametrize("mapping,at,value", [
+    ("", (-0.5, 0.5), 0.0),
+    ("uv_offset = [0.5, 0]", (-0.5, 0.5), 1.0),  # s' = s + 0.5 = 0.75: white
+    # s' = t (KHR_texture_transform's rotation): t = (1 − y)/2, 0.25 at y = 0.5 (black),
+    # 0.75 at y = −0.5 (white)
+    ("uv_rotation = 90", (0.5, 0.5), 0.0), ("uv_rotation = 90", (0.5, -0.5), 1.0),
+    ("uv_scale = [2, 1]", (-0.25, 0.5), 1.0),  # s = 0.375, s' = 0.75: white
+])
+def test_a_toml_texture_takes_an_offset_rotation_and_scale(tmp_path, mapping, at, value):
+    """A TOML texture's ``uv_offset``, ``uv_rotation`` (degrees) and ``uv_scale``, the mapping
+    of glTF KHR_texture_transform (texture.uv_transform), on the square's ka with ambient 1
+    alone: the pixel is the 2 × 1 black/white image's texel at (s', t') (s = (x + 1)/2)."""
+    _png(tmp_path / "bw.png", [[[0, 0, 0], [255, 255, 255]]])
+    (tmp_path / "sq.obj").write_text(_square_obj(tmp_path).read_text())
+    x, y = at
+    (tmp_path / "s.toml").write_text(
+        f'[ambient]\ncolor = 1\n[camera]\nposition = [{x}, {y}, 2]\nlook_at = [{x}, {y}, 0]\n'
+        '[[objects]]\ntype = "mesh"\nfile = "sq.obj"\n'
+        'material = { kd = 0, ka = { texture = "bw.png"'
+        + (f", {mapping}" if mapping else "") + " } }\n")
+    np.testing.assert_allclose(pixel(raytrace.load_scene(tmp_path / "s.toml")), value,
+                               atol=1e-6)
+
+
+def test_one_image_with_two_mappings_is_stored_once():
+    """Two uses of one image (its texels shared, :meth:`Texture.mapped`) are two rows of the
+    texture tables over the same texels; an identity mapping is no mapping (MAP_AFFINE 0)."""
+    from raytrace.kernels.records import MAP_AFFINE, MAP_SET, TEX_OFFSET
+
+    tex = Texture(TEXELS)
+    assert tex.mapped(0, texture.IDENTITY) is tex
+    shifted = tex.mapped(1, texture.uv_transform((0.5, 0.0), 0.0, (1.0, 1.0)))
+    table = MaterialTable([raytrace.Material(kd=tex, ke=shifted)])
+    assert table.texels.size == TEXELS.size
+    np.testing.assert_array_equal(table.tex_info[:, TEX_OFFSET], [0, 0])
+    np.testing.assert_array_equal(table.tex_map[:, MAP_SET], [0, 1])
+    np.testing.assert_array_equal(table.tex_map[:, MAP_AFFINE], [0, 1])
+
+
+@pytest.mark.parametrize("key,value,problem", [
+    ("uv_set", 2, "must be <= 1"), ("uv_offset", [1], "must be a list of 2 numbers"),
+    ("uv_rotation", "a", "must be a number"), ("uv_scale", 2, "must be a list of 2 numbers"),
+])
+def test_a_bad_mapping_key_is_one_line_naming_it(tmp_path, key, value, problem):
+    _png(tmp_path / "t.png", [[[0, 0, 0]]])
+    with pytest.raises(SceneError, match=rf"kd\.{key}: {problem}"):
+        raytrace.Material(kd={"texture": str(tmp_path / "t.png"), key: value})

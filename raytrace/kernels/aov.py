@@ -66,7 +66,7 @@ def aov_value1(kind, i, hits, scene, objects, out, row, col):
             at = MaterialHit(world=(x, y, z), triangle=surf.triangle[i], u=surf.uv[i, 0],
                              v=surf.uv[i, 1])
             kd = surface_color1(Palette(mats.colors, mats.pattern, mats.checkers),
-                                texture_tables1(mats, scene.texcoords), surf.material[i], KD, at)
+                                texture_tables1(scene), surf.material[i], KD, at)
             for c in range(3):
                 out[row, col + c] = kd[c]
     elif kind == ID:

@@ -8,17 +8,19 @@ cross no call), with
 
 * ``palette``: a :class:`raytrace.kernels.records.Palette` (constant colours and checkers);
   ``textures``, ``alphas``: the image and alpha textures' tables (:func:`texture_tables1`,
-  :func:`alpha_tables1`, bound once a kernel), or None in a scene without image textures,
-  whose kernels then compile no texture code;
+  :func:`alpha_tables1`, bound once a kernel), or None in a scene without image textures
+  or vertex colours, whose kernels then compile no texture code;
 * ``hit``: a :class:`raytrace.kernels.records.MaterialHit`, the hit's world point (a checker
   is a function of it), its triangle (−1 off a mesh) and barycentrics (where an image texture
   is read).
 
 A colour is its constant, or its checker at the world point (SCENE_FORMAT.md), or, where the
 material's colour has an image texture, the texture's bilinear texel at the hit's texture
-coordinates (:func:`raytrace.kernels.core.texture1`); the opacity is the material's constant t,
-times the alpha texture's alpha (glTF BLEND) or cut at its cutoff (MASK). The pieces below the
-two are used by them alone.
+coordinates (:func:`raytrace.kernels.core.texture1`), read through the texture's mapping
+(its uv set and affine transform, :func:`texture_st1`); KA times the material's occlusion
+texture and the colours it tints times the vertex colour (:func:`modulate1`); the opacity is the
+material's constant t, times the alpha texture's alpha (glTF BLEND) or cut at its cutoff
+(MASK). The pieces below the two are used by them alone.
 
 The shading normal at a triangle hit is perturbed by its material's normal or height map
 where it has one (:func:`relief1`, called by ``kernels.accel.hit_surfaces``; ``reliefs`` None
@@ -34,12 +36,15 @@ from numba.extending import overload
 
 from .core import ALPHA, bilinear1, checker1, cross3, texture1
 from .jit import helper, inline
-from .kinds import NORMAL_MAP
+from .kinds import KA, NORMAL_MAP
 from .mip import cone_lod1, trilinear1
 from .records import (
     CHECKER_COLOR0,
     CHECKER_COLOR1,
     CHECKER_SCALE,
+    MAP_AFFINE,
+    MAP_MATRIX,
+    MAP_SET,
     TEX_HEIGHT,
     TEX_WIDTH,
     AlphaTables,
@@ -47,49 +52,55 @@ from .records import (
 )
 
 
-def texture_tables1(materials, texcoords, mips=None):
+def _texture_record(scene):
+    return TextureTables(
+        scene.materials.textured, scene.materials.texture, scene.materials.texels,
+        scene.materials.tex_info, scene.texcoords, scene.triangles.texcoords1,
+        scene.materials.tex_map, scene.materials.occlusion, scene.materials.tinted,
+        scene.triangles.colors, scene.mips)
+
+
+def _alpha_record(scene):
+    return AlphaTables(
+        scene.materials.alpha, scene.materials.alpha_cutoff, scene.materials.texels,
+        scene.materials.tex_info, scene.texcoords, scene.triangles.texcoords1,
+        scene.materials.tex_map)
+
+
+def texture_tables1(scene):
     """What :func:`surface_color1` reads of image textures, taken once at a kernel's top (each
     array a per-hit helper is handed costs reference counts on every hit), a
-    :class:`raytrace.kernels.records.TextureTables`; None where ``texcoords`` is None (a scene
-    without image textures), and the lookup's texture code is then not compiled. Chosen by type
-    when a kernel compiles (``numba.extending.overload``), so no kernel sees an optional value;
-    the same in Python (``raytrace explain``). ``mips``: the scene's
-    :class:`raytrace.kernels.records.Mips` (trilinear lookups, :mod:`raytrace.kernels.mip`), or
-    None (bilinear; no trilinear code compiled)."""
-    if texcoords is None:
-        return None
-    return TextureTables(materials.textured, materials.texture, materials.texels,
-                         materials.tex_info, texcoords, mips)
+    :class:`raytrace.kernels.records.TextureTables` of ``scene`` (a
+    :class:`raytrace.kernels.records.Scene`); None where ``scene.texcoords`` is None (a scene
+    without image textures or vertex colours), and the lookup's texture code is then not
+    compiled. Chosen by type when a kernel compiles (``numba.extending.overload``), so no
+    kernel sees an optional value; the same in Python (``raytrace explain``)."""
+    return None if scene.texcoords is None else _texture_record(scene)
 
 
-@overload(texture_tables1, inline="always")
-def _texture_tables1(materials, texcoords, mips=None):
-    if isinstance(texcoords, types.NoneType):
-        return lambda materials, texcoords, mips=None: None
-    if isinstance(mips, (types.NoneType, types.Omitted)):
-        return lambda materials, texcoords, mips=None: TextureTables(
-            materials.textured, materials.texture, materials.texels, materials.tex_info,
-            texcoords, None)
-    return lambda materials, texcoords, mips=None: TextureTables(
-        materials.textured, materials.texture, materials.texels, materials.tex_info, texcoords,
-        mips)
-
-
-def alpha_tables1(materials, texcoords):
+def alpha_tables1(scene):
     """What :func:`surface_opacity1` reads of alpha textures, taken once at a kernel's top:
-    a :class:`raytrace.kernels.records.AlphaTables`; None where ``texcoords`` is None."""
-    if texcoords is None:
-        return None
-    return AlphaTables(materials.alpha, materials.alpha_cutoff, materials.texels,
-                       materials.tex_info, texcoords)
+    a :class:`raytrace.kernels.records.AlphaTables`; None where ``scene.texcoords`` is None."""
+    return None if scene.texcoords is None else _alpha_record(scene)
 
 
-@overload(alpha_tables1, inline="always")
-def _alpha_tables1(materials, texcoords):
-    if isinstance(texcoords, types.NoneType):
-        return lambda materials, texcoords: None
-    return lambda materials, texcoords: AlphaTables(
-        materials.alpha, materials.alpha_cutoff, materials.texels, materials.tex_info, texcoords)
+def _field(record, name):
+    """The numba type of field ``name`` of a named-tuple type ``record``."""
+    return record.types[record.fields.index(name)]
+
+
+def _when_textured(record):
+    """The overload of a ``*_tables1(scene)``: ``record(scene)``, or None where the scene's
+    ``texcoords`` are None (typed so, when a kernel compiles)."""
+    def typed(scene):
+        if isinstance(_field(scene, "texcoords"), types.NoneType):
+            return lambda scene: None
+        return record
+    return typed
+
+
+overload(texture_tables1, inline="always")(_when_textured(_texture_record))
+overload(alpha_tables1, inline="always")(_when_textured(_alpha_record))
 
 
 @inline
@@ -99,7 +110,8 @@ def surface_color1(palette, textures, m, slot, hit):
     :func:`texture_tables1`), else its checker or constant (``palette`` = the materials'
     colours, patterns and checkers); a 3-tuple."""
     x, y, z = hit.world
-    return texel1(textures, m, slot, hit, color1(palette, m, slot, x, y, z))
+    return modulate1(textures, m, slot, hit,
+                     texel1(textures, m, slot, hit, color1(palette, m, slot, x, y, z)))
 
 
 @inline
@@ -137,7 +149,7 @@ def _texel1(textures, m, slot, hit, other):
         q = textures.texture[m, slot // 3]
         if q < 0:
             return other
-        s, t = texcoord1(textures.texcoords, hit.triangle, hit.u, hit.v)
+        s, t = mapped_st1(textures, q, hit)
         return filtered1(textures, q, s, t, hit)
     return texel
 
@@ -162,6 +174,92 @@ def _filtered1(textures, q, s, t, hit):
     return trilinear
 
 
+def modulate1(textures, m, slot, hit, c):
+    """Colour ``c`` of slot ``slot`` of material ``m`` at ``hit`` times what varies over a
+    surface besides its colour's texture: for KA, the material's occlusion texture where it
+    has one (glTF 2.0 §3.9.3: ambient × (1 + strength·(occlusion − 1)), baked into the
+    texture's RGB when it is read); for the slots the material's vertex colours tint
+    (``textures.tinted``: KA and KD, and a glTF metal's KS and KR), the hit's vertex colour
+    (glTF COLOR_0, which multiplies the base colour, :func:`vertex_color1`). ``c`` itself
+    where ``textures`` is None, and no vertex-colour code where the scene has none
+    (``textures.colors`` None)."""
+
+
+@overload(modulate1, inline="always")
+def _modulate1(textures, m, slot, hit, c):
+    if isinstance(textures, types.NoneType) or (
+            isinstance(_field(textures, "occlusion"), types.NoneType)
+            and isinstance(_field(textures, "colors"), types.NoneType)):
+        return lambda textures, m, slot, hit, c: c
+    if isinstance(_field(textures, "occlusion"), types.NoneType):
+        return lambda textures, m, slot, hit, c: tint1(textures.colors, textures.tinted, m,
+                                                       slot, hit, c)
+
+    def modulate(textures, m, slot, hit, c):
+        q = textures.occlusion[m]
+        if slot == KA and q >= 0:
+            s, t = mapped_st1(textures, q, hit)
+            o = texture1(textures.texels, textures.tex_info, q, s, t)
+            return tint1(textures.colors, textures.tinted, m, slot, hit,
+                         (c[0] * o[0], c[1] * o[1], c[2] * o[2]))
+        return tint1(textures.colors, textures.tinted, m, slot, hit, c)
+    return modulate
+
+
+def tint1(colors, tinted, m, slot, hit, c):
+    """``c`` times the vertex colour at ``hit`` (:func:`vertex_color1`) where material ``m``
+    tints ``slot`` (``tinted``); ``c`` itself where ``colors`` is None (no code)."""
+
+
+@overload(tint1, inline="always")
+def _tint1(colors, tinted, m, slot, hit, c):
+    if isinstance(colors, types.NoneType):
+        return lambda colors, tinted, m, slot, hit, c: c
+
+    def tint(colors, tinted, m, slot, hit, c):
+        if not tinted[m, slot // 3]:
+            return c
+        w = vertex_color1(colors, hit.triangle, hit.u, hit.v)
+        return c[0] * w[0], c[1] * w[1], c[2] * w[2]
+    return tint
+
+
+def mapped_st1(tables, q, hit):
+    """The coordinates (s, t) at which texture ``q`` is read at ``hit`` (``tables``: a
+    :class:`raytrace.kernels.records.TextureTables` or ``AlphaTables``): the first set's
+    (:func:`texcoord1`) where no texture has a mapping (``tables.tex_map`` None: no mapping
+    code), else :func:`texture_st1`'s."""
+
+
+@overload(mapped_st1, inline="always")
+def _mapped_st1(tables, q, hit):
+    if isinstance(_field(tables, "tex_map"), types.NoneType):
+        return lambda tables, q, hit: texcoord1(tables.texcoords, hit.triangle, hit.u, hit.v)
+    if isinstance(_field(tables, "texcoords1"), types.NoneType):  # no mesh has a second set
+        return lambda tables, q, hit: texture_st1(
+            (tables.tex_map, tables.texcoords, tables.texcoords), q, hit)
+    return lambda tables, q, hit: texture_st1(
+        (tables.tex_map, tables.texcoords, tables.texcoords1), q, hit)
+
+
+@helper
+def texture_st1(maps, q, hit):
+    """The coordinates (s, t) at which texture ``q`` is read at ``hit`` where some texture
+    has a mapping; ``maps`` = (the textures' ``tex_map``, the first set's ``texcoords``, the
+    second set's, or the first's where no mesh has a second): its row of ``tex_map``
+    (:data:`raytrace.kernels.records.MAP_SET`, …) picks the set and, where it has one, the
+    affine map ``(s', t') = (a·s + b·t + c, d·s + e·t + f)`` (glTF KHR_texture_transform's
+    T·R·S, MTL ``-o``/``-s``); an identity mapping does no arithmetic."""
+    row, texcoords, texcoords1 = maps
+    s, t = texcoord1(texcoords1 if row[q, MAP_SET] == 1.0 else texcoords, hit.triangle, hit.u,
+                     hit.v)
+    if row[q, MAP_AFFINE] == 0.0:
+        return s, t
+    a = MAP_MATRIX
+    return (row[q, a] * s + row[q, a + 1] * t + row[q, a + 2],
+            row[q, a + 3] * s + row[q, a + 4] * t + row[q, a + 5])
+
+
 def alpha1(alphas, m, hit, constant):
     """Opacity of material ``m`` at ``hit``: ``constant`` times its alpha texture's alpha
     there (glTF BLEND), or 1 / 0 by the alpha cutoff (MASK); ``constant`` where it has no alpha
@@ -178,7 +276,7 @@ def _alpha1(alphas, m, hit, constant):
             return constant
         return opacity1(constant, (alphas.alpha[m], alphas.alpha_cutoff[m]),
                         (alphas.texels, alphas.tex_info),
-                        texcoord1(alphas.texcoords, hit.triangle, hit.u, hit.v))
+                        mapped_st1(alphas, alphas.alpha[m], hit))
     return alpha
 
 
@@ -324,3 +422,16 @@ def height1(texels, info, q, s, t):
     the three equal)."""
     r, g, b = texture1(texels, info, q, s, t)
     return (r + g + b) / 3.0
+
+
+@helper
+def vertex_color1(colors, tri, u, v):
+    """The RGB vertex colour at barycentrics (u, v) of triangle ``tri``,
+    ``(1 − u − v)·c₀ + u·c₁ + v·c₂`` from its corners' ``colors`` (T, 3, 4) (as
+    :func:`texcoord1`); white off a triangle."""
+    if tri < 0 or tri >= colors.shape[0]:
+        return 1.0, 1.0, 1.0
+    w = 1.0 - u - v
+    return (w * colors[tri, 0, 0] + u * colors[tri, 1, 0] + v * colors[tri, 2, 0],
+            w * colors[tri, 0, 1] + u * colors[tri, 1, 1] + v * colors[tri, 2, 1],
+            w * colors[tri, 0, 2] + u * colors[tri, 1, 2] + v * colors[tri, 2, 2])

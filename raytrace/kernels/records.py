@@ -149,6 +149,14 @@ CHECKER_COLUMNS = 7
 #: width and height in texels, its wrap modes along s and t (``raytrace.readers.texture.WRAPS``).
 TEX_OFFSET, TEX_WIDTH, TEX_HEIGHT, TEX_WRAP_S, TEX_WRAP_T = range(5)
 TEX_COLUMNS = 5
+#: The columns of a row of ``Materials.tex_map``, one texture use's mapping (packed by
+#: ``raytrace.tables.MaterialTable`` from ``Texture.uv_set`` and ``Texture.transform``, read
+#: by ``raytrace.kernels.material.texture_st1``): its texture-coordinate set (0: the mesh's
+#: first, glTF TEXCOORD_0; 1: glTF TEXCOORD_1), 1.0 where it has an affine transform (0.0:
+#: the identity, read with no arithmetic), then that transform's rows a b c d e f:
+#: ``s' = a·s + b·t + c``, ``t' = d·s + e·t + f``.
+MAP_SET, MAP_AFFINE, MAP_MATRIX = 0, 1, 2
+MAP_COLUMNS = 8
 #: The material table's arrays besides its per-material columns (:data:`MATERIAL_COLUMNS`).
 MATERIAL_TABLES = {
     "colors": "(M, 3·C) constant colours of material.COLOR_KEYS (ka kd ks kr kt ke), three "
@@ -156,11 +164,17 @@ MATERIAL_TABLES = {
     "pattern": "(M, C) int64 row of checkers per colour, or −1 (constant)",
     "checkers": f"(P, {CHECKER_COLUMNS}) colour 0, colour 1, scale (CHECKER_COLOR0, …)",
     "texture": "(M, C) int64 image texture per colour (row of tex_info), or −1",
-    "textured": "(M,) bool: some colour is an image texture, or the alpha is",
+    "textured": "(M,) bool: some colour is an image texture, or the alpha or the occlusion is",
     "texels": "(N,) float32 every texture's RGBA rows, one after another",
     "tex_info": f"(K, {TEX_COLUMNS}) int64 offset into texels, width, height, wrap s, wrap t "
                 "(TEX_OFFSET, …)",
     "alpha": "(M,) int64 texture whose alpha multiplies the opacity, or −1",
+    "tex_map": f"(K, {MAP_COLUMNS}) float64 each texture's uv set and affine map (MAP_SET, …); "
+               "None where every texture reads set 0 unmapped (no mapping code compiled)",
+    "tinted": "(M, C) bool: the colours vertex colours multiply (material.vertex_colors); None "
+              "in a scene without vertex colours",
+    "occlusion": "(M,) int64 texture (its RGB 1 + strength·(occlusion − 1)) that multiplies "
+                 "ka, or −1; None where no material has one",
 }
 #: The material table, indexed by ``Surface.material``: the fields of
 #: :data:`MATERIAL_TABLES`, then one (M,) array per entry of ``material.COLUMNS``, in its
@@ -185,6 +199,12 @@ class Triangles(NamedTuple):
                             #: corners (accel_kernels.triangle_tables)
     #: (T, 3, 2) (s, t) at the corners; none (0, 3, 2) where no material has a texture
     texcoords: np.ndarray = np.zeros((0, 3, 2))
+    #: (T, 3, 2) the second set (glTF TEXCOORD_1; the first on a mesh without one) where some
+    #: mesh has one, else None
+    texcoords1: np.ndarray | None = None
+    #: (T, 3, 4) linear RGBA vertex colours at the corners (glTF COLOR_0; white on a mesh
+    #: without them) where some mesh has them, else None (no vertex-colour code compiled)
+    colors: np.ndarray | None = None
 
 
 #: The columns of a row of ``Scene.fast``, one triangle's fast-Phong polynomials for one
@@ -618,6 +638,13 @@ class TextureTables(NamedTuple):
     texels: np.ndarray     #: ``Materials.texels``
     tex_info: np.ndarray   #: ``Materials.tex_info``
     texcoords: np.ndarray  #: ``Triangles.texcoords``
+    #: ``Triangles.texcoords1``, ``Materials.tex_map``, ``.occlusion``, ``.tinted`` and
+    #: ``Triangles.colors``: each None compiles none of its code (kernels.material)
+    texcoords1: np.ndarray | None
+    tex_map: np.ndarray | None
+    occlusion: np.ndarray | None
+    tinted: np.ndarray | None
+    colors: np.ndarray | None
     mips: Mips | None = None  #: ``Scene.mips``: None, bilinear lookups
 
 
@@ -648,6 +675,8 @@ class AlphaTables(NamedTuple):
     texels: np.ndarray        #: ``Materials.texels``
     tex_info: np.ndarray      #: ``Materials.tex_info``
     texcoords: np.ndarray     #: ``Triangles.texcoords``
+    texcoords1: np.ndarray | None  #: ``Triangles.texcoords1``
+    tex_map: np.ndarray | None     #: ``Materials.tex_map``
 
 
 class Reliefs(NamedTuple):

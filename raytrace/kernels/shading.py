@@ -354,7 +354,7 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
     materials, triangles, origin = scene.materials, scene.triangles, scene.origin
     palette = Palette(materials.colors, materials.pattern, materials.checkers)
     # None: no texture code compiled; scene.mips: trilinear lookups (kernels.mip)
-    textures = texture_tables1(materials, scene.texcoords, scene.mips)
+    textures = texture_tables1(scene)
     code = triangles.shading
     smooth_tables = SmoothTriangles(triangles.corners, triangles.vnormals)
     rows, s_origin, s_direction = shadow.rows, shadow.origin, shadow.direction
@@ -483,8 +483,8 @@ def cross_surfaces(factor, live, surf, walk, scene):
     palette = Palette(materials.colors, materials.pattern, materials.checkers)
     opacity = materials.opacity
     # None without image textures: the lookup's texture code is then not compiled
-    textures = texture_tables1(materials, scene.texcoords, scene.mips)
-    alphas = alpha_tables1(materials, scene.texcoords)
+    textures = texture_tables1(scene)
+    alphas = alpha_tables1(scene)
     n, on = live.shape[0], 0
     through = np.empty(n, np.bool_)
     for j in range(n):
@@ -573,8 +573,8 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children):
     palette = Palette(materials.colors, materials.pattern, materials.checkers)
     opacity = materials.opacity
     # None without image textures: the lookup's texture code is then not compiled
-    textures = texture_tables1(materials, scene.texcoords, scene.mips)
-    alphas = alpha_tables1(materials, scene.texcoords)
+    textures = texture_tables1(scene)
+    alphas = alpha_tables1(scene)
     ambient, lights = local.ambient, local.lights
     samples, sample = into.sums, into.row
     if children is not None:

@@ -36,3 +36,7 @@ class Asset:
     #: (F, 3, 4) per corner, the tangents the file gives (glTF ``TANGENT``: xyz and the
     #: bitangent's sign w); None where it gives none, a zero row for a corner without one
     tangents: np.ndarray | None = None
+    #: (F, 3, 2) per corner, a second set of texture coordinates (glTF TEXCOORD_1), or None
+    texcoords1: np.ndarray | None = None
+    #: (F, 3, 4) per corner, linear RGBA vertex colours (glTF COLOR_0), or None
+    colors: np.ndarray | None = None

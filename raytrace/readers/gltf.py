@@ -35,7 +35,7 @@ from ..material import Material, Relief
 from .asset import Asset
 from .inputs import cached_reads, input_file
 from .tangents import given_tangents
-from .texture import GLTF_WRAPS, Texture
+from .texture import GLTF_WRAPS, Texture, uv_transform
 
 COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32,
              5126: np.float32}
@@ -43,7 +43,7 @@ WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MA
 #: Extensions read (the rest of ``extensionsUsed`` that changes appearance is warned about).
 SUPPORTED = ("KHR_lights_punctual", "KHR_materials_ior", "KHR_materials_transmission",
              "KHR_materials_specular", "KHR_materials_emissive_strength",
-             "KHR_materials_unlit", "KHR_materials_volume")
+             "KHR_materials_unlit", "KHR_materials_volume", "KHR_texture_transform")
 #: Extensions that do not change how the scene looks (EXT_mesh_gpu_instancing does: its
 #: copies are not drawn, and it is warned about).
 NEUTRAL = ("KHR_mesh_quantization", "KHR_xmp_json_ld", "KHR_materials_variants")
@@ -297,9 +297,14 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
     elif mode == "MASK":
         cutoff = m.alphaCutoff if m.alphaCutoff is not None else 0.5
         fields["opacity"] = 1.0 if alpha >= cutoff else 0.0
+    # COLOR_0 multiplies the base colour: kd and the ka that follows it, kt, and F0 (so ks
+    # and kr) where it is the base colour (metallic 1; between 0 and 1 F0 keeps its share of
+    # the base colour untinted)
+    fields["vertex_colors"] = ("ka", "kd", *(("ks", "kr") if metallic == 1 else ()),
+                               *(("kt",) if trans > 0 else ()))
     unlit = m is not None and "KHR_materials_unlit" in (m.extensions or {})
     if unlit:
-        fields.update(ke=base, kd=0.0, ks=0.0, kr=0.0, ka=0.0)
+        fields.update(ke=base, kd=0.0, ks=0.0, kr=0.0, ka=0.0, vertex_colors=("ke",))
     tex = pbr.baseColorTexture if pbr is not None else None
     if tex is not None and texture is not None:
         t = texture(gltf, tex, path, f"materials[{index}].pbrMetallicRoughness."
@@ -319,6 +324,8 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
         fields["normal_map"] = Relief(
             texture(gltf, normal, path, f"materials[{index}].normalTexture", mode, srgb=False),
             _number(normal.scale, 1.0, f"materials[{index}].normalTexture.scale", path))
+    if m is not None and texture is not None and not unlit:
+        fields.update(_emissive_occlusion(gltf, m, index, texture, path, fields["ke"]))
     try:
         out = Material(**fields, name=name)
     except SceneError as e:
@@ -332,6 +339,29 @@ def _number(value: Any, default: float, key: str, path: Path | None) -> float:
         return values.number(default if value is None else value, key)
     except SceneError as e:
         raise SceneError(e.problem, e.key, str(path)) from None
+
+
+def _emissive_occlusion(gltf: Any, m: Any, index: int, texture: Any, path: Path | None,
+                        ke: np.ndarray) -> dict:
+    """A lit material's ``emissiveTexture`` (sRGB, glTF 2.0 §3.9.4: texture × emissiveFactor,
+    times KHR_materials_emissive_strength, already in ``ke``) as its ke, and its
+    ``occlusionTexture`` (linear, R channel, §3.9.3: ambient × (1 + strength·(R − 1))) as
+    its occlusion: the Material fields they give."""
+    out: dict[str, Any] = {}
+    key = f"materials[{index}]"
+    if m.emissiveTexture is not None and np.any(ke):
+        out["ke"] = texture(gltf, m.emissiveTexture, path, f"{key}.emissiveTexture",
+                            "OPAQUE").scaled(ke)
+    occ = m.occlusionTexture
+    if occ is not None:
+        strength = 1.0 if occ.strength is None else occ.strength
+        try:
+            strength = values.number(strength, f"{key}.occlusionTexture.strength", lo=0, hi=1)
+        except SceneError as e:
+            raise SceneError(e.problem, e.key, str(path)) from None
+        out["occlusion"] = texture(gltf, occ, path, f"{key}.occlusionTexture", "OPAQUE",
+                                   srgb=False).occlusion(strength)
+    return out
 
 
 def _light(spec: dict, world: np.ndarray, where: str, path: Path):
@@ -452,6 +482,7 @@ def _load(path: Path) -> GltfScene:
     verts, faces, face_mat, uvs, normals = [], [], [], [], []
     sources = buffer_files(gltf, path)
     tangents = []
+    uvs1, colors = [], []  # per primitive: TEXCOORD_1 and COLOR_0 (None where it has none)
     camera, lights, offset = None, [], 0
     light_specs = _ext(gltf, "KHR_lights_punctual").get("lights", [])
     for n, world in world_matrices(gltf):
@@ -510,6 +541,11 @@ def _load(path: Path) -> GltfScene:
             faces.append(idx + offset)
             face_mat.append(np.full(len(idx), list(materials).index(prim.material)))
             uvs.append(uv[:, :2][idx] if uv is not None else np.zeros((len(idx), 3, 2)))
+            uv1, color = _second_set_and_colors(gltf, buffers, prim, len(pos), path,
+                                                f"meshes[{node.mesh}].primitives[{p}]",
+                                                materials[prim.material])
+            uvs1.append(uv1[idx] if uv1 is not None else None)
+            colors.append(color[idx] if color is not None else None)
             # normals by the inverse transpose of the node's matrix (they stay perpendicular
             # to the transformed surface); none: zeros, flat (glTF 2.0 §3.7.2.1: "client
             # implementations MUST calculate flat normals")
@@ -528,26 +564,59 @@ def _load(path: Path) -> GltfScene:
                   np.concatenate(face_mat).astype(np.int64), mats,
                   np.concatenate(uvs) if any(len(u) for u in uvs) else None, tuple(sources),
                   np.concatenate(normals) if any(n.any() for n in normals) else None,
-                  np.concatenate(tangents) if any(t.any() for t in tangents) else None)
+                  np.concatenate(tangents) if any(t.any() for t in tangents) else None,
+                  _corners(uvs1, uvs),
+                  _corners(colors, [np.ones((len(f), 3, 4)) for f in faces]))
     return GltfScene(asset, camera, lights)
+
+
+def _corners(arrays: list, fallback: list) -> np.ndarray | None:
+    """Per-primitive corner arrays concatenated where some primitive has one (a primitive
+    without: its ``fallback``), else None."""
+    if all(a is None for a in arrays):
+        return None
+    return np.concatenate([f if a is None else a for a, f in zip(arrays, fallback, strict=True)])
+
+
+def _second_set_and_colors(gltf: Any, buffers: list[bytes], prim: Any, n: int, path: Path,
+                           key: str, mat: Material) -> tuple[Any, Any]:
+    """A primitive's TEXCOORD_1 (n, 2) and COLOR_0 (n, 4) as linear RGBA (§3.7.2.1: VEC3 or
+    VEC4, float or normalised unsigned byte / short, which :func:`accessor` makes floats;
+    alpha 1 for VEC3), each None where it has none; a material that reads TEXCOORD_1 on a
+    primitive without it is an error."""
+    attrs, out = prim.attributes, []
+    for name, width in (("TEXCOORD_1", (2,)), ("COLOR_0", (3, 4))):
+        index = getattr(attrs, name, None)
+        a = accessor(gltf, buffers, index, path) if index is not None else None
+        if a is not None and (len(a) != n or a.shape[1] not in width):
+            raise SceneError(f"has {a.shape}, POSITION {n} rows: one "
+                             f"{' or '.join(f'{w}-vector' for w in width)} a vertex",
+                             f"{key}.attributes.{name}", str(path))
+        out.append(a)
+    uv1, color = out
+    if uv1 is None and any(getattr(t, "uv_set", 0) == 1 for t in mat.textures):
+        raise SceneError(f"material {mat.name!r} reads TEXCOORD_1 (texCoord 1), which this "
+                         "primitive does not have", f"{key}.attributes", str(path))
+    if color is not None and color.shape[1] == 3:
+        color = np.concatenate([color, np.ones((n, 1))], axis=1)
+    return uv1, color
 
 
 def gltf_texture(gltf: Any, info: Any, path: Path, key: str, alpha_mode: str, *,
                  buffers: list[bytes] | None = None, decoded: dict | None = None,
                  srgb: bool = True) -> Texture:
-    """A glTF ``textureInfo``: its image (a file, a data URI or a buffer view) decoded as sRGB,
-    its sampler's wrapS / wrapT. TEXCOORD_0 only. ``buffers``: the file's buffers, where
-    read already; ``decoded``: the textures made so far by (image, wrap), shared by the
-    materials that use the same image the same way; ``srgb`` False: its codes read as linear
-    values (a normal map's, glTF 2.0 §3.9.3)."""
+    """A glTF ``textureInfo``: its image (a file, a data URI or a buffer view) decoded as sRGB
+    (or linear: ``srgb`` False, as occlusion is), its sampler's wrapS / wrapT, and its mapping
+    (:func:`texture_mapping`). ``buffers``: the file's buffers, where read already;
+    ``decoded``: the images decoded so far by (image, wrap, sRGB), shared by the materials
+    that use the same image the same way (whatever their mappings)."""
     where = str(path)
     try:
         tex = gltf.textures[info.index]
         gltf.images[tex.source]  # noqa: B018 (that it exists)
     except (IndexError, TypeError):
         raise SceneError("names no texture with an image", f"{key}.index", where) from None
-    if (info.texCoord or 0) != 0:
-        raise SceneError("only TEXCOORD_0 is supported", f"{key}.texCoord", where)
+    uv_set, transform = texture_mapping(info, key, path)
     wrap = ("repeat", "repeat")
     if tex.sampler is not None:
         s = gltf.samplers[tex.sampler]
@@ -557,7 +626,30 @@ def gltf_texture(gltf: Any, info: Any, path: Path, key: str, alpha_mode: str, *,
     if (tex.source, wrap, srgb) not in decoded:
         decoded[tex.source, wrap, srgb] = _image(gltf, tex.source, path, key, wrap, buffers,
                                                  srgb)
-    return decoded[tex.source, wrap, srgb]
+    return decoded[tex.source, wrap, srgb].mapped(uv_set, transform)
+
+
+def texture_mapping(info: Any, key: str, path: Path) -> tuple[int, np.ndarray | None]:
+    """A ``textureInfo``'s texture-coordinate set (``texCoord``: 0 or 1; a
+    ``KHR_texture_transform.texCoord`` overrides it) and its KHR_texture_transform as a (2, 3)
+    affine map of (s, t) (:func:`raytrace.readers.texture.uv_transform`, the extension's
+    T·R·S), or None without one."""
+    ext = _ext(info, "KHR_texture_transform")
+    uv_set = ext.get("texCoord", info.texCoord or 0)
+    if uv_set not in (0, 1):
+        field = "extensions.KHR_texture_transform.texCoord" if "texCoord" in ext else "texCoord"
+        raise SceneError(f"only TEXCOORD_0 and TEXCOORD_1 are supported, got {uv_set!r}",
+                         f"{key}.{field}", str(path))
+    if not ext.keys() - {"texCoord"}:
+        return uv_set, None
+    where = f"{key}.extensions.KHR_texture_transform"
+    try:
+        ox, oy = values.vector(ext.get("offset", [0.0, 0.0]), f"{where}.offset", 2)
+        kx, ky = values.vector(ext.get("scale", [1.0, 1.0]), f"{where}.scale", 2)
+        r = values.number(ext.get("rotation", 0.0), f"{where}.rotation")
+    except SceneError as e:
+        raise SceneError(e.problem, e.key, str(path)) from None
+    return uv_set, uv_transform((ox, oy), r, (kx, ky))
 
 
 def _image(gltf: Any, index: int, path: Path, key: str, wrap: tuple[str, str],

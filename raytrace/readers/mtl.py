@@ -8,9 +8,10 @@ shininess, kr, kt, ior, opacity and the Fresnel weighting; docs/scene_format.md 
 The file is parsed here, line by line (trimesh's OBJ loader reads MTL files too, but keeps
 ``Ni``, ``d``, ``Tf`` and ``illum`` only as unchecked strings, with no line numbers for an
 error): ``newmtl``, ``Ka``, ``Kd``, ``Ks``, ``Ke``, ``Ns``, ``Ni``, ``d``, ``Tr``, ``Tf``,
-``illum``, ``map_Kd`` (with ``-clamp on``), ``norm`` (a tangent-space normal map) and
-``bump``/``map_Bump`` (a height map, with ``-bm``). Statements that change the appearance but
-are not modelled (``map_Ks``, ``refl``, ``sharpness``, …) are listed on one warning
+``illum``, ``map_Kd`` and ``map_Ke`` (with ``-clamp on``, ``-o`` and ``-s``), ``map_d``
+(an alpha texture), ``norm`` (a tangent-space normal map) and ``bump``/``map_Bump`` (a
+height map, with ``-bm``). Statements that change the appearance but are not modelled
+(``map_Ks``, ``refl``, ``sharpness``, …) are listed on one warning
 line; a bad value is one :class:`~raytrace.errors.SceneError` naming the file, the line and
 the statement.
 """
@@ -38,10 +39,14 @@ IGNORED = ("Pr", "Pm", "Ps", "Pc", "Pcr", "aniso", "anisor")
 #: Defaults where a material omits a statement (Ka omitted follows Kd, as in scene files).
 DEFAULTS: dict[str, Any] = {"Ka": None, "Kd": np.full(3, 0.8), "Ks": np.zeros(3),
                             "Ke": np.zeros(3), "Tf": np.ones(3), "Ns": 32.0, "Ni": 1.0,
-                            "d": 1.0, "illum": 2, "map_Kd": None, "norm": None,
-                            "bump": None}
+                            "d": 1.0, "illum": 2, "map_Kd": None, "map_Ke": None,
+                            "map_d": None, "norm": None, "bump": None}
 #: Texture statements, each to the key its map is kept under (``map_Bump`` is ``bump``).
-MAP_STATEMENTS = {"map_Kd": "map_Kd", "norm": "norm", "bump": "bump", "map_Bump": "bump"}
+MAP_STATEMENTS = {"map_Kd": "map_Kd", "map_Ke": "map_Ke", "map_d": "map_d", "norm": "norm",
+                  "bump": "bump", "map_Bump": "bump"}
+#: Texture statements read: the image as the colour (map_Kd; map_Ke times Ke where given) or
+#: as the dissolve (map_d, a scalar texture: its alpha, or its luminance where it has none).
+MAPS = ("map_Kd", "map_Ke", "map_d")
 
 
 #: The least highlight exponent: ``Ns`` below 1 is read as 1. The spec's ``Ks·(N·H)^Ns`` has no
@@ -176,14 +181,20 @@ def read_mtl(path: Path, texture: Callable[[Path, dict, str, str], Any] | None =
                               "drawn; Meshlab writes Tr 1 meaning opaque: write d 1 or Tr 0 "
                               "there to see it", RenderWarning, stacklevel=2)
         fields = ILLUM[f["illum"]](f)
-        if f["map_Kd"] is not None:
-            if texture is None:
-                raise SceneError("textures are not supported here", "map_Kd", str(path))
-            file, options = f["map_Kd"]
-            fields["kd"] = texture(file, options, "map_Kd", f"{path}: material {name!r}")
+        maps = {k: f[k] for k in MAPS if f[k] is not None}
+        if maps and texture is None:
+            raise SceneError("textures are not supported here", next(iter(maps)), str(path))
+        read = {k: texture(*maps[k], k, f"{path}: material {name!r}") for k in maps}
+        if "map_Kd" in read:
+            fields["kd"] = read["map_Kd"]
             if f["Ka"] is None:
                 fields["ka"] = None
         fields.update(_reliefs(f, texture, path, name))
+        if "map_Ke" in read:  # the map times Ke where Ke is given (as map_Ka is, by the spec)
+            fields["ke"] = read["map_Ke"].scaled(table["Ke"]) if "Ke" in table else read[
+                "map_Ke"]
+        if "map_d" in read:  # the map's alpha times d, blended (glTF BLEND's machinery)
+            fields["alpha"] = read["map_d"]
         try:
             out[name] = Material(**fields, name=name)
         except SceneError as e:
@@ -213,12 +224,13 @@ def _reliefs(f: dict, texture: Callable | None, path: Path, name: str) -> dict:
                           options.get("bm", 1.0))
     return out
 
-
 def _map_options(args: list[str], folder: Path, where: str, stmt: str = "map_Kd"
                  ) -> tuple[Path, dict]:
-    """``map_Kd [-clamp on|off] [-bm mult] [-o u v] [-s u v] file`` (and ``norm``, ``bump``,
-    ``map_Bump``): the file (relative to the MTL file) and the options kept (``clamp``,
-    ``bm``); other options are skipped with their values."""
+    """``map_Kd [-clamp on|off] [-bm mult] [-o u [v [w]]] [-s u [v [w]]] file`` (and
+    ``map_Ke``, ``map_d``, ``norm``, ``bump``, ``map_Bump``): the file (relative to the MTL
+    file) and the options kept (``wrap`` from ``-clamp``; ``bm``; ``offset`` and ``scale``,
+    (u, v), from ``-o`` and ``-s``, whose omitted v is 0 and 1 as the spec's defaults; w, a
+    3-D texture's, is not read); other options are skipped with their values."""
     takes = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clamp": 1,
              "-imfchan": 1, "-mm": 2, "-o": 3, "-s": 3, "-t": 3, "-texres": 1}
     options: dict = {}
@@ -231,10 +243,16 @@ def _map_options(args: list[str], folder: Path, where: str, stmt: str = "map_Kd"
         if opt == "-bm":
             options["bm"] = _number(vals[0] if vals else "", where, f"{stmt} -bm", None, None)
         i += 1
-        # -o/-s/-t take 1 to 3 numbers: skip the ones present
+        # -o/-s/-t take 1 to 3 numbers: read the ones present
+        given = []
         while n and i < len(args) - 1 and _is_number(args[i]):
+            given.append(args[i])
             i += 1
             n -= 1
+        if opt in ("-o", "-s"):
+            uv = [_number(w, where, f"{stmt} {opt}", None, None) for w in given[:2]]
+            default = 0.0 if opt == "-o" else 1.0
+            options["offset" if opt == "-o" else "scale"] = (*uv, *[default] * (2 - len(uv)))
     if i >= len(args):
         raise SceneError("needs a file name", stmt, where)
     return folder / " ".join(args[i:]), options

@@ -33,11 +33,18 @@ from .inputs import input_file
 WRAPS = {"repeat": 0, "clamp": 1, "mirror": 2}
 #: glTF sampler wrap codes (§5.26: REPEAT, CLAMP_TO_EDGE, MIRRORED_REPEAT).
 GLTF_WRAPS = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
-TEXTURE_KEYS = ("texture", "wrap", "srgb", "scale")
+TEXTURE_KEYS = ("texture", "wrap", "srgb", "scale", "uv_set", "uv_offset", "uv_rotation",
+                "uv_scale")
 
 
 class Texture:
-    """An image as a colour: linear RGBA texels (H, W, 4) float32, wrap modes, a tint."""
+    """An image as a colour: linear RGBA texels (H, W, 4) float32, wrap modes, a tint, and
+    its mapping: which texture-coordinate set it reads (``uv_set``: 0 the mesh's first, 1 a
+    glTF TEXCOORD_1) and an affine ``transform`` (2, 3) of those coordinates, ``(s', t') = M
+    · (s, t, 1)``, or None for the identity (:meth:`mapped`)."""
+
+    uv_set: int = 0
+    transform: np.ndarray | None = None
 
     def __init__(self, texels: np.ndarray, wrap: tuple[str, str] = ("repeat", "repeat"),
                  file: Path | None = None):
@@ -46,6 +53,26 @@ class Texture:
             raise SceneError(f"texels must be (H, W, 4), got {self.texels.shape}", "texture")
         self.wrap = tuple(values.string(w, "wrap", WRAPS) for w in wrap)
         self.file = file
+
+    def mapped(self, uv_set: int = 0, transform: Any = None) -> Texture:
+        """The same image (its texels shared, stored once in the material table) read through
+        another mapping; ``transform`` (2, 3), or None (or the identity) for none. Itself
+        where the mapping is the one it has."""
+        if transform is not None:
+            transform = np.asarray(transform, np.float64).reshape(2, 3)
+            if np.array_equal(transform, IDENTITY):
+                transform = None
+        if uv_set == self.uv_set and (transform is None and self.transform is None or (
+                transform is not None and self.transform is not None
+                and np.array_equal(transform, self.transform))):
+            return self
+        out = Texture(self.texels, self.wrap, self.file)
+        out.uv_set, out.transform = uv_set, transform
+        return out
+
+    def _like(self, texels: np.ndarray) -> Texture:
+        """New texels, this texture's wrap, file and mapping."""
+        return Texture(texels, self.wrap, self.file).mapped(self.uv_set, self.transform)
 
     @classmethod
     def from_file(cls, file: Path, key: str, *, srgb: bool = True,
@@ -84,7 +111,27 @@ class Texture:
             return self
         t = self.texels.copy()
         t[..., :3] *= factor
-        return Texture(t, self.wrap, self.file)
+        return self._like(t)
+
+    def as_alpha(self) -> Texture:
+        """A scalar texture (MTL ``map_d``) as an alpha texture: its alpha where the image
+        has one that is not all 1, else its luminance Y = 0.2126·R + 0.7152·G + 0.0722·B
+        (ITU-R BT.709; the MTL spec's default channel for a scalar texture, ``-imfchan l``);
+        its colour white."""
+        t = np.ones_like(self.texels)
+        a = self.texels[..., 3]
+        t[..., 3] = a if np.any(a < 1) else self.texels[..., :3] @ np.float32(
+            [0.2126, 0.7152, 0.0722])
+        return self._like(t)
+
+    def occlusion(self, strength: float) -> Texture:
+        """An ambient-occlusion map as the factor it multiplies the ambient term by, ``1 +
+        strength·(R − 1)`` in R, G and B (glTF 2.0 §3.9.3, occlusionTexture: "the occlusion
+        values are linearly sampled from the R channel", ``1.0 + strength * (occlusion -
+        1.0)``); alpha 1. Linear in R, so bilinear filtering of the factor is filtering of R."""
+        t = np.ones_like(self.texels)
+        t[..., :3] = (1.0 + strength * (self.texels[..., :1] - 1.0))
+        return self._like(t)
 
     @functools.cached_property
     def max(self) -> np.ndarray:
@@ -93,6 +140,9 @@ class Texture:
         build)."""
         return np.array([self.texels[..., c].max() for c in range(3)], np.float64)
 
+
+#: A mapping's identity transform (2, 3): (s', t') = (s, t).
+IDENTITY = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 
 #: The eight bytes every PNG file begins with (PNG spec §5.2).
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -188,9 +238,32 @@ def decoding_table(bits: int, srgb: bool) -> np.ndarray:
     return values.astype(np.float32)
 
 
+def uv_transform(offset: Any, rotation: float, scale: Any) -> np.ndarray:
+    """The affine map (2, 3) of (s, t) by glTF KHR_texture_transform's T·R·S: scale
+    (kₛ, kₜ), then rotate by ``rotation`` radians counter-clockwise as the image is seen (t
+    runs down it), then offset (oₛ, oₜ)::
+
+        s' = kₛ·cos r·s + kₜ·sin r·t + oₛ
+        t' = −kₛ·sin r·s + kₜ·cos r·t + oₜ
+
+    R = [[cos r, sin r], [−sin r, cos r]] is the matrix of the extension's own example
+    (offset (0, 1), rotation π/2, scale ½ read "the lower left quadrant of the source image,
+    rotated clockwise 90°") and of CesiumGltf's ``KhrTextureTransform::applyTransform``; the
+    README's GLSL, read as GLSL's column-major constructors, would be its transpose.
+
+    >>> uv_transform((0.0, 1.0), np.pi / 2, (0.5, 0.5)).round(12).tolist()
+    [[0.0, 0.5, 0.0], [-0.5, 0.0, 1.0]]
+    """
+    (ox, oy), (kx, ky) = offset, scale
+    c, s = np.cos(rotation), np.sin(rotation)
+    return np.array([[kx * c, ky * s, ox], [-kx * s, ky * c, oy]])
+
+
 def parse_texture(table: Mapping, key: str) -> Texture:
-    """``{ texture = "file.png", wrap = "repeat" | "clamp" | "mirror", srgb = true, scale }``;
-    a relative file is relative to the scene file's folder (the loader makes it so)."""
+    """``{ texture = "file.png", wrap = "repeat" | "clamp" | "mirror", srgb = true, scale,
+    uv_set = 0, uv_offset = [0, 0], uv_rotation = 0, uv_scale = [1, 1] }`` (the mapping of
+    :func:`uv_transform`, the rotation in degrees); a relative file is relative to the scene
+    file's folder (the loader makes it so)."""
     values.check_keys(table, TEXTURE_KEYS, key)
     file = Path(values.string(table["texture"], f"{key}.texture"))
     wrap = values.string(table.get("wrap", "repeat"), f"{key}.wrap", WRAPS)
@@ -198,12 +271,39 @@ def parse_texture(table: Mapping, key: str) -> Texture:
     t = Texture.from_file(file, f"{key}.texture", srgb=srgb, wrap=(wrap, wrap))
     if "scale" in table:
         t = t.scaled(values.color(table["scale"], f"{key}.scale"))
-    return t
+    transform = None
+    if {"uv_offset", "uv_rotation", "uv_scale"} & table.keys():
+        transform = uv_transform(
+            values.vector(table.get("uv_offset", [0.0, 0.0]), f"{key}.uv_offset", 2),
+            np.radians(values.number(table.get("uv_rotation", 0.0), f"{key}.uv_rotation")),
+            values.vector(table.get("uv_scale", [1.0, 1.0]), f"{key}.uv_scale", 2))
+    uv_set = values.number(table.get("uv_set", 0), f"{key}.uv_set", lo=0, hi=1, integer=True)
+    return t.mapped(uv_set, transform)
 
 
 def mtl_texture(file: Path, options: dict, key: str, where: str) -> Texture:
-    """An MTL ``map_Kd`` (sRGB; ``-clamp on`` clamps, else repeats); with ``options["srgb"]``
-    False its codes are read as linear values (``norm``, ``bump``)."""
+    """An MTL map (``key``: ``map_Kd``, ``map_Ke``, sRGB colours; ``map_d``, a scalar read as
+    linear, :meth:`Texture.as_alpha`; ``options["srgb"]`` False: codes read as linear, as
+    ``norm`` and ``bump`` are): ``-clamp on`` clamps, else repeats; ``-o`` and ``-s`` as its
+    mapping (:func:`mtl_transform`)."""
     wrap = options.get("wrap", "repeat")
-    return Texture.from_file(file, key, wrap=(wrap, wrap), where=where,
-                             srgb=options.get("srgb", True))
+    scalar = key == "map_d"
+    t = Texture.from_file(file, key, wrap=(wrap, wrap), where=where,
+                          srgb=options.get("srgb", not scalar))
+    if scalar:
+        t = t.as_alpha()
+    return t.mapped(0, mtl_transform(options.get("offset", (0.0, 0.0)),
+                                     options.get("scale", (1.0, 1.0))))
+
+
+def mtl_transform(offset: Any, scale: Any) -> np.ndarray:
+    """The affine map (2, 3) of raytrace's (s, t) of MTL ``-o u v`` and ``-s u v`` (Wavefront
+    MTL, "Options for texture map statements": -o shifts the map's origin, -s scales the
+    map): in OBJ's (u, v) ``(u', v') = (sᵤ·u + oᵤ, sᵥ·v + oᵥ)``; OBJ's v runs up the image
+    and raytrace's t = 1 − v down it, so ``s' = sᵤ·s + oᵤ``, ``t' = sᵥ·t + 1 − sᵥ − oᵥ``.
+
+    >>> mtl_transform((0.5, 0.25), (2.0, 1.0)).tolist()
+    [[2.0, 0.0, 0.5], [0.0, 1.0, -0.25]]
+    """
+    (ou, ov), (su, sv) = offset, scale
+    return np.array([[su, 0.0, ou], [0.0, sv, 1.0 - sv - ov]])

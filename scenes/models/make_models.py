@@ -93,7 +93,8 @@ def write_gltf_doc(nodes: list[dict], meshes: list[dict], materials: list[dict] 
     """A glTF 2.0 document (JSON as a dict) and its one binary buffer. ``meshes``:
     ``{"positions": (n, 3), "indices": (m, 3), "uv": (n, 2) or None, "material": index or
     None}`` (and ``"normals": (n, 3)`` for a NORMAL attribute, ``"tangents": (n, 4)`` for a
-    TANGENT one); ``images``: PNG bytes stored
+    TANGENT one, ``"uv1": (n, 2)`` for TEXCOORD_1, ``"colors": (n, 3 or 4)`` float or uint8
+    for COLOR_0); ``images``: PNG bytes stored
     in buffer views; nodes with ``"_child": True`` are not scene roots."""
     blob = b""
     accessors, views, gl_meshes = [], [], []
@@ -122,6 +123,15 @@ def write_gltf_doc(nodes: list[dict], meshes: list[dict], materials: list[dict] 
             attrs["NORMAL"] = add(np.asarray(m["normals"], np.float32), "VEC3", 5126, 34962)
         if m.get("tangents") is not None:
             attrs["TANGENT"] = add(np.asarray(m["tangents"], np.float32), "VEC4", 5126, 34962)
+        if m.get("uv1") is not None:
+            attrs["TEXCOORD_1"] = add(np.asarray(m["uv1"], np.float32), "VEC2", 5126, 34962)
+        if m.get("colors") is not None:  # float, or uint8 codes as normalised integers
+            c = np.asarray(m["colors"])
+            byte = c.dtype == np.uint8
+            attrs["COLOR_0"] = add(c if byte else c.astype(np.float32), f"VEC{c.shape[1]}",
+                                   5121 if byte else 5126, 34962)
+            if byte:
+                accessors[-1]["normalized"] = True
         idx = add(np.asarray(m["indices"], np.uint32).reshape(-1), "SCALAR", 5125, 34963)
         prim = {"attributes": attrs, "indices": idx}
         if m.get("material") is not None:
