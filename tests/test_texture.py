@@ -305,3 +305,19 @@ def test_a_bad_mapping_key_is_one_line_naming_it(tmp_path, key, value, problem):
     _png(tmp_path / "t.png", [[[0, 0, 0]]])
     with pytest.raises(SceneError, match=rf"kd\.{key}: {problem}"):
         raytrace.Material(kd={"texture": str(tmp_path / "t.png"), key: value})
+
+
+def test_a_texture_on_a_scene_without_texture_coordinates_reads_its_origin(tmp_path):
+    """A textured material on a mesh without texture coordinates, in a scene where no mesh has
+    any: every hit reads the texture at (s, t) = (0, 0) (the stated rule), never past the end
+    of the scene's empty coordinate table. At (0, 0) with repeat, bilinear weighs the four
+    corner texels of this 2 × 2 image equally: sRGB codes 255, 0, 0, 255 in red → linear
+    (1 + 0 + 0 + 1)/4 = 0.5; green (0, 255, 0, 255) → 0.5; blue (0, 0, 255, 255) → 0.5. Seen
+    by ambient 1 alone (ka the texture, kd 0): 0.5 in every channel."""
+    _png(tmp_path / "t.png", [[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [255, 255, 255]]])
+    mesh = raytrace.Mesh(vertices=[[-1, -1, 0], [1, -1, 0], [0, 1, 0]], faces=[[0, 1, 2]],
+                         material={"ka": {"texture": str(tmp_path / "t.png")}, "kd": 0.0,
+                                   "ks": 0.0})
+    scene = make_scene([mesh], camera=raytrace.Camera(position=(0, 0, 3), look_at=(0, 0, 0)),
+                       ambient=1.0)
+    np.testing.assert_allclose(pixel(scene), 0.5, atol=1e-6)

@@ -312,8 +312,10 @@ def opacity1(constant, cut, image, st):
 def texcoord1(tc, tri, u, v):
     """The texture coordinates (s, t) at barycentrics (u, v) of triangle ``tri``,
     ``(1 − u − v)·st₀ + u·st₁ + v·st₂`` from its corners' ``tc`` (T, 3, 2); (0, 0) off a
-    triangle. Called only for textured materials."""
-    if tri < 0:
+    triangle, and on every triangle where no mesh of the scene has texture coordinates
+    (``tc`` has no rows: a texture is then read at (0, 0)). Called only for textured
+    materials."""
+    if tri < 0 or tri >= tc.shape[0]:
         return 0.0, 0.0
     w = 1.0 - u - v
     return (w * tc[tri, 0, 0] + u * tc[tri, 1, 0] + v * tc[tri, 2, 0],
