@@ -7,6 +7,10 @@ one clear line and exit non-zero without a traceback.
 
 from __future__ import annotations
 
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 
 class SceneError(ValueError):
     """Bad input: ``file: key: problem``.
@@ -38,6 +42,16 @@ class SceneError(ValueError):
             key = f"{key_prefix}.{key}" if key and not key.startswith("[") else (
                 f"{key_prefix}{key}" if key else key_prefix)
         return SceneError(self.problem, key, self.file or file)
+
+
+@contextmanager
+def located(file: str | os.PathLike | None) -> Iterator[None]:
+    """A :class:`SceneError` raised inside, located in ``file`` (:meth:`SceneError.at`): how
+    a model reader names its file on the values it checks with :mod:`raytrace.values`."""
+    try:
+        yield
+    except SceneError as e:
+        raise e.at(None if file is None else os.fspath(file)) from None
 
 
 class MemoryLimitError(SceneError):

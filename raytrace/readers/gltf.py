@@ -29,7 +29,7 @@ from urllib.parse import unquote
 import numpy as np
 
 from .. import values
-from ..errors import RenderWarning, SceneError
+from ..errors import RenderWarning, SceneError, located
 from ..lights import DirectionalLight, PointLight, SpotLight
 from ..material import Material, Relief
 from .asset import Asset
@@ -203,10 +203,8 @@ def volume(ext: dict, key: str, path: Path | None) -> dict[str, Any]:
     False
     """
     def number(value: Any, field: str, **bounds: Any) -> float:
-        try:
+        with located(path):
             return values.number(value, f"{key}.{field}", **bounds)
-        except SceneError as e:
-            raise SceneError(e.problem, e.key, str(path)) from None
 
     if not number(ext.get("thicknessFactor", 0.0), "thicknessFactor", lo=0) > 0:
         return {"thin_walled": True}
@@ -252,13 +250,11 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
     def factor(value: Any, default: Any, field: str, hi: float | None = 1.0) -> Any:
         """A factor checked against the glTF schema's range, named by its key."""
         value = default if value is None else value
-        try:
+        with located(path):
             if isinstance(default, list):
                 return np.array([values.number(x, f"{key}.{field}[{i}]", lo=0, hi=hi)
                                  for i, x in enumerate(value)], np.float64)
             return values.number(value, f"{key}.{field}", lo=0, hi=hi)
-        except SceneError as e:
-            raise SceneError(e.problem, e.key, str(path)) from None
 
     rgba = factor(pbr.baseColorFactor if pbr else None, [1.0] * 4,
                   "pbrMetallicRoughness.baseColorFactor")
@@ -335,10 +331,8 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
 
 def _number(value: Any, default: float, key: str, path: Path | None) -> float:
     """A finite number of the file (``default`` where absent), named by its key."""
-    try:
+    with located(path):
         return values.number(default if value is None else value, key)
-    except SceneError as e:
-        raise SceneError(e.problem, e.key, str(path)) from None
 
 
 def _emissive_occlusion(gltf: Any, m: Any, index: int, texture: Any, path: Path | None,
@@ -355,10 +349,8 @@ def _emissive_occlusion(gltf: Any, m: Any, index: int, texture: Any, path: Path 
     occ = m.occlusionTexture
     if occ is not None:
         strength = 1.0 if occ.strength is None else occ.strength
-        try:
+        with located(path):
             strength = values.number(strength, f"{key}.occlusionTexture.strength", lo=0, hi=1)
-        except SceneError as e:
-            raise SceneError(e.problem, e.key, str(path)) from None
         out["occlusion"] = texture(gltf, occ, path, f"{key}.occlusionTexture", "OPAQUE",
                                    srgb=False).occlusion(strength)
     return out
@@ -643,12 +635,10 @@ def texture_mapping(info: Any, key: str, path: Path) -> tuple[int, np.ndarray | 
     if not ext.keys() - {"texCoord"}:
         return uv_set, None
     where = f"{key}.extensions.KHR_texture_transform"
-    try:
+    with located(path):
         ox, oy = values.vector(ext.get("offset", [0.0, 0.0]), f"{where}.offset", 2)
         kx, ky = values.vector(ext.get("scale", [1.0, 1.0]), f"{where}.scale", 2)
         r = values.number(ext.get("rotation", 0.0), f"{where}.rotation")
-    except SceneError as e:
-        raise SceneError(e.problem, e.key, str(path)) from None
     return uv_set, uv_transform((ox, oy), r, (kx, ky))
 
 
