@@ -1,5 +1,6 @@
 """Reading a model file: raytrace's ``load_scene`` of a glTF/OBJ against ``trimesh.load``
-plus decoding each base-colour texture to an RGBA array, and the build of the scene's
+plus decoding each image its materials hold (base colour, normal, occlusion, emissive,
+metallic-roughness) to an RGBA array once, and the build of the scene's
 tables and BVH (``WhittedIntegrator``), in one process with the imports done first.
 
     python3 benchmarks/model_load.py MODEL [MODEL ...] [--rounds 5] [--cpu]
@@ -33,12 +34,23 @@ def ours(path: str):
         return load_scene(path)
 
 
+#: The images a trimesh PBR material holds (trimesh.visual.material.PBRMaterial).
+TRIMESH_IMAGES = ("baseColorTexture", "normalTexture", "occlusionTexture", "emissiveTexture",
+                  "metallicRoughnessTexture")
+
+
 def theirs(path: str) -> None:
+    """trimesh's load, then each distinct image its materials hold decoded to RGBA once."""
     loaded = trimesh.load(path)
+    images = {}
     for g in getattr(loaded, "geometry", {"": loaded}).values():
-        image = getattr(getattr(g.visual, "material", None), "baseColorTexture", None)
-        if image is not None:
-            np.asarray(image.convert("RGBA"))
+        material = getattr(g.visual, "material", None)
+        for name in TRIMESH_IMAGES:
+            image = getattr(material, name, None)
+            if image is not None:
+                images[id(image)] = image
+    for image in images.values():
+        np.asarray(image.convert("RGBA"))
 
 
 def best(f, path: str, rounds: int, clock=time.perf_counter) -> float:

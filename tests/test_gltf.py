@@ -8,6 +8,7 @@ import math
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -777,3 +778,95 @@ def test_a_bad_texture_transform_is_one_line_naming_its_field(tmp_path, info, ke
     with pytest.raises(SceneError, match=re.escape(f"t.gltf: materials[0].pbrMetallicRoughness."
                                                    f"{key}: {problem}")):
         _unlit_square_pixel(tmp_path, (0, 0), info)
+
+
+SCENES = Path(__file__).resolve().parent.parent / "scenes"
+#: A glTF document with a value of every shape pygltflib's classes declare: lists of objects,
+#: optional objects (camera projections, texture infos, sparse accessors), lists of numbers
+#: and strings, extension and extras dicts, morph targets (lists of attribute dicts), custom
+#: attributes, a key no class has, and fields left to their defaults.
+RICH_GLTF = {
+    "asset": {"version": "2.0", "generator": "hand", "extras": {"a": [1, 2]}},
+    "extensionsUsed": ["KHR_texture_transform", "KHR_lights_punctual"],
+    "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 2}]}},
+    "scene": 0, "scenes": [{"nodes": [0, 1], "name": "s"}],
+    "nodes": [{"mesh": 0, "translation": [1, 2, 3], "rotation": [0, 0, 0, 1],
+               "children": [2], "weights": [0.5]},
+              {"camera": 1, "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1],
+               "extensions": {"KHR_lights_punctual": {"light": 0}}},
+              {"camera": 0, "scale": [2, 2, 2]}],
+    "cameras": [{"type": "perspective", "perspective": {"yfov": 0.7, "znear": 0.1}},
+                {"type": "orthographic",
+                 "orthographic": {"xmag": 1, "ymag": 1, "znear": 0, "zfar": 9}}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1, "_ID": 2},
+                                "indices": 3, "material": 0, "mode": 4,
+                                "targets": [{"POSITION": 4}]}], "weights": [0.5]}],
+    "materials": [{"name": "m", "pbrMetallicRoughness": {
+        "baseColorFactor": [1, 0.5, 0.25, 1], "metallicFactor": 0,
+        "baseColorTexture": {"index": 0, "texCoord": 1, "extensions": {
+            "KHR_texture_transform": {"offset": [0, 1], "rotation": 1.5}}}},
+        "normalTexture": {"index": 0, "scale": 0.5},
+        "occlusionTexture": {"index": 0, "strength": 0.25},
+        "emissiveFactor": [0, 0, 1], "alphaMode": "MASK", "doubleSided": True}],
+    "textures": [{"sampler": 0, "source": 0}],
+    "samplers": [{"wrapS": 33071, "magFilter": 9729}],
+    "images": [{"uri": "t.png", "mimeType": "image/png"}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                   "min": [0, 0, 0], "max": [1, 1, 0]},
+                  {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC2",
+                   "normalized": False},
+                  {"componentType": 5125, "count": 3, "type": "SCALAR", "sparse": {
+                      "count": 1, "indices": {"bufferView": 0, "componentType": 5125},
+                      "values": {"bufferView": 0, "byteOffset": 4}}},
+                  {"bufferView": 0, "componentType": 5125, "count": 3, "type": "SCALAR"},
+                  {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"}],
+    "bufferViews": [{"buffer": 0, "byteLength": 36, "byteStride": 12, "target": 34962}],
+    "buffers": [{"byteLength": 36, "uri": "b.bin"}],
+    "animations": [{"channels": [{"sampler": 0, "target": {"node": 0, "path": "weights"}}],
+                    "samplers": [{"input": 0, "output": 1, "interpolation": "STEP"}]}],
+    "skins": [{"joints": [0], "inverseBindMatrices": 0}],
+    "notAGltfKey": {"dropped": True},
+}
+
+
+def _fields(obj):
+    """A pygltflib object tree as plain values, its classes' names kept (for ==)."""
+    from dataclasses import fields, is_dataclass
+
+    if is_dataclass(obj):
+        return type(obj).__name__, {f.name: _fields(getattr(obj, f.name)) for f in fields(obj)}
+    if type(obj).__name__ == "Attributes":
+        return "Attributes", _fields(vars(obj))
+    if isinstance(obj, list):
+        return [_fields(x) for x in obj]
+    if isinstance(obj, dict):
+        return {k: _fields(v) for k, v in obj.items()}
+    return obj
+
+
+@pytest.mark.parametrize("doc", ["rich", "gltf_scene.glb", "glass_model.glb",
+                                 "normal_mapped.glb"])
+def test_the_reader_makes_the_objects_pygltflib_makes(doc):
+    # the reader's own JSON decoding (gltf_objects) against pygltflib's (dataclasses-json):
+    # the same classes, fields and values, defaults where the JSON is silent, on a document
+    # with every shape of value and on the shipped models
+    import pygltflib
+
+    from raytrace.readers import gltf
+
+    if doc == "rich":
+        text = json.dumps(RICH_GLTF)
+        theirs = pygltflib.GLTF2.from_json(text, infer_missing=True)
+        ours = gltf._reader().from_json(text, infer_missing=True)
+    else:
+        theirs = pygltflib.GLTF2().load(str(SCENES / doc))
+        ours = gltf._reader()().load(str(SCENES / doc))
+    assert isinstance(ours, pygltflib.GLTF2)
+    expected = _fields(theirs)
+    assert _fields(ours)[1] == expected[1]
+    if doc == "rich":  # the document's values did arrive (not two empty trees alike)
+        assert ours.materials[0].normalTexture.scale == 0.5
+        assert ours.meshes[0].primitives[0].attributes._ID == 2
+        assert ours.cameras[1].orthographic.zfar == 9
+        assert ours.samplers[0].wrapT == 10497  # pygltflib's default where the JSON is silent
+        assert not hasattr(ours, "notAGltfKey")
