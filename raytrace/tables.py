@@ -48,9 +48,10 @@ from .kernels.records import (
     Shapes,
     Triangles,
 )
+from .kernels.texels import decode_codes
 from .material import COLOR_KEYS, COLUMNS, Checker, Material
 from .readers.tangents import mikktspace
-from .readers.texture import WRAPS, Texture
+from .readers.texture import WRAPS, Texels, Texture
 from .scene import SHAPE_TYPES, Mesh, object_materials
 from .scene import Scene as SceneDescription
 
@@ -308,14 +309,15 @@ class MaterialTable:
         self.textures = textures
         # only scenes with textures pay for them: one float a texture channel, else none;
         # an image used with two mappings (two Textures sharing texels) is stored once
-        images = list({id(t.texels): t.texels for t in textures}.values())
+        images = list({id(t.image): t.image for t in textures}.values())
         offsets = dict(zip((id(x) for x in images),
-                           np.cumsum([0, *(x.size for x in images)])[:-1], strict=True))
+                           np.cumsum([0, *(np.prod(x.shape) for x in images)])[:-1],
+                           strict=True))
         self.tex_info = np.zeros((len(textures), TEX_COLUMNS), np.int64)
         self.tex_map = np.zeros((len(textures), MAP_COLUMNS))
         for info, row, t in zip(self.tex_info, self.tex_map, textures, strict=True):
             info[TEX_OFFSET], info[TEX_WIDTH], info[TEX_HEIGHT] = (
-                offsets[id(t.texels)], t.texels.shape[1], t.texels.shape[0])
+                offsets[id(t.image)], t.image.shape[1], t.image.shape[0])
             info[TEX_WRAP_S], info[TEX_WRAP_T] = WRAPS[t.wrap[0]], WRAPS[t.wrap[1]]
             row[MAP_SET] = t.uv_set
             if t.transform is not None:
@@ -323,8 +325,7 @@ class MaterialTable:
                 row[MAP_MATRIX:MAP_MATRIX + 6] = np.reshape(t.transform, 6)
         if not self.tex_map[:, MAP_SET:MAP_AFFINE + 1].any():  # every use set 0, unmapped:
             self.tex_map = None  # the texture code reads as it would without mappings
-        self.texels = (np.concatenate([x.reshape(-1) for x in images])
-                       if images else np.zeros(0, np.float32))
+        self.texels = texel_array(images)
         self.checkers = np.array(checkers, dtype=np.float64).reshape(-1, CHECKER_COLUMNS)
         for name, (dtype, _) in MATERIAL_COLUMNS.items():  # one declaration, records'
             value = COLUMNS[name]
@@ -359,6 +360,23 @@ def media_table(materials: list[Material]) -> Media | None:
     sigma = np.array([m.sigma for m in materials], np.float64).reshape(-1, 3)
     return Media(np.ascontiguousarray(sigma), np.array([m.thin_walled for m in materials],
                                                        np.bool_))
+
+
+def texel_array(images: list[Texels]) -> np.ndarray:
+    """The images' RGBA texels one after another, flat float32 (the material table's
+    ``texels``): float texels copied, an image kept as its codes decoded into its place by
+    :func:`raytrace.kernels.texels.decode_codes` (the values :attr:`Texels.floats` gives,
+    without widening each code to an index first: docs/performance.md, "Model files")."""
+    out = np.empty(sum(int(np.prod(x.shape)) for x in images), np.float32)
+    at = 0
+    for x in images:
+        place = out[at:at + int(np.prod(x.shape))].reshape(x.shape)
+        if x.decoded:
+            place[...] = x.floats
+        else:
+            decode_codes(x.colour, x.alpha, x.codes, place)
+        at += place.size
+    return out
 
 
 def relief_tables(table: MaterialTable, triangles: Triangles, meshes: list[Mesh]

@@ -13,7 +13,7 @@ from raytrace import shading
 from raytrace.errors import SceneError
 from raytrace.readers import texture
 from raytrace.readers.texture import Texture
-from raytrace.tables import MaterialTable
+from raytrace.tables import MaterialTable, texel_array
 
 #: 4 × 2 texels, RGBA, values exact in binary so every bilinear blend below is exact
 TEXELS = np.array([[[0.0, 0.25, 0.5, 1], [0.5, 0.5, 0.5, 1], [1.0, 0.0, 0.25, 1],
@@ -321,3 +321,45 @@ def test_a_texture_on_a_scene_without_texture_coordinates_reads_its_origin(tmp_p
     scene = make_scene([mesh], camera=raytrace.Camera(position=(0, 0, 3), look_at=(0, 0, 0)),
                        ambient=1.0)
     np.testing.assert_allclose(pixel(scene), 0.5, atol=1e-6)
+
+
+@pytest.mark.parametrize("bits", [8, 16])
+@pytest.mark.parametrize("srgb", [True, False])
+def test_codes_decode_in_the_material_table_as_numpy_decodes_them(bits, srgb):
+    # an image kept as its codes is decoded by the material table's kernel (texel_array)
+    # into the values numpy's lookup gives (Texels.floats), bit for bit, beside a float
+    # image copied as it is; its maximum is found from the codes without decoding them
+    rng = np.random.default_rng(bits + srgb)
+    codes = rng.integers(0, 2**bits, (5, 7, 4)).astype(np.uint8 if bits == 8 else np.uint16)
+    coded = texture.Texels(codes=codes, colour=texture.decoding_table(bits, srgb),
+                           alpha=texture.decoding_table(bits, False))
+    floats = texture.Texels(rng.random((3, 2, 4)).astype(np.float32))
+    max_from_codes = coded.max
+    assert not coded.decoded
+    flat = texel_array([floats, coded])
+    assert not coded.decoded  # the table decoded into its own array
+    np.testing.assert_array_equal(flat[:24], floats.floats.reshape(-1))
+    by_hand = coded.colour[codes]
+    by_hand[..., 3] = coded.alpha[codes[..., 3]]
+    np.testing.assert_array_equal(flat[24:], by_hand.reshape(-1))
+    np.testing.assert_array_equal(coded.floats, by_hand)
+    np.testing.assert_array_equal(max_from_codes, by_hand[..., :3].max(axis=(0, 1)))
+
+
+def test_loading_a_textured_model_keeps_its_images_as_codes(tmp_path):
+    # a model's load does not decode the images a render decodes (docs/performance.md,
+    # "Model files"): the base colour texture of a glTF stays 8-bit codes until a build
+    # decodes it into the material table, and the render reads the decoded values
+    _png(tmp_path / "t.png", [[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [255, 255, 255]]])
+    square = {"positions": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+              "indices": [[0, 1, 2], [0, 2, 3]], "uv": [[0, 1], [1, 1], [1, 0], [0, 0]],
+              "material": 0}
+    mat = [{"pbrMetallicRoughness": {"metallicFactor": 0, "baseColorTexture": {"index": 0}}}]
+    path = write_gltf(tmp_path / "t.gltf", [{"mesh": 0}], [square], mat, extra={
+        "textures": [{"source": 0}], "images": [{"uri": "t.png"}]})
+    mesh = raytrace.Mesh(file=path, material="from_file")
+    image = mesh.file_materials[0].kd.image
+    assert image.codes is not None and image.codes.dtype == np.uint8 and not image.decoded
+    table = MaterialTable(mesh.file_materials)
+    assert not image.decoded
+    np.testing.assert_array_equal(table.texels.reshape(2, 2, 4)[0, 0], [1, 0, 0, 1])

@@ -71,8 +71,13 @@ def big(obj: Any) -> bool:
 
 
 def fingerprint(obj: Any) -> tuple:
-    """(shape, dtype, CRC-32 of the bytes) of an array, or of a texture's texels."""
-    a = np.ascontiguousarray(obj.texels if isinstance(obj, Texture) else obj)
+    """(shape, dtype, CRC-32 of the bytes) of an array, or of a texture's image: its codes
+    and their colour table where it was read as codes (decoded or not), else its texels."""
+    image = obj.image if isinstance(obj, Texture) else None
+    if image is not None and image.codes is not None:
+        return (image.shape, image.codes.dtype.str, zlib.crc32(image.codes.reshape(-1)),
+                zlib.crc32(image.colour))
+    a = np.ascontiguousarray(image.floats if image is not None else obj)
     return a.shape, a.dtype.str, zlib.crc32(a.view(np.uint8).reshape(-1))
 
 
@@ -187,7 +192,7 @@ def pack(scene: Any) -> Bundle:
                                                                      strict=True)]
     numbers = {id(o): n for n, (o, a, b) in enumerate(zip(origin.made, origin.arrays, now,
                                                            strict=True)) if a == b}
-    decoded = sum(o.texels.nbytes if isinstance(o, Texture) else o.nbytes
+    decoded = sum(o.image.nbytes if isinstance(o, Texture) else o.nbytes
                   for o in origin.made if id(o) in numbers)
     if decoded <= sum(map(len, files.values())):  # the objects are no bigger than the files
         return Bundle(pickle.dumps(scene, protocol=pickle.HIGHEST_PROTOCOL))

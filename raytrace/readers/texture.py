@@ -37,22 +37,78 @@ TEXTURE_KEYS = ("texture", "wrap", "srgb", "scale", "uv_set", "uv_offset", "uv_r
                 "uv_scale")
 
 
+class Texels:
+    """One image's texels, shared by every :class:`Texture` that reads it: linear RGBA float32
+    (H, W, 4), or an 8- or 16-bit image's integer codes (H, W, 4) with the tables that decode
+    them (``colour`` for R, G and B, ``alpha`` for A: :func:`decoding_table`). Codes are
+    decoded the first time :attr:`floats` is asked for (a load-time edit of the texture: a
+    factor, an occlusion or alpha map, a mip pyramid); a render's material table decodes
+    them itself, straight into its texel array (:func:`raytrace.tables.texel_array`), so a
+    model's load does not decode the images the render will."""
+
+    def __init__(self, floats: np.ndarray | None = None, codes: np.ndarray | None = None,
+                 colour: np.ndarray | None = None, alpha: np.ndarray | None = None):
+        self.codes, self.colour, self.alpha = codes, colour, alpha
+        self._floats = floats
+        image = floats if floats is not None else codes
+        if image.ndim != 3 or image.shape[2] != 4 or 0 in image.shape:
+            raise SceneError(f"texels must be (H, W, 4), got {image.shape}", "texture")
+        self.shape: tuple[int, int, int] = image.shape
+
+    @property
+    def floats(self) -> np.ndarray:
+        """The linear RGBA float32 texels (H, W, 4): each colour code through ``colour``, the
+        alpha code through ``alpha``, decoded once."""
+        if self._floats is None:
+            self._floats = np.take(self.colour, self.codes)
+            self._floats[..., 3] = np.take(self.alpha, self.codes[..., 3])
+        return self._floats
+
+    @property
+    def nbytes(self) -> int:
+        """The bytes it keeps (and pickles): its codes, or its float texels."""
+        return (self.codes if self.codes is not None else self._floats).nbytes
+
+    def __getstate__(self) -> dict:
+        """Pickled without the float texels where the codes make them again."""
+        return {**self.__dict__, "_floats": None if self.codes is not None else self._floats}
+
+    @property
+    def decoded(self) -> bool:
+        """Whether the float texels exist (given, or decoded already)."""
+        return self._floats is not None
+
+    @functools.cached_property
+    def max(self) -> np.ndarray:
+        """The largest value of each colour channel (3,) float64, found once; for codes the
+        table's value at the largest code (the tables increase with the code)."""
+        if self._floats is None:
+            return np.array([self.colour[self.codes[..., c].max()] for c in range(3)],
+                            np.float64)
+        return np.array([self._floats[..., c].max() for c in range(3)], np.float64)
+
+
 class Texture:
     """An image as a colour: linear RGBA texels (H, W, 4) float32, wrap modes, a tint, and
     its mapping: which texture-coordinate set it reads (``uv_set``: 0 the mesh's first, 1 a
     glTF TEXCOORD_1) and an affine ``transform`` (2, 3) of those coordinates, ``(s', t') = M
-    · (s, t, 1)``, or None for the identity (:meth:`mapped`)."""
+    · (s, t, 1)``, or None for the identity (:meth:`mapped`). Its :attr:`image` (a
+    :class:`Texels`) is shared with the textures that read the same image another way."""
 
     uv_set: int = 0
     transform: np.ndarray | None = None
 
-    def __init__(self, texels: np.ndarray, wrap: tuple[str, str] = ("repeat", "repeat"),
+    def __init__(self, texels: np.ndarray | Texels, wrap: tuple[str, str] = ("repeat", "repeat"),
                  file: Path | None = None):
-        self.texels = np.ascontiguousarray(texels, np.float32)
-        if self.texels.ndim != 3 or self.texels.shape[2] != 4 or 0 in self.texels.shape:
-            raise SceneError(f"texels must be (H, W, 4), got {self.texels.shape}", "texture")
+        self.image = (texels if isinstance(texels, Texels)
+                      else Texels(np.ascontiguousarray(texels, np.float32)))
         self.wrap = tuple(values.string(w, "wrap", WRAPS) for w in wrap)
         self.file = file
+
+    @property
+    def texels(self) -> np.ndarray:
+        """The linear RGBA float32 texels (H, W, 4) (:attr:`Texels.floats`)."""
+        return self.image.floats
 
     def mapped(self, uv_set: int = 0, transform: Any = None) -> Texture:
         """The same image (its texels shared, stored once in the material table) read through
@@ -66,7 +122,7 @@ class Texture:
                 transform is not None and self.transform is not None
                 and np.array_equal(transform, self.transform))):
             return self
-        out = Texture(self.texels, self.wrap, self.file)
+        out = Texture(self.image, self.wrap, self.file)
         out.uv_set, out.transform = uv_set, transform
         return out
 
@@ -95,13 +151,14 @@ class Texture:
         except (OSError, UnidentifiedImageError, ValueError, Image.DecompressionBombError) as e:
             raise SceneError(f"cannot read texture {file}: {e}", key, where) from None
         if bits is None:  # float values (Pillow's "I" and "F" modes)
-            rgba = codes
+            image = Texels(codes.astype(np.float32))
             if srgb:
-                rgba[..., :3] = quiet_colour().cctf_decoding(rgba[..., :3], function="sRGB")
+                image.floats[..., :3] = quiet_colour().cctf_decoding(codes[..., :3],
+                                                                     function="sRGB")
         else:  # integer codes: each colour through its decoded value, alpha c / (2^bits − 1)
-            rgba = np.take(decoding_table(bits, srgb), codes)
-            rgba[..., 3] = np.take(decoding_table(bits, False), codes[..., 3])
-        return cls(rgba, wrap, Path(file) if data is None else None)
+            image = Texels(codes=np.ascontiguousarray(codes),
+                           colour=decoding_table(bits, srgb), alpha=decoding_table(bits, False))
+        return cls(image, wrap, Path(file) if data is None else None)
 
     def scaled(self, factor: Any) -> Texture:
         """The texture times a colour (glTF's baseColorFactor), alpha kept; the texture itself
@@ -133,12 +190,12 @@ class Texture:
         t[..., :3] = (1.0 + strength * (self.texels[..., :1] - 1.0))
         return self._like(t)
 
-    @functools.cached_property
+    @property
     def max(self) -> np.ndarray:
         """The largest value of each colour channel (3,) float64, found once: a texture's
         texels are not edited after it is made (the material table asks for it at every
         build)."""
-        return np.array([self.texels[..., c].max() for c in range(3)], np.float64)
+        return self.image.max
 
 
 #: A mapping's identity transform (2, 3): (s', t') = (s, t).
