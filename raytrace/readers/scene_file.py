@@ -271,15 +271,22 @@ def scene_from_model(path: Path) -> Any:
         raise SceneError(e.problem, e.key if e.file else None, e.file or str(path)) from None
     render = RenderSettings()
     notes = []
+    # an orthographic camera met first is not read (raytrace's cameras are perspective)
+    skipped = (f"cameras[{found.orthographic}] is orthographic: not read; "
+               if found is not None and found.orthographic is not None else None)
     if found is not None and found.camera is not None:
         cam = found.camera
         camera = Camera(cam["position"], cam["look_at"], cam["up"], cam["fov"])
         if cam["aspect"]:
             render = RenderSettings(height=max(1, round(640 / cam["aspect"])))
+        if skipped:
+            notes.append(f"{skipped}cameras[{cam['index']}], the first perspective camera, "
+                         "is used")
     else:
         camera = framing_camera(mesh.vertices, aspect=render.width / render.height)
-        notes.append(f"no camera in the file: camera at {_vec(camera.position)} looking at "
-                     f"{_vec(camera.look_at)}, fov {camera.fov:g}")
+        notes.append(f"{skipped or 'no camera in the file: '}camera at "
+                     f"{_vec(camera.position)} looking at {_vec(camera.look_at)}, fov "
+                     f"{camera.fov:g}{' instead' if skipped else ''}")
     lights = list(found.lights) if found is not None else []
     if not lights:
         right, up, forward = camera.basis()
