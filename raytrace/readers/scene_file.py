@@ -21,7 +21,7 @@ from ..errors import RenderWarning, SceneError
 from ..lights import DirectionalLight
 from ..material import Material, library, material_from_table
 from ..scene import FROM_FILE, LIGHT_TYPES, OBJECT_TYPES, Camera, Mesh, RenderSettings, Scene
-from .asset import GLTF_SUFFIXES, MESH_SUFFIXES, OBJ_SUFFIXES
+from .asset import COLORED_SUFFIXES, GLTF_SUFFIXES, MESH_SUFFIXES, OBJ_SUFFIXES
 from .bundle import remember
 from .gltf import load_gltf
 from .inputs import input_file, read_text, recording
@@ -262,9 +262,11 @@ def scene_from_model(path: Path) -> Any:
     found = None
     if path.suffix.lower() in GLTF_SUFFIXES:
         found = load_gltf(path)
-    # the file's own materials where it has them (a glTF, an OBJ naming an MTL library), else
-    # the default material (a PLY, an STL, an OFF, an OBJ alone)
-    own = found is not None or (path.suffix.lower() in OBJ_SUFFIXES and names_mtl(path))
+    # the file's own materials where it has them (a glTF, an OBJ naming an MTL library; a PLY
+    # or an OFF: the default material tinted by its vertex colours), else the default material
+    # (an STL, an OBJ alone)
+    own = found is not None or (path.suffix.lower() in OBJ_SUFFIXES and names_mtl(path)) or (
+        path.suffix.lower() in COLORED_SUFFIXES)
     try:
         mesh = Mesh(file=path, material=FROM_FILE if own else None)
     except SceneError as e:
