@@ -35,7 +35,7 @@ from . import values
 from .errors import SceneError
 from .kernels.kinds import COLOR_KEYS, FRESNEL_CODES, HIGHLIGHT_CODES
 from .kernels.records import MATERIAL_COLUMNS
-from .readers.texture import WRAPS, Texture, parse_texture
+from .readers.texture import WRAPS, Texture, parse_mapping, parse_texture
 
 HIGHLIGHTS = tuple(HIGHLIGHT_CODES)
 #: How kr and kt vary with the angle of incidence (``raytrace.kernels.core.fresnel_weights1``):
@@ -77,7 +77,8 @@ class Checker:
 Color = np.ndarray | Checker
 PATTERN_KEYS = ("pattern", "colors", "scale")
 #: The keys of a ``normal_map`` or ``bump`` table.
-RELIEF_KEYS = ("texture", "scale", "wrap")
+RELIEF_KEYS = ("texture", "scale", "wrap", "uv_set", "uv_offset", "uv_rotation",
+               "uv_scale")
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,7 +100,9 @@ class Relief:
 
 def parse_relief(value: Any, key: str) -> Relief | None:
     """``{ texture = "file.png", scale = 1.0, wrap = "repeat" | "clamp" | "mirror" }`` (the
-    texels linear), a :class:`Relief`, or None."""
+    texels linear) with a colour texture's mapping keys (``uv_set``, ``uv_offset``,
+    ``uv_rotation``, ``uv_scale``: :func:`raytrace.readers.texture.parse_mapping`), a
+    :class:`Relief`, or None."""
     if value is None or isinstance(value, Relief):
         return value
     if not isinstance(value, Mapping) or "texture" not in value:
@@ -108,6 +111,7 @@ def parse_relief(value: Any, key: str) -> Relief | None:
     wrap = values.string(value.get("wrap", "repeat"), f"{key}.wrap", WRAPS)
     file = Path(values.string(value["texture"], f"{key}.texture"))
     texture = Texture.from_file(file, f"{key}.texture", srgb=False, wrap=(wrap, wrap))
+    texture = texture.mapped(*parse_mapping(value, key))
     try:
         return Relief(texture, value.get("scale", 1.0))
     except SceneError as e:

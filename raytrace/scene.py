@@ -21,11 +21,17 @@ from . import values
 from .errors import SceneError
 from .lights import LIGHT_TYPES, AreaLight, DirectionalLight, PointLight, SpotLight  # noqa: F401
 from .material import Material, library, material_from_table
-from .readers.asset import GLTF_SUFFIXES
+from .readers.asset import COLORED_SUFFIXES, GLTF_SUFFIXES
 from .readers.assets import load_with_materials
 from .readers.gltf import load_gltf
 from .readers.inputs import input_file, read_text
-from .readers.meshio import MeshFile, merge_vertices, read_mesh
+from .readers.meshio import (
+    MeshFile,
+    merge_vertices,
+    off_vertex_colors,
+    read_mesh,
+    vertex_colors,
+)
 from .readers.tangents import given_tangents
 from .sampling import TEXTURE_FILTERS, check_aa, check_filter
 
@@ -306,7 +312,8 @@ class Mesh(values.Checked):
         if from_file:
             verts, faces = self._load_with_materials(Path(self.file))
         elif self.file is not None:
-            verts, faces, self.texcoords, self.normals = _load_mesh_file(Path(self.file))
+            # (the file's vertex colours tint its own material only, as glTF COLOR_0's do)
+            verts, faces, self.texcoords, self.normals = _load_mesh_file(Path(self.file))[:4]
         elif self.mesh is not None:
             verts, faces = _from_trimesh(self.mesh, "mesh")
         else:
@@ -400,7 +407,16 @@ class Mesh(values.Checked):
 
     def _load_with_materials(self, path: Path) -> tuple[np.ndarray, np.ndarray]:
         """The file's triangles; its materials, faces' materials and texture coordinates
-        kept on the mesh (:func:`raytrace.readers.assets.load_with_materials`)."""
+        kept on the mesh (:func:`raytrace.readers.assets.load_with_materials`). A PLY or OFF
+        file's material is the default one, tinted by the file's vertex colours where it has
+        them (:data:`raytrace.readers.asset.COLORED_SUFFIXES`)."""
+        if path.suffix.lower() in COLORED_SUFFIXES:
+            read = _load_mesh_file(path)
+            self.file_materials = [Material(name="default")]
+            self.face_material = np.zeros(len(read.faces), np.int64)
+            self.texcoords, self.normals, self.colors = read.texcoords, read.normals, read.colors
+            self.material = self.file_materials[0]
+            return read.vertices, read.faces
         asset = load_with_materials(input_file(path, "mesh file", "file"))
         self.file_materials, self.face_material = asset.materials, asset.face_material
         self.texcoords, self.sources = asset.texcoords, asset.sources
@@ -533,7 +549,7 @@ def _load_mesh_file(path: Path) -> MeshFile:
         return fast
     import trimesh
 
-    source, kind = str(path), {}
+    source, kind, off_codes = str(path), {}, None
     suffix = path.suffix.lower()
     binary = _binary_stl_size(path) if suffix == ".stl" else None
     if suffix in TEXT_MESH_SUFFIXES and binary != path.stat().st_size:
@@ -548,6 +564,7 @@ def _load_mesh_file(path: Path) -> MeshFile:
             raise SceneError(f"cannot read mesh {path}: {e.problem}", "file") from None
         source = io.BytesIO(text.encode("utf-8"))
         kind = {"file_type": suffix[1:], "skip_materials": True}
+        off_codes = off_vertex_colors(text) if suffix == ".off" else None  # (trimesh drops them)
     # trimesh warns on stderr about NaN while merging: the error below says it in one line.
     with warnings.catch_warnings(), np.errstate(invalid="ignore", over="ignore"):
         warnings.simplefilter("ignore")
@@ -584,10 +601,15 @@ def _load_mesh_file(path: Path) -> MeshFile:
             raise SceneError(f"{path}: face {face} names vertex {int(faces[face, corner])}, "
                              f"out of range 0..{len(loaded.vertices) - 1}", "file")
         normals = _trimesh_normals(loaded)  # per corner, before the merge drops them
+        colors = None  # per corner too: a PLY's vertex colours (trimesh's 8-bit codes), COFF's
+        if suffix == ".ply" and getattr(loaded.visual, "kind", None) == "vertex":
+            colors = vertex_colors(np.asarray(loaded.visual.vertex_colors))[faces]
+        elif off_codes is not None and len(off_codes) == len(loaded.vertices):
+            colors = vertex_colors(off_codes)[faces]
         # Merge coincident vertices so smooth shading can average across faces (STL repeats).
         loaded.merge_vertices(merge_tex=True, merge_norm=True)
     return MeshFile(np.asarray(loaded.vertices, dtype=np.float64), np.asarray(loaded.faces),
-                    texcoords, normals)
+                    texcoords, normals, colors)
 
 
 def _trimesh_normals(loaded: Any) -> np.ndarray | None:

@@ -50,8 +50,8 @@ from .kernels.records import (
 )
 from .kernels.texels import decode_codes
 from .material import COLOR_KEYS, COLUMNS, Checker, Material
-from .readers.tangents import mikktspace
-from .readers.texture import WRAPS, Texels, Texture
+from .readers.tangents import mapped_tangents, mikktspace
+from .readers.texture import IDENTITY, WRAPS, Texels, Texture
 from .scene import SHAPE_TYPES, Mesh, object_materials
 from .scene import Scene as SceneDescription
 
@@ -383,13 +383,20 @@ def relief_tables(table: MaterialTable, triangles: Triangles, meshes: list[Mesh]
                   ) -> Reliefs | None:
     """The normal and height maps as the kernels read them (``Scene.reliefs``), or None where
     no material has one or no mesh has texture coordinates (a scene then compiles no relief
-    code: bit for bit the image it had without). Each corner's tangent frame: the file's
-    (glTF ``TANGENT``, :attr:`raytrace.Mesh.tangents`) where it gives one, else MikkTSpace's
-    rule (:func:`raytrace.readers.tangents.mikktspace`, glTF 2.0 §3.7.2.1) over the normals
-    the corners are shaded with (the face normal on a flat triangle)."""
+    code: bit for bit the image it had without). Each triangle's texture coordinates as its
+    material's map reads them (:func:`relief_texcoords`: the map's uv set through its
+    transform, so the kernels read a map as every other texture is read). Each corner's
+    tangent frame follows those coordinates: the file's (glTF ``TANGENT``,
+    :attr:`raytrace.Mesh.tangents`) where it gives one, turned by the map's transform
+    (:func:`raytrace.readers.tangents.mapped_tangents`), else MikkTSpace's rule
+    (:func:`raytrace.readers.tangents.mikktspace`) over the normals the corners are shaded
+    with (the face normal on a flat triangle) and the coordinates the map reads (glTF 2.0
+    §3.7.2.1: "the specified vertex positions, normals, and texture coordinates associated
+    with the normal texture"; §3.9.3: the map's +X is right, +Y up, on the image as read)."""
     if not len(table.materials) or not (table.relief >= 0).any() or not len(
             triangles.texcoords):
         return None
+    texcoords, linear = relief_texcoords(table, triangles)
     tangents = np.zeros((len(triangles.material), 3, 4))
     for m, first in zip(meshes, triangles.geom_first, strict=True):
         rows = slice(first, first + len(m.faces))
@@ -397,10 +404,42 @@ def relief_tables(table: MaterialTable, triangles: Triangles, meshes: list[Mesh]
             continue
         flat = (triangles.shading[rows] == FLAT)[:, None, None]
         normals = np.where(flat, triangles.normal[rows][:, None, :], triangles.vnormals[rows])
-        tangents[rows] = mikktspace(triangles.corners[rows], normals, m.texcoords)
+        tangents[rows] = mikktspace(triangles.corners[rows], normals, texcoords[rows])
         if m.tangents is not None:
             given = np.any(m.tangents != 0.0, axis=2)
-            tangents[rows][given] = m.tangents[given]
+            if linear is not None:
+                tangents[rows][given] = mapped_tangents(m.tangents, normals,
+                                                        linear[rows])[given]
+            else:
+                tangents[rows][given] = m.tangents[given]
     return Reliefs(table.relief, table.relief_kind, table.relief_scale, table.texels,
-                   table.tex_info, triangles.corners, triangles.texcoords,
+                   table.tex_info, triangles.corners, texcoords,
                    np.ascontiguousarray(tangents))
+
+
+def relief_texcoords(table: MaterialTable, triangles: Triangles
+                     ) -> tuple[np.ndarray, np.ndarray | None]:
+    """Each triangle's corner coordinates (T, 3, 2) as its material's normal or height map
+    reads them, and each triangle's linear part L (T, 2, 2) of that map's transform (None
+    where no map has a mapping): the map's uv set (``Triangles.texcoords1`` for set 1) through
+    its affine transform ``(s', t') = L·(s, t) + c`` (:class:`raytrace.readers.texture.Texture`
+    ``uv_set``, ``transform``: glTF ``texCoord`` and KHR_texture_transform, MTL ``-o``/``-s``).
+    An affine map of the corners is the map of the interpolated coordinates, so the kernels
+    read the mapped corners as they read unmapped ones. ``Triangles.texcoords`` itself (no
+    copy) where every map reads set 0 unmapped."""
+    maps = [table.textures[q] if q >= 0 else None for q in table.relief]
+    if all(t is None or (t.uv_set == 0 and t.transform is None) for t in maps):
+        return triangles.texcoords, None
+    affine = np.tile(IDENTITY, (len(maps), 1, 1))
+    second = np.zeros(len(maps), bool)
+    for i, t in enumerate(maps):
+        if t is not None:
+            second[i] = t.uv_set == 1
+            if t.transform is not None:
+                affine[i] = t.transform
+    face = affine[triangles.material]  # (T, 2, 3)
+    st = triangles.texcoords
+    if second.any() and triangles.texcoords1 is not None:  # (set 0 where a mesh has no set 1)
+        st = np.where(second[triangles.material][:, None, None], triangles.texcoords1, st)
+    mapped = np.einsum("tij,tkj->tki", face[:, :, :2], st) + face[:, None, :, 2]
+    return np.ascontiguousarray(mapped), np.ascontiguousarray(face[:, :, :2])

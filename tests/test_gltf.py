@@ -870,3 +870,100 @@ def test_the_reader_makes_the_objects_pygltflib_makes(doc):
         assert ours.cameras[1].orthographic.zfar == 9
         assert ours.samplers[0].wrapT == 10497  # pygltflib's default where the JSON is silent
         assert not hasattr(ours, "notAGltfKey")
+
+
+# -- normalTexture through its texCoord and KHR_texture_transform ----------------------------
+#: A directional light from 60° off SQUARE's normal, towards −y: L = (0, −sin 60°, cos 60°).
+FROM_MINUS_Y = [0.0, math.sin(math.pi / 3), -math.cos(math.pi / 3)]
+
+
+def _tilted_square_ratio(tmp_path, name: str, normal_texture: dict, towards: list,
+                         mesh: dict | None = None) -> float:
+    """SQUARE (MATTE: kd (0.8, 0.4, 0.2) and a roughness-1 highlight 0.04·N·L, every term
+    ∝ N·L) with ``normalTexture`` the 2 × 2 PNG of codes (204, 128, 230), n_t = (0.6, 1/255,
+    205/255), |n_t| = 1.0031477, lit by a directional light travelling ``towards``: its
+    pixel over the same square's without the map, N_s·L / N·L."""
+    write_png(tmp_path / "n.png", np.tile(np.array([204, 128, 230], np.uint8), (2, 2, 1)))
+    values = []
+    for texture in (normal_texture, None):
+        material = [dict(MATTE[0], normalTexture=texture)] if texture else MATTE
+        path = write_gltf(tmp_path / f"{name}{texture is None}.gltf", [{"mesh": 0}],
+                          [{**SQUARE, **(mesh or {})}], material, extra={
+                              "images": [{"uri": "n.png"}], "textures": [{"source": 0}],
+                              "extensionsUsed": ["KHR_texture_transform"]})
+        values.append(pixel(make_scene([raytrace.Mesh(file=path, material="from_file")],
+                                       [raytrace.DirectionalLight(towards)],
+                                       camera=aimed_camera([0, 0, 3], [0, 0, 0])))[0])
+    return values[0] / values[1]
+
+
+#: N_s·L / N·L where the map's +x runs along −y: (0.6·sin 60° + (205/255)·cos 60°)/|n_t|
+#: over cos 60°, = (0.5196152 + 0.4019608)/1.0031477/0.5 = 1.8373686; read with T = +x
+#: instead (the first set's unrotated frame), (0.0039216·sin 60° + 0.4019608)/1.0031477/0.5
+#: = 0.8081701.
+ALONG_MINUS_Y = 1.8373686
+
+
+@pytest.mark.parametrize("tangent", [False, True])
+def test_a_rotated_normal_texture_turns_the_frame_with_or_without_tangent(tmp_path, tangent):
+    """KHR_texture_transform rotation π/2 on the normalTexture: (s', t') = (t, −s), so the
+    map's +x (right on the image as read, glTF 2.0 §3.9.3) runs along ∂P/∂s' = ∂P/∂t = −y on
+    SQUARE. Without TANGENT the MikkTSpace tangents of the mapped coordinates give it; with
+    TANGENT (1, 0, 0, 1) (∂P/∂s of the file's set) the file's frame is turned by the same
+    transform (tangents.mapped_tangents): the same :data:`ALONG_MINUS_Y` either way."""
+    mesh = {"tangents": [[1, 0, 0, 1]] * 4} if tangent else None
+    info = {"index": 0, "extensions": {"KHR_texture_transform": {"rotation": math.pi / 2}}}
+    ratio = _tilted_square_ratio(tmp_path, "r", info, FROM_MINUS_Y, mesh)
+    assert ratio == pytest.approx(ALONG_MINUS_Y, rel=1e-6)
+
+
+def test_a_normal_texture_on_texcoord_1_takes_that_sets_tangents(tmp_path):
+    """TEXCOORD_1 (s₁, t₁) = ((y + 1)/2, (x + 1)/2): s₁ runs along +y, t₁ along +x, so
+    ∂P/∂s₁ = +y and ∂P/∂v₁ = −x (= N × T: w = +1). glTF 2.0 §3.7.2.1 computes the tangents
+    from "the texture coordinates associated with the normal texture": the map's +x runs
+    along +y. A light from +y at 60° then gives the ratio of :data:`ALONG_MINUS_Y` mirrored,
+    the same number; read in the first set's frame (T = +x) it would be 0.8081701 again."""
+    uv1 = [[(y + 1) / 2, (x + 1) / 2] for x, y, _ in SQUARE["positions"]]
+    from_plus_y = [0.0, -math.sin(math.pi / 3), -math.cos(math.pi / 3)]
+    ratio = _tilted_square_ratio(tmp_path, "c", {"index": 0, "texCoord": 1}, from_plus_y,
+                                 {"uv1": uv1})
+    assert ratio == pytest.approx(ALONG_MINUS_Y, rel=1e-6)
+
+
+# -- what is not read, said once: metallicRoughnessTexture, orthographic cameras ---------------
+def _warnings_of(load) -> list[str]:
+    with pytest.warns(RenderWarning) as notes:
+        load()
+    return [str(n.message) for n in notes]
+
+
+def test_a_metallic_roughness_texture_is_named_once_a_material_with_the_factors(tmp_path):
+    """Two primitives of one material named "Metal" (metallic 1, roughness 0.5) with a
+    metallicRoughnessTexture: one line, naming the material and the factors used."""
+    write_png(tmp_path / "mr.png", np.full((2, 2, 3), 128, np.uint8))
+    metal = [{"name": "Metal", "pbrMetallicRoughness": {
+        "metallicFactor": 1.0, "roughnessFactor": 0.5, "metallicRoughnessTexture": {"index": 0}}}]
+    path = write_gltf(tmp_path / "t.gltf", [{"mesh": 0}, {"mesh": 1}], [SQUARE, SQUARE], metal,
+                      extra={"images": [{"uri": "mr.png"}], "textures": [{"source": 0}]})
+    assert _warnings_of(lambda: raytrace.Mesh(file=path, material="from_file")) == [
+        f'{path}: materials[0] ("Metal"): metallicRoughnessTexture is not read: metallic 1, '
+        "roughness 0.5 (the factors) are used over the whole surface"]
+
+
+def test_an_orthographic_camera_before_a_perspective_one_names_the_one_used(tmp_path):
+    """cameras[0] orthographic on the first node met, cameras[1] perspective on the next: the
+    perspective one frames the render (the first perspective camera, as without the
+    orthographic one), and the warning says so."""
+    cameras = [{"type": "orthographic", "orthographic": {"xmag": 1, "ymag": 1, "znear": 0.1,
+                                                         "zfar": 9}},
+               {"type": "perspective", "perspective": {"yfov": 0.5, "znear": 0.1}}]
+    path = write_gltf(tmp_path / "t.gltf", [{"mesh": 0}, {"camera": 0},
+                                            {"camera": 1, "translation": [0, 0, 4]}],
+                      [SQUARE], MATTE, extra={"cameras": cameras})
+    with pytest.warns(RenderWarning) as notes:
+        scene = raytrace.load_scene(path)
+    assert str(notes[0].message).startswith(
+        f"{path}: cameras[0] is orthographic: not read; cameras[1], the first perspective "
+        "camera, is used; no lights in the file")
+    np.testing.assert_allclose(scene.camera.position, [0, 0, 4])
+    assert scene.camera.fov == pytest.approx(math.degrees(0.5))

@@ -33,7 +33,7 @@ def trimesh_reference(path):
 def assert_same_as_trimesh(path):
     fast = meshio.read_mesh(path)
     assert fast is not None, "meshio fell back to trimesh"
-    v, f, t, n = fast
+    v, f, t, n = fast[:4]  # (and the colours: none in these files)
     rv, rf, rt, rn = trimesh_reference(path)
     assert v.dtype == np.float64 and f.dtype == np.int64
     np.testing.assert_array_equal(v, rv)
@@ -83,7 +83,7 @@ def test_ply_soup_merges_as_trimesh_does(tmp_path):
     path = tmp_path / "soup.ply"
     trimesh.Trimesh(v, f, process=False).export(path)
     assert_same_as_trimesh(path)
-    got, faces, _, _ = meshio.read_mesh(path)
+    got, faces = meshio.read_mesh(path)[:2]
     assert len(got) == len(knot().vertices)  # unreferenced dropped, duplicates merged
 
 
@@ -326,3 +326,86 @@ def test_obj_split_normals_stay_split_through_the_merge(tmp_path):
     got = meshio.read_mesh(path)
     assert len(got.vertices) == 4
     np.testing.assert_array_equal(got.normals, [[[0, 0, 1]] * 3, [[0, -0.6, 0.8]] * 3])
+
+
+# -- vertex colours: PLY red green blue [alpha], COFF -----------------------------------------
+#: The triangle (−1, −1, 0), (1, −1, 0), (0, 1, 0), counter-clockwise from +z (normal +z).
+TRIANGLE = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], float)
+
+
+def _colored_ply(path, encoding: str, codes) -> None:
+    """TRIANGLE with its vertices' ``uchar red green blue`` ``codes`` (3, 3)."""
+    header = (f"ply\nformat {encoding} 1.0\nelement vertex 3\nproperty float x\n"
+              "property float y\nproperty float z\nproperty uchar red\nproperty uchar green\n"
+              "property uchar blue\nelement face 1\nproperty list uchar int vertex_indices\n"
+              "end_header\n")
+    if encoding == "ascii":
+        body = "".join(f"{x:g} {y:g} {z:g} {r} {g} {b}\n"
+                       for (x, y, z), (r, g, b) in zip(TRIANGLE, codes, strict=True))
+        path.write_text(header + body + "3 0 1 2\n")
+    else:
+        vertex = np.zeros(3, [("p", "<f4", (3,)), ("c", "u1", (3,))])
+        vertex["p"], vertex["c"] = TRIANGLE, codes
+        face = np.zeros(1, [("n", "u1"), ("i", "<i4", (3,))])
+        face["n"], face["i"] = 3, [0, 1, 2]
+        path.write_bytes(header.encode() + vertex.tobytes() + face.tobytes())
+
+
+#: sRGB code 128 decoded (IEC 61966-2-1): ((128/255 + 0.055)/1.055)^2.4 = 0.2158605.
+SRGB_128 = ((128 / 255 + 0.055) / 1.055) ** 2.4
+#: A directional light from 60° off the normal (N·L = cos 60° = 0.5), intensity 1.
+SIDE_LIGHT = raytrace.DirectionalLight(direction=[-np.sin(np.pi / 3), 0.0, -np.cos(np.pi / 3)])
+
+
+def _centroid_pixel(mesh) -> np.ndarray:
+    """The pixel seen at TRIANGLE's centroid (0, −1/3, 0) from (0, −1/3, 3), lit by
+    SIDE_LIGHT, no ambient."""
+    from helpers import aimed_camera, make_scene, pixel
+
+    return pixel(make_scene([mesh], [SIDE_LIGHT], aimed_camera([0, -1 / 3, 3], [0, -1 / 3, 0])))
+
+
+@pytest.mark.parametrize("encoding", ["binary_little_endian", "ascii"])
+def test_a_ply_coloured_by_its_vertices_renders_in_their_colour(tmp_path, encoding):
+    """Each vertex the codes (255, 128, 0): c = (1, 0.2158605, 0) linear (sRGB-decoded).
+    With the file's material (``from_file``: the default material, kd 0.5, ks 0, its kd and
+    ka times the vertex colour, as glTF COLOR_0's), one directional light of 1 at N·L = 0.5,
+    no ambient: kd·c·(N·L)·I = 0.5·c·0.5 = (0.25, 0.0539651, 0). Binary: raytrace's reader;
+    ASCII: trimesh's. Given a scene material instead (here the default one), the colours are
+    not applied (COLOR_0's rule): 0.25 in every channel."""
+    path = tmp_path / "t.ply"
+    _colored_ply(path, encoding, [[255, 128, 0]] * 3)
+    assert (meshio.read_mesh(path) is None) == (encoding == "ascii")
+    want = 0.25 * np.array([1.0, SRGB_128, 0.0])
+    assert abs(want[1] - 0.0539651) < 1e-7
+    got = _centroid_pixel(raytrace.Mesh(file=path, material="from_file"))
+    np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(_centroid_pixel(raytrace.Mesh(file=path)), 0.25, rtol=1e-6)
+
+
+def test_vertex_colours_are_interpolated_and_a_ply_rendered_alone_takes_them(tmp_path):
+    """Red, green and blue vertices (codes 255 on one channel): at the centroid (barycentrics
+    ⅓ each) the colour is (⅓, ⅓, ⅓), kd·c·(N·L) = 0.5·⅓·0.5 = 0.0833333 per channel. The
+    PLY rendered alone (``raytrace.load_scene``: its own material, as ``from_file``) carries
+    the colours too: its mesh with this test's camera and light gives the same pixel."""
+    path = tmp_path / "rgb.ply"
+    _colored_ply(path, "binary_little_endian", np.eye(3, dtype=np.uint8) * 255)
+    np.testing.assert_allclose(_centroid_pixel(raytrace.Mesh(file=path, material="from_file")),
+                               0.5 / 3 * 0.5, rtol=1e-6)
+    with pytest.warns(raytrace.RenderWarning):  # (no camera, no light in the file)
+        alone = raytrace.load_scene(path)
+    np.testing.assert_allclose(alone.objects[0].colors[0, :, :3], np.eye(3))
+    np.testing.assert_allclose(_centroid_pixel(alone.objects[0]), 0.5 / 3 * 0.5, rtol=1e-6)
+
+
+def test_coff_vertex_colours_are_read_as_codes_or_floats(tmp_path):
+    """A COFF triangle (trimesh's OFF reader drops the colours): ints above 1 are 8-bit codes,
+    floats in [0, 1] are Geomview's colours, code = round(255·x): 0.5 → 128. Both give
+    c = (1, 0.2158605, 0): the pixel of the PLY test."""
+    want = 0.25 * np.array([1.0, SRGB_128, 0.0])
+    for name, color in (("codes", "255 128 0 255"), ("floats", "1 0.5 0 1")):
+        path = tmp_path / f"{name}.off"
+        path.write_text("COFF\n3 1 0\n" + "".join(f"{x:g} {y:g} {z:g} {color}\n"
+                                                  for x, y, z in TRIANGLE) + "3 0 1 2\n")
+        got = _centroid_pixel(raytrace.Mesh(file=path, material="from_file"))
+        np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-9)

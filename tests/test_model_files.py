@@ -169,6 +169,14 @@ def _ktx2(doc):
     _textured({"index": 0}, "x.ktx2")(doc)
 
 
+def _orthographic_camera(doc):
+    """An orthographic camera on a second root node: met before any perspective one."""
+    doc["cameras"] = [{"type": "orthographic", "orthographic": {
+        "xmag": 1.0, "ymag": 1.0, "znear": 0.1, "zfar": 10.0}}]
+    doc["nodes"].append({"camera": 0, "translation": [0.0, 0.0, 5.0]})
+    doc["scenes"][0]["nodes"].append(len(doc["nodes"]) - 1)
+
+
 #: The first cell of a glTF-core row → the change of the square that shows it (and whether
 #: the whole scene is loaded, for the camera and light defaults).
 CORE = {
@@ -193,6 +201,7 @@ CORE = {
     "`emissiveTexture`": (lambda d: (_textured({"index": 0})(d), d["materials"][0].update(
         emissiveTexture={"index": 0}, emissiveFactor=[1, 1, 1])), False),
     "`doubleSided`": (_material(lambda m: m.update(doubleSided=False)), False),
+    "`orthographic` cameras": (_orthographic_camera, True),
 }
 CORE_ROWS = {first: (state, how) for first, state, how in rows("glTF core")}
 

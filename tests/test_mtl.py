@@ -345,6 +345,34 @@ def test_a_bump_map_of_a_linear_height_ramp_tilts_the_normal_by_its_slope(tmp_pa
                                rtol=1e-6)
 
 
+def test_norm_with_a_mirroring_s_turns_its_frame(tmp_path):
+    """``norm -s -1 1 1``: s' = −s, so the map's +x runs along ∂P/∂s' = −x and the frame's
+    handedness flips (w' = −1: B' = w'·(N × T') = +y, up the image still). Codes (204, 128,
+    230): n_t = (0.6, 0.0039216, 0.8039216), |n_t| = 1.0031477, so N_s = (−0.6, 0.0039216,
+    0.8039216)/|n_t|. Kd 0.5, a directional light from −x at 60°, L = (−sin 60°, 0, cos 60°):
+    0.5·(0.5196152 + 0.4019608)/1.0031477 = 0.4593422; read with the unmirrored frame
+    (T = +x) N_s·L < 0: black."""
+    write_png(tmp_path / "n.png", np.tile(np.array([204, 128, 230], np.uint8), (2, 2, 1)))
+    light = raytrace.DirectionalLight(direction=[math.sin(math.pi / 3), 0.0,
+                                                 -math.cos(math.pi / 3)])
+    scene = make_scene([quad(tmp_path, "newmtl m\nKa 0\nKd 0.5\nKs 0\nnorm -s -1 1 1 n.png\n")],
+                       [light], camera_at(0.0), ambient=0.0)
+    np.testing.assert_allclose(pixel(scene), 0.4593422, rtol=1e-6)
+
+
+def test_a_bump_map_stretched_by_s_has_half_the_slope(tmp_path):
+    """The ramp of the test above read through ``-s 0.5 1 1`` (s' = s/2: the map stretched to
+    twice its width): at the centre s' = 0.25, inside the ramp, h_s' = 0.5·256/255 per unit
+    s', and P_s' = ∂P/∂s' = (4, 0, 0), P_t = (0, −2, 0), |P_s' × P_t| = 8, σ = −1:
+    N′ = (−h_s'·2/8, 0, 1) = (−0.1254902, 0, 1), half the tilt; at the eye
+    0.5/√(1 + 0.1254902²) = 0.4961089 (unscaled: 0.4849592)."""
+    write_png(tmp_path / "ramp.png", np.tile(np.arange(256, dtype=np.uint8), (4, 1))[..., None])
+    want = 0.5 / math.sqrt(1 + (0.5 * 256 / 255 / 4) ** 2)
+    assert abs(want - 0.4961089) < 1e-7
+    np.testing.assert_allclose(_at_eye(tmp_path, "bump -bm 0.5 -s 0.5 1 1 ramp.png\n"), want,
+                               rtol=1e-6)
+
+
 def test_a_bad_bm_is_one_line_naming_the_statement(tmp_path):
     with pytest.raises(SceneError) as e:
         quad(tmp_path, "newmtl m\nbump -bm x ramp.png\n")

@@ -11,11 +11,12 @@ import math
 import numpy as np
 import pytest
 from helpers import aimed_camera, make_scene, pixel, unit
+from PIL import Image
 
 import raytrace
-from raytrace.material import Relief
-from raytrace.readers.tangents import given_tangents, mikktspace
-from raytrace.readers.texture import Texture
+from raytrace.material import Relief, parse_relief
+from raytrace.readers.tangents import given_tangents, mapped_tangents, mikktspace
+from raytrace.readers.texture import Texture, uv_transform
 from raytrace.tables import scene_arrays
 
 
@@ -192,3 +193,72 @@ def test_a_scene_without_a_normal_map_has_no_relief_tables(tmp_path):
     reliefs = scene_arrays(mapped).record.reliefs
     assert reliefs is not None and reliefs.tangents.shape == (2, 3, 4)
     np.testing.assert_allclose(reliefs.tangents[..., :3], [[[1, 0, 0]] * 3] * 2, atol=1e-15)
+
+
+# -- a normal map read through its mapping (uv set, transform) ----------------------------
+def rotated(texture: Texture, degrees: float) -> Texture:
+    """``texture`` read through KHR_texture_transform's rotation (TOML ``uv_rotation``)."""
+    return texture.mapped(0, uv_transform((0.0, 0.0), math.radians(degrees), (1.0, 1.0)))
+
+
+def test_a_rotated_normal_map_turns_its_tangent_frame(tmp_path):
+    """uv_rotation 90° on the quad (s = (x + 1)/2, t = (1 − y)/2): the map reads
+    (s', t') = (t, −s) (uv_transform's R), so its +x (right on the image as read) runs along
+    ∂P/∂s' = ∂P/∂t = −y, and its +y (up) along ∂P/∂v' = ∂P/∂s = +x (glTF 2.0 §3.9.3: "+X is
+    right and +Y is up"; the tangent is ∂P/∂s of the coordinates the map reads, §3.7.2.1).
+    The constant texel (0.8, 0.5, 0.9) is n_t = (0.6, 0, 0.8): N_s = 0.6·(−y) + 0.8·z.
+    kd 0.5, one directional light of 1, from 60° off the normal:
+    * from −y, L = (0, −sin 60°, cos 60°): 0.5·(0.6·0.8660254 + 0.8·0.5) = 0.4598076;
+    * from +x, L = (sin 60°, 0, cos 60°): 0.5·0.8·0.5 = 0.2.
+    Read with the unrotated frame (T = +x), the two swap."""
+    m = raytrace.Material(kd=0.5, ka=0.0,
+                          normal_map=Relief(rotated(flat_map([0.8, 0.5, 0.9]), 90.0)))
+    s60, c60 = math.sin(math.pi / 3), math.cos(math.pi / 3)
+    for towards, want in (([0.0, -s60, c60], 0.4598076), ([s60, 0.0, c60], 0.2)):
+        light = raytrace.DirectionalLight(direction=-np.array(towards))
+        np.testing.assert_allclose(pixel(quad_scene(tmp_path, m, light)), want, rtol=1e-6)
+    reliefs = scene_arrays(quad_scene(tmp_path, m, raytrace.PointLight([0, 0, 3]))).record.reliefs
+    np.testing.assert_allclose(reliefs.tangents, [[[0, -1, 0, 1]] * 3] * 2, atol=1e-12)
+
+
+def test_a_normal_map_is_read_at_its_mapped_coordinates(tmp_path):
+    """A 2 × 1 map, clamped: texel 0 (0.8, 0.5, 0.9) is n_t = (0.6, 0, 0.8), texel 1 (0.5, 0.5,
+    1) the flat normal. The centre pixel (s = 0.5) reads, with ``uv_offset = [-0.25, 0]``,
+    s' = 0.25, texel 0's centre: with a point light of 1 at the camera, 0.5·0.8 = 0.4. Read at
+    s = 0.5 unmapped it would be the mean (0.65, 0.5, 0.95), n_t = (0.3, 0, 0.9):
+    0.5·0.9/√0.9 = 0.4743416."""
+    texels = np.ones((1, 2, 4), np.float32)
+    texels[0, 0, :3], texels[0, 1, :3] = [0.8, 0.5, 0.9], [0.5, 0.5, 1.0]
+    shifted = Texture(texels, ("clamp", "clamp")).mapped(
+        0, uv_transform((-0.25, 0.0), 0.0, (1.0, 1.0)))
+    m = raytrace.Material(kd=0.5, ka=0.0, normal_map=Relief(shifted))
+    np.testing.assert_allclose(pixel(quad_scene(tmp_path, m, raytrace.PointLight([0, 0, 3]))),
+                               0.4, rtol=1e-6)
+
+
+def test_a_scene_file_normal_map_takes_the_texture_mapping_keys(tmp_path):
+    """``normal_map = { texture, uv_rotation = 90 }`` reads as a colour texture's mapping
+    does (:func:`raytrace.readers.texture.parse_mapping`)."""
+    Image.fromarray(np.full((2, 2, 3), 128, np.uint8)).save(tmp_path / "n.png")
+    relief = parse_relief({"texture": str(tmp_path / "n.png"), "uv_rotation": 90.0,
+                           "uv_set": 1}, "normal_map")
+    assert relief.texture.uv_set == 1
+    np.testing.assert_allclose(relief.texture.transform, [[0, 1, 0], [-1, 0, 0]], atol=1e-15)
+
+
+def test_a_file_tangent_turns_with_the_map_as_mikktspace_of_the_mapped_set_does():
+    """mapped_tangents of the quad's file frame (T = +x, w = 1) under a rotation by 90° and
+    scales (2, 1) and a mirror (scale (−1, 1)) equal MikkTSpace's tangents computed from the
+    mapped coordinates themselves (the quad's mapping is conformal, so the two agree exactly):
+    rotation: −y, w 1; scale (2, 1): +x, w 1; mirror s' = −s: −x, w −1."""
+    corners = np.array([[[-1, -1, 0], [1, -1, 0], [1, 1, 0]]], float)
+    st = np.array([[[0, 1], [1, 1], [1, 0]]], float)
+    normals = np.tile([0.0, 0.0, 1.0], (1, 3, 1))
+    frame = np.tile([1.0, 0.0, 0.0, 1.0], (1, 3, 1))
+    for linear, want in (([[0, 1], [-1, 0]], [0, -1, 0, 1]), ([[2, 0], [0, 1]], [1, 0, 0, 1]),
+                         ([[-1, 0], [0, 1]], [-1, 0, 0, -1])):
+        linear = np.array([linear], float)
+        turned = mapped_tangents(frame, normals, linear)
+        np.testing.assert_allclose(turned, [[want] * 3], atol=1e-12)
+        mapped_st = np.einsum("fij,fkj->fki", linear, st)
+        np.testing.assert_allclose(mikktspace(corners, normals, mapped_st), turned, atol=1e-12)

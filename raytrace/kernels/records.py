@@ -690,5 +690,7 @@ class Reliefs(NamedTuple):
     texels: np.ndarray     #: ``Materials.texels``
     tex_info: np.ndarray   #: ``Materials.tex_info``
     corners: np.ndarray    #: ``Triangles.corners``
-    texcoords: np.ndarray  #: ``Triangles.texcoords``
+    #: (T, 3, 2) the corners' (s, t) as the material's map reads them: its uv set through its
+    #: transform (``raytrace.tables.relief_texcoords``; ``Triangles.texcoords`` unmapped)
+    texcoords: np.ndarray
     tangents: np.ndarray   #: (T, 3, 4) unit tangent and sign w at the corners (glTF TANGENT)

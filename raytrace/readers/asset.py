@@ -16,6 +16,10 @@ GLTF_SUFFIXES = (".gltf", ".glb")
 #: Mesh files without materials (read by trimesh, or raytrace.readers.meshio for binary PLY)
 #: that a scene may name, or the command line render alone with the default material.
 MESH_SUFFIXES = (".ply", ".stl", ".off")
+#: Of those, the ones that may colour their vertices (PLY ``red green blue``, COFF): their
+#: material is the default one, its ``kd`` and ``ka`` times the vertex colours, with
+#: ``material = "from_file"`` and when the file is rendered alone (glTF COLOR_0's rule).
+COLORED_SUFFIXES = (".ply", ".off")
 
 
 @dataclass

@@ -25,4 +25,5 @@ def load_with_materials(path: Path) -> Asset:
     if suffix in GLTF_SUFFIXES:
         return load_gltf(path).asset
     raise SceneError(f"material = \"from_file\" needs an OBJ (with its MTL) or a glTF/GLB "
-                     f"file, got {path.name}", "material")
+                     f"file (or a PLY or OFF, whose vertex colours tint the default material), "
+                     f"got {path.name}", "material")

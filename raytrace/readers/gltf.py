@@ -60,8 +60,11 @@ class GltfScene:
     """What a glTF file holds for raytrace."""
 
     asset: Asset
-    camera: dict | None = None          #: position, look_at, up, fov, aspect
+    camera: dict | None = None          #: position, look_at, up, fov, aspect, index
     lights: list = field(default_factory=list)
+    #: The index in ``cameras`` of the first orthographic camera met before the camera taken
+    #: (not read: raytrace's cameras are perspective), or None.
+    orthographic: int | None = None
 
 
 def _buffers(gltf: Any, path: Path) -> list[bytes]:
@@ -320,6 +323,11 @@ def material(gltf: Any, index: int | None, texture: Any = None, path: Path | Non
             fields["opacity"] = alpha
             fields["alpha_cutoff"] = (m.alphaCutoff if m.alphaCutoff is not None else 0.5
                                       ) if mode == "MASK" else -1.0
+    if pbr is not None and pbr.metallicRoughnessTexture is not None and not unlit:
+        named = f' ("{m.name}")' if m.name else ""
+        warnings.warn(f"{path}: {key}{named}: metallicRoughnessTexture is not read: metallic "
+                      f"{metallic:g}, roughness {rough:g} (the factors) are used over the "
+                      "whole surface", RenderWarning, stacklevel=3)
     normal = m.normalTexture if m is not None else None
     if normal is not None and texture is not None:  # linear texels (glTF 2.0 §3.9.3)
         fields["normal_map"] = Relief(
@@ -529,7 +537,7 @@ def _load(path: Path) -> GltfScene:
     sources = buffer_files(gltf, path)
     tangents = []
     uvs1, colors = [], []  # per primitive: TEXCOORD_1 and COLOR_0 (None where it has none)
-    camera, lights, offset = None, [], 0
+    camera, lights, offset, orthographic = None, [], 0, None
     light_specs = _ext(gltf, "KHR_lights_punctual").get("lights", [])
     for n, world in world_matrices(gltf):
         node = gltf.nodes[n]
@@ -540,7 +548,9 @@ def _load(path: Path) -> GltfScene:
                 r = world[:3, :3]
                 camera = {"position": world[:3, 3], "look_at": world[:3, 3] + r @ [0, 0, -1.0],
                           "up": r @ [0, 1.0, 0], "fov": math.degrees(cam.perspective.yfov),
-                          "aspect": cam.perspective.aspectRatio}
+                          "aspect": cam.perspective.aspectRatio, "index": node.camera}
+            elif cam.type == "orthographic" and orthographic is None:
+                orthographic = node.camera
         light_ref = _ext(node, "KHR_lights_punctual").get("light")
         if light_ref is not None:
             if not 0 <= light_ref < len(light_specs):
@@ -613,7 +623,7 @@ def _load(path: Path) -> GltfScene:
                   np.concatenate(tangents) if any(t.any() for t in tangents) else None,
                   _corners(uvs1, uvs),
                   _corners(colors, [np.ones((len(f), 3, 4)) for f in faces]))
-    return GltfScene(asset, camera, lights)
+    return GltfScene(asset, camera, lights, orthographic)
 
 
 def _corners(arrays: list, fallback: list) -> np.ndarray | None:

@@ -26,9 +26,14 @@ each face corner's normal comes with them (:class:`MeshFile` ``normals``, (F, 3,
 corner, so the merge of positions keeps a cube's 24 split normals (docs/scene_format.md,
 "Mesh shading").
 
-Anything else (ASCII PLY, polygons, ``usemtl``/``mtllib``, other OBJ statements, texture
-coordinates in a PLY) returns ``None`` and the caller falls back to trimesh, so every file
-trimesh reads is still read and images do not change. Malformed files raise one
+Where a PLY's vertices carry ``red green blue [alpha]`` as ``uchar``, each face corner's
+colour comes with them (:class:`MeshFile` ``colors``, (F, 3, 4) linear RGBA,
+:func:`vertex_colors`), per corner like the normals.
+
+Anything else (ASCII PLY, polygons, colours of another type, ``usemtl``/``mtllib``, other OBJ
+statements, texture coordinates in a PLY) returns ``None`` and the caller falls back to
+trimesh, so every file trimesh reads is still read and images do not change. Malformed files
+raise one
 :class:`~raytrace.errors.SceneError` line naming the file (and, for OBJ, the line).
 """
 
@@ -41,6 +46,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import SceneError
+from .texture import decoding_table
 
 #: trimesh's ``tol.merge`` (1e-8) as decimal digits: positions equal after rounding
 #: ``x·10⁸`` to an integer are one vertex (trimesh.grouping.merge_vertices).
@@ -53,6 +59,8 @@ PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": 
              "float64": "f8"}
 #: Vertex properties trimesh reads as texture coordinates: such files go to trimesh.
 PLY_UV = {"s", "t", "u", "v", "texture_u", "texture_v", "texture_s", "texture_t"}
+#: PLY vertex colour properties (Turk 1994's red, green, blue; alpha as writers add it).
+PLY_COLOR = ("red", "green", "blue", "alpha")
 #: OBJ statements this reader handles; any other one sends the file to trimesh.
 OBJ_STATEMENTS = ("v", "vt", "vn", "f", "o", "g", "s")
 
@@ -73,6 +81,9 @@ class MeshFile(NamedTuple):
     texcoords: np.ndarray | None       #: (F, 3, 2) per corner (s, t), t = 0 at the top
     #: (F, 3, 3) per corner, the normals the file itself gives (None where it gives none)
     normals: np.ndarray | None = None
+    #: (F, 3, 4) per corner, the linear RGBA vertex colours the file gives (PLY ``red green
+    #: blue [alpha]``, COFF; :func:`vertex_colors`), or None
+    colors: np.ndarray | None = None
 
 
 def read_mesh(path: Path) -> MeshFile | None:
@@ -142,11 +153,67 @@ def read_ply(path: Path) -> MeshFile | None:
     faces = face[lists[0]].astype(np.int64)
     _check_finite(vertices, path, lambda i: f"vertex {i + 1}")
     _check_indices(faces, len(vertices), path, lambda i: f"face {i + 1}")
-    normals = None
+    normals = colors = None
     if {"nx", "ny", "nz"} <= set(vertex.dtype.names):
         normals = np.stack([vertex[k].astype(np.float64) for k in ("nx", "ny", "nz")],
                            axis=1)[faces]
-    return MeshFile(*merge_vertices(vertices, faces), None, normals)
+    named = [k for k in PLY_COLOR if k in vertex.dtype.names]
+    if {"red", "green", "blue"} <= set(named):
+        if any(vertex.dtype[k] != np.uint8 for k in named):
+            return None  # colours of another type: trimesh scales them to 8-bit codes
+        colors = vertex_colors(np.stack([vertex[k] for k in named], axis=1))[faces]
+    return MeshFile(*merge_vertices(vertices, faces), None, normals, colors)
+
+
+def off_vertex_colors(text: str) -> np.ndarray | None:
+    """The vertex colours (V, 3) or (V, 4) uint8 codes of a COFF file (Geomview's OFF with
+    colours: the keyword ``COFF``, the counts ``V F E``, then V lines ``x y z r g b [a]``),
+    which trimesh's OFF reader drops; None for a plain OFF or vertex lines without colours.
+    Values above 1 are 8-bit codes (Meshlab writes them so); values all within [0, 1] are
+    Geomview's floats, taken to codes as round(255·x), as trimesh takes float colours.
+
+    >>> off_vertex_colors("COFF\\n1 0 0\\n0 0 0 255 128 0 255\\n").tolist()
+    [[255, 128, 0, 255]]
+    """
+    rows = [w for w in (ln.split("#", 1)[0].split() for ln in text.splitlines()) if w]
+    if not rows or rows[0][0] != "COFF":
+        return None
+    # the counts follow the keyword on its line, or on the next
+    if len(rows[0]) > 1:
+        counts, body = rows[0][1:], rows[1:]
+    else:
+        counts, body = (rows[1:2] + [[]])[0], rows[2:]
+    try:
+        n = int(counts[0])
+        lines = body[:n]
+        width = min(len(r) for r in lines) - 3
+        values = np.array([r[3:3 + min(width, 4)] for r in lines], np.float64)
+    except (IndexError, ValueError):
+        return None  # trimesh says what is wrong with the file
+    if len(lines) < n or width < 3 or not np.isfinite(values).all():
+        return None
+    codes = values if values.max() > 1.0 else np.round(255.0 * values)
+    return np.clip(codes, 0, 255).astype(np.uint8)
+
+
+def vertex_colors(codes: np.ndarray) -> np.ndarray:
+    """Linear RGBA (V, 4) float64 of vertex colours given as 8-bit codes (V, 3) or (V, 4) (a
+    PLY's ``uchar red green blue [alpha]``, trimesh's ``visual.vertex_colors``): R, G and B
+    decoded as sRGB (IEC 61966-2-1, :func:`raytrace.readers.texture.decoding_table`), alpha
+    c / 255 (1 where there is none). The PLY format (Turk 1994) names no colour space; its
+    writers (scanners, Meshlab) store display colours, and readers decode them as sRGB:
+    Blender's PLY importer by default ("Import Vertex Colors: sRGB"), three.js's PLYLoader
+    (mrdoob/three.js#23342).
+
+    >>> vertex_colors(np.array([[255, 0, 0]], np.uint8)).tolist()
+    [[1.0, 0.0, 0.0, 1.0]]
+    """
+    codes = np.asarray(codes, np.uint8)
+    out = np.ones((len(codes), 4))
+    out[:, :3] = decoding_table(8, True)[codes[:, :3]]
+    if codes.shape[1] > 3:
+        out[:, 3] = codes[:, 3] / 255.0
+    return out
 
 
 def _ply_dtype(props: list, order: str) -> np.dtype | None:

@@ -21,7 +21,7 @@ from ..errors import RenderWarning, SceneError
 from ..lights import DirectionalLight
 from ..material import Material, library, material_from_table
 from ..scene import FROM_FILE, LIGHT_TYPES, OBJECT_TYPES, Camera, Mesh, RenderSettings, Scene
-from .asset import GLTF_SUFFIXES, MESH_SUFFIXES, OBJ_SUFFIXES
+from .asset import COLORED_SUFFIXES, GLTF_SUFFIXES, MESH_SUFFIXES, OBJ_SUFFIXES
 from .bundle import remember
 from .gltf import load_gltf
 from .inputs import input_file, read_text, recording
@@ -262,24 +262,33 @@ def scene_from_model(path: Path) -> Any:
     found = None
     if path.suffix.lower() in GLTF_SUFFIXES:
         found = load_gltf(path)
-    # the file's own materials where it has them (a glTF, an OBJ naming an MTL library), else
-    # the default material (a PLY, an STL, an OFF, an OBJ alone)
-    own = found is not None or (path.suffix.lower() in OBJ_SUFFIXES and names_mtl(path))
+    # the file's own materials where it has them (a glTF, an OBJ naming an MTL library; a PLY
+    # or an OFF: the default material tinted by its vertex colours), else the default material
+    # (an STL, an OBJ alone)
+    own = found is not None or (path.suffix.lower() in OBJ_SUFFIXES and names_mtl(path)) or (
+        path.suffix.lower() in COLORED_SUFFIXES)
     try:
         mesh = Mesh(file=path, material=FROM_FILE if own else None)
     except SceneError as e:
         raise SceneError(e.problem, e.key if e.file else None, e.file or str(path)) from None
     render = RenderSettings()
     notes = []
+    # an orthographic camera met first is not read (raytrace's cameras are perspective)
+    skipped = (f"cameras[{found.orthographic}] is orthographic: not read; "
+               if found is not None and found.orthographic is not None else None)
     if found is not None and found.camera is not None:
         cam = found.camera
         camera = Camera(cam["position"], cam["look_at"], cam["up"], cam["fov"])
         if cam["aspect"]:
             render = RenderSettings(height=max(1, round(640 / cam["aspect"])))
+        if skipped:
+            notes.append(f"{skipped}cameras[{cam['index']}], the first perspective camera, "
+                         "is used")
     else:
         camera = framing_camera(mesh.vertices, aspect=render.width / render.height)
-        notes.append(f"no camera in the file: camera at {_vec(camera.position)} looking at "
-                     f"{_vec(camera.look_at)}, fov {camera.fov:g}")
+        notes.append(f"{skipped or 'no camera in the file: '}camera at "
+                     f"{_vec(camera.position)} looking at {_vec(camera.look_at)}, fov "
+                     f"{camera.fov:g}{' instead' if skipped else ''}")
     lights = list(found.lights) if found is not None else []
     if not lights:
         right, up, forward = camera.basis()

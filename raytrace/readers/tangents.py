@@ -112,3 +112,40 @@ def given_tangents(tangents: np.ndarray, linear: np.ndarray) -> np.ndarray:
     mirror = -1.0 if np.linalg.det(linear) < 0 else 1.0
     t[..., 3] = np.where(ok, np.where(t[..., 3] < 0.0, -mirror, mirror), 0.0)  # none: zeros
     return t
+
+
+def mapped_tangents(tangents: np.ndarray, normals: np.ndarray, linear: np.ndarray
+                    ) -> np.ndarray:
+    """A file's tangent frames (F, 3, 4) (glTF ``TANGENT``: unit T along ∂P/∂s, w the sign of
+    B = w·(N × T), along ∂P/∂v with v = −t), given for the coordinates (s, t), turned into the
+    frames of the coordinates a normal map reads, ``(s', t') = L·(s, t) + c`` (its
+    KHR_texture_transform or MTL ``-o``/``-s``; ``linear`` (F, 2, 2) the L of each face):
+    ``T' ∝ ∂P/∂s'``, ``w' = w·sign(det L)``. ``normals`` (F, 3, 3) are the unit normals N the
+    corners are shaded with. In (s, v), L is ``L_v = [[a, −b], [−d, e]]`` for ``L = [[a, b],
+    [d, e]]``, and ``∂P/∂s' = P_s·M₀₀ + P_v·M₁₀`` with ``M = L_v⁻¹``; a file gives only the
+    directions of P_s and P_v, taken as T and B (a conformal mapping, which a tangent-space
+    normal map assumes: its frame is orthonormal). The Khronos glTF Sample Renderer turns its
+    TBN frame by the texture transform the same way (KhronosGroup/glTF-Sample-Renderer#16,
+    fixing glTF-Sample-Viewer#592). A zero row (a corner without a tangent) stays zero.
+
+    >>> quarter = np.array([[[0.0, 1.0], [-1.0, 0.0]]])  # KHR rotation 90°: s' = t, t' = −s
+    >>> t = mapped_tangents(np.array([[[1.0, 0, 0, 1]] * 3]), np.array([[[0, 0, 1.0]] * 3]),
+    ...                     quarter)
+    >>> t[0, 0].round(12).tolist()  # ∂P/∂s' = ∂P/∂t = −B = −y
+    [0.0, -1.0, 0.0, 1.0]
+    """
+    t = np.asarray(tangents, np.float64)
+    n = np.asarray(normals, np.float64)
+    lin = np.asarray(linear, np.float64)
+    a, b, d, e = lin[:, 0, 0], lin[:, 0, 1], lin[:, 1, 0], lin[:, 1, 1]
+    det = a * e - b * d
+    safe = np.where(det != 0.0, det, 1.0)
+    m00, m10 = e / safe, d / safe  # first column of [[a, −b], [−d, e]]⁻¹
+    bitangent = np.where(t[..., 3:] < 0.0, -1.0, 1.0) * np.cross(n, t[..., :3])
+    out = np.zeros_like(t)
+    out[..., :3], ok = _unit(m00[:, None, None] * t[..., :3] + m10[:, None, None] * bitangent)
+    flip = np.where(det < 0.0, -1.0, 1.0)[:, None]
+    given = np.any(t != 0.0, axis=2) & ok & (det != 0.0)[:, None]
+    out[..., 3] = np.where(t[..., 3] < 0.0, -1.0, 1.0) * flip
+    out[~given] = 0.0
+    return out

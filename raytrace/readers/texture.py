@@ -328,6 +328,14 @@ def parse_texture(table: Mapping, key: str) -> Texture:
     t = Texture.from_file(file, f"{key}.texture", srgb=srgb, wrap=(wrap, wrap))
     if "scale" in table:
         t = t.scaled(values.color(table["scale"], f"{key}.scale"))
+    return t.mapped(*parse_mapping(table, key))
+
+
+def parse_mapping(table: Mapping, key: str) -> tuple[int, np.ndarray | None]:
+    """A texture table's mapping, ``uv_set = 0``, ``uv_offset = [0, 0]``, ``uv_rotation = 0``
+    (degrees), ``uv_scale = [1, 1]``: the uv set and the :func:`uv_transform` (None where no
+    ``uv_*`` key is given), as :meth:`Texture.mapped` takes them (colour textures and
+    normal and height maps alike)."""
     transform = None
     if {"uv_offset", "uv_rotation", "uv_scale"} & table.keys():
         transform = uv_transform(
@@ -335,7 +343,7 @@ def parse_texture(table: Mapping, key: str) -> Texture:
             np.radians(values.number(table.get("uv_rotation", 0.0), f"{key}.uv_rotation")),
             values.vector(table.get("uv_scale", [1.0, 1.0]), f"{key}.uv_scale", 2))
     uv_set = values.number(table.get("uv_set", 0), f"{key}.uv_set", lo=0, hi=1, integer=True)
-    return t.mapped(uv_set, transform)
+    return uv_set, transform
 
 
 def mtl_texture(file: Path, options: dict, key: str, where: str) -> Texture:
