@@ -89,3 +89,36 @@ def test_a_diffuse_scene_compiles_no_child_mesh_or_transparency_code():
     fields = json.loads(out)
     assert {"children": "none", "shaded": "none", "transparent": "none",
             "embree": "none", "lit": "bool"}.items() <= fields.items()
+
+
+COMPILES = """
+import json, sys
+from numba.core import event
+import raytrace
+names = []
+class Compiles(event.Listener):
+    def on_start(self, e):
+        names.append(e.data["dispatcher"].py_func.__qualname__)
+    def on_end(self, e):
+        pass
+event.register("numba:compile", Compiles())
+raytrace.render(raytrace.load_scene(sys.argv[1]), width=8, height=6, threads=1)
+print(json.dumps(names))
+"""
+
+
+@pytest.mark.slow
+def test_the_loops_steps_compile_inside_it(tmp_path):
+    # The Whitted scene's first render with an empty kernel cache (NUMBA_CACHE_DIR), in a
+    # process of its own: numba's compile events name every function compiled on its own.
+    # The loop's steps called from one place or in one form (trace_depth, intersect, spawn)
+    # are inlined in numba's IR (jit.inline): typed and lowered inside trace_paths, with no
+    # machine code of their own that trace_paths would link and optimize again; and nothing
+    # calls numpy's count_nonzero (a compile of its own for each array type).
+    env = {**os.environ, "RAYTRACE_LOOP": "compiled", "NUMBA_CACHE_DIR": str(tmp_path)}
+    out = subprocess.run([sys.executable, "-c", COMPILES, str(SCENES / "whitted.toml")],
+                         env=env, capture_output=True, text=True, check=True).stdout
+    names = set(json.loads(out))
+    assert {"trace_paths", "light_pass", "hit_terms", "spawn_children"} <= names
+    assert not {"trace_depth", "intersect", "spawn"} & names
+    assert not [name for name in names if name.startswith("np_count_nonzero.")]

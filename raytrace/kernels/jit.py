@@ -93,10 +93,23 @@ class LockedCache(caching.FunctionCache):
                                            self._impl.locator.get_source_stamp())
 
 
+#: The numba options of every kernel (see this module's docstring). None has numba's C entry
+#: point (``no_cfunc_wrapper``): Python calls kernels through their CPython wrapper and
+#: kernels call each other directly, so nothing takes a kernel's C address, and the wrapper
+#: only cost compile time.
+OPTIONS = {"nogil": True, "fastmath": False, "error_model": "numpy", "no_cfunc_wrapper": True}
+#: Those of a kernel only compiled code calls (:data:`helper`): without numba's CPython and C
+#: entry points. ``numba.extending.overload``'s ``jit_options`` for an implementation that
+#: only kernels call: numba compiles the functions a kernel calls (``np.empty`` …) once per
+#: set of options of the kernels that call them, so one set for all of them compiles each
+#: once (kernels/loop.py).
+INNER = {**OPTIONS, "no_cpython_wrapper": True}
+
+
 def _cached(**options) -> Callable[[Callable], Dispatcher]:
     """A decorator compiling with ``options`` and caching through :class:`LockedCache`
     (what ``cache=True`` does, with numba's ``FunctionCache``)."""
-    compile_ = numba.njit(nogil=True, fastmath=False, error_model="numpy", **options)
+    compile_ = numba.njit(**{**OPTIONS, **options})
 
     def decorate(fn: Callable) -> Dispatcher:
         dispatcher = compile_(fn)
@@ -109,7 +122,9 @@ def _cached(**options) -> Callable[[Callable], Dispatcher]:
 kernel = _cached()
 #: Decorator for a small dispatcher that must vanish into its callers (numba inlines it in
 #: its own IR, before LLVM: ``accel_kernels.shape_t`` called as a kernel cost 50 % more per
-#: analytic query, 33.8 against 22.7 ns a ray on the Whitted scene).
+#: analytic query, 33.8 against 22.7 ns a ray on the Whitted scene), and for a step of the
+#: compiled loop called from one place (kernels/loop.py): typed and lowered in its caller, it
+#: has no machine code of its own that the caller would link and optimize again.
 inline = _cached(inline="always")
 #: Decorator for a per-ray helper that only other kernels call: compiled without the wrappers
 #: that let Python (and C) call it, so its first compile lowers and emits less machine code
@@ -118,7 +133,7 @@ inline = _cached(inline="always")
 #: callers exactly as a :data:`kernel`. Calling one from Python raises numba's error; a test
 #: that checks a helper against hand-worked values calls it through a kernel, or the helper
 #: stays a :data:`kernel`.
-helper = _cached(no_cpython_wrapper=True, no_cfunc_wrapper=True)
+helper = _cached(**INNER)
 
 
 PACKAGE = Path(__file__).resolve().parent

@@ -16,6 +16,14 @@ A scene compiles only what it uses: the kernels' feature arguments (``meshes``, 
 textures in the scene record) are None where a scene lacks the feature, as in the Python
 loop, and numba prunes the branches that test them before typing.
 
+Its first compile is kept small (docs/performance.md, "The compiled loop"): the steps called
+from one place are inlined in numba's IR (``jit.inline``), every function only compiled code
+calls has no CPython or C entry point and one set of numba options (``jit.INNER``, so numpy's
+functions compile once for all of them), the overloads that pick a feature's code are not
+also inlined (numba compiles an overload's implementation in full either way), and arrays
+are made with ``np.empty`` and filled in place (``np.zeros``, ``np.full``, ``np.ones``,
+``np.arange`` and ``np.count_nonzero`` are each a compile of their own).
+
 Every record it takes is built once per render by :mod:`raytrace.integrator`
 (:class:`raytrace.kernels.records.Tracer`, :class:`raytrace.kernels.records.LightTable`,
 :class:`raytrace.kernels.records.PassSettings`); its counters are the ``--stats`` of the
@@ -39,8 +47,8 @@ from . import core
 from . import embree as ek
 from . import rays as rk
 from . import shading as sk
-from .jit import helper, kernel
-from .kinds import NO_SHAPE, PRUNED, REFLECTION, REFRACTION, SEE_THROUGH
+from .jit import INNER, helper, inline, kernel
+from .kinds import NO_SHAPE, NONE, PRUNED, REFLECTION, REFRACTION, SEE_THROUGH
 from .records import (
     EMITTER_FIELDS,
     Children,
@@ -92,7 +100,7 @@ def _clock(typingctx, function, clock_id, timespec):
     return sig, codegen
 
 
-@kernel
+@helper
 def now(settings, timespec):
     """Seconds of the monotonic clock (0 where no ``clock_gettime`` was found)."""
     if settings.clock == 0:
@@ -115,7 +123,7 @@ def closest_triangles(tracer, query, hits):
     nothing in a scene without meshes (``tracer.embree`` None: no Embree code compiled)."""
 
 
-@overload(closest_triangles)
+@overload(closest_triangles, jit_options=INNER)
 def _closest_triangles_by_type(tracer, query, hits):
     if field_is_none(tracer, "embree"):
         return lambda tracer, query, hits: None
@@ -152,7 +160,7 @@ def _closest_triangles(tracer, query, hits):
         rays = EmbreeRays(again.origin[:k], again.direction[:k], again.far[:k])
 
 
-@kernel
+@inline
 def intersect(tracer, origin, direction, origin_shape, tmax):
     """Closest hit of each ray with ``0 < t < tmax`` (``tmax`` empty: unbounded), analytic
     shapes first, then Embree (``raytrace.accel.Accelerator.intersect``)."""
@@ -165,15 +173,17 @@ def intersect(tracer, origin, direction, origin_shape, tmax):
     else:
         ak.closest_analytic(origin, direction, origin_shape, tmax, has_tmax,
                             tracer.shapes, t, shape)
-    triangle = np.full(n, -1, np.int64)
-    uv = np.zeros((n, 2))
+    triangle = np.empty(n, np.int64)
+    triangle[:] = -1
+    uv = np.empty((n, 2))
+    uv[:] = 0.0
     hits = Hits(t, shape, triangle, uv)
     if n:
         closest_triangles(tracer, Query(origin, direction, tmax, has_tmax), hits)
     return hits
 
 
-@kernel
+@helper
 def occluded(tracer, origin, direction, origin_shape, tmax, coherent):
     """True where something lies in ``(0, tmax)`` (``raytrace.accel.Accelerator.occluded``:
     the analytic shapes' any-hit pass, Embree's occlusion packets, and closest-hit queries
@@ -198,7 +208,7 @@ def embree_occlusion(tracer, query, coherent, blocked, idx, rays):
     ``idx[j]`` of ``query``): :func:`_embree_occlusion`, compiled only with meshes."""
 
 
-@overload(embree_occlusion)
+@overload(embree_occlusion, jit_options=INNER)
 def _embree_occlusion_by_type(tracer, query, coherent, blocked, idx, rays):
     if field_is_none(tracer, "embree"):
         return lambda tracer, query, coherent, blocked, idx, rays: None
@@ -221,15 +231,16 @@ def _embree_occlusion(tracer, query, coherent, blocked, idx, rays):
             for c in range(3):
                 o[r, c], d[r, c] = origin[i, c], direction[i, c]
             lim[r] = tmax[i]
-        t = np.full(j, np.inf)
+        t, shape = np.empty(j), np.empty(j, np.int64)
+        t[:] = np.inf
+        shape[:] = NO_SHAPE
         closest_triangles(tracer, Query(o, d, lim, True),
-                          Hits(t, np.full(j, NO_SHAPE, np.int64), np.empty(j, np.int64),
-                               np.empty((j, 2))))
+                          Hits(t, shape, np.empty(j, np.int64), np.empty((j, 2))))
         for r in range(j):
             blocked[recheck[r]] = math.isfinite(t[r])
 
 
-@kernel
+@helper
 def surfaces(tracer, hits, origin, direction):
     """Points, normals and materials at the hits (every row a hit): ``hit_surfaces``."""
     n = hits.t.shape[0]
@@ -246,7 +257,7 @@ def shadow(tracer, settings, shadows, k, coherent, tally):
     (``tracer.transparent`` True), :func:`_transparent_shadow`; only that one is compiled."""
 
 
-@overload(shadow)
+@overload(shadow, jit_options=INNER)
 def _shadow_by_type(tracer, settings, shadows, k, coherent, tally):
     return _opaque_shadow if field_is_none(tracer, "transparent") else _transparent_shadow
 
@@ -274,8 +285,11 @@ def _transparent_shadow(tracer, settings, shadows, k, coherent, tally):
     tmax, shape = shadows.tmax[:k], shadows.shape[:k]
     counters[SHADOW_RAYS] += k
     t0 = now(settings, timespec)
-    factor = np.ones((k, 3))
-    live = np.arange(k)
+    factor = np.empty((k, 3))
+    factor[:] = 1.0
+    live = np.empty(k, np.int64)
+    for r in range(k):
+        live[r] = r
     walked = False
     for _ in range(MAX_SHADOW_CROSSINGS):
         hits = intersect(tracer, origin, direction, shape, tmax)
@@ -303,7 +317,7 @@ def direct_lighting(tracer, lights, settings, rays, depth, pass_io, surf, tally)
     without lights or lit materials (``tracer.lit`` None: no light pass compiled)."""
 
 
-@overload(direct_lighting)
+@overload(direct_lighting, jit_options=INNER)
 def _direct_lighting_by_type(tracer, lights, settings, rays, depth, pass_io, surf, tally):
     if field_is_none(tracer, "lit"):
         return lambda tracer, lights, settings, rays, depth, pass_io, surf, tally: \
@@ -317,7 +331,7 @@ def hit_keys(keys, rays, depth):
     is jittered (``keys`` None: no key code compiled)."""
 
 
-@overload(hit_keys)
+@overload(hit_keys, jit_options=INNER)
 def _hit_keys_by_type(keys, rays, depth):
     if isinstance(keys, types.NoneType):
         return lambda keys, rays, depth: np.empty(0, np.int64)
@@ -344,7 +358,8 @@ def _direct_lighting(tracer, lights, settings, rays, depth, pass_io, surf, tally
     an area light's hundreds of emitters may take seconds); ``tally``: the pass's
     :class:`raytrace.kernels.records.Tally`."""
     n = rays.origin.shape[0]
-    out = np.zeros((n, 3))
+    out = np.empty((n, 3))
+    out[:] = 0.0
     term = np.empty((n, 3))
     shadows = Shadows(np.empty(n, np.int64), np.empty((n, 3)), np.empty((n, 3)), np.empty(n),
                       np.empty(n, np.int64))
@@ -373,12 +388,13 @@ def _direct_lighting(tracer, lights, settings, rays, depth, pass_io, surf, tally
     return out
 
 
-@helper
+@inline
 def spawn(rays, surf, children):
     """The children whose status is KEEP, reflected then refracted then see-through, each in
     hit order (``WhittedIntegrator._spawn``): a new batch of rays."""
     per_kind = sk.count_keep(children.status)
-    first = np.zeros(3, np.int64)
+    first = np.empty(3, np.int64)
+    first[0] = 0
     first[1] = per_kind[0]
     first[2] = per_kind[0] + per_kind[1]
     k = per_kind[0] + per_kind[1] + per_kind[2]
@@ -388,7 +404,7 @@ def spawn(rays, surf, children):
     return Rays(out.origin, out.direction, out.sample, out.weight, out.shape, out.kind)
 
 
-@helper
+@inline
 def trace_depth(tracer, lights, settings, rays, depth, pass_io, tally):
     """One depth of a batch: intersect, add the background of the misses and the local terms
     of the hits into ``pass_io``'s sums, return the next depth's rays
@@ -437,7 +453,7 @@ def first_hit_aovs(tracer, rays, hits, surf, aov):
     where ``aov`` is None."""
 
 
-@overload(first_hit_aovs, inline="always")
+@overload(first_hit_aovs, jit_options=INNER)
 def _first_hit_aovs_by_type(tracer, rays, hits, surf, aov):
     if isinstance(aov, types.NoneType):
         return lambda tracer, rays, hits, surf, aov: None
@@ -457,7 +473,7 @@ def no_rays():
                 np.empty(0, np.int64), np.empty(0, np.int8))
 
 
-@overload(no_rays, inline="always")
+@overload(no_rays, jit_options=INNER)
 def _no_rays():
     return no_rays
 
@@ -472,7 +488,7 @@ def light_depth(shaded, depth):
     return None if shaded is None else depth
 
 
-@overload(light_depth, inline="always")
+@overload(light_depth, jit_options=INNER)
 def _light_depth(shaded, depth):
     if isinstance(shaded, types.NoneType):
         return lambda shaded, depth: None
@@ -488,7 +504,7 @@ def room_for_children(children, m):
                     np.empty((m, 3)), np.empty((m, 3), np.int8), np.empty(m, np.bool_))
 
 
-@overload(room_for_children, inline="always")
+@overload(room_for_children, jit_options=INNER)
 def _room_for_children(children, m):
     if isinstance(children, types.NoneType):
         return lambda children, m: None
@@ -503,20 +519,25 @@ def next_depth(children, rays, surf, depth, settings, counters):
     Greenberg 1983), and the total internal reflections of the depths that go on."""
     if children is None:
         return no_rays()
-    status = children.status
+    status, m = children.status, children.status.shape[0]
     if depth + 1 > settings.max_depth:
-        counters[PRUNED_DEPTH] += np.count_nonzero(status)
+        unborn = 0
+        for i in range(m):
+            for c in range(3):
+                unborn += status[i, c] != NONE
+        counters[PRUNED_DEPTH] += unborn
         return no_rays()
-    counters[TIR] += np.count_nonzero(children.tir)
-    pruned = 0
-    for i in range(status.shape[0]):
+    pruned = tir = 0
+    for i in range(m):
+        tir += children.tir[i]
         for c in range(3):
             pruned += status[i, c] == PRUNED
+    counters[TIR] += tir
     counters[PRUNED_WEIGHT] += pruned
     return spawn(rays, surf, children)
 
 
-@overload(next_depth, inline="always")
+@overload(next_depth, jit_options=INNER)
 def _next_depth(children, rays, surf, depth, settings, counters):
     if isinstance(children, types.NoneType):
         return lambda children, rays, surf, depth, settings, counters: no_rays()
