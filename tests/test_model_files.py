@@ -302,3 +302,23 @@ def test_the_obj_lines_the_page_quotes_are_the_ones_raytrace_prints(tmp_path, mo
     for line in ("f 1 2 9", "usemtl nope"):
         error, _ = run(mesh(_obj_with(tmp_path, "newmtl m\n", line)))
         assert f"`{error}`" in text, error
+    error, notes = run(mesh(_obj_with(tmp_path, "newmtl m\n", "l 1 2")))
+    assert error is None and len(notes) == 1 and f"`{notes[0]}`" in text
+
+
+OBJ_WARNED = [name for names, state, _ in table("OBJ statements") if state == "warned"
+              for name in names]
+
+
+@pytest.mark.parametrize("stmt", OBJ_WARNED)
+def test_each_warned_obj_statement_is_named_on_one_line(tmp_path, monkeypatch, stmt):
+    # geometry that is not faces (points, lines, free-form curves and surfaces) is not drawn,
+    # and the file is told so, statement by statement, once (two of one kind: one name)
+    monkeypatch.chdir(tmp_path)
+    line = {"l": "l 1 2", "p": "p 1"}.get(stmt, f"{stmt} 0 1 1 2")
+    error, notes = run(mesh(_obj_with(tmp_path, "newmtl m\nKd 1 1 1\n",
+                                      f"{line}\n{line}\np 2")))
+    assert error is None
+    named = sorted({stmt, "p"}, key=["p", "l", "curv", "curv2", "surf"].index)
+    assert notes == [f"t.obj: statements not drawn (raytrace draws faces only): "
+                     f"{', '.join(named)}"]

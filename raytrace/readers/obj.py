@@ -4,23 +4,29 @@ coordinates and materials (:func:`read_obj`), read into an :class:`~.asset.Asset
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import RenderWarning, SceneError
 from ..material import Material
 from .asset import Asset
 from .inputs import read_text
 from .mtl import read_mtl, statements
 from .texture import mtl_texture
 
+#: The statements of geometry that is not faces (points, lines, free-form curves and
+#: surfaces): raytrace draws none of it, and a file with any is told which.
+NOT_DRAWN = ("p", "l", "curv", "curv2", "surf")
+
 
 def read_obj(path: Path) -> dict:
     """The statements of an OBJ that carry triangles and materials (Wavefront, "Object Files
     (.obj)", Appendix B1 of the Advanced Visualizer manual): ``v``, ``vt``, ``vn``, ``f`` (polygons
     fanned into triangles; ``v``, ``v/vt``, ``v//vn``, ``v/vt/vn``; negative indices count
-    back), ``usemtl``, ``mtllib``. Parsed here, not by trimesh: trimesh replaces a material
+    back), ``usemtl``, ``mtllib``; one warning names the statements of geometry it holds that
+    is not faces (:data:`NOT_DRAWN`). Parsed here, not by trimesh: trimesh replaces a material
     it finds untextured by a default one and drops its name when Pillow is installed, so the
     faces could not be matched to their MTL materials.
 
@@ -39,8 +45,11 @@ def read_obj(path: Path) -> dict:
     names: list[str] = []
     libs: list[Path] = []
     current = -1
+    not_drawn: set[str] = set()
     text = read_text(path, "OBJ file", file=str(path), a="an", strict=False)
     for _, stmt, args, where in statements(text.splitlines(), path):
+        if stmt in NOT_DRAWN:
+            not_drawn.add(stmt)
         try:
             if stmt == "v":
                 v.append([float(x) for x in args[:3]])
@@ -76,6 +85,10 @@ def read_obj(path: Path) -> dict:
             raise SceneError(f"{e}: {' '.join([stmt, *args])!r}", stmt, where) from None
     if not faces:
         raise SceneError(f"{path} holds no faces", "file")
+    if not_drawn:
+        warnings.warn(f"{path}: statements not drawn (raytrace draws faces only): "
+                      f"{', '.join(s for s in NOT_DRAWN if s in not_drawn)}", RenderWarning,
+                      stacklevel=2)
     return {"vertices": np.array(v, np.float64).reshape(-1, 3),
             "uv": np.array(vt, np.float64).reshape(-1, 2),
             "vn": np.array(vn, np.float64).reshape(-1, 3),
