@@ -20,8 +20,8 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 import bench  # noqa: E402
 
 import raytrace  # noqa: E402
-import raytrace.kernels.accel as K
-from raytrace.integrator import WhittedIntegrator
+import raytrace.kernels.accel as K  # noqa: E402
+from raytrace.integrator import WhittedIntegrator  # noqa: E402
 
 #: The kernels are wrapped from Python, so the renders run the Python loop (the same kernels
 #: in the same order as the compiled loop, tests/test_loop.py).

@@ -79,7 +79,8 @@ def main(argv: list[str] | None = None) -> int:
             o, d, far = o[:size * size], d[:size * size], far[:size * size]
         n = len(o)
         out = {"INTERSECT": {"output": 1}, "OCCLUDED": {"query": "OCCLUDED"}}[query]
-        base = best(args.repeat, lambda: embreex_scene.run(o, d, dists=far.copy(), **out))
+        base = best(args.repeat, lambda o=o, d=d, far=far, out=out: embreex_scene.run(
+            o, d, dists=far.copy(), **out))
         rows.append((query, n, "embreex run (single rays)", base))
         orders = [("", np.arange(n))]
         if query == "INTERSECT" and n == size * size:

@@ -30,10 +30,10 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 import bench  # noqa: E402
 
 import raytrace  # noqa: E402
-from raytrace import accel, integrator
+from raytrace import accel, integrator  # noqa: E402
 from raytrace.kernels import accel as accel_kernels  # noqa: E402
-from raytrace.kernels import records
-from raytrace.kernels import shading as shading_kernels
+from raytrace.kernels import records  # noqa: E402
+from raytrace.kernels import shading as shading_kernels  # noqa: E402
 
 #: Kernels are wrapped from Python: the renders run the Python loop (the same kernels in the
 #: same order as the compiled loop, tests/test_loop.py).
