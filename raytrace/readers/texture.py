@@ -1,11 +1,12 @@
 """Image textures for a material colour: ``kd = { texture = "wood.png" }``, MTL ``map_Kd``,
 glTF ``baseColorTexture``.
 
-A :class:`Texture` holds the image as linear float32 RGBA (H, W, 4), row 0 at the top: 8- and
-16-bit sRGB images are decoded with colour-science (``colour.cctf_decoding(x,
-function="sRGB")``, IEC 61966-2-1), code by code through a table of its values
-(:func:`decoding_table`; at 8 bits the table colour-science gave, stored in
-:data:`SRGB8_FILE`), alpha stays linear. The renderer samples it at the hit's
+A :class:`Texture` reads an image, a :class:`Texels`: linear float32 RGBA (H, W, 4), row 0 at
+the top, or an 8- or 16-bit image's codes, kept as they are until a render's material table
+decodes them (or a load-time edit asks for floats). sRGB codes are decoded with
+colour-science's values (``colour.cctf_decoding(x, function="sRGB")``, IEC 61966-2-1), code by
+code through a table (:func:`decoding_table`; at 8 bits the table colour-science gave, stored
+in :data:`SRGB8_FILE`), alpha stays linear. The renderer samples it at the hit's
 texture coordinates (s, t) (t = 0 at the top row, as in glTF; OBJ's t is flipped on loading)
 with bilinear filtering between texel centres (texel (i, j) is at ((i + ½)/W, (j + ½)/H)),
 and the wrap mode per axis from :data:`WRAPS` (:func:`raytrace.kernels.core.texture1`). Images are
@@ -89,11 +90,11 @@ class Texels:
 
 
 class Texture:
-    """An image as a colour: linear RGBA texels (H, W, 4) float32, wrap modes, a tint, and
-    its mapping: which texture-coordinate set it reads (``uv_set``: 0 the mesh's first, 1 a
-    glTF TEXCOORD_1) and an affine ``transform`` (2, 3) of those coordinates, ``(s', t') = M
-    · (s, t, 1)``, or None for the identity (:meth:`mapped`). Its :attr:`image` (a
-    :class:`Texels`) is shared with the textures that read the same image another way."""
+    """An image as a colour: its texels (:attr:`texels`, linear RGBA (H, W, 4) float32), wrap
+    modes, and its mapping: which texture-coordinate set it reads (``uv_set``: 0 the mesh's
+    first, 1 a glTF TEXCOORD_1) and an affine ``transform`` (2, 3) of those coordinates,
+    ``(s', t') = M · (s, t, 1)``, or None for the identity (:meth:`mapped`). Its :attr:`image`
+    (a :class:`Texels`) is shared with the textures that read the same image another way."""
 
     uv_set: int = 0
     transform: np.ndarray | None = None
