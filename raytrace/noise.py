@@ -4,8 +4,8 @@ Each pixel is sampled by two independent streams of samples (A and B, the "two h
 buffers" of Cycles' adaptive sampling), each the first ``n`` points of an Owen-scrambled
 (0, 2)-sequence (Sobol's first two dimensions with Burley's hash-based nested uniform
 scrambling: B. Burley, "Practical Hash-based Owen Scrambling", JCGT 9(4), 2020,
-:func:`owen_scramble`), scrambled by its own seed, hashed from the render's seed, the pixel
-and the stream. So:
+:func:`raytrace.kernels.camera.owen1`), scrambled by its own seed, hashed from the render's
+seed, the pixel and the stream. So:
 
 * every sample is a true sample of the pixel filter: uniform over the pixel for the box, and
   for the others drawn from the filter around the pixel's centre with its weight ``f/p``
@@ -35,7 +35,10 @@ most :func:`margin` away: a crop that traces that margin has the full frame's pi
 
 **By target error or time** (:func:`relative_rmse`, :func:`neyman_counts`): the image's
 relative RMSE is estimated as ``√(mean over pixels and channels of v) / mean over pixels and
-channels of I``; between rounds the pixels of highest ``σ/n`` double, and the render stops
+channels of I``; between rounds the pixels of highest ``σ/n`` double, σ² each pixel's sample
+variance (its samples of both streams pooled round by round, :func:`add_round`: ``2n − 1``
+degrees of freedom where ``v`` has one, so the first round can be small: 4 samples a pixel
+by default, :data:`raytrace.sampling.MIN_SPP_GOAL`), and the render stops
 after the first round whose estimate is at most the target, once the deadline has passed (no
 pass starts after it, so each pixel keeps whole rounds), or when every noisy pixel has
 ``max_spp``.
@@ -49,8 +52,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .camera import hash_uniform
 from .film.filters import importance
+from .kernels.camera import sobol_rows, stream_offset_rows
 
 #: Each pixel's independent sample streams (A and B): the pixel's variance is read from their
 #: difference (:func:`pixel_variance`).
@@ -60,74 +63,25 @@ STREAMS = 2
 KEY_STRIDE = 1 << 20
 #: The error's guard against division by zero in black pixels (Cycles' 0.0001).
 ERROR_EPSILON = 1e-4
-#: Direction numbers of Sobol's second dimension (primitive polynomial x + 1, all initial
-#: m = 1): v₀ = 2³¹, v_i = v_{i−1} ⊕ (v_{i−1} >> 1) (Joe & Kuo's table, dimension 2).
-_SOBOL1 = [1 << 31]
-for _ in range(31):
-    _SOBOL1.append(_SOBOL1[-1] ^ (_SOBOL1[-1] >> 1))
-SOBOL_DIRECTIONS = np.array(_SOBOL1, np.uint32)
-del _SOBOL1
-
-
-def reverse_bits(x: np.ndarray) -> np.ndarray:
-    """The 32 bits of each uint32 of ``x`` in reverse order.
-
-    >>> int(reverse_bits(np.array([1], np.uint32))[0]) == 1 << 31
-    True
-    """
-    x = np.asarray(x, np.uint32)
-    x = ((x >> 1) & 0x55555555) | ((x & 0x55555555) << 1)
-    x = ((x >> 2) & 0x33333333) | ((x & 0x33333333) << 2)
-    x = ((x >> 4) & 0x0F0F0F0F) | ((x & 0x0F0F0F0F) << 4)
-    x = ((x >> 8) & 0x00FF00FF) | ((x & 0x00FF00FF) << 8)
-    return ((x >> 16) | (x << 16)).astype(np.uint32)
-
-
-def owen_scramble(x: np.ndarray, seed: np.ndarray) -> np.ndarray:
-    """A nested uniform (Owen) scramble of 32-bit fractions ``x`` by ``seed`` (uint32 each),
-    Burley's way (2020, listing 3): the bits reversed, a hash in which each bit is flipped by
-    a function of the bits below it, reversed back, so each bit of ``x`` is flipped by a hash
-    of the bits above it. The hash is Vegdahl's improvement of Laine and Karras's ("Building
-    a Better LK Hash", 2021: xor-multiplies by even constants and a multiply by an odd one,
-    each of which moves information only upward); Burley's original constants left a 10×10
-    histogram of 20 000 streams' first points 4.9σ off uniform in one bin."""
-    with np.errstate(over="ignore"):
-        seed = np.asarray(seed, np.uint32)
-        v = reverse_bits(x)
-        v ^= v * np.uint32(0x3D20ADEA)
-        v += seed
-        v *= (seed >> 16) | np.uint32(1)
-        v ^= v * np.uint32(0x05526C56)
-        v ^= v * np.uint32(0x53A22864)
-    return reverse_bits(v)
-
-
 def sobol2(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The points ``index`` (n,) of the (0, 2)-sequence of Sobol's first two dimensions, as
-    32-bit fractions (uint32): van der Corput's radical inverse and the XOR of
-    :data:`SOBOL_DIRECTIONS` over ``index``'s set bits."""
-    index = np.asarray(index, np.uint32)
-    y = np.zeros(index.shape, np.uint32)
-    for bit in range(32):
-        if not (index >> bit).any():
-            break
-        y ^= np.where((index >> bit) & 1, SOBOL_DIRECTIONS[bit], np.uint32(0))
-    return reverse_bits(index), y
-
-
-def stream_seeds(seed: int, stream_id: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The x and y scrambling seeds (uint32) of pixel streams ``stream_id`` =
-    ``pixel·STREAMS + stream`` (global pixel numbers), hashed from the render's ``seed``."""
-    return tuple(np.floor(hash_uniform(seed, stream_id, axis) * 2.0**32).astype(np.uint32)
-                 for axis in (0, 1))
+    32-bit fractions (int64 in [0, 2³²)): :func:`raytrace.kernels.camera.sobol1`."""
+    index = np.ascontiguousarray(index, np.int64).reshape(-1)
+    x, y = np.empty(len(index), np.int64), np.empty(len(index), np.int64)
+    sobol_rows(index, x, y)
+    return x, y
 
 
 def offsets(seed: int, stream_id: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Positions (x, y) in [0, 1)² inside the pixel of sample ``k`` of the streams
-    ``stream_id`` (:func:`stream_seeds`): the Owen-scrambled Sobol point ``k``."""
-    sx, sy = stream_seeds(seed, stream_id)
-    ux, uy = sobol2(k)
-    return owen_scramble(ux, sx) * 2.0**-32, owen_scramble(uy, sy) * 2.0**-32
+    ``stream_id`` = ``pixel·STREAMS + stream`` (global pixel numbers): the Owen-scrambled
+    Sobol point ``k``, each axis scrambled by a seed hashed from the render's ``seed`` and the
+    stream (:func:`raytrace.kernels.camera.stream_offset_rows`)."""
+    stream_id = np.ascontiguousarray(stream_id, np.int64).reshape(-1)
+    k = np.ascontiguousarray(k, np.int64).reshape(-1)
+    x, y = np.empty(len(k)), np.empty(len(k))
+    stream_offset_rows(seed, stream_id, k, x, y)
+    return x, y
 
 
 def light_keys(stream_id: np.ndarray, k: np.ndarray) -> np.ndarray:
@@ -307,19 +261,38 @@ def box3(values: np.ndarray, cols: int) -> np.ndarray:
     return (total / count).reshape(-1)
 
 
-def neyman_counts(n: np.ndarray, a: np.ndarray, b: np.ndarray, most: int, cols: int,
+def pooled_moments(count: np.ndarray, mean: np.ndarray, m2: np.ndarray, more: np.ndarray,
+                   more_mean: np.ndarray, more_m2: np.ndarray) -> None:
+    """Add samples to running moments in place, Chan, Golub & LeVeque's pairwise update
+    ("Algorithms for computing the sample variance", The American Statistician 37(3), 1983,
+    eq. 2.1): a set of ``count`` samples (k,) with means ``mean`` and summed squared
+    deviations ``m2`` (k, 3) and another of ``more`` samples with ``more_mean`` and
+    ``more_m2`` make ``count + more`` samples of mean ``mean + δ·more/(count + more)`` and
+    ``m2 + more_m2 + δ²·count·more/(count + more)``, δ = ``more_mean − mean``: no difference
+    of large sums, so a bright pixel's small spread is not lost to cancellation."""
+    total = count + more
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = np.where(total > 0, more / np.maximum(total, 1), 0.0)[:, None]
+        delta = more_mean - mean
+        mean += delta * share
+        m2 += more_m2 + delta * delta * (count[:, None] * share)
+    count += more
+
+
+def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
                   share: float = 0.5) -> np.ndarray:
     """Each pixel's samples per stream after the next round of a render by target error or
     time: the pixels of highest priority ``σ̃/n`` double (to at most ``most``) until the
-    round adds ``share`` of the samples spent. σ̃² is the 3×3 mean (:func:`box3`) of the
-    per-sample variance ``2n·mean_c v`` (:func:`pixel_variance`). Giving each next sample to
-    the largest ``σ/n`` tends to Neyman's optimum allocation ``n ∝ σ``, which minimises the
-    summed variance ``Σ σ²/n`` for a given number of samples (J. Neyman 1934, "On the two
-    different aspects of the representative method", §5), where equal per-pixel errors (a
-    threshold) give no lower RMSE than uniform sampling save where σ = 0. Ties go to the
-    earlier pixel."""
-    v = pixel_variance(a, b).mean(-1) * (STREAMS * n)
-    v = np.where(np.isfinite(v), v, 0.0)
+    round adds ``share`` of the samples spent. σ̃² is the 3×3 mean (:func:`box3`) of each
+    pixel's per-sample variance ``variance`` (the sample variance of all its samples, both
+    streams pooled, averaged over the channels; not finite: 0, so such a pixel is not
+    sampled further). Giving each next sample to the largest ``σ/n`` tends to Neyman's
+    optimum allocation ``n ∝ σ``, which minimises the summed variance ``Σ σ²/n`` for a given
+    number of samples (J. Neyman 1934, "On the two different aspects of the representative
+    method", §5; with σ estimated from the samples, as Cochran's "Sampling Techniques", 3rd
+    ed., §5.5, allocates strata), where equal per-pixel errors (a threshold) give no lower
+    RMSE than uniform sampling save where σ = 0. Ties go to the earlier pixel."""
+    v = np.where(np.isfinite(variance), variance, 0.0)
     priority = np.sqrt(box3(v, cols)) / n
     open_ = np.flatnonzero((n < most) & (priority > 0))
     order = open_[np.argsort(-priority[open_], kind="stable")]
@@ -328,6 +301,27 @@ def neyman_counts(n: np.ndarray, a: np.ndarray, b: np.ndarray, most: int, cols: 
     new = n.copy()
     new[take] = np.minimum(2 * n[take], most)
     return new
+
+
+def add_round(count: np.ndarray, mean: np.ndarray, m2: np.ndarray, values: np.ndarray,
+              sizes: np.ndarray, starts: np.ndarray, block_sums: np.ndarray,
+              kept_blocks: np.ndarray, kept: np.ndarray) -> None:
+    """Pool a round's samples into each pixel's running moments (:func:`pooled_moments`):
+    ``values`` (m, 3) in blocks of ``sizes`` samples from ``starts``, with sums
+    ``block_sums``, of which the blocks ``kept`` (numbered ``pixel·STREAMS + stream``:
+    ``kept_blocks``) were traced. A pixel's two streams are two blocks, pooled one after the
+    other."""
+    block_mean = block_sums / sizes[:, None]
+    deviation = values - np.repeat(block_mean, sizes, axis=0)
+    block_m2 = np.add.reduceat(deviation * deviation, starts, axis=0)
+    pixel = kept_blocks // STREAMS
+    for stream in range(STREAMS):
+        on = kept_blocks % STREAMS == stream
+        p = pixel[on]
+        c, mu, s2 = count[p], mean[p], m2[p]
+        pooled_moments(c, mu, s2, sizes[kept][on].astype(np.float64), block_mean[kept][on],
+                       block_m2[kept][on])
+        count[p], mean[p], m2[p] = c, mu, s2
 
 
 def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Budget,
@@ -345,9 +339,11 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
     n = np.zeros(n_pixels, np.int64)
     new = np.full(n_pixels, budget.min_spp // STREAMS, np.int64)
     sums = np.zeros((n_pixels, STREAMS, 3))  # each pixel's streams' sums
+    goal = budget.target_error is not None or budget.deadline is not None
+    if goal:  # every sample of a pixel, both streams: count, mean, Σ(x − mean)²
+        count, mean, m2 = np.zeros(n_pixels), np.zeros((n_pixels, 3)), np.zeros((n_pixels, 3))
     rounds, stopped = 0, ""
     grew = np.ones(n_pixels, bool)  # the pixels the last round sampled
-    goal = budget.target_error is not None or budget.deadline is not None
     while True:
         r = plan(window, width, seed, n, new, filter)
         values, traced = trace(r, rounds == 0)
@@ -360,7 +356,11 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
         starts = (np.cumsum(block) - block)[blocks]
         kept = traced[starts]
         if len(blocks):
-            sums.reshape(-1, 3)[blocks[kept]] += np.add.reduceat(values, starts, axis=0)[kept]
+            block_sums = np.add.reduceat(values, starts, axis=0)
+            sums.reshape(-1, 3)[blocks[kept]] += block_sums[kept]
+            if goal:
+                add_round(count, mean, m2, values, block[blocks], starts, block_sums,
+                          blocks[kept], kept)
         done = new == n
         done[blocks[kept] // STREAMS] = True
         n = np.where(done, new, n)
@@ -375,7 +375,9 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
             stopped = "target_error"
             break
         if goal:
-            new = neyman_counts(n, a, b, most, cols)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                variance = (m2 / (count - 1.0)[:, None]).mean(-1)
+            new = neyman_counts(n, variance, most, cols)
         else:
             new = next_counts(n, pixel_error(a, b), budget.threshold, most, cols, grew)
         grew = new > n

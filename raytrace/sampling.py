@@ -34,6 +34,12 @@ FILTERS = {"box": Filter(BOX, 0.5), "tent": Filter(TENT, 1.0),
 AA_MODES = {"uniform": "spp stratified jittered samples a pixel",
             "adaptive": "pixel corners, cells halved where their corners differ",
             "noise": "samples doubled where a pixel's noise is over noise_threshold"}
+#: Noise-driven sampling's first round, samples a pixel, where ``min_spp`` is not given: by
+#: threshold (as Cycles' rule reads the two streams' difference, 4 samples a stream), and by
+#: target error or time, whose allocation reads each pixel's sample variance and gains from
+#: starting lower (docs/sampling.md, "Stopping by error or time").
+MIN_SPP = 8
+MIN_SPP_GOAL = 4
 #: The texture filters by their ``[render] texture_filter`` name (:mod:`raytrace.mipmap`,
 #: :mod:`raytrace.kernels.mip`).
 TEXTURE_FILTERS = {

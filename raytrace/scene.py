@@ -66,8 +66,10 @@ class RenderSettings:
     #: Noise-driven sampling (``aa = "noise"``, :mod:`raytrace.noise`): a pixel whose error
     #: (Dammertz et al. 2010, as Cycles) is above this gets more samples.
     noise_threshold: float = 0.01
-    #: Noise-driven: the samples every pixel gets first (even: half to each stream).
-    min_spp: int = 8
+    #: Noise-driven: the samples every pixel gets first (even: half to each stream); None:
+    #: :data:`raytrace.sampling.MIN_SPP` (8) by threshold,
+    #: :data:`raytrace.sampling.MIN_SPP_GOAL` (4) by target error or time.
+    min_spp: int | None = None
     #: Noise-driven: the most samples a pixel gets (even).
     max_spp: int = 1024
     #: Image-texture lookups (:data:`raytrace.sampling.TEXTURE_FILTERS`): "bilinear", or
@@ -99,14 +101,15 @@ class RenderSettings:
                              f"average of their cells), got {self.filter!r}", "render.filter")
         self.noise_threshold = values.number(self.noise_threshold, "render.noise_threshold",
                                              lo=0)
-        self.min_spp = values.number(self.min_spp, "render.min_spp", lo=2, hi=65536,
-                                     integer=True)
-        self.max_spp = values.number(self.max_spp, "render.max_spp", lo=self.min_spp,
+        if self.min_spp is not None:
+            self.min_spp = values.number(self.min_spp, "render.min_spp", lo=2, hi=65536,
+                                         integer=True)
+        self.max_spp = values.number(self.max_spp, "render.max_spp", lo=self.min_spp or 2,
                                      hi=65536, integer=True)
         self.texture_filter = values.string(self.texture_filter, "render.texture_filter",
                                             TEXTURE_FILTERS)
         for key in ("min_spp", "max_spp"):
-            if getattr(self, key) % 2:
+            if (getattr(self, key) or 0) % 2:
                 raise SceneError(f"must be even (half of a pixel's samples go to each of its "
                                  f"two streams), got {getattr(self, key)}", f"render.{key}")
 

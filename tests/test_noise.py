@@ -107,16 +107,61 @@ def test_next_counts_doubles_noisy_pixels_and_their_neighbours():
 
 
 def test_neyman_counts_samples_the_largest_sigma_over_n_first():
-    """Three pixels in a row with per-stream n = 2, 2, 4 and stream means differing by
-    d = 0, 2, 2: v = d²/4 a channel, per-sample variance 2n·v = 0, 4, 8 before pooling; the
-    3×3 box (here: the pixel and its row neighbours) gives 2, 4, 6, so σ̃/n = 0.71, 1.0,
+    """Three pixels in a row with per-stream n = 2, 2, 4 and per-sample variances 0, 4, 8:
+    the 3×3 box (here: the pixel and its row neighbours) gives 2, 4, 6, so σ̃/n = 0.71, 1.0,
     0.61. With a share of 0.2 of the 8 samples spent (1.6), the first pixel in priority order
-    (the middle one, costing 2) is enough."""
-    a = np.array([[0.0] * 3, [2.0] * 3, [2.0] * 3])
-    b = np.zeros((3, 3))
+    (the middle one, costing 2) is enough; with 0.5 (4), the second (the first, 2 more) too.
+    A variance that is not finite counts as 0."""
     n = np.array([2, 2, 4])
-    assert noise.neyman_counts(n, a, b, 64, 3, share=0.2).tolist() == [2, 4, 4]
-    assert noise.neyman_counts(n, a, b, 64, 3, share=0.5).tolist() == [4, 4, 4]
+    assert noise.neyman_counts(n, np.array([0.0, 4.0, 8.0]), 64, 3,
+                               share=0.2).tolist() == [2, 4, 4]
+    assert noise.neyman_counts(n, np.array([0.0, 4.0, 8.0]), 64, 3,
+                               share=0.5).tolist() == [4, 4, 4]
+    # σ̃² = 2, (0 + 4 + 0)/3, 2: σ̃/n = 0.71, 0.58, 0.35: the first pixel, at share 0.2
+    assert noise.neyman_counts(n, np.array([0.0, 4.0, np.nan]), 64, 3,
+                               share=0.2).tolist() == [4, 2, 4]
+
+
+def test_pooled_moments_are_those_of_all_the_samples():
+    """Moments pooled set by set (Chan et al.'s update) equal numpy's of the concatenated
+    samples: three sets of 3, 5 and 1 samples of three channels, around 1e8 with a spread of
+    1 (where Σx² − (Σx)²/n would lose every digit of the variance in float64: x² ≈ 1e16,
+    whose ulp is 2)."""
+    rng = np.random.default_rng(4)
+    sets = [1e8 + rng.standard_normal((k, 3)) for k in (3, 5, 1)]
+    count, mean, m2 = np.zeros(1), np.zeros((1, 3)), np.zeros((1, 3))
+    for x in sets:
+        noise.pooled_moments(count, mean, m2, np.array([float(len(x))]), x.mean(0)[None],
+                             ((x - x.mean(0)) ** 2).sum(0)[None])
+    every = np.concatenate(sets)
+    assert count[0] == 9
+    np.testing.assert_allclose(mean[0], every.mean(0), rtol=1e-15)
+    np.testing.assert_allclose(m2[0] / 8, every.var(0, ddof=1), rtol=1e-6)
+
+
+def test_a_rounds_blocks_pool_into_each_pixels_moments():
+    """Two rounds of two pixels' streams (blocks numbered pixel·2 + stream): round 1 gives
+    every block 2 samples, round 2 gives pixel 1's two blocks 3 more each and pixel 0's
+    stream B one more, of which only pixel 1's are traced. Each pixel's pooled count, mean and
+    sample variance are numpy's over the samples it kept."""
+    rng = np.random.default_rng(2)
+    count, mean, m2 = np.zeros(2), np.zeros((2, 3)), np.zeros((2, 3))
+    kept_values = {0: [], 1: []}
+    for sizes, blocks, kept in (([2, 2, 2, 2], [0, 1, 2, 3], [True] * 4),
+                                ([1, 3, 3], [1, 2, 3], [False, True, True])):
+        sizes, blocks, kept = np.array(sizes), np.array(blocks), np.array(kept)
+        values = rng.random((sizes.sum(), 3))
+        starts = np.cumsum(sizes) - sizes
+        noise.add_round(count, mean, m2, values, sizes, starts,
+                        np.add.reduceat(values, starts, axis=0), blocks[kept], kept)
+        for b, a, k, on in zip(blocks, starts, sizes, kept, strict=True):
+            if on:
+                kept_values[b // 2].append(values[a:a + k])
+    for p in (0, 1):
+        every = np.concatenate(kept_values[p])
+        assert count[p] == len(every) == (4, 10)[p]
+        np.testing.assert_allclose(mean[p], every.mean(0), rtol=1e-13)
+        np.testing.assert_allclose(m2[p] / (count[p] - 1), every.var(0, ddof=1), rtol=1e-12)
 
 
 def test_margin_counts_the_doublings():
@@ -256,18 +301,20 @@ def test_a_render_by_target_error_is_deterministic(threads):
 
 
 def test_a_time_limit_stops_after_the_first_round():
-    """A limit already past when the render starts: the first round (min_spp everywhere)
-    still runs, then nothing more."""
-    image = raytrace.render(every_ray_scene(), width=24, height=18, threads=1,
-                            time_limit=1e-9, aovs="samples")
-    st = image.stats["aa"]
-    assert st["stopped_by"] == "time_limit" and st["rounds"] == 1
-    assert np.all(image.aov("samples") == 8)
+    """A limit already past when the render starts: the first round (min_spp everywhere:
+    4, the default by target or time, or as given) still runs, then nothing more."""
+    for given, first in ((None, 4), (8, 8)):
+        image = raytrace.render(every_ray_scene(), width=24, height=18, threads=1,
+                                time_limit=1e-9, aovs="samples", min_spp=given)
+        st = image.stats["aa"]
+        assert st["stopped_by"] == "time_limit" and st["rounds"] == 1
+        assert st["min_spp"] == first and np.all(image.aov("samples") == first)
 
 
 def test_stopping_rules_in_the_cli_stats_and_exr(tmp_path):
     """A plane filling the frame, one colour: both streams agree everywhere, so the
-    estimate after the first round (8 samples a pixel) is 0 and the target is met."""
+    estimate after the first round (4 samples a pixel, the default by target or time) is 0
+    and the target is met."""
     path = write_text(tmp_path / "s.toml", "[render]\nwidth = 8\nheight = 6\n"
                       "[ambient]\ncolor = 1.0\n[materials.flat]\nka = 1.0\nkd = 0.0\n"
                       "[[objects]]\ntype = \"plane\"\npoint = [0, 0, -1]\n"
@@ -280,7 +327,7 @@ def test_stopping_rules_in_the_cli_stats_and_exr(tmp_path):
     assert st["stopped_by"] == "target_error" and st["estimated_relative_rmse"] == 0.0
     meta = raytrace.Image.from_exr(out).metadata
     assert float(meta["noise_estimated_relative_rmse"]) == 0.0
-    assert int(meta["noise_samples"]) == 8 * 8 * 6 and float(meta["render_seconds"]) > 0
+    assert int(meta["noise_samples"]) == 4 * 8 * 6 and float(meta["render_seconds"]) > 0
     assert meta["noise_stopped_by"] == "target_error"
 
 

@@ -78,7 +78,7 @@ BAD_KEYWORDS = {
     "aa_min_depth": (3, raytrace.SceneError, "render.aa_min_depth: must be <= 2"),
     "noise_threshold": (-1, raytrace.SceneError, "render.noise_threshold: must be >= 0"),
     "min_spp": (3, raytrace.SceneError, "render.min_spp: must be even"),
-    "max_spp": (4, raytrace.SceneError, "render.max_spp: must be >= 8"),
+    "max_spp": (1, raytrace.SceneError, "render.max_spp: must be >= 2"),
     "target_error": (0, raytrace.SceneError, "target_error: must be > 0"),
     "time_limit": (-1, raytrace.SceneError, "time_limit: must be > 0"),
     "client": (3, TypeError, "client must be a dask.distributed.Client or None, got int"),
