@@ -3,6 +3,7 @@
     python3 benchmarks/noise.py                       # whitted, mesh_model, area_light 160×120
     python3 benchmarks/noise.py --json out.json       # the table's numbers as JSON too
     python3 benchmarks/noise.py --curves docs/sampling  # + error-against-time curves, PNG each
+    python3 benchmarks/noise.py --min-spp 8            # noise-driven renders from 8 samples
 
 For each scene (2 threads, a reference of ``--reference-spp`` uniform samples with another
 seed, kept in ``--cache``): uniform 16 spp, timed (best of ``--repeats`` after a warm-up);
@@ -133,6 +134,8 @@ def main() -> None:
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--scenes", nargs="*", default=["whitted", "mesh_model", "area_light"])
     p.add_argument("--cache", type=Path, default=Path("/tmp/raytrace-noise-references"))
+    p.add_argument("--min-spp", type=int, help="the noise-driven renders' first round "
+                   "(default: the renderer's, 4 by target or time, 8 by threshold)")
     p.add_argument("--json", type=Path)
     p.add_argument("--curves", type=Path, metavar="FOLDER",
                    help="also measure the error-against-time curves; their PNGs go here")
@@ -157,8 +160,9 @@ def main() -> None:
                 "noise, target = uniform's error": dict(target_error=e_u / level),
                 "noise, --target-error 0.01": dict(target_error=0.01),
                 "noise, threshold 0.01 (default)": dict(aa="noise")}
+        first = {} if a.min_spp is None else {"min_spp": a.min_spp}
         for label, kw in runs.items():
-            image, seconds, cpu = timed(scene, a.repeats, **common, **kw)
+            image, seconds, cpu = timed(scene, a.repeats, **common, **kw, **first)
             st = image.stats["aa"]
             rows[label] = (seconds, cpu, st["samples_per_pixel"], rmse(image),
                            st["estimated_relative_rmse"])

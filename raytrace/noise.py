@@ -4,7 +4,7 @@ Each pixel is sampled by two independent streams of samples (A and B, the "two h
 buffers" of Cycles' adaptive sampling), each the first ``n`` points of an Owen-scrambled
 (0, 2)-sequence (Sobol's first two dimensions with Burley's hash-based nested uniform
 scrambling: B. Burley, "Practical Hash-based Owen Scrambling", JCGT 9(4), 2020,
-:func:`raytrace.kernels.camera.owen1`), scrambled by its own seed, hashed from the render's
+:func:`raytrace.kernels.noise.owen1`), scrambled by its own seed, hashed from the render's
 seed, the pixel and the stream. So:
 
 * every sample is a true sample of the pixel filter: uniform over the pixel for the box, and
@@ -36,7 +36,8 @@ most :func:`margin` away: a crop that traces that margin has the full frame's pi
 **By target error or time** (:func:`relative_rmse`, :func:`neyman_counts`): the image's
 relative RMSE is estimated as ``√(mean over pixels and channels of v) / mean over pixels and
 channels of I``; between rounds the pixels of highest ``σ/n`` double, σ² each pixel's sample
-variance (its samples of both streams pooled round by round, :func:`add_round`: ``2n − 1``
+variance (its samples of both streams pooled round by round,
+:func:`raytrace.kernels.noise.pool_blocks`: ``2n − 1``
 degrees of freedom where ``v`` has one, so the first round can be small: 4 samples a pixel
 by default, :data:`raytrace.sampling.MIN_SPP_GOAL`), and the render stops
 after the first round whose estimate is at most the target, once the deadline has passed (no
@@ -53,19 +54,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from .film.filters import importance
-from .kernels.camera import sobol_rows, stream_offset_rows
+from .kernels.noise import STREAMS, pool_blocks, round_points, sobol_rows, stream_offset_rows
+from .kernels.records import StreamSamples, Window
 
-#: Each pixel's independent sample streams (A and B): the pixel's variance is read from their
-#: difference (:func:`pixel_variance`).
-STREAMS = 2
-#: Samples of one stream of a pixel are numbered below this: a sample's light key is
-#: ``(pixel·STREAMS + stream)·KEY_STRIDE + k`` (:func:`light_keys`).
-KEY_STRIDE = 1 << 20
 #: The error's guard against division by zero in black pixels (Cycles' 0.0001).
 ERROR_EPSILON = 1e-4
 def sobol2(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The points ``index`` (n,) of the (0, 2)-sequence of Sobol's first two dimensions, as
-    32-bit fractions (int64 in [0, 2³²)): :func:`raytrace.kernels.camera.sobol1`."""
+    32-bit fractions (int64 in [0, 2³²)): :func:`raytrace.kernels.noise.sobol1`."""
     index = np.ascontiguousarray(index, np.int64).reshape(-1)
     x, y = np.empty(len(index), np.int64), np.empty(len(index), np.int64)
     sobol_rows(index, x, y)
@@ -76,18 +72,12 @@ def offsets(seed: int, stream_id: np.ndarray, k: np.ndarray) -> tuple[np.ndarray
     """Positions (x, y) in [0, 1)² inside the pixel of sample ``k`` of the streams
     ``stream_id`` = ``pixel·STREAMS + stream`` (global pixel numbers): the Owen-scrambled
     Sobol point ``k``, each axis scrambled by a seed hashed from the render's ``seed`` and the
-    stream (:func:`raytrace.kernels.camera.stream_offset_rows`)."""
+    stream (:func:`raytrace.kernels.noise.stream_offset_rows`)."""
     stream_id = np.ascontiguousarray(stream_id, np.int64).reshape(-1)
     k = np.ascontiguousarray(k, np.int64).reshape(-1)
     x, y = np.empty(len(k)), np.empty(len(k))
     stream_offset_rows(seed, stream_id, k, x, y)
     return x, y
-
-
-def light_keys(stream_id: np.ndarray, k: np.ndarray) -> np.ndarray:
-    """The jitter keys of the samples' area-light points (int64, unique in a frame):
-    ``stream_id·KEY_STRIDE + k``."""
-    return np.asarray(stream_id, np.int64) * KEY_STRIDE + np.asarray(k, np.int64)
 
 
 def pixel_variance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -157,13 +147,11 @@ def margin(min_spp: int, max_spp: int) -> int:
 @dataclass
 class Round:
     """The samples of one round, pixel by pixel, each pixel's stream A then B, each in
-    sample order: ``pixel`` (m,) index in the window, ``stream`` (m,) 0 or 1, ``x``, ``y``
-    (m,) image positions (pixels of the frame), ``keys`` (m,) light keys, ``bounds``, the
-    first sample of each pixel (and m at the end), where passes may be cut, and ``weight``
-    (m,), each sample's filter weight ``f/p`` (None where all are 1)."""
+    sample order: ``x``, ``y`` (m,) image positions (pixels of the frame), ``keys`` (m,)
+    light keys, ``bounds``, the first sample of each pixel (and m at the end), where passes
+    may be cut, and ``weight`` (m,), each sample's filter weight ``f/p`` (None where all are
+    1)."""
 
-    pixel: np.ndarray
-    stream: np.ndarray
     x: np.ndarray
     y: np.ndarray
     keys: np.ndarray
@@ -178,25 +166,19 @@ def plan(window: tuple[int, int, int, int], width: int, seed: int, old: np.ndarr
     stream's Owen-scrambled Sobol point (:func:`offsets`), uniform over the pixel for the
     box ``filter``, else mapped through the filter around the pixel's centre
     (:func:`raytrace.film.filters.importance`)."""
-    x0, y0, x1, _ = window
     grow = new - old
-    pixel = np.repeat(np.arange(len(old)), STREAMS * grow)
-    per = np.repeat(grow, STREAMS)  # samples of each (pixel, stream) block
-    start = np.cumsum(per) - per
-    stream = np.repeat(np.tile(np.arange(STREAMS), len(old)), per)
-    k = np.arange(len(pixel)) - np.repeat(start, per) + np.repeat(np.repeat(old, STREAMS), per)
-    row, col = np.divmod(pixel, x1 - x0)
-    stream_id = ((row + y0) * width + col + x0) * STREAMS + stream
-    sx, sy = offsets(seed, stream_id, k)
     bounds = np.concatenate([[0], np.cumsum(STREAMS * grow)])
+    m = int(bounds[-1])
+    out = StreamSamples(np.empty(m), np.empty(m), *(np.empty(m, np.int64) for _ in range(3)))
+    round_points(Window(*window), width, seed, old, new, out)
+    sx, sy = out.sx, out.sy
     weight = None
     if filter != "box":
         (dx, wx), (dy, wy) = importance(filter, sx), importance(filter, sy)
         sx, sy = 0.5 + dx, 0.5 + dy
         if (wx != 1.0).any() or (wy != 1.0).any():  # a filter with negative lobes
             weight = wx * wy
-    return Round(pixel, stream, col + x0 + sx, row + y0 + sy, light_keys(stream_id, k),
-                 bounds, weight)
+    return Round(out.col + sx, out.row + sy, out.keys, bounds, weight)
 
 
 def passes(bounds: np.ndarray, size: int) -> list[tuple[int, int]]:
@@ -261,24 +243,6 @@ def box3(values: np.ndarray, cols: int) -> np.ndarray:
     return (total / count).reshape(-1)
 
 
-def pooled_moments(count: np.ndarray, mean: np.ndarray, m2: np.ndarray, more: np.ndarray,
-                   more_mean: np.ndarray, more_m2: np.ndarray) -> None:
-    """Add samples to running moments in place, Chan, Golub & LeVeque's pairwise update
-    ("Algorithms for computing the sample variance", The American Statistician 37(3), 1983,
-    eq. 2.1): a set of ``count`` samples (k,) with means ``mean`` and summed squared
-    deviations ``m2`` (k, 3) and another of ``more`` samples with ``more_mean`` and
-    ``more_m2`` make ``count + more`` samples of mean ``mean + δ·more/(count + more)`` and
-    ``m2 + more_m2 + δ²·count·more/(count + more)``, δ = ``more_mean − mean``: no difference
-    of large sums, so a bright pixel's small spread is not lost to cancellation."""
-    total = count + more
-    with np.errstate(invalid="ignore", divide="ignore"):
-        share = np.where(total > 0, more / np.maximum(total, 1), 0.0)[:, None]
-        delta = more_mean - mean
-        mean += delta * share
-        m2 += more_m2 + delta * delta * (count[:, None] * share)
-    count += more
-
-
 def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
                   share: float = 0.5) -> np.ndarray:
     """Each pixel's samples per stream after the next round of a render by target error or
@@ -303,27 +267,6 @@ def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
     return new
 
 
-def add_round(count: np.ndarray, mean: np.ndarray, m2: np.ndarray, values: np.ndarray,
-              sizes: np.ndarray, starts: np.ndarray, block_sums: np.ndarray,
-              kept_blocks: np.ndarray, kept: np.ndarray) -> None:
-    """Pool a round's samples into each pixel's running moments (:func:`pooled_moments`):
-    ``values`` (m, 3) in blocks of ``sizes`` samples from ``starts``, with sums
-    ``block_sums``, of which the blocks ``kept`` (numbered ``pixel·STREAMS + stream``:
-    ``kept_blocks``) were traced. A pixel's two streams are two blocks, pooled one after the
-    other."""
-    block_mean = block_sums / sizes[:, None]
-    deviation = values - np.repeat(block_mean, sizes, axis=0)
-    block_m2 = np.add.reduceat(deviation * deviation, starts, axis=0)
-    pixel = kept_blocks // STREAMS
-    for stream in range(STREAMS):
-        on = kept_blocks % STREAMS == stream
-        p = pixel[on]
-        c, mu, s2 = count[p], mean[p], m2[p]
-        pooled_moments(c, mu, s2, sizes[kept][on].astype(np.float64), block_mean[kept][on],
-                       block_m2[kept][on])
-        count[p], mean[p], m2[p] = c, mu, s2
-
-
 def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Budget,
            trace: RoundTracer, filter: str = "box") -> Result:
     """Adaptive sampling of the pixels of ``window`` (module docstring): a first round of
@@ -341,7 +284,8 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
     sums = np.zeros((n_pixels, STREAMS, 3))  # each pixel's streams' sums
     goal = budget.target_error is not None or budget.deadline is not None
     if goal:  # every sample of a pixel, both streams: count, mean, Σ(x − mean)²
-        count, mean, m2 = np.zeros(n_pixels), np.zeros((n_pixels, 3)), np.zeros((n_pixels, 3))
+        count = np.zeros(n_pixels, np.int64)
+        mean, m2 = np.zeros((n_pixels, 3)), np.zeros((n_pixels, 3))
     rounds, stopped = 0, ""
     grew = np.ones(n_pixels, bool)  # the pixels the last round sampled
     while True:
@@ -356,11 +300,10 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
         starts = (np.cumsum(block) - block)[blocks]
         kept = traced[starts]
         if len(blocks):
-            block_sums = np.add.reduceat(values, starts, axis=0)
-            sums.reshape(-1, 3)[blocks[kept]] += block_sums[kept]
-            if goal:
-                add_round(count, mean, m2, values, block[blocks], starts, block_sums,
-                          blocks[kept], kept)
+            sums.reshape(-1, 3)[blocks[kept]] += np.add.reduceat(values, starts, axis=0)[kept]
+            if goal:  # the pixel's blocks, stream A then B (pool_blocks)
+                pool_blocks(values, starts[kept], block[blocks][kept],
+                            blocks[kept] // STREAMS, count, mean, m2)
         done = new == n
         done[blocks[kept] // STREAMS] = True
         n = np.where(done, new, n)

@@ -18,6 +18,7 @@ from test_threads import scene as every_ray_scene
 import raytrace
 from raytrace import cli, noise
 from raytrace.errors import SceneError
+from raytrace.kernels.noise import pool_blocks
 
 W, H = 8, 6
 
@@ -123,45 +124,46 @@ def test_neyman_counts_samples_the_largest_sigma_over_n_first():
 
 
 def test_pooled_moments_are_those_of_all_the_samples():
-    """Moments pooled set by set (Chan et al.'s update) equal numpy's of the concatenated
-    samples: three sets of 3, 5 and 1 samples of three channels, around 1e8 with a spread of
-    1 (where Σx² − (Σx)²/n would lose every digit of the variance in float64: x² ≈ 1e16,
-    whose ulp is 2)."""
+    """Moments pooled block by block (Chan et al.'s update) equal numpy's of the concatenated
+    samples: blocks of 3, 5 and 1 samples of three channels, around 1e8 with a spread of 1
+    (where Σx² − (Σx)²/n would lose every digit of the variance in float64: x² ≈ 1e16, whose
+    ulp is 2), all of pixel 1, and a block of 2 of pixel 0 between them."""
     rng = np.random.default_rng(4)
-    sets = [1e8 + rng.standard_normal((k, 3)) for k in (3, 5, 1)]
-    count, mean, m2 = np.zeros(1), np.zeros((1, 3)), np.zeros((1, 3))
-    for x in sets:
-        noise.pooled_moments(count, mean, m2, np.array([float(len(x))]), x.mean(0)[None],
-                             ((x - x.mean(0)) ** 2).sum(0)[None])
-    every = np.concatenate(sets)
-    assert count[0] == 9
-    np.testing.assert_allclose(mean[0], every.mean(0), rtol=1e-15)
-    np.testing.assert_allclose(m2[0] / 8, every.var(0, ddof=1), rtol=1e-6)
+    blocks = [1e8 + rng.standard_normal((k, 3)) for k in (3, 2, 5, 1)]
+    values = np.concatenate(blocks)
+    sizes = np.array([len(b) for b in blocks])
+    count, mean, m2 = np.zeros(2, np.int64), np.zeros((2, 3)), np.zeros((2, 3))
+    pool_blocks(values, np.cumsum(sizes) - sizes, sizes, np.array([1, 0, 1, 1]), count, mean,
+                m2)
+    for p, mine in ((0, [blocks[1]]), (1, [blocks[0], blocks[2], blocks[3]])):
+        every = np.concatenate(mine)
+        assert count[p] == len(every)
+        np.testing.assert_allclose(mean[p], every.mean(0), rtol=1e-15)
+        np.testing.assert_allclose(m2[p] / (count[p] - 1), every.var(0, ddof=1), rtol=1e-6)
 
 
-def test_a_rounds_blocks_pool_into_each_pixels_moments():
-    """Two rounds of two pixels' streams (blocks numbered pixel·2 + stream): round 1 gives
-    every block 2 samples, round 2 gives pixel 1's two blocks 3 more each and pixel 0's
-    stream B one more, of which only pixel 1's are traced. Each pixel's pooled count, mean and
-    sample variance are numpy's over the samples it kept."""
-    rng = np.random.default_rng(2)
-    count, mean, m2 = np.zeros(2), np.zeros((2, 3)), np.zeros((2, 3))
-    kept_values = {0: [], 1: []}
-    for sizes, blocks, kept in (([2, 2, 2, 2], [0, 1, 2, 3], [True] * 4),
-                                ([1, 3, 3], [1, 2, 3], [False, True, True])):
-        sizes, blocks, kept = np.array(sizes), np.array(blocks), np.array(kept)
-        values = rng.random((sizes.sum(), 3))
-        starts = np.cumsum(sizes) - sizes
-        noise.add_round(count, mean, m2, values, sizes, starts,
-                        np.add.reduceat(values, starts, axis=0), blocks[kept], kept)
-        for b, a, k, on in zip(blocks, starts, sizes, kept, strict=True):
-            if on:
-                kept_values[b // 2].append(values[a:a + k])
-    for p in (0, 1):
-        every = np.concatenate(kept_values[p])
-        assert count[p] == len(every) == (4, 10)[p]
-        np.testing.assert_allclose(mean[p], every.mean(0), rtol=1e-13)
-        np.testing.assert_allclose(m2[p] / (count[p] - 1), every.var(0, ddof=1), rtol=1e-12)
+def test_a_render_by_target_doubles_the_pixels_of_widest_spread():
+    """A 4 × 3 window whose samples' value is their x offset inside the pixel, and twice it
+    in the middle column pair: after a first round of 2 + 2 samples a pixel, each pixel's
+    pooled sample variance is that of its own 4 offsets (times 4 in the middle columns), and
+    the second round doubles the pixels of highest σ̃/n (σ̃² the 3×3 mean, neyman_counts)
+    until half the samples spent are added: the pixels that neyman_counts picks from those
+    variances, computed here with numpy."""
+    rounds = []
+
+    def trace(r, first):
+        rounds.append(r)
+        x = r.x - np.floor(r.x)
+        x = np.where(np.isin(np.floor(r.x), (1, 2)), 2 * x, x)
+        return np.repeat(x[:, None], 3, axis=1), np.ones(len(r.x), bool)
+
+    noise.sample((0, 0, 4, 3), 4, 9, noise.Budget(4, 64, 0.01, target_error=1e-9), trace)
+    x = rounds[0].x.reshape(12, 4)
+    value = np.where(np.isin(np.floor(x), (1, 2)), 2, 1) * (x - np.floor(x))
+    want = noise.neyman_counts(np.full(12, 2), value.var(1, ddof=1), 32, 4)
+    assert 2 < (want > 2).sum() < 12  # the test picks some pixels, not all or none
+    grown = np.diff(rounds[1].bounds) > 0
+    assert grown.tolist() == (want > 2).tolist()
 
 
 def test_margin_counts_the_doublings():

@@ -1,29 +1,14 @@
 """Compiled camera rays: a pinhole's unit directions through pixel positions
 (:func:`direction1`) and the jittered samples of a window (:func:`directions`); array
 versions of the camera's draws (:func:`raytrace.kernels.core.camera_uniform`,
-:func:`raytrace.kernels.core.pixel_offset`); the Owen-scrambled Sobol points of noise-driven
-sampling's streams (:func:`stream_offset_rows`). Used by :mod:`raytrace.camera` and
-:mod:`raytrace.noise`."""
+:func:`raytrace.kernels.core.pixel_offset`). Used by :mod:`raytrace.camera`."""
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from .core import camera_uniform, pixel_offset
 from .jit import helper, kernel
-
-#: The low 32 bits: the stream points' integer arithmetic is 32-bit, done in int64 and masked
-#: (every product below stays under 2⁶³).
-MASK32 = 0xFFFFFFFF
-#: Direction numbers of Sobol's second dimension (primitive polynomial x + 1, all initial
-#: m = 1): v₀ = 2³¹, v_i = v_{i−1} ⊕ (v_{i−1} >> 1) (Joe & Kuo's table, dimension 2).
-SOBOL_DIRECTIONS = np.empty(32, np.int64)
-SOBOL_DIRECTIONS[0] = 1 << 31
-for _bit in range(1, 32):
-    SOBOL_DIRECTIONS[_bit] = SOBOL_DIRECTIONS[_bit - 1] ^ (SOBOL_DIRECTIONS[_bit - 1] >> 1)
-del _bit
 
 
 @kernel
@@ -94,74 +79,3 @@ def directions(start, sampling, pinhole, window, out):
                 row += 1
                 g += (width - cols) * spp
 
-
-# -- noise-driven sampling's streams -------------------------------------------------------
-@helper
-def reverse_bits1(x):
-    """The 32 bits of ``x`` (an integer in [0, 2³²)) in reverse order."""
-    x = ((x >> 1) & 0x55555555) | ((x & 0x55555555) << 1)
-    x = ((x >> 2) & 0x33333333) | ((x & 0x33333333) << 2)
-    x = ((x >> 4) & 0x0F0F0F0F) | ((x & 0x0F0F0F0F) << 4)
-    x = ((x >> 8) & 0x00FF00FF) | ((x & 0x00FF00FF) << 8)
-    return ((x >> 16) | (x << 16)) & MASK32
-
-
-@helper
-def owen1(x, seed):
-    """A nested uniform (Owen) scramble of the 32-bit fraction ``x`` by ``seed`` (both in
-    [0, 2³²)), Burley's way ("Practical Hash-based Owen Scrambling", JCGT 9(4), 2020, listing
-    3): the bits reversed, a hash in which each bit is flipped by a function of the bits below
-    it, reversed back, so each bit of ``x`` is flipped by a hash of the bits above it. The
-    hash is Vegdahl's improvement of Laine and Karras's ("Building a Better LK Hash", 2021:
-    xor-multiplies by even constants and a multiply by an odd one, each of which moves
-    information only upward); Burley's original constants left a 10×10 histogram of 20 000
-    streams' first points 4.9σ off uniform in one bin."""
-    v = reverse_bits1(x)
-    v ^= (v * 0x3D20ADEA) & MASK32
-    v = (v + seed) & MASK32
-    v = (v * ((seed >> 16) | 1)) & MASK32
-    v ^= (v * 0x05526C56) & MASK32
-    v ^= (v * 0x53A22864) & MASK32
-    return reverse_bits1(v)
-
-
-@helper
-def sobol1(index):
-    """Point ``index`` (in [0, 2³²)) of the (0, 2)-sequence of Sobol's first two dimensions,
-    as 32-bit fractions: van der Corput's radical inverse and the XOR of
-    :data:`SOBOL_DIRECTIONS` over ``index``'s set bits."""
-    y, bits, bit = 0, index, 0
-    while bits:
-        if bits & 1:
-            y ^= SOBOL_DIRECTIONS[bit]
-        bits >>= 1
-        bit += 1
-    return reverse_bits1(index), y
-
-
-@helper
-def stream_seed1(seed, stream_id, axis):
-    """The 32-bit scrambling seed of axis ``axis`` (0: x, 1: y) of stream ``stream_id``:
-    ⌊2³²·u⌋ of the camera's draw u (:func:`raytrace.kernels.core.camera_uniform`) of the
-    render's ``seed``."""
-    return int(math.floor(camera_uniform(seed, stream_id, axis) * 4294967296.0))
-
-
-@kernel
-def stream_offset_rows(seed, stream_id, k, sx, sy):
-    """Positions (sx, sy) in [0, 1)² inside the pixel of sample ``k[i]`` of stream
-    ``stream_id[i]``: the Owen-scrambled (:func:`owen1`, each axis by its
-    :func:`stream_seed1`) Sobol point ``k[i]`` (:func:`sobol1`)."""
-    for i in range(k.shape[0]):
-        ux, uy = sobol1(k[i] & MASK32)
-        sid = stream_id[i]
-        sx[i] = owen1(ux, stream_seed1(seed, sid, 0)) * 2.0**-32
-        sy[i] = owen1(uy, stream_seed1(seed, sid, 1)) * 2.0**-32
-
-
-@kernel
-def sobol_rows(index, x, y):
-    """:func:`sobol1` of each ``index[i]``: its two 32-bit fractions (integers) into ``x``
-    and ``y`` (tests)."""
-    for i in range(index.shape[0]):
-        x[i], y[i] = sobol1(index[i] & MASK32)

@@ -48,6 +48,7 @@ record                   what it holds (n rays or hits, M materials, T triangles
 :class:`Pinhole`         the frame as a pinhole sees it
 :class:`Sampling`        how a frame's pixel samples are numbered and placed
 :class:`Window`          a window of pixels (a crop, or what is traced)
+:class:`StreamSamples`   a noise-driven round's samples: offsets, pixels and light keys
 :class:`FilterProfile`   a reconstruction filter
 :class:`Cells`           adaptive anti-aliasing's cells of a level, :class:`Level` its rule,
                          :class:`SlotGrid` its lattice points' table
@@ -530,6 +531,17 @@ class Window(NamedTuple):
     y0: int
     x1: int
     y1: int
+
+
+class StreamSamples(NamedTuple):
+    """The ``m`` samples of a noise-driven round (``kernels.noise.round_points``), in the
+    round's order."""
+
+    sx: np.ndarray    #: (m,) float64 the offset in [0, 1) inside the pixel, x
+    sy: np.ndarray    #: (m,) float64 and y
+    col: np.ndarray   #: (m,) int64 the pixel's column of the frame
+    row: np.ndarray   #: (m,) int64 and row
+    keys: np.ndarray  #: (m,) int64 the light key of its area-light points
 
 
 class FilterProfile(NamedTuple):

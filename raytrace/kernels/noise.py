@@ -1,0 +1,158 @@
+"""The per-sample arithmetic of noise-driven sampling (:mod:`raytrace.noise`): each pixel
+stream's Owen-scrambled Sobol points (:func:`round_points`) and the running moments of each
+pixel's samples (:func:`pool_blocks`), so a round's planning and bookkeeping cost the main
+thread little while the passes wait for it.
+
+The streams' integer arithmetic is 32-bit, done in int64 and masked (:data:`MASK32`; every
+product stays under 2⁶³), bit for bit numpy's uint32 arithmetic.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .core import camera_uniform
+from .jit import helper, kernel
+
+#: The low 32 bits.
+MASK32 = 0xFFFFFFFF
+#: Each pixel's independent sample streams (A and B): the pixel's variance is read from their
+#: difference (``raytrace.noise.pixel_variance``).
+STREAMS = 2
+#: Samples of one stream of a pixel are numbered below this: a sample's light key is
+#: ``(pixel·STREAMS + stream)·KEY_STRIDE + k`` (:func:`round_points`).
+KEY_STRIDE = 1 << 20
+#: Direction numbers of Sobol's second dimension (primitive polynomial x + 1, all initial
+#: m = 1): v₀ = 2³¹, v_i = v_{i−1} ⊕ (v_{i−1} >> 1) (Joe & Kuo's table, dimension 2).
+SOBOL_DIRECTIONS = np.empty(32, np.int64)
+SOBOL_DIRECTIONS[0] = 1 << 31
+for _bit in range(1, 32):
+    SOBOL_DIRECTIONS[_bit] = SOBOL_DIRECTIONS[_bit - 1] ^ (SOBOL_DIRECTIONS[_bit - 1] >> 1)
+del _bit
+
+
+@helper
+def reverse_bits1(x):
+    """The 32 bits of ``x`` (an integer in [0, 2³²)) in reverse order."""
+    x = ((x >> 1) & 0x55555555) | ((x & 0x55555555) << 1)
+    x = ((x >> 2) & 0x33333333) | ((x & 0x33333333) << 2)
+    x = ((x >> 4) & 0x0F0F0F0F) | ((x & 0x0F0F0F0F) << 4)
+    x = ((x >> 8) & 0x00FF00FF) | ((x & 0x00FF00FF) << 8)
+    return ((x >> 16) | (x << 16)) & MASK32
+
+
+@helper
+def owen1(x, seed):
+    """A nested uniform (Owen) scramble of the 32-bit fraction ``x`` by ``seed`` (both in
+    [0, 2³²)), Burley's way ("Practical Hash-based Owen Scrambling", JCGT 9(4), 2020, listing
+    3): the bits reversed, a hash in which each bit is flipped by a function of the bits below
+    it, reversed back, so each bit of ``x`` is flipped by a hash of the bits above it. The
+    hash is Vegdahl's improvement of Laine and Karras's ("Building a Better LK Hash", 2021:
+    xor-multiplies by even constants and a multiply by an odd one, each of which moves
+    information only upward); Burley's original constants left a 10×10 histogram of 20 000
+    streams' first points 4.9σ off uniform in one bin."""
+    v = reverse_bits1(x)
+    v ^= (v * 0x3D20ADEA) & MASK32
+    v = (v + seed) & MASK32
+    v = (v * ((seed >> 16) | 1)) & MASK32
+    v ^= (v * 0x05526C56) & MASK32
+    v ^= (v * 0x53A22864) & MASK32
+    return reverse_bits1(v)
+
+
+@helper
+def sobol1(index):
+    """Point ``index`` (in [0, 2³²)) of the (0, 2)-sequence of Sobol's first two dimensions,
+    as 32-bit fractions: van der Corput's radical inverse and the XOR of
+    :data:`SOBOL_DIRECTIONS` over ``index``'s set bits."""
+    y, bits, bit = 0, index, 0
+    while bits:
+        if bits & 1:
+            y ^= SOBOL_DIRECTIONS[bit]
+        bits >>= 1
+        bit += 1
+    return reverse_bits1(index), y
+
+
+@helper
+def stream_seed1(seed, stream_id, axis):
+    """The 32-bit scrambling seed of axis ``axis`` (0: x, 1: y) of stream ``stream_id``:
+    ⌊2³²·u⌋ of the camera's draw u (:func:`raytrace.kernels.core.camera_uniform`) of the
+    render's ``seed``."""
+    return int(math.floor(camera_uniform(seed, stream_id, axis) * 4294967296.0))
+
+
+@kernel
+def sobol_rows(index, x, y):
+    """:func:`sobol1` of each ``index[i]``: its two 32-bit fractions (integers) into ``x``
+    and ``y`` (tests)."""
+    for i in range(index.shape[0]):
+        x[i], y[i] = sobol1(index[i] & MASK32)
+
+
+@kernel
+def stream_offset_rows(seed, stream_id, k, sx, sy):
+    """Positions (sx, sy) in [0, 1)² inside the pixel of sample ``k[i]`` of stream
+    ``stream_id[i]``: the Owen-scrambled (:func:`owen1`, each axis by its
+    :func:`stream_seed1`) Sobol point ``k[i]`` (:func:`sobol1`)."""
+    for i in range(k.shape[0]):
+        ux, uy = sobol1(k[i] & MASK32)
+        sid = stream_id[i]
+        sx[i] = owen1(ux, stream_seed1(seed, sid, 0)) * 2.0**-32
+        sy[i] = owen1(uy, stream_seed1(seed, sid, 1)) * 2.0**-32
+
+
+@kernel
+def round_points(window, width, seed, old, new, out):
+    """The samples ``old[p]`` to ``new[p] − 1`` of each of the :data:`STREAMS` streams of
+    each pixel p of ``window`` (a :class:`raytrace.kernels.records.Window`: its pixels row by
+    row from (x0, y0), in a ``width``-wide frame), pixel after pixel, stream after stream, in
+    sample order, into ``out`` (a :class:`raytrace.kernels.records.StreamSamples`): each
+    sample's offset in the pixel (stream ``sid = (row·width + col)·STREAMS + stream``: as
+    :func:`stream_offset_rows`, each stream's two seeds hashed once), its pixel's frame
+    column and row, and its light key ``sid·KEY_STRIDE + k``."""
+    x0, y0 = window.x0, window.y0
+    cols = window.x1 - x0
+    j = 0
+    for p in range(old.shape[0]):
+        c, r = x0 + p % cols, y0 + p // cols
+        for stream in range(STREAMS):
+            sid = (r * width + c) * STREAMS + stream
+            seed_x, seed_y = stream_seed1(seed, sid, 0), stream_seed1(seed, sid, 1)
+            for k in range(old[p], new[p]):
+                ux, uy = sobol1(k & MASK32)
+                out.sx[j] = owen1(ux, seed_x) * 2.0**-32
+                out.sy[j] = owen1(uy, seed_y) * 2.0**-32
+                out.col[j], out.row[j], out.keys[j] = c, r, sid * KEY_STRIDE + k
+                j += 1
+
+
+@kernel
+def pool_blocks(values, starts, sizes, pixel, count, mean, m2):
+    """Add block i's samples (rows ``starts[i]`` … ``starts[i] + sizes[i] − 1`` of ``values``,
+    (m, 3)) to the running moments of pixel ``pixel[i]``: its ``count`` of samples, their
+    ``mean`` and summed squared deviations ``m2`` (k, 3), by Chan, Golub & LeVeque's pairwise
+    update ("Algorithms for computing the sample variance", The American Statistician 37(3),
+    1983, eq. 2.1): a set of n₀ samples and a block of k with means differing by δ make
+    n₀ + k samples of mean ``mean + δ·k/(n₀ + k)`` and
+    ``m2 + m2_block + δ²·n₀·k/(n₀ + k)``: no difference of large sums, so a bright pixel's
+    small spread is not lost to cancellation. Blocks of one pixel are added in their order."""
+    for i in range(starts.shape[0]):
+        p, a, k = pixel[i], starts[i], sizes[i]
+        n0 = count[p]
+        n = n0 + k
+        for c in range(3):
+            mu = 0.0
+            for j in range(a, a + k):
+                mu += values[j, c]
+            mu /= k
+            s2 = 0.0
+            for j in range(a, a + k):
+                d = values[j, c] - mu
+                s2 += d * d
+            delta = mu - mean[p, c]
+            mean[p, c] += delta * (k / n)
+            m2[p, c] += s2 + delta * delta * (n0 * (k / n))
+        count[p] = n
