@@ -123,6 +123,36 @@ def test_neyman_counts_samples_the_largest_sigma_over_n_first():
                                share=0.2).tolist() == [4, 2, 4]
 
 
+def test_a_round_by_target_adds_what_the_target_needs():
+    """The next round's share of the samples spent, by hand: an estimate 1.1× the target
+    needs 1.21× the samples if the error falls as 1/√N, so with the 10 % margin
+    1.1·1.21 − 1 = 0.331; 1.02×: 1.1·1.0404 − 1 = 0.14444; twice the target would need 3×
+    more, capped at half; an estimate at the target adds 1.1 − 1, below it the least round
+    (0.1); by
+    time alone, or with no finite estimate, half."""
+    assert noise.round_share(0.011, 0.01) == pytest.approx(0.331)
+    assert noise.round_share(0.0102, 0.01) == pytest.approx(0.14444)
+    assert noise.round_share(0.02, 0.01) == 0.5
+    assert noise.round_share(0.01, 0.01) == pytest.approx(0.1)
+    assert noise.round_share(0.009, 0.01) == 0.1
+    assert noise.round_share(0.05, None) == 0.5
+    assert noise.round_share(math.inf, 0.01) == 0.5
+
+
+def test_the_error_rate_is_read_from_the_last_round():
+    """e ∝ N^−α from (N₀, e₀) to (N₁, e₁): halving the error by doubling the samples is
+    α = 1, by quadrupling them ½; a slower fall counts as ½, a faster one as at most 2; a
+    first round or an estimate of 0 reads ½. With α = 1 an estimate 1.1× the target needs
+    1.1× the samples: 1.1·1.1 − 1 = 0.21 more."""
+    assert noise.error_rate((100, 200), (0.02, 0.01)) == pytest.approx(1.0)
+    assert noise.error_rate((100, 400), (0.02, 0.01)) == pytest.approx(0.5)
+    assert noise.error_rate((100, 200), (0.02, 0.019)) == 0.5
+    assert noise.error_rate((100, 200), (0.04, 0.01)) == 2.0
+    assert noise.error_rate((0, 100), (math.inf, 0.01)) == 0.5
+    assert noise.error_rate((100, 200), (0.02, 0.0)) == 0.5
+    assert noise.round_share(0.011, 0.01, 1.0) == pytest.approx(0.21)
+
+
 def test_pooled_moments_are_those_of_all_the_samples():
     """Moments pooled block by block (Chan et al.'s update) equal numpy's of the concatenated
     samples: blocks of 3, 5 and 1 samples of three channels, around 1e8 with a spread of 1
