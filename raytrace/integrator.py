@@ -150,8 +150,20 @@ class RenderOptions(RenderSettings):
     #: target; :func:`raytrace.noise.relative_rmse`).
     target_error: float | None = None
     #: ``aa = "noise"``: start no pass after this many seconds from the render's start, the
-    #: build included (None: no limit; the first round, ``min_spp`` a pixel, always ends).
+    #: build included (None: no limit; the first round, ``min_spp`` a pixel, always ends;
+    #: the last round is sized to the time left, :func:`raytrace.noise.time_share`).
     time_limit: float | None = None
+
+    def __post_init__(self) -> None:
+        """Checked as :class:`raytrace.scene.RenderSettings`; ``min_spp`` None becomes the
+        first round's default, by threshold or by target error or time
+        (:data:`raytrace.sampling.MIN_SPP`, :data:`raytrace.sampling.MIN_SPP_GOAL`), at most
+        ``max_spp``."""
+        super().__post_init__()
+        if self.min_spp is None:
+            goal = self.target_error is not None or self.time_limit is not None
+            self.min_spp = min(sampling.MIN_SPP_GOAL if goal else sampling.MIN_SPP,
+                               self.max_spp)
 
 
 class Stop:

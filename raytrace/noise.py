@@ -266,6 +266,35 @@ def round_share(estimate: float, target: float | None, rate: float = 0.5) -> flo
     return min(ROUND_SHARE, max(MIN_ROUND_SHARE, wanted))
 
 
+def round_cost(samples: list[int], seconds: list[float]) -> tuple[float, float]:
+    """A round's wall seconds as ``fixed + per_sample·samples`` (its passes' start and the
+    planning, then its samples), fitted by least squares to the rounds traced so far
+    (``samples``, ``seconds``); from one round, or rounds of one size, no fixed part and
+    their seconds per sample. Neither part is below 0."""
+    n = np.asarray(samples, np.float64)
+    t = np.asarray(seconds, np.float64)
+    if len(n) < 2 or np.ptp(n) == 0:
+        return 0.0, float(t.sum() / max(n.sum(), 1.0))
+    per_sample, fixed = np.polyfit(n, t, 1)
+    if per_sample <= 0.0 or fixed < 0.0:
+        return 0.0, float(t.sum() / n.sum())
+    return float(fixed), float(per_sample)
+
+
+def time_share(seconds_left: float, cost: tuple[float, float], spent: float) -> float:
+    """The share of the ``spent`` samples that a round can add in ``seconds_left`` at
+    ``cost`` (:func:`round_cost`: its fixed seconds and seconds a sample), at most
+    :data:`ROUND_SHARE`; 0 where not even the fixed part fits. A render by time sizes its last
+    round to its deadline, and the allocation spends it on the pixels of highest priority,
+    not on those a cut round would reach first."""
+    fixed, per_sample = cost
+    if seconds_left <= fixed or spent <= 0.0:
+        return 0.0
+    if per_sample <= 0.0:
+        return ROUND_SHARE
+    return min(ROUND_SHARE, (seconds_left - fixed) / per_sample / spent)
+
+
 def error_rate(samples: tuple[float, float], estimates: tuple[float, float]) -> float:
     """The rate α at which the estimated error has fallen since the first round, e ∝ N^−α
     from (N₀, e₀) to (N₁, e₁): ``ln(e₀/e₁)/ln(N₁/N₀)``, within [½, 2] (½, the rate of
@@ -322,9 +351,13 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
         mean, m2 = np.zeros((n_pixels, 3)), np.zeros((n_pixels, 3))
     rounds, stopped = 0, ""
     grew = np.ones(n_pixels, bool)  # the pixels the last round sampled
+    round_samples, round_seconds = [], []  # each round's, for the time it leaves
     while True:
+        t0 = time.perf_counter()
         r = plan(window, width, seed, n, new, filter)
         values, traced = trace(r, rounds == 0)
+        round_seconds.append(time.perf_counter() - t0)
+        round_samples.append(int(traced.sum()))
         if r.weight is not None:
             values = values * r.weight[:, None]
         # each (pixel, stream)'s samples of the round are one block, summed in order; a
@@ -357,8 +390,15 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
             if rounds == 1:
                 first = float(n.sum()), estimate
             rate = error_rate((first[0], float(n.sum())), (first[1], estimate))
-            new = neyman_counts(n, variance, most, cols,
-                                round_share(estimate, budget.target_error, rate))
+            share = round_share(estimate, budget.target_error, rate)
+            if budget.deadline is not None:
+                share = min(share, time_share(budget.deadline - time.perf_counter(),
+                                              round_cost(round_samples, round_seconds),
+                                              STREAMS * n.sum()))
+            if share <= 0.0:
+                stopped = "time_limit"
+                break
+            new = neyman_counts(n, variance, most, cols, share)
         else:
             new = next_counts(n, pixel_error(a, b), budget.threshold, most, cols, grew)
         grew = new > n

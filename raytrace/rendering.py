@@ -30,7 +30,6 @@ from .film import writers
 from .film.aov import check_aovs
 from .film.image import Image
 from .integrator import PASS_SAMPLES, RenderOptions, Stop, WhittedIntegrator
-from .sampling import MIN_SPP, MIN_SPP_GOAL
 from .scene import RenderSettings, Scene, object_materials
 
 if TYPE_CHECKING:
@@ -404,9 +403,6 @@ def render_options(scene: Scene, *, width: int | None = None, height: int | None
             max_spp=r.max_spp if max_spp is None else max_spp,
             texture_filter=r.texture_filter if texture_filter is None else texture_filter)
         target_error, time_limit = stopping_rules(settings, aa, target_error, time_limit)
-        if settings.min_spp is None:
-            goal = target_error is not None or time_limit is not None
-            settings.min_spp = min(MIN_SPP_GOAL if goal else MIN_SPP, settings.max_spp)
         if threads is None:
             threads = os.cpu_count() or 1
         threads = values.number(threads, "threads", lo=1, hi=256, integer=True)

@@ -153,6 +153,21 @@ def test_the_error_rate_is_read_from_the_last_round():
     assert noise.round_share(0.011, 0.01, 1.0) == pytest.approx(0.21)
 
 
+def test_a_round_by_time_fits_the_time_left():
+    """Rounds of 100 and 200 samples in 1.1 and 1.2 s cost 1 s fixed and 1 ms a sample; a
+    third of 400 in 1.4 s lies on that line too. With 2000 samples spent: 2 s left fit a
+    round of 1000 more, a share of 0.5; 1.5 s: 500, 0.25; 10 s: capped at half; 1 s or less
+    leaves nothing for the samples: 0. One round alone is all per-sample cost."""
+    cost = noise.round_cost([100, 200, 400], [1.1, 1.2, 1.4])
+    assert cost == pytest.approx((1.0, 0.001))
+    assert noise.time_share(2.0, cost, 2000) == pytest.approx(0.5)
+    assert noise.time_share(1.5, cost, 2000) == pytest.approx(0.25)
+    assert noise.time_share(10.0, cost, 2000) == 0.5
+    assert noise.time_share(1.0, cost, 2000) == 0.0
+    assert noise.round_cost([100], [0.5]) == (0.0, 0.005)
+    assert noise.round_cost([100, 100], [0.5, 0.7]) == pytest.approx((0.0, 0.006))
+
+
 def test_pooled_moments_are_those_of_all_the_samples():
     """Moments pooled block by block (Chan et al.'s update) equal numpy's of the concatenated
     samples: blocks of 3, 5 and 1 samples of three channels, around 1e8 with a spread of 1
