@@ -660,10 +660,11 @@ def threads_part(files: dict[str, Path], workdir: Path, quick: bool, repeat: int
             exr = workdir / f"threads{t}.exr"
             r = best_of(repeat, lambda t=t, exr=exr, p=path, w=w, h=h: render_cli(p, exr, w, h, t))
             rgb = raytrace.read_exr(exr)[0]
-            images = [render_built(scene, width=w, height=h, threads=t)
+            # one sample a pixel, as render_cli renders (the Whitted scene's own is 4)
+            images = [render_built(scene, width=w, height=h, threads=t, spp=1)
                       for _ in range(max(3, repeat))]
             warm = min(im.stats["seconds"]["total"] for im in images)
-            kept = min(raytrace.render(scene, width=w, height=h, threads=t)
+            kept = min(raytrace.render(scene, width=w, height=h, threads=t, spp=1)
                        .stats["seconds"]["total"] for _ in range(max(3, repeat)))
             if ref is None:
                 ref, base, warm_base, kept_base = rgb, r["seconds"]["render"], warm, kept
