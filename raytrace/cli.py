@@ -183,7 +183,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--noise-threshold", type=float,
                    help="noise: a pixel's error (Dammertz 2010, as Cycles) above which it gets "
                         "more samples (default 0.01)")
-    r.add_argument("--min-spp", type=int, help="noise: samples every pixel gets (default 8)")
+    r.add_argument("--min-spp", type=int, help="noise: samples every pixel gets first "
+                   "(default 8; 4 with --target-error or --time-limit)")
     r.add_argument("--max-spp", type=int, help="noise: most samples a pixel gets (default 1024)")
     r.add_argument("--texture-filter",
                    help="image-texture lookups: bilinear (default) or trilinear (mip-mapped "

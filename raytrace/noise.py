@@ -67,6 +67,8 @@ MIN_ROUND_SHARE = 0.1
 TARGET_MARGIN = 1.1
 #: The error's guard against division by zero in black pixels (Cycles' 0.0001).
 ERROR_EPSILON = 1e-4
+
+
 def sobol2(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The points ``index`` (n,) of the (0, 2)-sequence of Sobol's first two dimensions, as
     32-bit fractions (int64 in [0, 2³²)): :func:`raytrace.kernels.noise.sobol1`."""
@@ -260,10 +262,13 @@ def round_share(estimate: float, target: float | None, rate: float = 0.5) -> flo
     [:data:`MIN_ROUND_SHARE`, :data:`ROUND_SHARE`]; otherwise (by time alone, or no finite
     estimate) :data:`ROUND_SHARE`. A render by target then stops near it instead of up to
     half its samples past it."""
-    if target is None or not math.isfinite(estimate):
+    if target is None or not 0.0 < estimate < math.inf:
         return ROUND_SHARE
-    wanted = TARGET_MARGIN * (estimate / target) ** (1.0 / rate) - 1.0
-    return min(ROUND_SHARE, max(MIN_ROUND_SHARE, wanted))
+    # in logarithms: the ratio of a tiny target or a nearly black image overflows a float
+    growth = (math.log(estimate) - math.log(target)) / rate
+    if growth >= math.log((1.0 + ROUND_SHARE) / TARGET_MARGIN):
+        return ROUND_SHARE
+    return max(MIN_ROUND_SHARE, TARGET_MARGIN * math.exp(growth) - 1.0)
 
 
 def round_cost(samples: list[int], seconds: list[float]) -> tuple[float, float]:
@@ -303,7 +308,7 @@ def error_rate(samples: tuple[float, float], estimates: tuple[float, float]) -> 
     (n0, n1), (e0, e1) = samples, estimates
     if not (n1 > n0 > 0 and e0 > 0 and e1 > 0 and math.isfinite(e0) and math.isfinite(e1)):
         return 0.5
-    return min(2.0, max(0.5, math.log(e0 / e1) / math.log(n1 / n0)))
+    return min(2.0, max(0.5, (math.log(e0) - math.log(e1)) / math.log(n1 / n0)))
 
 
 def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
@@ -392,8 +397,11 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
             rate = error_rate((first[0], float(n.sum())), (first[1], estimate))
             share = round_share(estimate, budget.target_error, rate)
             if budget.deadline is not None:
+                # (the first round left out once two others are known: on a cold kernel
+                # cache its seconds are mostly compiling)
+                fit = slice(1, None) if len(round_samples) > 2 else slice(None)
                 share = min(share, time_share(budget.deadline - time.perf_counter(),
-                                              round_cost(round_samples, round_seconds),
+                                              round_cost(round_samples[fit], round_seconds[fit]),
                                               STREAMS * n.sum()))
             if share <= 0.0:
                 stopped = "time_limit"

@@ -18,7 +18,7 @@ from test_threads import scene as every_ray_scene
 import raytrace
 from raytrace import cli, noise
 from raytrace.errors import SceneError
-from raytrace.kernels.noise import pool_blocks
+from raytrace.kernels.noise import KEY_STRIDE, pool_blocks
 
 W, H = 8, 6
 
@@ -54,6 +54,25 @@ def test_the_two_streams_of_a_pixel_are_independent():
     xa, _ = noise.offsets(5, pixels * noise.STREAMS, np.zeros_like(pixels))
     xb, _ = noise.offsets(5, pixels * noise.STREAMS + 1, np.zeros_like(pixels))
     assert abs(np.corrcoef(xa, xb)[0, 1]) < 4 / math.sqrt(len(pixels))
+
+
+def test_a_round_draws_each_streams_points():
+    """The positions and light keys a round plans (``plan``, the kernel renders use) are
+    each stream's Owen-scrambled Sobol points (``offsets``, which the net, uniformity and
+    independence tests above check): a 3 × 2 window off the frame's origin, at (5, 7) in a
+    20-wide frame, pixels growing from 0, 1 and 2 to 2, 3 and 5 samples a stream."""
+    old = np.array([0, 1, 2, 0, 1, 2])
+    new = np.array([2, 3, 5, 2, 3, 5])
+    r = noise.plan((5, 7, 8, 9), 20, 11, old, new)
+    pixel = np.repeat(np.arange(6), noise.STREAMS * (new - old))
+    stream = np.concatenate([np.repeat([0, 1], n) for n in new - old])
+    k = np.concatenate([np.tile(np.arange(a, b), 2) for a, b in zip(old, new, strict=True)])
+    col, row = 5 + pixel % 3, 7 + pixel // 3
+    sid = (row * 20 + col) * noise.STREAMS + stream
+    sx, sy = noise.offsets(11, sid, k)
+    assert r.x.tolist() == (col + sx).tolist() and r.y.tolist() == (row + sy).tolist()
+    assert r.keys.tolist() == (sid * KEY_STRIDE + k).tolist()
+    assert r.bounds.tolist() == [0, *np.cumsum(noise.STREAMS * (new - old))]
 
 
 def test_sobol_second_dimension_known_values():
@@ -137,6 +156,8 @@ def test_a_round_by_target_adds_what_the_target_needs():
     assert noise.round_share(0.009, 0.01) == 0.1
     assert noise.round_share(0.05, None) == 0.5
     assert noise.round_share(math.inf, 0.01) == 0.5
+    # a ratio past a float's range (a tiny target, a nearly black image): half, no overflow
+    assert noise.round_share(1.0, 1e-200) == 0.5
 
 
 def test_the_error_rate_is_read_from_the_last_round():
@@ -147,9 +168,11 @@ def test_the_error_rate_is_read_from_the_last_round():
     assert noise.error_rate((100, 200), (0.02, 0.01)) == pytest.approx(1.0)
     assert noise.error_rate((100, 400), (0.02, 0.01)) == pytest.approx(0.5)
     assert noise.error_rate((100, 200), (0.02, 0.019)) == 0.5
-    assert noise.error_rate((100, 200), (0.04, 0.01)) == 2.0
+    assert noise.error_rate((100, 200), (0.04, 0.01)) == pytest.approx(2.0)
+    assert noise.error_rate((100, 200), (0.08, 0.01)) == 2.0  # 3, at most 2
     assert noise.error_rate((0, 100), (math.inf, 0.01)) == 0.5
     assert noise.error_rate((100, 200), (0.02, 0.0)) == 0.5
+    assert noise.error_rate((100, 200), (1e300, 1e-300)) == 2.0  # e₀/e₁ would overflow
     assert noise.round_share(0.011, 0.01, 1.0) == pytest.approx(0.21)
 
 

@@ -78,4 +78,3 @@ def directions(start, sampling, pinhole, window, out):
                 col = x0
                 row += 1
                 g += (width - cols) * spp
-
