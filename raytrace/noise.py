@@ -41,8 +41,9 @@ variance (its samples of both streams pooled round by round,
 degrees of freedom where ``v`` has one, so the first round can be small: 4 samples a pixel
 by default, :data:`raytrace.sampling.MIN_SPP_GOAL`), and the render stops
 after the first round whose estimate is at most the target, once the deadline has passed (no
-pass starts after it, so each pixel keeps whole rounds), or when every noisy pixel has
-``max_spp``.
+pass starts after it, so each pixel keeps whole rounds; the round before it is sized to the
+time left, :func:`time_share`), or when every noisy pixel has ``max_spp``. Near a target a
+round adds what the target needs (:func:`round_share`), elsewhere half the samples spent.
 """
 
 from __future__ import annotations
