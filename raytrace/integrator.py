@@ -84,7 +84,7 @@ from .kernels.records import (
     Tracer,
 )
 from .lights import Emitter, emitters
-from .mipmap import with_mips
+from .mipmap import with_mips, with_spread
 from .rays import RayBatch
 from .scene import RenderSettings, Scene
 from .shading import NO_KEY, light_words, path_keys
@@ -317,8 +317,10 @@ class WhittedIntegrator:
         #: Which scene object each analytic shape and mesh is (the id AOV).
         self.objects = Objects(self.arrays.shapes.object, self.arrays.geom_object)
         #: What every shading kernel needs of the scene (:class:`raytrace.kernels.records.Scene`),
-        #: with its mip-maps for ``texture_filter = "trilinear"`` (:func:`with_mips`).
-        self.tables = with_mips(self.arrays.record, self.table, scene.camera, options)
+        #: with its mip-maps for ``texture_filter = "trilinear"`` (:func:`with_mips`) and
+        #: the cone spread of its box-filtered checkers (:func:`with_spread`).
+        self.tables = with_spread(with_mips(self.arrays.record, self.table, scene.camera,
+                                            options), self.table, scene.camera, options)
         #: Each emitter's fast-Phong table (:mod:`raytrace.fast_phong`), or none (exact).
         self.fast = fast_phong.tables(self.arrays.triangles, self.table.highlight, self.emitters)
         self._lock = threading.Lock()

@@ -53,21 +53,27 @@ class Checker:
     """A 3-D world-space checker (SCENE_FORMAT.md).
 
     ``colors[0]`` where ``floor(x/s + 1e-4) + floor(y/s + 1e-4) + floor(z/s + 1e-4)`` is even,
-    else ``colors[1]``; the 1e-4 keeps a plane lying on a cell boundary on one side.
+    else ``colors[1]``; the 1e-4 keeps a plane lying on a cell boundary on one side. With
+    ``filter = "box"`` a hit takes the mean of the pattern over the box around its camera
+    sample's ray-cone footprint (pbrt-v3's closed-form filtered checkerboard;
+    ``raytrace.kernels.material.color1``): cells smaller than a pixel average out instead of
+    beating into moiré.
     """
 
     colors: tuple[np.ndarray, np.ndarray]
     scale: float = 1.0
+    filter: str = "none"
 
     def __post_init__(self) -> None:
         # The checks of the table form (same rules, same messages), made where the value
         # enters; a kr or kt checker is checked against [0, 1] again by its Material.
         try:
-            colors, scale = _checker_fields(self.colors, self.scale, "")
+            colors, scale, kind = _checker_fields(self.colors, self.scale, self.filter, "")
         except SceneError as e:
             raise e.at(key_prefix="Checker") from None
         object.__setattr__(self, "colors", colors)
         object.__setattr__(self, "scale", scale)
+        object.__setattr__(self, "filter", kind)
 
     @property
     def max(self) -> np.ndarray:
@@ -75,7 +81,10 @@ class Checker:
 
 
 Color = np.ndarray | Checker
-PATTERN_KEYS = ("pattern", "colors", "scale")
+PATTERN_KEYS = ("pattern", "colors", "scale", "filter")
+#: A checker's filters by their ``filter`` name, as ``Materials.checkers`` codes them: none
+#: (the cell's colour at the point) or box (the pattern's mean over the pixel's footprint).
+CHECKER_FILTERS = {"none": 0.0, "box": 1.0}
 #: The keys of a ``normal_map`` or ``bump`` table.
 RELIEF_KEYS = ("texture", "scale", "wrap", "uv_set", "uv_offset", "uv_rotation",
                "uv_scale")
@@ -119,11 +128,13 @@ def parse_relief(value: Any, key: str) -> Relief | None:
 
 
 def parse_color(value: Any, key: str, *, hi: float | None = None) -> Color:
-    """A colour, an inline pattern table ``{ pattern = "checker", colors, scale }`` or an image
-    texture ``{ texture = "file.png", wrap, srgb, scale }`` (:mod:`raytrace.readers.texture`); a
-    :class:`Checker` built in Python is checked by the same rules."""
+    """A colour, an inline pattern table ``{ pattern = "checker", colors, scale, filter }`` or
+    an image texture ``{ texture = "file.png", wrap, srgb, scale }``
+    (:mod:`raytrace.readers.texture`); a :class:`Checker` built in Python is checked by the
+    same rules."""
     if isinstance(value, Checker):
-        value = {"pattern": "checker", "colors": list(value.colors), "scale": value.scale}
+        value = {"pattern": "checker", "colors": list(value.colors), "scale": value.scale,
+                 "filter": value.filter}
 
     if isinstance(value, Texture):
         return value
@@ -136,19 +147,21 @@ def parse_color(value: Any, key: str, *, hi: float | None = None) -> Color:
     if isinstance(value, Mapping):
         values.check_keys(value, PATTERN_KEYS, key)
         values.string(value.get("pattern"), f"{key}.pattern", ["checker"])
-        return Checker(*_checker_fields(value.get("colors"), value.get("scale", 1.0), key, hi))
+        return Checker(*_checker_fields(value.get("colors"), value.get("scale", 1.0),
+                                        value.get("filter", "none"), key, hi))
     return values.color(value, key, hi=hi)
 
 
-def _checker_fields(cols: Any, scale: Any, key: str, hi: float | None = None
-                    ) -> tuple[tuple[np.ndarray, np.ndarray], float]:
-    """A checker's two colours (each ≥ 0, and ≤ ``hi``) and its cell size (a
-    :func:`raytrace.values.length`), checked."""
+def _checker_fields(cols: Any, scale: Any, kind: Any, key: str, hi: float | None = None
+                    ) -> tuple[tuple[np.ndarray, np.ndarray], float, str]:
+    """A checker's two colours (each ≥ 0, and ≤ ``hi``), its cell size (a
+    :func:`raytrace.values.length`) and its filter (:data:`CHECKER_FILTERS`), checked."""
     where = f"{key}." if key else ""
     if not isinstance(cols, (list, tuple)) or len(cols) != 2:
         raise SceneError("must be a list of two colours", f"{where}colors")
     pair = tuple(values.color(c, f"{where}colors[{i}]", hi=hi) for i, c in enumerate(cols))
-    return pair, values.length(scale, f"{where}scale")
+    return (pair, values.length(scale, f"{where}scale"),
+            values.string(kind, f"{where}filter", list(CHECKER_FILTERS)))
 
 
 @dataclass(eq=False)

@@ -12,7 +12,9 @@
   (Ray Tracing Gems ch. 20, eq. 30; ψ the vertical field of view, H the image height in
   pixels), divided by √spp for ``aa = "uniform"`` (a sample's stratum is 1/√spp of a
   pixel's side);
-* :func:`with_mips`: a scene record with its :class:`raytrace.kernels.records.Mips`.
+* :func:`with_mips`: a scene record with its :class:`raytrace.kernels.records.Mips`;
+* :func:`with_spread`: a scene record with the spread its box-filtered checkers' footprints
+  take (``raytrace.kernels.mip.cone_footprint1``).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import weakref
 import numpy as np
 
 from .kernels.records import (
+    CHECKER_FILTER,
     TEX_COLUMNS,
     TEX_HEIGHT,
     TEX_OFFSET,
@@ -145,3 +148,14 @@ def with_mips(record: SceneRecord, table: MaterialTable, camera: Camera,
                 tri.normal, tuple(float(x) for x in record.origin),
                 spread_angle(camera.fov, options.height, options.spp, options.aa))
     return record._replace(mips=mips)
+
+
+def with_spread(record: SceneRecord, table: MaterialTable, camera: Camera,
+                options: RenderSettings) -> SceneRecord:
+    """``record`` with its ``spread`` (:func:`spread_angle` of ``camera`` and ``options``)
+    where some checker of ``table`` is box-filtered (``filter = "box"``); ``record`` itself
+    otherwise, spread 0, so an unfiltered scene is the same record bit for bit."""
+    if not (table.checkers[:, CHECKER_FILTER] > 0.0).any():
+        return record
+    return record._replace(spread=spread_angle(camera.fov, options.height, options.spp,
+                                               options.aa))

@@ -30,11 +30,12 @@ from .integrator import WhittedIntegrator
 from .kernels.kinds import KA, KEEP, KIND_NAMES, PRUNED
 from .kernels.material import (
     alpha_tables1,
+    palette1,
     surface_color1,
     surface_opacity1,
     texture_tables1,
 )
-from .kernels.records import MaterialHit, Palette
+from .kernels.records import MaterialHit
 from .lights import labels
 from .rendering import render_options
 from .scene import Scene
@@ -105,8 +106,9 @@ class Recorder:
             # the kernels' own material lookup (colour, checker, texture, alpha)
             mats = integ.tables.materials
             hit = MaterialHit(tuple(float(x) for x in point), int(surf.triangle[j]),
-                              *map(float, surf.uv[j]))
-            ka = surface_color1(Palette(mats.colors, mats.pattern, mats.checkers),
+                              *map(float, surf.uv[j]), tuple(float(x) for x in surf.point[j]),
+                              tuple(float(x) for x in surf.geometric[j]))
+            ka = surface_color1(palette1(integ.tables),
                                 texture_tables1(integ.tables), m, KA, hit)
             opacity = float(surface_opacity1(mats.opacity, alpha_tables1(integ.tables), m,
                                              hit))

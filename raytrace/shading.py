@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .kernels import core
+from .kernels import core, mip
 from .kernels import shading as sk  # the compiled passes of this stage
 from .kernels.kinds import FRESNEL_CODES, HIGHLIGHT_CODES  # noqa: F401  (by name, as before)
 from .lights import Emitter
@@ -93,11 +93,27 @@ def direct(normal, to_light, to_eye, kd, ks, shininess, model) -> np.ndarray:
 # -- the scene's colours and lights at points, as the kernels see them ------------------------
 def checker(pattern: Checker, points: np.ndarray) -> np.ndarray:
     """Colours (n, 3) of a :class:`~raytrace.material.Checker` at world points (n, 3): the
-    renderer's own rule, :func:`raytrace.kernels.core.checker1`."""
+    renderer's own rule, :func:`raytrace.kernels.core.checker1` (whatever the checker's
+    ``filter``; :func:`filtered_checker` for ``"box"``)."""
     points = np.ascontiguousarray(np.asarray(points, np.float64).reshape(-1, 3))
     odd = np.empty(len(points), np.int64)
     core.checker_rows(points, float(pattern.scale), odd)
     return np.where(odd[:, None] == 1, pattern.colors[1], pattern.colors[0])
+
+
+def filtered_checker(pattern: Checker, points: np.ndarray, view: np.ndarray,
+                     normal: np.ndarray, spread: float) -> np.ndarray:
+    """Colours (n, 3) of a :class:`~raytrace.material.Checker` box-filtered as a
+    ``filter = "box"`` checker is shaded: at world points ``points`` (n, 3), seen at the
+    camera-relative points ``view`` (n, 3) on surfaces of normals ``normal`` (n, 3) by ray
+    cones of spread ``spread`` (radians, :func:`raytrace.mipmap.spread_angle`): the mean of
+    the pattern over each footprint (:func:`raytrace.kernels.mip.footprint_checker1`), and
+    :func:`checker`'s colour where no cell boundary crosses it."""
+    points, view, normal = rows3(points, view, normal)
+    share = np.empty(len(points))
+    mip.footprint_rows(view, normal, float(spread), points, float(pattern.scale), share)
+    mixed = (1.0 - share[:, None]) * pattern.colors[0] + share[:, None] * pattern.colors[1]
+    return np.where(((share > 0.0) & (share < 1.0))[:, None], mixed, checker(pattern, points))
 
 
 def texture(image: Texture, st: np.ndarray) -> np.ndarray:

@@ -29,6 +29,7 @@ from .kernels.records import (
     CHECKER_COLOR0,
     CHECKER_COLOR1,
     CHECKER_COLUMNS,
+    CHECKER_FILTER,
     CHECKER_SCALE,
     MAP_AFFINE,
     MAP_COLUMNS,
@@ -49,7 +50,7 @@ from .kernels.records import (
     Triangles,
 )
 from .kernels.texels import decode_codes
-from .material import COLOR_KEYS, COLUMNS, Checker, Material
+from .material import CHECKER_FILTERS, COLOR_KEYS, COLUMNS, Checker, Material
 from .readers.tangents import mapped_tangents, mikktspace
 from .readers.texture import IDENTITY, WRAPS, Texels, Texture
 from .scene import SHAPE_TYPES, Mesh, object_materials
@@ -246,7 +247,7 @@ class MaterialTable:
 
     ``colors`` (M, 18) holds the constant colours ka kd ks kr kt ke, three columns each
     (``shading_kernels.KA`` …); where colour k of material m is a :class:`Checker`,
-    ``pattern[m, k]`` indexes its row of ``checkers`` (colour 0, colour 1, scale, at the
+    ``pattern[m, k]`` indexes its row of ``checkers`` (colour 0, colour 1, scale, filter, at the
     columns ``CHECKER_COLOR0``, … of ``kernels.records``), evaluated at the world points of
     the hits; −1 means constant; ``texture[m, k]`` likewise names an image texture, its row
     of ``tex_info`` (``TEX_OFFSET``, …) where its texels start in ``texels``, its size and
@@ -270,6 +271,7 @@ class MaterialTable:
                     row[CHECKER_COLOR0:CHECKER_COLOR0 + 3] = c.colors[0]
                     row[CHECKER_COLOR1:CHECKER_COLOR1 + 3] = c.colors[1]
                     row[CHECKER_SCALE] = c.scale
+                    row[CHECKER_FILTER] = CHECKER_FILTERS[c.filter]
                     checkers.append(row)
                 elif isinstance(c, Texture):
                     if c not in textures:

@@ -42,7 +42,8 @@ that in a fresh interpreter).
   inside the cone (``cos α ≥ cos cutoff``), 0 outside; an area light is its k×k cell
   centres, each a point light of ``color/k²`` (jittered area lights are not supported: the
   tests use ``jitter = false``). Checker patterns: ``colors[0]`` where
-  ``⌊x/s + 1e-4⌋ + ⌊y/s + 1e-4⌋ + ⌊z/s + 1e-4⌋`` is even, at the world hit point.
+  ``⌊x/s + 1e-4⌋ + ⌊y/s + 1e-4⌋ + ⌊z/s + 1e-4⌋`` is even, at the world hit point; a
+  ``filter = "box"`` checker's mean over the camera cone's footprint there (:func:`odd_share`).
 * **Shadows**: straight rays to each light (sample) whose unshadowed term is non-zero; S is
   the product of ``t·kt + (1 − t)`` over every surface crossed before the light (0 behind an
   opaque one); a walk of more than ``MAX_CROSSINGS`` surfaces counts as blocked
@@ -161,13 +162,61 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
-def coefficient(c: np.ndarray | Checker, world: np.ndarray) -> np.ndarray:
+def coefficient(c: np.ndarray | Checker, world: np.ndarray,
+                cone: tuple[np.ndarray, np.ndarray, float] | None = None) -> np.ndarray:
     """A material colour (3,) at a world point; a checker's cell parity decides its colour
-    (SCENE_FORMAT.md: colors[0] where ⌊x/s + 1e-4⌋ + ⌊y/s + 1e-4⌋ + ⌊z/s + 1e-4⌋ is even)."""
+    (SCENE_FORMAT.md: colors[0] where ⌊x/s + 1e-4⌋ + ⌊y/s + 1e-4⌋ + ⌊z/s + 1e-4⌋ is even),
+    or for a ``filter = "box"`` checker its mean over the camera cone's footprint ``cone``
+    (the point relative to the camera, the geometric normal, the spread γ) where that
+    crosses a cell boundary (:func:`odd_share`)."""
     if isinstance(c, Checker):
         cells = sum(math.floor(float(x) / c.scale + 1e-4) for x in world)
+        if c.filter == "box" and cone is not None:
+            f = odd_share(world, *cone, c.scale)
+            if 0.0 < f < 1.0:
+                return (1.0 - f) * np.asarray(c.colors[0]) + f * np.asarray(c.colors[1])
         return np.asarray(c.colors[cells % 2], dtype=np.float64)
     return np.asarray(c, dtype=np.float64)
+
+
+def wave_mean(u: float, w: float) -> float:
+    """The mean of s(t) = (−1)^⌊t⌋ over [u − w, u + w]: its integral F(t) = 1 − |t mod 2 − 1|
+    (a triangle wave) differenced, or s(u) where no integer lies inside."""
+    if math.isinf(w):
+        return 0.0
+    if math.floor(u - w) == math.floor(u + w):
+        return 1.0 if math.floor(u) % 2 == 0 else -1.0
+    return ((1.0 - abs((u + w) % 2.0 - 1.0)) - (1.0 - abs((u - w) % 2.0 - 1.0))) / (2.0 * w)
+
+
+def odd_share(world: np.ndarray, view: np.ndarray, normal: np.ndarray, spread: float,
+              scale: float) -> float:
+    """The share of odd checker cells over a camera cone's footprint (docs/shading.md,
+    "Box-filtered checkers"): the cone r = γ·|view|/2 wide on either side cuts the surface in
+    an ellipse, r across the plane of incidence (t1) and R = r/c along it (t2, c = |n·d|); k =
+    min(⌈1/c⌉, 16) boxes along t2, each the box around its piece of the ellipse, their
+    shares averaged; each box's share (1 − Π mean of the axis' square wave)/2."""
+    d, n = unit(view), unit(normal)
+    dn = float(d @ n)
+    c = abs(dn)
+    if c == 0.0:
+        return 0.5
+    r = 0.5 * spread * float(np.linalg.norm(view))
+    along = d - dn * n
+    if float(np.linalg.norm(along)) == 0.0:  # head on: a disc
+        k, t2, t1, big = 1, np.zeros(3), np.zeros(3), 0.0
+        half = r * np.sqrt(np.maximum(1.0 - n * n, 0.0))
+    else:
+        k, t2, big = min(math.ceil(1.0 / c), 16), unit(along), r / c
+        t1 = cross(n, t2)
+        half = np.sqrt((r * t1) ** 2 + (big / k * t2) ** 2)
+    shares = []
+    for j in range(k):
+        centre = world + big * ((2 * j + 1) / k - 1.0) * t2
+        means = [wave_mean(float(x) / scale + 1e-4, float(h) / scale)
+                 for x, h in zip(centre, half, strict=True)]
+        shares.append(0.5 * (1.0 - means[0] * means[1] * means[2]))
+    return sum(shares) / k
 
 
 def nonzero(c: np.ndarray | Checker) -> bool:
@@ -315,6 +364,7 @@ class ReferenceTracer:
         self.background = np.asarray(r.background, dtype=np.float64)
         self.ambient = np.asarray(scene.ambient, dtype=np.float64)
         self.camera = scene.camera
+        self.spread = 0.0  # the camera cone's spread, set by each pixel() for its image height
         self.counts = Counts()
         self._shapes(scene.objects)
         self.emitters = [e for light in scene.lights for e in self._emitters(light)]
@@ -459,6 +509,8 @@ class ReferenceTracer:
               sy: float = 0.5) -> np.ndarray:
         """The colour (3,) seen through the point (sx, sy) of pixel (row, col)."""
         self.counts.camera += 1
+        # a camera sample's cone spread (one sample a pixel): Ray Tracing Gems ch. 20, eq. 30
+        self.spread = math.atan(2.0 * math.tan(math.radians(self.camera.fov) / 2.0) / height)
         d = self.camera_ray(row, col, width, height, sx, sy)
         return self.trace(np.asarray(self.camera.position, np.float64), d, -1, 0, np.ones(3))
 
@@ -615,9 +667,10 @@ class ReferenceTracer:
         n, n_face = s * hit.normal, s * hit.outward
         t = mat.opacity
 
-        color = self.ambient * coefficient(mat.kd if mat.ka is None else mat.ka, p) \
-            + coefficient(mat.ke, p)
-        kd, ks = coefficient(mat.kd, p), coefficient(mat.ks, p)
+        cone = (p - np.asarray(self.camera.position, np.float64), hit.outward, self.spread)
+        color = self.ambient * coefficient(mat.kd if mat.ka is None else mat.ka, p, cone) \
+            + coefficient(mat.ke, p, cone)
+        kd, ks = coefficient(mat.kd, p, cone), coefficient(mat.ks, p, cone)
         gouraud = hit.tri >= 0 and self.tri_shading[hit.tri] == "gouraud"
         shadow_from = self.lifted(hit, s) if hit.tri >= 0 and \
             self.tri_shading[hit.tri] != "flat" else None
@@ -630,7 +683,7 @@ class ReferenceTracer:
             if np.any(term > 0.0):
                 color = color + term * self.shadow(hit, em, shadow_from) * em.color
 
-        kr, kt = coefficient(mat.kr, p), coefficient(mat.kt, p)
+        kr, kt = coefficient(mat.kr, p, cone), coefficient(mat.kt, p, cone)
         entering = float(d @ hit.outward) < 0.0
         kr, kt = FRESNELS[mat.fresnel](kr, kt, -float(d @ n), 1.0 / mat.ior if entering
                                        else mat.ior)
@@ -697,7 +750,10 @@ class ReferenceTracer:
             if blocker is None:
                 return factor
             m = blocker.material
-            factor = factor * (m.opacity * coefficient(m.kt, blocker.point) + (1.0 - m.opacity))
+            cone = (blocker.point - np.asarray(self.camera.position, np.float64),
+                    blocker.outward, self.spread)
+            factor = factor * (m.opacity * coefficient(m.kt, blocker.point, cone)
+                               + (1.0 - m.opacity))
             if not np.any(factor > 0.0):
                 return factor
             origin, leaving, lifted = blocker.point, blocker.prim, False

@@ -473,9 +473,9 @@ def test_a_terminal_gets_the_bar_and_one_summary_line_and_a_pipe_gets_nothing(
         if stream.isatty() and not quiet:
             lines = text.replace("\r", "\n").strip().splitlines()
             bar = lines[-2]  # the finished bar: tqdm's, with the time left and the rate
-            assert bar.startswith("100%|") and re.search(r"192/192 \[\d\d:\d\d<00:00, "
+            assert bar.startswith("100%|") and re.search(r"48/48 \[\d\d:\d\d<00:00, "
                                                          r"[\d.]+k? camera rays/s\]", bar), bar
-            assert lines[-1].startswith(f"wrote {out}, {png}: 8×6, 4 spp, ")
+            assert lines[-1].startswith(f"wrote {out}, {png}: 8×6, 1 spp, ")
             assert lines[-1].endswith(" s")
         else:
             assert text == ""

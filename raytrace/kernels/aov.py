@@ -16,7 +16,7 @@ import numpy as np
 from .core import facing1
 from .jit import inline, kernel
 from .kinds import KD
-from .material import surface_color1, surface_texcoords1, texture_tables1
+from .material import palette1, surface_color1, surface_texcoords1, texture_tables1
 from .records import (
     AOV_COMBINE,
     AOV_COUNT,
@@ -25,7 +25,6 @@ from .records import (
     AOV_KIND,
     FirstHits,
     MaterialHit,
-    Palette,
 )
 
 #: The AOVs' kernel codes, by their name in :data:`raytrace.film.aov.AOVS`.
@@ -62,11 +61,12 @@ def aov_value1(kind, i, hits, scene, objects, out, row, col):
         if kind == POSITION:
             out[row, col], out[row, col + 1], out[row, col + 2] = x, y, z
         else:
-            mats = scene.materials
+            g = surf.geometric
             at = MaterialHit(world=(x, y, z), triangle=surf.triangle[i], u=surf.uv[i, 0],
-                             v=surf.uv[i, 1])
-            kd = surface_color1(Palette(mats.colors, mats.pattern, mats.checkers),
-                                texture_tables1(scene), surf.material[i], KD, at)
+                             v=surf.uv[i, 1], axis=(p[i, 0], p[i, 1], p[i, 2]),
+                             normal=(g[i, 0], g[i, 1], g[i, 2]))
+            kd = surface_color1(palette1(scene), texture_tables1(scene), surf.material[i], KD,
+                                at)
             for c in range(3):
                 out[row, col + c] = kd[c]
     elif kind == ID:
@@ -78,7 +78,7 @@ def aov_value1(kind, i, hits, scene, objects, out, row, col):
             out[row, col] = objects.shape_object[surf.shape[i]]
     elif kind == UV:
         at = MaterialHit(world=(0.0, 0.0, 0.0), triangle=surf.triangle[i], u=surf.uv[i, 0],
-                         v=surf.uv[i, 1])
+                         v=surf.uv[i, 1], axis=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 0.0))
         out[row, col], out[row, col + 1] = surface_texcoords1(scene.triangles.texcoords, at)
 
 

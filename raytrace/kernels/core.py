@@ -14,14 +14,17 @@ guard does):
 * optics: :func:`reflect3` (law of reflection), :func:`refract3` (Snell, with total internal
   reflection), :func:`fresnel1` and :func:`fresnel_weights1` (angle-dependent kr, kt);
 * surfaces: :func:`facing1` (the side a ray arrives on), :func:`leave1` (where a spawned ray
-  starts), :func:`checker1` (the world-space checker of SCENE_FORMAT.md), :func:`texture1`
+  starts), :func:`checker1` (the world-space checker of SCENE_FORMAT.md) and
+  :func:`checker_box1` (its box-filtered share of odd cells, by :func:`wave_mean1`),
+  :func:`texture1`
   (a bilinear image texture, with :func:`taps1`, :func:`blend1` and :func:`wrap1`),
   :func:`taylor1` (a fast-Phong polynomial
   at barycentrics, :mod:`raytrace.fast_phong`);
 * powers: :func:`whole_power1` (``cⁿ`` for whole exponents, the highlights' cheaper form)
   and :func:`is_whole1`.
 
-Array versions for numpy callers and tests: :func:`checker_rows`, :func:`leave_rows`,
+Array versions for numpy callers and tests: :func:`checker_rows`, :func:`checker_box_rows`,
+:func:`leave_rows`,
 :func:`texture_rows`, :func:`taylor_rows`, :func:`path_keys`.
 """
 
@@ -278,6 +281,46 @@ def checker1(x, y, z, scale):
     return 1 if half - math.floor(half) == 0.5 else 0
 
 
+#: Half-widths (in cells) from which a box holds so many cells that its mean of the square
+#: wave is 0 to within 1/WAVE_WIDEST (:func:`wave_mean1`).
+WAVE_WIDEST = 1e15
+
+
+@helper
+def wave_mean1(u, w):
+    """Mean of the square wave s(t) = (−1)^⌊t⌋ over [u − w, u + w] (w ≥ 0): s(u) itself,
+    ±1 exactly, where the interval holds no integer; else (−1)^k·(F(b) − F(a))/(b − a) with
+    k = ⌊u − w⌋, a, b the ends less k (small numbers, whatever u) and F(t) = 1 − |t mod 2 − 1|
+    the integral of s from 0, a triangle wave (pbrt-v3's closed-form box-filtered checkerboard,
+    ``Checkerboard2DTexture``, one axis at a time); 0 from :data:`WAVE_WIDEST` (and for an
+    infinite w). NaN where u is NaN."""
+    if not w < WAVE_WIDEST:
+        return 0.0
+    lo, hi = u - w, u + w
+    k = np.floor(lo)
+    sign = 1.0 if np.floor(0.5 * k) == 0.5 * k else -1.0
+    if np.floor(hi) == k:
+        return sign
+    a, b = lo - k, hi - k
+    fa = 1.0 - abs(a - 2.0 * np.floor(0.5 * a) - 1.0)
+    fb = 1.0 - abs(b - 2.0 * np.floor(0.5 * b) - 1.0)
+    return sign * (fb - fa) / (b - a)
+
+
+@helper
+def checker_box1(x, y, z, extent, scale):
+    """The share of :func:`checker1`'s odd cells in the box of half-widths ``extent``
+    (ex, ey, ez) about (x, y, z): the checker is the product of one square wave per axis,
+    odd = (1 − sx·sy·sz)/2, so its box average is (1 − mx·my·mz)/2 with each m the axis'
+    :func:`wave_mean1` (a separable box filter). Exactly 0 or 1 where the box crosses no
+    cell boundary (the caller then keeps :func:`checker1`'s parity bit for bit); NaN at a
+    NaN point."""
+    mx = wave_mean1(x / scale + CHECKER_BIAS, extent[0] / scale)
+    my = wave_mean1(y / scale + CHECKER_BIAS, extent[1] / scale)
+    mz = wave_mean1(z / scale + CHECKER_BIAS, extent[2] / scale)
+    return 0.5 * (1.0 - mx * my * mz)
+
+
 @helper
 def wrap1(i, n, mode):
     """Texel index ``i`` of a row of ``n`` wrapped by ``mode`` (``raytrace.readers.texture.WRAPS``):
@@ -383,6 +426,15 @@ def checker_rows(points, scale, out):
     """:func:`checker1` at each world point (n, 3) into ``out`` (n,) int64."""
     for i in range(points.shape[0]):
         out[i] = checker1(points[i, 0], points[i, 1], points[i, 2], scale)
+
+
+@kernel
+def checker_box_rows(points, extents, scale, out):
+    """:func:`checker_box1` at each world point (n, 3) with its half-widths ``extents``
+    (n, 3) into ``out`` (n,) float64."""
+    for i in range(points.shape[0]):
+        out[i] = checker_box1(points[i, 0], points[i, 1], points[i, 2],
+                              (extents[i, 0], extents[i, 1], extents[i, 2]), scale)
 
 
 @kernel

@@ -375,7 +375,8 @@ def _direct_lighting(tracer, lights, settings, rays, depth, pass_io, surf, tally
             core.light_words(key, np.int64(em.stream), np.int64(depth), words)
         fast = lights.fast[lights.fast_first[e]:lights.fast_first[e + 1]]
         tables = Scene(scene.origin, scene.materials, scene.triangles, fast, scene.texcoords,
-                       scene.media, scene.mips, scene.reliefs)  # every field: numba has no defaults
+                       scene.media, scene.mips, scene.reliefs,
+                       scene.spread)  # every field: numba has no defaults
         k = sk.light_pass(rays, surf, tables, em, words, light_depth(tracer.shaded, depth),
                           term, shadows)
         if k:  # the camera rays' hits send coherent shadow rays to a point

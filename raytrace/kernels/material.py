@@ -6,15 +6,18 @@ asks :func:`surface_color1`, :func:`surface_opacity1` or :func:`surface_texcoord
 in numba's IR into the caller (``raytrace.kernels.jit.inline``, so the material's arrays
 cross no call), with
 
-* ``palette``: a :class:`raytrace.kernels.records.Palette` (constant colours and checkers);
+* ``palette``: a :class:`raytrace.kernels.records.Palette` (constant colours and checkers),
+  :func:`palette1` of the scene;
   ``textures``, ``alphas``: the image and alpha textures' tables (:func:`texture_tables1`,
   :func:`alpha_tables1`, bound once a kernel), or None in a scene without image textures
   or vertex colours, whose kernels then compile no texture code;
 * ``hit``: a :class:`raytrace.kernels.records.MaterialHit`, the hit's world point (a checker
   is a function of it), its triangle (−1 off a mesh) and barycentrics (where an image texture
-  is read).
+  is read), its camera-relative point and geometric normal (a box-filtered checker's
+  footprint).
 
-A colour is its constant, or its checker at the world point (SCENE_FORMAT.md), or, where the
+A colour is its constant, or its checker at the world point (SCENE_FORMAT.md; box-filtered
+over the sample's ray-cone footprint with ``filter = "box"``), or, where the
 material's colour has an image texture, the texture's bilinear texel at the hit's texture
 coordinates (:func:`raytrace.kernels.core.texture1`), read through the texture's mapping
 (its uv set and affine transform, :func:`texture_st1`); KA times the material's occlusion
@@ -37,10 +40,11 @@ from numba.extending import overload
 from .core import ALPHA, bilinear1, checker1, cross3, texture1
 from .jit import helper, inline
 from .kinds import KA, NORMAL_MAP
-from .mip import cone_lod1, trilinear1
+from .mip import cone_footprint1, cone_lod1, footprint_checker1, trilinear1
 from .records import (
     CHECKER_COLOR0,
     CHECKER_COLOR1,
+    CHECKER_FILTER,
     CHECKER_SCALE,
     MAP_AFFINE,
     MAP_MATRIX,
@@ -48,6 +52,7 @@ from .records import (
     TEX_HEIGHT,
     TEX_WIDTH,
     AlphaTables,
+    Palette,
     TextureTables,
 )
 
@@ -109,9 +114,8 @@ def surface_color1(palette, textures, m, slot, hit):
     ``hit`` (module docstring): its image texture where it has one (``textures``, from
     :func:`texture_tables1`), else its checker or constant (``palette`` = the materials'
     colours, patterns and checkers); a 3-tuple."""
-    x, y, z = hit.world
     return modulate1(textures, m, slot, hit,
-                     texel1(textures, m, slot, hit, color1(palette, m, slot, x, y, z)))
+                     texel1(textures, m, slot, hit, color1(palette, m, slot, hit)))
 
 
 @inline
@@ -280,18 +284,41 @@ def _alpha1(alphas, m, hit, constant):
     return alpha
 
 
+@inline
+def palette1(scene):
+    """What :func:`color1` reads of ``scene`` (a :class:`raytrace.kernels.records.Scene`): a
+    :class:`raytrace.kernels.records.Palette` of its materials' colours, patterns and
+    checkers and its cone spread."""
+    materials = scene.materials
+    return Palette(materials.colors, materials.pattern, materials.checkers, scene.spread)
+
+
 @helper
-def color1(palette, m, slot, x, y, z):
-    """Colour ``slot`` (KA … KE) of material ``m`` at the world point (x, y, z): its constant
-    or its checker pattern there, colour 0 or colour 1 by :func:`checker1`'s parity
-    (``palette``: a :class:`raytrace.kernels.records.Palette`, the materials' colours,
-    patterns and checkers). A material with an image texture then takes :func:`texel1`
-    instead."""
+def color1(palette, m, slot, hit):
+    """Colour ``slot`` (KA … KE) of material ``m`` at ``hit`` (a
+    :class:`raytrace.kernels.records.MaterialHit`): its constant or its checker pattern at
+    the world point, colour 0 or colour 1 by :func:`checker1`'s parity (``palette``: a
+    :class:`raytrace.kernels.records.Palette`, the materials' colours, patterns and
+    checkers). A box-filtered checker (``filter = "box"``) whose footprint
+    (:func:`raytrace.kernels.mip.cone_footprint1` of the palette's spread) crosses cell
+    boundaries is ``(1 − f)·colour 0 + f·colour 1``, f the share of odd cells in it
+    (:func:`raytrace.kernels.mip.footprint_checker1`); where it crosses none, the parity's
+    colour bit for bit. A material with an image texture then takes :func:`texel1` instead."""
     colors, pattern, checkers = palette.colors, palette.pattern, palette.checkers
     p = pattern[m, slot // 3]
     if p < 0:
         return colors[m, slot], colors[m, slot + 1], colors[m, slot + 2]
-    c = CHECKER_COLOR1 if checker1(x, y, z, checkers[p, CHECKER_SCALE]) else CHECKER_COLOR0
+    x, y, z = hit.world
+    scale = checkers[p, CHECKER_SCALE]
+    if checkers[p, CHECKER_FILTER] > 0.0 and palette.spread > 0.0:
+        f = footprint_checker1(hit.world, cone_footprint1(hit.axis, hit.normal, palette.spread),
+                               scale)
+        if 0.0 < f < 1.0:
+            e = 1.0 - f
+            return (e * checkers[p, CHECKER_COLOR0] + f * checkers[p, CHECKER_COLOR1],
+                    e * checkers[p, CHECKER_COLOR0 + 1] + f * checkers[p, CHECKER_COLOR1 + 1],
+                    e * checkers[p, CHECKER_COLOR0 + 2] + f * checkers[p, CHECKER_COLOR1 + 2])
+    c = CHECKER_COLOR1 if checker1(x, y, z, scale) else CHECKER_COLOR0
     return checkers[p, c], checkers[p, c + 1], checkers[p, c + 2]
 
 

@@ -9,13 +9,17 @@ of ``texture_filter = "trilinear"`` (``raytrace.mipmap`` builds the tables, a
   Level of Detail Using Ray Cones", JCGT 10(1), 2021, and Falcor's ``TexLODHelpers``):
   ``λ₀ = Δ + log₂|W| − log₂|n̂·d̂|``, Δ = ½·log₂(t_a/p_a) the triangle's UV-to-world area
   ratio, W the cone's width at the hit, n̂ the face normal, d̂ the ray's direction;
+* :func:`cone_footprint1`: a cone's elliptical footprint on a surface as boxes along the
+  world axes, and :func:`footprint_checker1`, a checker's mean over them (a box-filtered
+  checker, ``kernels.material.color1``);
 * :func:`trilinear1`: the RGB of texture q at (s, t) and level ``λ = λ₀ + ½·log₂(w·h)``
   (w × h: its level 0), bilinear in each of the two nearest levels of its box-filtered
   pyramid and linear between them (Williams, "Pyramidal Parametrics", SIGGRAPH 1983; pbrt-v4
   ``MIPMap::Filter`` with ``FilterFunction::Trilinear``); λ ≤ 0 is level 0, bilinear
   (:func:`raytrace.kernels.core.texture1`) bit for bit.
 
-Array version for numpy callers and tests: :func:`lod_rows` (λ at given hits).
+Array versions for numpy callers and tests: :func:`lod_rows` (λ at given hits),
+:func:`footprint_rows` (a checker's share of odd cells over footprints).
 
 The cone (a simpler rule than the paper's propagation, docs/shading.md): every hit takes the
 cone of a camera ray to it, W = γ·|P| and d̂ = P/|P| with P the hit point relative to the
@@ -27,8 +31,9 @@ from __future__ import annotations
 
 import math
 
-from .core import texture1
+from .core import checker_box1, texture1
 from .jit import helper, inline, kernel
+from .records import Footprint
 
 
 @helper
@@ -44,6 +49,72 @@ def cone_lod1(mips, tri, world):
     if not c > 0.0:
         return math.inf
     return mips.delta[tri] + math.log2(mips.spread * (px * px + py * py + pz * pz) / c)
+
+
+#: The most boxes a footprint is cut into along its major axis (:func:`cone_footprint1`): an
+#: ellipse longer than this many times its width keeps boxes that long.
+MAX_PROBES = 16
+
+
+@helper
+def cone_footprint1(view, normal, spread):
+    """The footprint on a surface of a camera sample's ray cone, as boxes along the world
+    axes (a :class:`raytrace.kernels.records.Footprint`). The cone of spread γ (``spread``)
+    to the camera-relative point P (``view``) is r = ½·γ·|P| wide on either side; it cuts the
+    surface of normal n̂ (``normal``, any length) in an ellipse of semi-axes r along t̂₁
+    (across the plane of incidence) and R = r/c along t̂₂ = (d̂ − (d̂·n̂)n̂)/√(1 − c²) (c = |n̂·d̂|,
+    d̂ = P/|P|). A box around a long ellipse lying diagonally to the axes would average far
+    more than it: the ellipse is cut into k = min(⌈R/r⌉, :data:`MAX_PROBES`) pieces along
+    t̂₂, each inside a box of half-widths ``√((r·t̂₁ᵢ)² + (R/k·t̂₂ᵢ)²)`` (t̂₁ᵢ² = 1 − n̂ᵢ² − t̂₂ᵢ²),
+    centred at P + R·t̂₂·((2j + 1)/k − 1), j < k (footprint assembly along the major axis:
+    McCormack, Perry, Farkas & Jouppi, "Feline: Fast Elliptical Lines for Anisotropic Texture
+    Mapping", SIGGRAPH 1999; the cone: Akenine-Möller et al., Ray Tracing Gems ch. 20, 2019,
+    as :func:`cone_lod1` takes it). Boxes of infinite width where the cone grazes the surface
+    (c = 0); one box of no width at the camera itself."""
+    px, py, pz = view
+    length = math.sqrt(px * px + py * py + pz * pz)
+    nl = math.sqrt(normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2])
+    if not (length > 0.0 and nl > 0.0):
+        return Footprint(major=(0.0, 0.0, 0.0), probes=1, extent=(0.0, 0.0, 0.0))
+    dx, dy, dz = px / length, py / length, pz / length
+    nx, ny, nz = normal[0] / nl, normal[1] / nl, normal[2] / nl
+    dn = dx * nx + dy * ny + dz * nz
+    c = abs(dn)
+    if not c > 0.0:
+        return Footprint(major=(0.0, 0.0, 0.0), probes=1,
+                         extent=(math.inf, math.inf, math.inf))
+    r = 0.5 * spread * length
+    big = r / c
+    sine = math.sqrt(max(1.0 - c * c, 0.0))
+    if not sine > 0.0:  # head on: a disc, no major axis
+        return Footprint(major=(0.0, 0.0, 0.0), probes=1,
+                         extent=(r * math.sqrt(max(1.0 - nx * nx, 0.0)),
+                                 r * math.sqrt(max(1.0 - ny * ny, 0.0)),
+                                 r * math.sqrt(max(1.0 - nz * nz, 0.0))))
+    tx, ty, tz = (dx - dn * nx) / sine, (dy - dn * ny) / sine, (dz - dn * nz) / sine
+    k = min(math.ceil(1.0 / c), MAX_PROBES)
+    piece = big / k
+    return Footprint(
+        major=(big * tx, big * ty, big * tz), probes=k,
+        extent=(math.sqrt(r * r * max(1.0 - nx * nx - tx * tx, 0.0) + (piece * tx) ** 2),
+                math.sqrt(r * r * max(1.0 - ny * ny - ty * ty, 0.0) + (piece * ty) ** 2),
+                math.sqrt(r * r * max(1.0 - nz * nz - tz * tz, 0.0) + (piece * tz) ** 2)))
+
+
+@helper
+def footprint_checker1(world, foot, scale):
+    """The share of odd cells of the checker of cell size ``scale`` over the footprint
+    ``foot`` (:func:`cone_footprint1`) at the world point ``world``: the mean of
+    :func:`raytrace.kernels.core.checker_box1` over its boxes. Exactly 0 or 1 where no box
+    crosses a cell boundary."""
+    k = foot.probes
+    mx, my, mz = foot.major
+    total = 0.0
+    for j in range(k):
+        f = (2.0 * j + 1.0) / k - 1.0
+        total += checker_box1(world[0] + f * mx, world[1] + f * my, world[2] + f * mz,
+                              foot.extent, scale)
+    return total / k
 
 
 @inline
@@ -88,3 +159,15 @@ def lod_rows(mips, q, triangle, world, out):
     for i in range(triangle.shape[0]):
         out[i] = cone_lod1(mips, triangle[i], (world[i, 0], world[i, 1], world[i, 2])) + \
             mips.size_lod[q]
+
+
+@kernel
+def footprint_rows(view, normal, spread, points, scale, out):
+    """:func:`footprint_checker1` of the checker of cell size ``scale`` at the world points
+    ``points`` (n, 3), each seen at the camera-relative point ``view`` (n, 3) on a surface of
+    normal ``normal`` (n, 3) by a cone of spread ``spread``, into ``out`` (n,) (tests,
+    ``raytrace.shading.checker``)."""
+    for i in range(view.shape[0]):
+        foot = cone_footprint1((view[i, 0], view[i, 1], view[i, 2]),
+                               (normal[i, 0], normal[i, 1], normal[i, 2]), spread)
+        out[i] = footprint_checker1((points[i, 0], points[i, 1], points[i, 2]), foot, scale)

@@ -142,9 +142,10 @@ MATERIAL_COLUMNS = {
 }
 #: The columns of a row of ``Materials.checkers`` (packed by ``raytrace.tables.MaterialTable``,
 #: read by ``raytrace.kernels.material.color1``): colour 0 (r, g, b), colour 1 (r, g, b), the
-#: cell size s (``checker1``).
-CHECKER_COLOR0, CHECKER_COLOR1, CHECKER_SCALE = 0, 3, 6
-CHECKER_COLUMNS = 7
+#: cell size s (``checker1``), 1 where it is box-filtered over the pixel's footprint
+#: (``filter = "box"``, ``checker_box1``) else 0.
+CHECKER_COLOR0, CHECKER_COLOR1, CHECKER_SCALE, CHECKER_FILTER = 0, 3, 6, 7
+CHECKER_COLUMNS = 8
 #: The columns of a row of ``Materials.tex_info`` (packed by ``raytrace.tables.MaterialTable``,
 #: read by ``raytrace.kernels.core.bilinear1``): the texture's first element in ``texels``, its
 #: width and height in texels, its wrap modes along s and t (``raytrace.readers.texture.WRAPS``).
@@ -163,7 +164,7 @@ MATERIAL_TABLES = {
     "colors": "(M, 3·C) constant colours of material.COLOR_KEYS (ka kd ks kr kt ke), three "
               "columns each",
     "pattern": "(M, C) int64 row of checkers per colour, or −1 (constant)",
-    "checkers": f"(P, {CHECKER_COLUMNS}) colour 0, colour 1, scale (CHECKER_COLOR0, …)",
+    "checkers": f"(P, {CHECKER_COLUMNS}) colour 0, colour 1, scale, filter (CHECKER_COLOR0, …)",
     "texture": "(M, C) int64 image texture per colour (row of tex_info), or −1",
     "textured": "(M,) bool: some colour is an image texture, or the alpha or the occlusion is",
     "texels": "(N,) float32 every texture's RGBA rows, one after another",
@@ -250,6 +251,9 @@ class Scene(NamedTuple):
     #: the materials' normal and height maps and the triangles' tangent frames where some
     #: material has one, else None: ``kernels.material.relief1`` is then compiled as nothing
     reliefs: Reliefs | None = None
+    #: γ, a camera sample's ray-cone spread (radians, ``raytrace.mipmap.spread_angle``) where
+    #: some checker is box-filtered (``filter = "box"``), else 0
+    spread: float = 0.0
 
 
 class Emitter(NamedTuple):
@@ -596,6 +600,16 @@ class SpawnPoint(NamedTuple):
     offset: float     #: how far off the surface it starts (0 on an analytic shape)
 
 
+class Footprint(NamedTuple):
+    """A camera sample's ray-cone footprint on a surface as a box filter reads it
+    (``kernels.mip.cone_footprint1``): ``probes`` boxes of half-widths ``extent`` along the
+    world axes, centred along the footprint's major axis."""
+
+    major: tuple    #: (x, y, z) the ellipse's major semi-axis, a world vector
+    probes: int     #: boxes along it (1 where the footprint is round)
+    extent: tuple   #: (ex, ey, ez) each box's half-widths along the world axes
+
+
 class MaterialHit(NamedTuple):
     """A hit as a material's colours and opacity are looked up at it
     (``kernels.material.surface_color1``)."""
@@ -604,6 +618,10 @@ class MaterialHit(NamedTuple):
     triangle: int   #: the triangle hit, −1 off a mesh
     u: float        #: its barycentrics (where an image texture is read)
     v: float
+    #: the camera-relative point (the axis of the camera's ray cone to it) and the geometric
+    #: normal (any length): a box-filtered checker's footprint (``kernels.mip.cone_footprint1``)
+    axis: tuple
+    normal: tuple
 
 
 class MeshHit(NamedTuple):
@@ -631,6 +649,7 @@ class Palette(NamedTuple):
     colors: np.ndarray    #: ``Materials.colors``
     pattern: np.ndarray   #: ``Materials.pattern``
     checkers: np.ndarray  #: ``Materials.checkers``
+    spread: float         #: ``Scene.spread``: a box-filtered checker's cone spread
 
 
 class SmoothTriangles(NamedTuple):

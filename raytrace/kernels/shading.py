@@ -68,7 +68,13 @@ from .kinds import (  # noqa: F401  (the codes, as this module's names)
     SMOOTH_SPOT,
     SPOT,
 )
-from .material import alpha_tables1, surface_color1, surface_opacity1, texture_tables1
+from .material import (
+    alpha_tables1,
+    palette1,
+    surface_color1,
+    surface_opacity1,
+    texture_tables1,
+)
 from .medium import arriving1, crossing1, thin_walled1
 from .records import (
     FAST_DIFFUSE,
@@ -76,7 +82,6 @@ from .records import (
     Finish,
     MaterialHit,
     MeshHit,
-    Palette,
     SmoothTriangles,
     SpawnPoint,
 )
@@ -352,7 +357,7 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
     direction, eye = rays.direction, rays.origin
     point, geometric, shading, material = surf.point, surf.geometric, surf.shading, surf.material
     materials, triangles, origin = scene.materials, scene.triangles, scene.origin
-    palette = Palette(materials.colors, materials.pattern, materials.checkers)
+    palette = palette1(scene)
     # None: no texture code compiled; scene.mips: trilinear lookups (kernels.mip)
     textures = texture_tables1(scene)
     code = triangles.shading
@@ -380,7 +385,8 @@ def light_pass(rays, surf, scene, em, words, depth, term, shadow):
         wx, wy, wz = px + origin[0], py + origin[1], pz + origin[2]
         tri = surf.triangle[i]
         u, v = surf.uv[i, 0], surf.uv[i, 1]
-        at = MaterialHit(world=(wx, wy, wz), triangle=tri, u=u, v=v)
+        at = MaterialHit(world=(wx, wy, wz), triangle=tri, u=u, v=v, axis=(px, py, pz),
+                         normal=(gx, gy, gz))
         finish = Finish(kd=surface_color1(palette, textures, m, KD, at),
                         ks=surface_color1(palette, textures, m, KS, at),
                         shininess=shininess[m], highlight=highlight[m])
@@ -480,7 +486,7 @@ def cross_surfaces(factor, live, surf, walk, scene):
     direction, t, tmax = walk.direction, walk.t, walk.tmax
     material, point, geometric = surf.material, surf.point, surf.geometric
     origin, materials = scene.origin, scene.materials
-    palette = Palette(materials.colors, materials.pattern, materials.checkers)
+    palette = palette1(scene)
     opacity = materials.opacity
     # None without image textures: the lookup's texture code is then not compiled
     textures = texture_tables1(scene)
@@ -491,7 +497,9 @@ def cross_surfaces(factor, live, surf, walk, scene):
         mj = material[j]
         hit = MaterialHit(world=(point[j, 0] + origin[0], point[j, 1] + origin[1],
                                  point[j, 2] + origin[2]),
-                          triangle=surf.triangle[j], u=surf.uv[j, 0], v=surf.uv[j, 1])
+                          triangle=surf.triangle[j], u=surf.uv[j, 0], v=surf.uv[j, 1],
+                          axis=(point[j, 0], point[j, 1], point[j, 2]),
+                          normal=(geometric[j, 0], geometric[j, 1], geometric[j, 2]))
         kt = surface_color1(palette, textures, mj, KT, hit)
         op = surface_opacity1(opacity, alphas, mj, hit)
         r = live[j]
@@ -570,7 +578,7 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children):
     direction = rays.direction
     geometric, shading, material, point = surf.geometric, surf.shading, surf.material, surf.point
     origin, materials = scene.origin, scene.materials
-    palette = Palette(materials.colors, materials.pattern, materials.checkers)
+    palette = palette1(scene)
     opacity = materials.opacity
     # None without image textures: the lookup's texture code is then not compiled
     textures = texture_tables1(scene)
@@ -591,7 +599,9 @@ def hit_terms(rays, surf, scene, local, min_weight, into, children):
         w = arriving1(media, m, rays, surf, i)  # Beer's law inside the material it leaves
         hit = MaterialHit(world=(point[i, 0] + origin[0], point[i, 1] + origin[1],
                                  point[i, 2] + origin[2]),
-                          triangle=surf.triangle[i], u=surf.uv[i, 0], v=surf.uv[i, 1])
+                          triangle=surf.triangle[i], u=surf.uv[i, 0], v=surf.uv[i, 1],
+                          axis=(point[i, 0], point[i, 1], point[i, 2]),
+                          normal=(geometric[i, 0], geometric[i, 1], geometric[i, 2]))
         op = surface_opacity1(opacity, alphas, m, hit)
         ka = surface_color1(palette, textures, m, KA, hit)
         ke = surface_color1(palette, textures, m, KE, hit) if emits[m] else (0.0, 0.0, 0.0)
