@@ -16,6 +16,8 @@ import argparse
 import time
 from pathlib import Path
 
+from bench_scenes import scene_path
+
 import raytrace
 from raytrace.film.metrics import METRICS
 
@@ -42,7 +44,7 @@ def main() -> None:
     w, h = a.size
     rmse, flip = METRICS["rmse"].function, METRICS["flip"].function
     for name in a.scenes:
-        scene = raytrace.load_scene(ROOT / "scenes" / f"{name}.toml")
+        scene = raytrace.load_scene(scene_path(name))
         common = dict(width=w, height=h, threads=a.threads)
         raytrace.render(scene, width=32, height=24, threads=1)  # warm-up
         ref = raytrace.render(scene, spp=a.reference_spp, seed=12345, **common).rgb

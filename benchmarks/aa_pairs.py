@@ -14,6 +14,8 @@ import os
 import time
 from pathlib import Path
 
+from bench_scenes import scene_path
+
 import raytrace
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -42,7 +44,7 @@ def main() -> None:
     a = p.parse_args()
     out = {"load_start": os.getloadavg(), "threads": a.threads, "size": a.size, "scenes": {}}
     for name, runs in PAIRS.items():
-        scene = raytrace.load_scene(ROOT / "scenes" / f"{name}.toml")
+        scene = raytrace.load_scene(scene_path(name))
         raytrace.render(scene, width=32, height=24, threads=1, aa="adaptive")  # warm-up
         best = {label: [float("inf"), float("inf")] for label, _ in runs}
         for _ in range(a.rounds):

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import OpenEXR
+from bench_scenes import scene_path
 
 import raytrace
 import raytrace.adaptive as adaptive
@@ -85,7 +86,7 @@ def main() -> None:
     p.add_argument("--rounds", type=int, default=2)
     a = p.parse_args()
     ref = read_rgb(a.reference / f"{a.scene}_640x480_1024spp_seed12345.exr")
-    scene = raytrace.load_scene(ROOT / "scenes" / f"{a.scene}.toml")
+    scene = raytrace.load_scene(scene_path(a.scene))
     if a.contrast != "channel":
         adaptive.judge_cells = judge_by_luminance(a.contrast == "relative")
     raytrace.render(scene, width=32, height=24, threads=1, aa="adaptive", aa_min_depth=1)

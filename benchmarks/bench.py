@@ -94,6 +94,7 @@ import gil  # noqa: E402
 import meshes  # noqa: E402
 import mitsuba_peer  # noqa: E402
 import povray  # noqa: E402
+from bench_scenes import WHITTED  # noqa: E402
 
 import raytrace  # noqa: E402
 from raytrace import accel, accel_cache, malloc  # noqa: E402
@@ -109,7 +110,6 @@ def render_built(scene: raytrace.Scene, **settings) -> raytrace.Image:
 
 PARTS = ("throughput", "povray", "profile", "kernels", "scaling", "startup", "threads",
          "meshes", "mitsuba", "gil")
-WHITTED = ROOT / "scenes" / "whitted.toml"
 #: (width, height) of each benchmark scene, full and --quick.
 SIZES = {"mesh": (1000, 1000), "whitted": (1280, 960)}
 QUICK_SIZES = {"mesh": (160, 160), "whitted": (160, 120)}

@@ -59,10 +59,12 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 
+from bench_scenes import scene_path  # noqa: E402
+
 import raytrace  # noqa: E402
 from raytrace.scene import AreaLight, Scene  # noqa: E402
 
-SCENES = {name: ROOT / "scenes" / f"{name}.toml"
+SCENES = {name: scene_path(name)
           for name in ("area_light", "whitted", "tir", "mesh_model")}
 RAY_KINDS = ("camera", "shadow", "reflection", "refraction", "see_through", "total")
 

@@ -38,6 +38,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from bench_scenes import scene_path
 
 import raytrace
 
@@ -143,7 +144,7 @@ def main() -> None:
     w, h = a.size
     out = {}
     for name in a.scenes:
-        scene = raytrace.load_scene(ROOT / "scenes" / f"{name}.toml")
+        scene = raytrace.load_scene(scene_path(name))
         common = dict(width=w, height=h, threads=a.threads)
         raytrace.render(scene, width=32, height=24, threads=1)  # warm-up
         raytrace.render(scene, width=32, height=24, threads=1, aa="noise")

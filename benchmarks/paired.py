@@ -37,7 +37,7 @@ def main() -> None:
     work = Path(tempfile.mkdtemp())
     out = {}
     for name, path, (w, h) in (("mesh", bench.write_mesh_scene(work), (1000, 1000)),
-                               ("whitted", ROOT / "scenes" / "whitted.toml", (1280, 960))):
+                               ("whitted", bench.WHITTED, (1280, 960))):
         scene = raytrace.load_scene(path)
         raytrace.render(scene, width=64, height=64, threads=1)  # kernels loaded, not timed
         times = []

@@ -51,6 +51,7 @@ import zlib
 from pathlib import Path
 
 import numpy as np
+from bench_scenes import WHITTED
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -200,7 +201,7 @@ def render_cli(checkout: str, size: tuple[str, str], png: bool, workdir: str) ->
             "subprocess.run(sys.argv[1:], check=True)\n"
             "print(time.perf_counter() - t, "
             "resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024)")
-    cmd = [sys.executable, "-m", "raytrace", "render", "scenes/whitted.toml", "-o",
+    cmd = [sys.executable, "-m", "raytrace", "render", str(WHITTED), "-o",
            os.path.join(workdir, "cli.exr"), "--width", size[0], "--height", size[1],
            "--threads", "2", "-q"] + (["--png", os.path.join(workdir, "cli.png")] if png else [])
     out = subprocess.run([sys.executable, "-c", code, *cmd], capture_output=True, text=True,
@@ -238,7 +239,7 @@ def main(argv: list[str] | None = None) -> int:
         image = str(Path(a.workdir) / f"whitted_{w}x{h}.exr")
         if not Path(image).exists():
             subprocess.run([sys.executable, "-m", "raytrace", "render",
-                            str(ROOT / "scenes" / "whitted.toml"), "-o", image, "--width", w,
+                            str(WHITTED), "-o", image, "--width", w,
                             "--height", h, "-q"], check=True)
     from bench import table  # the table layout of the other benchmarks
 

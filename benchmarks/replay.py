@@ -82,7 +82,7 @@ def _shared(value, memo: dict) -> dict:
 def main() -> None:
     which, names = sys.argv[1], sys.argv[2:]
     path = (bench.write_mesh_scene(Path(tempfile.mkdtemp())) if which == "mesh"
-            else ROOT / "scenes" / "whitted.toml")
+            else bench.WHITTED)
     scene = raytrace.load_scene(path)
     raytrace.render(scene, width=64, height=64, threads=1)  # kernels loaded, not timed
     calls = capture(scene, SIZES[which], names)

@@ -36,7 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     a = p.parse_args(argv)
     work = Path(tempfile.mkdtemp())
     rows = []
-    for name, path, (w, h) in (("whitted", ROOT / "scenes" / "whitted.toml", (1280, 960)),
+    for name, path, (w, h) in (("whitted", bench.WHITTED, (1280, 960)),
                                ("mesh", bench.write_mesh_scene(work), (1000, 1000))):
         split = min((bench.kernel_breakdown(path, w, h) for _ in range(a.repeat)),
                     key=lambda r: r["python_seconds"])

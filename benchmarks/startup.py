@@ -71,8 +71,9 @@ import tempfile
 import time
 from pathlib import Path
 
+from bench_scenes import WHITTED
+
 ROOT = Path(__file__).resolve().parents[1]
-WHITTED = ROOT / "scenes" / "whitted.toml"
 DIFFUSE = ROOT / "scenes" / "spotlights.toml"
 BATCH = 20
 #: Keep the caller's PYTHONDONTWRITEBYTECODE (``--keep-env``).

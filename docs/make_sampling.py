@@ -18,6 +18,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))  # run from a checkout without installing
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from bench_scenes import WHITTED  # noqa: E402  (plain checkers: what the pictures compare)
 
 import raytrace  # noqa: E402
 from raytrace.film import write_png  # noqa: E402
@@ -29,7 +32,7 @@ ZOOM = 4
 
 
 def render(name: str, **kw) -> None:
-    scene = raytrace.load_scene(ROOT / "scenes" / "whitted.toml")
+    scene = raytrace.load_scene(WHITTED)
     t0 = time.perf_counter()
     image = raytrace.render(scene, width=W, height=H, crop=CROP, threads=1, **kw)
     seconds = time.perf_counter() - t0
@@ -41,7 +44,7 @@ def render(name: str, **kw) -> None:
 def noise_pictures() -> None:
     """The Whitted scene at 160×120 by ``target_error = 0.01`` (2 threads), enlarged 2×, and
     its samples AOV as grey levels, log2(samples) from min_spp (black) to the most (white)."""
-    scene = raytrace.load_scene(ROOT / "scenes" / "whitted.toml")
+    scene = raytrace.load_scene(WHITTED)
     image = raytrace.render(scene, width=160, height=120, threads=2, target_error=0.01,
                             aovs="samples")
     counts = np.log2(image.aov("samples").astype(np.float64))
