@@ -334,7 +334,7 @@ class Mesh(values.Checked):
         with np.errstate(over="ignore", invalid="ignore"):  # refused just below
             world = (verts * scale) @ rotation_matrix(rotate).T + translate
         values.check_points(world, "scale", "transformed vertices")
-        values.check_length(float(np.ptp(world, axis=0).max()), "scale",
+        values.check_length(values.span(world), "scale",
                             "the transformed mesh's size (its bounding box's longest side)",
                             longest=False)
         if self.normals is not None:  # numbered as the file's faces, before any is dropped
@@ -398,7 +398,7 @@ class Mesh(values.Checked):
             raise SceneError("\"file\" needs a mesh file that gives normals (OBJ vn, glTF "
                              "NORMAL, PLY nx ny nz); this mesh has none", "shading")
         self.vertices, self.faces = _check_arrays(self.vertices, self.faces)
-        values.check_length(float(np.ptp(self.vertices, axis=0).max()), "vertices",
+        values.check_length(values.span(self.vertices), "vertices",
                             "the mesh's size (its bounding box's longest side)", longest=False)
         rows = len(self.faces)
         for name, shape in (("face_material", (rows,)), ("texcoords", (rows, 3, 2)),
