@@ -5,8 +5,10 @@ The Whitted scene's floor takes box-filtered checkers (scenes/whitted.toml, the 
 picture), but the benchmarks measure it with plain ones: every Whitted number in docs/ and
 the issues' targets was measured so, the sampling studies measure how each method meets the
 aliasing plain checkers make, and a checkout from before the key (``warm_ab.py``,
-``startup.py``) reads the copy too. ``first_picture.py`` measures what the filter costs
-(docs/shading.md, "Box-filtered checkers").
+``startup.py``) reads the copy too. The copy keeps the scene's own settings (the Whitted
+scene's ``spp = 1``) and lives in another folder, so a scene with relative file paths would
+need them rewritten (none with a filter has any). ``first_picture.py`` measures what the
+filter costs (docs/shading.md, "Box-filtered checkers").
 
     from bench_scenes import scene_path, WHITTED
 """

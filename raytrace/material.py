@@ -83,7 +83,7 @@ class Checker:
 Color = np.ndarray | Checker
 PATTERN_KEYS = ("pattern", "colors", "scale", "filter")
 #: A checker's filters by their ``filter`` name, as ``Materials.checkers`` codes them: none
-#: (the cell's colour at the point) or box (the pattern's mean over the pixel's footprint).
+#: (the cell's colour at the point) or box (the pattern's mean over the camera sample's footprint).
 CHECKER_FILTERS = {"none": 0.0, "box": 1.0}
 #: The keys of a ``normal_map`` or ``bump`` table.
 RELIEF_KEYS = ("texture", "scale", "wrap", "uv_set", "uv_offset", "uv_rotation",

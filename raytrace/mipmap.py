@@ -154,7 +154,8 @@ def with_spread(record: SceneRecord, table: MaterialTable, camera: Camera,
                 options: RenderSettings) -> SceneRecord:
     """``record`` with its ``spread`` (:func:`spread_angle` of ``camera`` and ``options``)
     where some checker of ``table`` is box-filtered (``filter = "box"``); ``record`` itself
-    otherwise, spread 0, so an unfiltered scene is the same record bit for bit."""
+    otherwise, spread None, so an unfiltered scene is the same record and compiles no filter
+    code."""
     if not (table.checkers[:, CHECKER_FILTER] > 0.0).any():
         return record
     return record._replace(spread=spread_angle(camera.fov, options.height, options.spp,

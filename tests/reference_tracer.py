@@ -194,8 +194,9 @@ def odd_share(world: np.ndarray, view: np.ndarray, normal: np.ndarray, spread: f
     """The share of odd checker cells over a camera cone's footprint (docs/shading.md,
     "Box-filtered checkers"): the cone r = γ·|view|/2 wide on either side cuts the surface in
     an ellipse, r across the plane of incidence (t1) and R = r/c along it (t2, c = |n·d|); k =
-    min(⌈1/c⌉, 16) boxes along t2, each the box around its piece of the ellipse, their
-    shares averaged; each box's share (1 − Π mean of the axis' square wave)/2."""
+    min(⌈1/c⌉, 16) boxes along t2, each the box around an ellipse of semi-axes r and R/k at
+    its piece's centre, their shares averaged; each box's share (1 − Π mean of the axis'
+    square wave)/2."""
     d, n = unit(view), unit(normal)
     dn = float(d @ n)
     c = abs(dn)
@@ -207,7 +208,7 @@ def odd_share(world: np.ndarray, view: np.ndarray, normal: np.ndarray, spread: f
         k, t2, t1, big = 1, np.zeros(3), np.zeros(3), 0.0
         half = r * np.sqrt(np.maximum(1.0 - n * n, 0.0))
     else:
-        k, t2, big = min(math.ceil(1.0 / c), 16), unit(along), r / c
+        k, t2, big = 16 if c * 16 <= 1.0 else math.ceil(1.0 / c), unit(along), r / c
         t1 = cross(n, t2)
         half = np.sqrt((r * t1) ** 2 + (big / k * t2) ** 2)
     shares = []

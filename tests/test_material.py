@@ -462,3 +462,23 @@ def test_a_bad_normal_map_or_bump_is_one_line_naming_the_key(tmp_path, text, key
     with pytest.raises(raytrace.SceneError) as e:
         _scene_materials(tmp_path, f"[materials.x]\n{text}\n")
     assert f"{key}: {problem}" in str(e.value)
+
+
+def test_a_head_on_footprint_is_one_box_of_the_cones_half_width():
+    # Seen head on (d = −n), the cone's footprint is a disc of radius r = ½·γ·|P|, one box of
+    # half-widths r·√(1 − nᵢ²): on the wall z = −4 seen from the origin, γ = 0.5: r = 1 in x
+    # and y, 0 in z.
+    view, normal = np.array([[0.0, 0.0, -4.0]]), np.array([[0.0, 0.0, 1.0]])
+    share = np.empty(1)
+    footprint_rows(view, normal, 0.5, np.array([[0.25, 0.5, -3.5]]), 1.0, share)
+    np.testing.assert_array_equal(share, _box_share([0.25, 0.5, -3.5], [1.0, 1.0, 0.0]))
+    # x over [−0.7499, 1.2501]: −0.7499 + 1 − 0.2501 = 0, so half the cells are odd.
+    np.testing.assert_allclose(share, [0.5], atol=1e-12)
+
+
+def test_a_grazing_footprint_is_half_odd_at_any_angle_however_small():
+    view = np.array([[3.0, -1e-30, -4.0], [0.0, -1e-300, -1.0]])
+    normal = np.array([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    share = np.empty(2)
+    footprint_rows(view, normal, 0.01, view + [0.3, 0.0, 0.3], 1.0, share)
+    np.testing.assert_allclose(share, [0.5, 0.5], atol=1e-12)

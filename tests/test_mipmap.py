@@ -152,3 +152,21 @@ def test_the_spread_is_the_papers_over_the_root_of_the_stratified_samples():
     assert mipmap.spread_angle(90.0, 2, 1, "uniform") == pytest.approx(math.pi / 4, rel=1e-15)
     assert mipmap.spread_angle(90.0, 2, 16, "uniform") == pytest.approx(math.pi / 16, rel=1e-15)
     assert mipmap.spread_angle(90.0, 2, 16, "noise") == pytest.approx(math.pi / 4, rel=1e-15)
+
+
+def test_only_a_scene_with_a_box_filtered_checker_has_a_spread():
+    # spread None: the kernels compile none of the filter's code (kernels.material).
+    def floor(kind):
+        mat = raytrace.Material(kd={"pattern": "checker", "colors": [0.2, 0.8],
+                                    "filter": kind})
+        return make_scene([raytrace.Plane([0, -1, 0], [0, 1, 0], material=mat)],
+                          camera=raytrace.Camera(fov=90.0), width=16, height=2, spp=16)
+    for kind, want in (("none", None), ("box", math.pi / 16)):
+        scene = floor(kind)
+        arrays = scene_arrays(scene)
+        record = mipmap.with_spread(arrays.record, arrays.table, scene.camera,
+                                    render_options(scene))
+        if want is None:
+            assert record is arrays.record and record.spread is None
+        else:
+            assert record.spread == pytest.approx(want, rel=1e-15)

@@ -114,8 +114,9 @@ def surface_color1(palette, textures, m, slot, hit):
     ``hit`` (module docstring): its image texture where it has one (``textures``, from
     :func:`texture_tables1`), else its checker or constant (``palette`` = the materials'
     colours, patterns and checkers); a 3-tuple."""
-    return modulate1(textures, m, slot, hit,
-                     texel1(textures, m, slot, hit, color1(palette, m, slot, hit)))
+    x, y, z = hit.world
+    color = box_filtered1(palette, m, slot, hit, color1(palette, m, slot, x, y, z))
+    return modulate1(textures, m, slot, hit, texel1(textures, m, slot, hit, color))
 
 
 @inline
@@ -293,32 +294,74 @@ def palette1(scene):
     return Palette(materials.colors, materials.pattern, materials.checkers, scene.spread)
 
 
-@helper
-def color1(palette, m, slot, hit):
-    """Colour ``slot`` (KA … KE) of material ``m`` at ``hit`` (a
-    :class:`raytrace.kernels.records.MaterialHit`): its constant or its checker pattern at
-    the world point, colour 0 or colour 1 by :func:`checker1`'s parity (``palette``: a
-    :class:`raytrace.kernels.records.Palette`, the materials' colours, patterns and
-    checkers). A box-filtered checker (``filter = "box"``) whose footprint
+def box_filtered1(palette, m, slot, hit, color):
+    """``color``, colour ``slot`` of material ``m`` by :func:`color1`, or where that colour
+    is a box-filtered checker (``filter = "box"``) whose footprint at ``hit``
     (:func:`raytrace.kernels.mip.cone_footprint1` of the palette's spread) crosses cell
-    boundaries is ``(1 − f)·colour 0 + f·colour 1``, f the share of odd cells in it
-    (:func:`raytrace.kernels.mip.footprint_checker1`); where it crosses none, the parity's
-    colour bit for bit. A material with an image texture then takes :func:`texel1` instead."""
+    boundaries, ``(1 − f)·colour 0 + f·colour 1``, f the share of odd cells in it
+    (:func:`raytrace.kernels.mip.footprint_checker1`); where it crosses none, ``color``, the
+    parity's colour, bit for bit. ``color`` itself where ``palette.spread`` is None (no
+    checker of the scene is filtered): chosen by type when a kernel compiles
+    (``numba.extending.overload``), so such a scene compiles none of the filter's code. A
+    step of its own, not inside :func:`color1`: a larger :func:`color1` is no longer inlined
+    into its callers (docs/shading.md, "Box-filtered checkers")."""
+    if palette.spread is None:
+        return color
+    return _mixed(palette, m, slot, hit, color)
+
+
+def _mixed(palette, m, slot, hit, color):
+    """:func:`box_filtered1` where ``palette.spread`` is a number: which checker, if any, is
+    read here (inlined into the caller); the footprint in :func:`box_color1`."""
+    p = palette.pattern[m, slot // 3]
+    checkers = palette.checkers
+    if p < 0 or not checkers[p, CHECKER_FILTER] > 0.0:
+        return color
+    pair = ((checkers[p, CHECKER_COLOR0], checkers[p, CHECKER_COLOR0 + 1],
+             checkers[p, CHECKER_COLOR0 + 2]),
+            (checkers[p, CHECKER_COLOR1], checkers[p, CHECKER_COLOR1 + 1],
+             checkers[p, CHECKER_COLOR1 + 2]))
+    return box_color1(hit, palette.spread, checkers[p, CHECKER_SCALE], pair, color)
+
+
+@helper
+def box_color1(hit, spread, scale, pair, color):
+    """The colour of a box-filtered checker of cell size ``scale`` and colours ``pair`` at
+    ``hit`` seen by a cone of spread ``spread``: ``(1 − f)·pair[0] + f·pair[1]``, f the
+    share of odd cells over the footprint
+    (:func:`raytrace.kernels.mip.footprint_checker1` of
+    :func:`raytrace.kernels.mip.cone_footprint1`), or ``color`` (the parity's colour)
+    where f is 0 or 1. Numbers in, numbers out: a call that takes the palette's arrays pays
+    their reference counts on every lookup (docs/shading.md, "Box-filtered checkers")."""
+    f = footprint_checker1(hit.world, cone_footprint1(hit.axis, hit.normal, spread), scale)
+    if not 0.0 < f < 1.0:
+        return color
+    e = 1.0 - f
+    c0, c1 = pair
+    return e * c0[0] + f * c1[0], e * c0[1] + f * c1[1], e * c0[2] + f * c1[2]
+
+
+def _box_filtered(palette, m, slot, hit, color):
+    if isinstance(_field(palette, "spread"), types.NoneType):
+        return lambda palette, m, slot, hit, color: color
+    return _mixed
+
+
+overload(box_filtered1, inline="always")(_box_filtered)
+
+
+@helper
+def color1(palette, m, slot, x, y, z):
+    """Colour ``slot`` (KA … KE) of material ``m`` at the world point (x, y, z): its constant
+    or its checker pattern there, colour 0 or colour 1 by :func:`checker1`'s parity
+    (``palette``: a :class:`raytrace.kernels.records.Palette`, the materials' colours,
+    patterns and checkers). A box-filtered checker then takes :func:`box_filtered1`, a
+    material with an image texture :func:`texel1`."""
     colors, pattern, checkers = palette.colors, palette.pattern, palette.checkers
     p = pattern[m, slot // 3]
     if p < 0:
         return colors[m, slot], colors[m, slot + 1], colors[m, slot + 2]
-    x, y, z = hit.world
-    scale = checkers[p, CHECKER_SCALE]
-    if checkers[p, CHECKER_FILTER] > 0.0 and palette.spread > 0.0:
-        f = footprint_checker1(hit.world, cone_footprint1(hit.axis, hit.normal, palette.spread),
-                               scale)
-        if 0.0 < f < 1.0:
-            e = 1.0 - f
-            return (e * checkers[p, CHECKER_COLOR0] + f * checkers[p, CHECKER_COLOR1],
-                    e * checkers[p, CHECKER_COLOR0 + 1] + f * checkers[p, CHECKER_COLOR1 + 1],
-                    e * checkers[p, CHECKER_COLOR0 + 2] + f * checkers[p, CHECKER_COLOR1 + 2])
-    c = CHECKER_COLOR1 if checker1(x, y, z, scale) else CHECKER_COLOR0
+    c = CHECKER_COLOR1 if checker1(x, y, z, checkers[p, CHECKER_SCALE]) else CHECKER_COLOR0
     return checkers[p, c], checkers[p, c + 1], checkers[p, c + 2]
 
 

@@ -252,8 +252,9 @@ class Scene(NamedTuple):
     #: material has one, else None: ``kernels.material.relief1`` is then compiled as nothing
     reliefs: Reliefs | None = None
     #: γ, a camera sample's ray-cone spread (radians, ``raytrace.mipmap.spread_angle``) where
-    #: some checker is box-filtered (``filter = "box"``), else 0
-    spread: float = 0.0
+    #: some checker is box-filtered (``filter = "box"``), else None: the filter's code
+    #: (``kernels.material.checker_share1``) is then not compiled
+    spread: float | None = None
 
 
 class Emitter(NamedTuple):
@@ -649,7 +650,7 @@ class Palette(NamedTuple):
     colors: np.ndarray    #: ``Materials.colors``
     pattern: np.ndarray   #: ``Materials.pattern``
     checkers: np.ndarray  #: ``Materials.checkers``
-    spread: float         #: ``Scene.spread``: a box-filtered checker's cone spread
+    spread: float | None  #: ``Scene.spread``: a box-filtered checker's cone spread, or None
 
 
 class SmoothTriangles(NamedTuple):
