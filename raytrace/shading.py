@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .kernels import core, mip
+from .kernels import core
+from .kernels import material as mk
 from .kernels import shading as sk  # the compiled passes of this stage
 from .kernels.kinds import FRESNEL_CODES, HIGHLIGHT_CODES  # noqa: F401  (by name, as before)
 from .lights import Emitter
@@ -107,13 +108,13 @@ def filtered_checker(pattern: Checker, points: np.ndarray, view: np.ndarray,
     ``filter = "box"`` checker is shaded: at world points ``points`` (n, 3), seen at the
     camera-relative points ``view`` (n, 3) on surfaces of normals ``normal`` (n, 3) by ray
     cones of spread ``spread`` (radians, :func:`raytrace.mipmap.spread_angle`): the mean of
-    the pattern over each footprint (:func:`raytrace.kernels.mip.footprint_checker1`), and
-    :func:`checker`'s colour where no cell boundary crosses it."""
+    the pattern over each footprint, and :func:`checker`'s colour where no cell boundary
+    crosses it: the kernels' own :func:`raytrace.kernels.material.box_color1`."""
     points, view, normal = rows3(points, view, normal)
-    share = np.empty(len(points))
-    mip.footprint_rows(view, normal, float(spread), points, float(pattern.scale), share)
-    mixed = (1.0 - share[:, None]) * pattern.colors[0] + share[:, None] * pattern.colors[1]
-    return np.where(((share > 0.0) & (share < 1.0))[:, None], mixed, checker(pattern, points))
+    out = np.ascontiguousarray(checker(pattern, points), np.float64)
+    pair = tuple(tuple(float(x) for x in c) for c in pattern.colors)
+    mk.box_color_rows(points, view, normal, float(spread), float(pattern.scale), pair, out)
+    return out
 
 
 def texture(image: Texture, st: np.ndarray) -> np.ndarray:

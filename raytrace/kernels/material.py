@@ -38,7 +38,7 @@ from numba.core import types
 from numba.extending import overload
 
 from .core import ALPHA, bilinear1, checker1, cross3, texture1
-from .jit import helper, inline
+from .jit import helper, inline, kernel
 from .kinds import KA, NORMAL_MAP
 from .mip import cone_footprint1, cone_lod1, footprint_checker1, trilinear1
 from .records import (
@@ -52,6 +52,7 @@ from .records import (
     TEX_HEIGHT,
     TEX_WIDTH,
     AlphaTables,
+    MaterialHit,
     Palette,
     TextureTables,
 )
@@ -339,6 +340,20 @@ def box_color1(hit, spread, scale, pair, color):
     e = 1.0 - f
     c0, c1 = pair
     return e * c0[0] + f * c1[0], e * c0[1] + f * c1[1], e * c0[2] + f * c1[2]
+
+
+@kernel
+def box_color_rows(points, view, normal, spread, scale, pair, out):
+    """:func:`box_color1` at each world point ``points`` (n, 3), seen at the camera-relative
+    point ``view`` (n, 3) on a surface of normal ``normal`` (n, 3), into ``out`` (n, 3),
+    which holds each point's parity colour on entry (``raytrace.shading.filtered_checker``,
+    tests)."""
+    for i in range(points.shape[0]):
+        hit = MaterialHit(world=(points[i, 0], points[i, 1], points[i, 2]), triangle=-1,
+                          u=0.0, v=0.0, axis=(view[i, 0], view[i, 1], view[i, 2]),
+                          normal=(normal[i, 0], normal[i, 1], normal[i, 2]))
+        out[i, 0], out[i, 1], out[i, 2] = box_color1(hit, spread, scale, pair,
+                                                     (out[i, 0], out[i, 1], out[i, 2]))
 
 
 def _box_filtered(palette, m, slot, hit, color):

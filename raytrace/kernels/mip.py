@@ -173,8 +173,7 @@ def lod_rows(mips, q, triangle, world, out):
 def footprint_rows(view, normal, spread, points, scale, out):
     """:func:`footprint_checker1` of the checker of cell size ``scale`` at the world points
     ``points`` (n, 3), each seen at the camera-relative point ``view`` (n, 3) on a surface of
-    normal ``normal`` (n, 3) by a cone of spread ``spread``, into ``out`` (n,) (tests,
-    ``raytrace.shading.checker``)."""
+    normal ``normal`` (n, 3) by a cone of spread ``spread``, into ``out`` (n,) (tests)."""
     for i in range(view.shape[0]):
         foot = cone_footprint1((view[i, 0], view[i, 1], view[i, 2]),
                                (normal[i, 0], normal[i, 1], normal[i, 2]), spread)
