@@ -37,7 +37,7 @@ most :func:`margin` away: a crop that traces that margin has the full frame's pi
 relative RMSE is estimated as ``√(mean over pixels and channels of v) / mean over pixels and
 channels of I``; between rounds the pixels of highest ``σ/n`` double, σ² each pixel's sample
 variance (its samples of both streams pooled round by round,
-:func:`raytrace.kernels.noise.pool_blocks`: ``2n − 1``
+:func:`raytrace.kernels.noise.add_round`: ``2n − 1``
 degrees of freedom where ``v`` has one, so the first round can be small: 4 samples a pixel
 by default, :data:`raytrace.sampling.MIN_SPP_GOAL`), and the render stops
 after the first round whose estimate is at most the target, once the deadline has passed (no
@@ -56,8 +56,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .film.filters import importance
-from .kernels.noise import STREAMS, pool_blocks, round_points, sobol_rows, stream_offset_rows
-from .kernels.records import StreamSamples, Window
+from .kernels.noise import STREAMS, add_round, round_points, sobol_rows, stream_offset_rows
+from .kernels.records import Moments, StreamSamples, Window
 
 #: The most a round by target error or time adds, as a share of the samples spent so far.
 ROUND_SHARE = 0.5
@@ -112,9 +112,11 @@ def relative_rmse(a: np.ndarray, b: np.ndarray) -> float:
     pixels (:func:`pixel_variance`); 0 for an image without noise, inf for a noisy image whose
     mean is not positive."""
     mean, v = 0.5 * (a + b), pixel_variance(a, b)
-    finite = np.isfinite(v).all(-1) & np.isfinite(mean).all(-1)
-    mse = float(v[finite].mean()) if finite.any() else 0.0
-    level = float(mean[finite].mean()) if finite.any() else 0.0
+    if not (np.isfinite(v).all() and np.isfinite(mean).all()):  # (the common case: at once)
+        finite = np.isfinite(v).all(-1) & np.isfinite(mean).all(-1)
+        mean, v = mean[finite], v[finite]
+    mse = float(v.mean()) if v.size else 0.0
+    level = float(mean.mean()) if mean.size else 0.0
     if mse == 0.0:
         return 0.0
     return float(np.sqrt(mse) / level) if level > 0 else float("inf")
@@ -328,9 +330,16 @@ def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
     v = np.where(np.isfinite(variance), variance, 0.0)
     priority = np.sqrt(box3(v, cols)) / n
     open_ = np.flatnonzero((n < most) & (priority > 0))
-    order = open_[np.argsort(-priority[open_], kind="stable")]
-    cost = np.cumsum(np.minimum(2 * n[order], most) - n[order])
-    take = order[:int(np.searchsorted(cost, share * n.sum())) + 1]
+    order = open_[np.argsort(-priority[open_])]  # (a stable sort takes 3× as long)
+    added, goal = np.minimum(2 * n, most) - n, share * n.sum()
+    cut = int(np.searchsorted(np.cumsum(added[order]), goal))
+    take = order
+    if cut < len(order):  # the round ends among the pixels of one priority: earlier first
+        tie = priority[order[cut]]
+        above = order[priority[order] > tie]
+        ties = open_[priority[open_] == tie]
+        spent = added[above].sum() + np.cumsum(added[ties])
+        take = np.concatenate([above, ties[:int(np.searchsorted(spent, goal)) + 1]])
     new = n.copy()
     new[take] = np.minimum(2 * n[take], most)
     return new
@@ -352,9 +361,10 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
     new = np.full(n_pixels, budget.min_spp // STREAMS, np.int64)
     sums = np.zeros((n_pixels, STREAMS, 3))  # each pixel's streams' sums
     goal = budget.target_error is not None or budget.deadline is not None
-    if goal:  # every sample of a pixel, both streams: count, mean, Σ(x − mean)²
-        count = np.zeros(n_pixels, np.int64)
-        mean, m2 = np.zeros((n_pixels, 3)), np.zeros((n_pixels, 3))
+    # every sample of a pixel, both streams: count, mean, Σ(x − mean)²
+    moments = Moments(np.zeros(n_pixels, np.int64), np.zeros((n_pixels, 3)),
+                      np.zeros((n_pixels, 3))) if goal else None
+    done = np.empty(n_pixels, bool)
     rounds, stopped = 0, ""
     grew = np.ones(n_pixels, bool)  # the pixels the last round sampled
     round_samples, round_seconds = [], []  # each round's, for the time it leaves
@@ -368,20 +378,11 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
             values = values * r.weight[:, None]
         # each (pixel, stream)'s samples of the round are one block, summed in order; a
         # deadline leaves out whole pixels (passes are cut at pixel bounds)
-        block = np.repeat(new - n, STREAMS)
-        blocks = np.flatnonzero(block)
-        starts = (np.cumsum(block) - block)[blocks]
-        kept = traced[starts]
-        if len(blocks):
-            sums.reshape(-1, 3)[blocks[kept]] += np.add.reduceat(values, starts, axis=0)[kept]
-            if goal:  # the pixel's blocks, stream A then B (pool_blocks)
-                pool_blocks(values, starts[kept], block[blocks][kept],
-                            blocks[kept] // STREAMS, count, mean, m2)
-        done = new == n
-        done[blocks[kept] // STREAMS] = True
+        add_round(values, new - n, traced, sums, moments, done)
         n = np.where(done, new, n)
         rounds += 1
-        a, b = sums[:, 0] / n[:, None], sums[:, 1] / n[:, None]
+        streams = sums / n[:, None, None]
+        a, b = streams[:, 0], streams[:, 1]
         estimate = relative_rmse(a, b)
         if not done.all() or (budget.deadline is not None
                               and time.perf_counter() >= budget.deadline):
@@ -392,7 +393,7 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
             break
         if goal:
             with np.errstate(invalid="ignore", divide="ignore"):
-                variance = (m2 / (count - 1.0)[:, None]).mean(-1)
+                variance = (moments.m2 / (moments.count - 1.0)[:, None]).mean(-1)
             if rounds == 1:
                 first = float(n.sum()), estimate
             rate = error_rate((first[0], float(n.sum())), (first[1], estimate))

@@ -18,7 +18,8 @@ from test_threads import scene as every_ray_scene
 import raytrace
 from raytrace import cli, noise
 from raytrace.errors import SceneError
-from raytrace.kernels.noise import KEY_STRIDE, pool_blocks
+from raytrace.kernels.noise import KEY_STRIDE, add_round
+from raytrace.kernels.records import Moments
 
 W, H = 8, 6
 
@@ -142,6 +143,25 @@ def test_neyman_counts_samples_the_largest_sigma_over_n_first():
                                share=0.2).tolist() == [4, 2, 4]
 
 
+def test_neyman_counts_takes_pixels_of_one_priority_in_order():
+    """Where the round ends among pixels of equal σ̃/n, the earlier ones double first:
+    the same counts as a stable sort by priority, on 600 pixels whose variances take four
+    values (so thousands of ties), at shares that cut the order at every kind of place."""
+    rng = np.random.default_rng(5)
+    cols = 30
+    n = rng.choice([2, 4, 8], 600)
+    variance = rng.choice([0.0, 1.0, 4.0, 9.0], 600)
+    priority = np.sqrt(noise.box3(variance, cols)) / n
+    open_ = np.flatnonzero((n < 8) & (priority > 0))
+    order = open_[np.argsort(-priority[open_], kind="stable")]
+    for share in (0.01, 0.05, 0.1, 0.2, 0.3, 0.5):
+        cost = np.cumsum(np.minimum(2 * n[order], 8) - n[order])
+        take = order[:int(np.searchsorted(cost, share * n.sum())) + 1]
+        want = n.copy()
+        want[take] = np.minimum(2 * n[take], 8)
+        assert noise.neyman_counts(n, variance, 8, cols, share).tolist() == want.tolist()
+
+
 def test_a_round_by_target_adds_what_the_target_needs():
     """The next round's share of the samples spent, by hand: an estimate 1.1× the target
     needs 1.21× the samples if the error falls as 1/√N, so with the 10 % margin
@@ -193,21 +213,48 @@ def test_a_round_by_time_fits_the_time_left():
 
 def test_pooled_moments_are_those_of_all_the_samples():
     """Moments pooled block by block (Chan et al.'s update) equal numpy's of the concatenated
-    samples: blocks of 3, 5 and 1 samples of three channels, around 1e8 with a spread of 1
-    (where Σx² − (Σx)²/n would lose every digit of the variance in float64: x² ≈ 1e16, whose
-    ulp is 2), all of pixel 1, and a block of 2 of pixel 0 between them."""
+    samples, and each stream's sum is its samples' sum: three rounds over two pixels, of
+    (1, 3), (2, 0) and (1, 1) samples a stream, of three channels around 1e8 with a spread of
+    1 (where Σx² − (Σx)²/n would lose every digit of the variance in float64: x² ≈ 1e16,
+    whose ulp is 2); the third round's second pixel not traced (a deadline), so it is not
+    done and adds nothing."""
     rng = np.random.default_rng(4)
-    blocks = [1e8 + rng.standard_normal((k, 3)) for k in (3, 2, 5, 1)]
-    values = np.concatenate(blocks)
-    sizes = np.array([len(b) for b in blocks])
-    count, mean, m2 = np.zeros(2, np.int64), np.zeros((2, 3)), np.zeros((2, 3))
-    pool_blocks(values, np.cumsum(sizes) - sizes, sizes, np.array([1, 0, 1, 1]), count, mean,
-                m2)
-    for p, mine in ((0, [blocks[1]]), (1, [blocks[0], blocks[2], blocks[3]])):
-        every = np.concatenate(mine)
-        assert count[p] == len(every)
-        np.testing.assert_allclose(mean[p], every.mean(0), rtol=1e-15)
-        np.testing.assert_allclose(m2[p] / (count[p] - 1), every.var(0, ddof=1), rtol=1e-6)
+    sums = np.zeros((2, 2, 3))
+    moments = Moments(np.zeros(2, np.int64), np.zeros((2, 3)), np.zeros((2, 3)))
+    streams = {(p, s): [] for p in (0, 1) for s in (0, 1)}
+    for grow, traced in (([1, 3], [True, True]), ([2, 0], [True, True]),
+                         ([1, 1], [True, False])):
+        values, flags = [], []
+        for p in (0, 1):
+            for s in (0, 1):
+                block = 1e8 + rng.standard_normal((grow[p], 3))
+                values.append(block)
+                flags += [traced[p]] * grow[p]
+                if traced[p]:
+                    streams[p, s].append(block)
+        done = np.empty(2, bool)
+        add_round(np.concatenate(values), np.array(grow), np.array(flags), sums, moments, done)
+        assert done.tolist() == [traced[p] or grow[p] == 0 for p in (0, 1)]
+    for p in (0, 1):
+        every = np.concatenate(streams[p, 0] + streams[p, 1])
+        assert moments.count[p] == len(every)
+        np.testing.assert_allclose(moments.mean[p], every.mean(0), rtol=1e-15)
+        np.testing.assert_allclose(moments.m2[p] / (moments.count[p] - 1),
+                                   every.var(0, ddof=1), rtol=1e-6)
+        for s in (0, 1):
+            np.testing.assert_allclose(sums[p, s], np.concatenate(streams[p, s]).sum(0),
+                                       rtol=1e-15)
+
+
+def test_a_round_without_moments_adds_its_sums_alone():
+    """Without moments (a render by threshold reads none) a round adds each stream's sum,
+    in sample order, bit for bit numpy's sequential sum of the block."""
+    values = np.array([[0.1, 0.2, 0.3], [0.7, 0.11, 0.13], [0.3, 0.5, 0.9], [1e16, 1.0, 2.0]])
+    sums, done = np.zeros((1, 2, 3)), np.empty(1, bool)
+    add_round(values, np.array([2]), np.ones(4, bool), sums, None, done)
+    assert done.tolist() == [True]
+    assert sums[0, 0].tolist() == (values[0] + values[1]).tolist()
+    assert sums[0, 1].tolist() == (values[2] + values[3]).tolist()
 
 
 def test_a_render_by_target_doubles_the_pixels_of_widest_spread():

@@ -1,7 +1,7 @@
 """The per-sample arithmetic of noise-driven sampling (:mod:`raytrace.noise`): each pixel
-stream's Owen-scrambled Sobol points (:func:`round_points`) and the running moments of each
-pixel's samples (:func:`pool_blocks`), so a round's planning and bookkeeping cost the main
-thread little while the passes wait for it.
+stream's Owen-scrambled Sobol points (:func:`round_points`) and each round's samples added to
+their pixels' sums and running moments (:func:`add_round`), so a round's planning and
+bookkeeping cost the main thread little while the passes wait for it.
 
 The streams' integer arithmetic is 32-bit, done in int64 and masked (:data:`MASK32`; every
 product stays under 2⁶³), bit for bit numpy's uint32 arithmetic.
@@ -130,29 +130,48 @@ def round_points(window, width, seed, old, new, out):
 
 
 @kernel
-def pool_blocks(values, starts, sizes, pixel, count, mean, m2):
-    """Add block i's samples (rows ``starts[i]`` … ``starts[i] + sizes[i] − 1`` of ``values``,
-    (m, 3)) to the running moments of pixel ``pixel[i]``: its ``count`` of samples, their
-    ``mean`` and summed squared deviations ``m2`` (k, 3), by Chan, Golub & LeVeque's pairwise
-    update ("Algorithms for computing the sample variance", The American Statistician 37(3),
-    1983, eq. 2.1): a set of n₀ samples and a block of k with means differing by δ make
-    n₀ + k samples of mean ``mean + δ·k/(n₀ + k)`` and
-    ``m2 + m2_block + δ²·n₀·k/(n₀ + k)``: no difference of large sums, so a bright pixel's
-    small spread is not lost to cancellation. Blocks of one pixel are added in their order."""
-    for i in range(starts.shape[0]):
-        p, a, k = pixel[i], starts[i], sizes[i]
-        n0 = count[p]
-        n = n0 + k
-        for c in range(3):
-            mu = 0.0
-            for j in range(a, a + k):
-                mu += values[j, c]
-            mu /= k
-            s2 = 0.0
-            for j in range(a, a + k):
-                d = values[j, c] - mu
-                s2 += d * d
-            delta = mu - mean[p, c]
-            mean[p, c] += delta * (k / n)
-            m2[p, c] += s2 + delta * delta * (n0 * (k / n))
-        count[p] = n
+def add_round(values, grow, traced, sums, moments, done):
+    """Add a round's samples to each pixel's streams. ``values`` (m, 3) are the round's
+    samples in :func:`round_points`' order: pixel after pixel, ``grow[p]`` samples of stream
+    A, then as many of stream B; ``traced`` (m,) says which were traced (a deadline leaves
+    out whole pixels). Each stream's block is summed in order into ``sums`` (k,
+    :data:`STREAMS`, 3). With ``moments`` (a :class:`raytrace.kernels.records.Moments`; None
+    where nothing reads them) each block also updates its pixel's running moments by Chan,
+    Golub & LeVeque's pairwise update ("Algorithms for computing the sample variance", The
+    American Statistician 37(3), 1983, eq. 2.1): n₀ samples of mean μ and a block of k of
+    mean μ_b make n₀ + k samples of mean ``μ + δ·k/(n₀ + k)``, δ = μ_b − μ, and summed squared
+    deviations ``m2 + m2_b + δ²·n₀·k/(n₀ + k)``: no difference of large sums, so a bright
+    pixel's small spread is not lost to cancellation. ``done[p]``: pixel p has its round
+    (it had none, or it was traced)."""
+    j = 0
+    for p in range(grow.shape[0]):
+        k = grow[p]
+        if k == 0:
+            done[p] = True
+            continue
+        done[p] = traced[j]
+        if not traced[j]:
+            j += STREAMS * k
+            continue
+        for stream in range(STREAMS):
+            n0, n = 0, 0
+            if moments is not None:
+                n0 = moments.count[p]
+                n = n0 + k
+            for c in range(3):
+                total = values[j, c]
+                for i in range(j + 1, j + k):
+                    total += values[i, c]
+                sums[p, stream, c] += total
+                if moments is not None:
+                    mu = total / k
+                    s2 = 0.0
+                    for i in range(j, j + k):
+                        d = values[i, c] - mu
+                        s2 += d * d
+                    delta = mu - moments.mean[p, c]
+                    moments.mean[p, c] += delta * (k / n)
+                    moments.m2[p, c] += s2 + delta * delta * (n0 * (k / n))
+            if moments is not None:
+                moments.count[p] = n
+            j += k

@@ -49,6 +49,7 @@ record                   what it holds (n rays or hits, M materials, T triangles
 :class:`Sampling`        how a frame's pixel samples are numbered and placed
 :class:`Window`          a window of pixels (a crop, or what is traced)
 :class:`StreamSamples`   a noise-driven round's samples: offsets, pixels and light keys
+:class:`Moments`         the running moments of each pixel's samples (a noise-driven render)
 :class:`FilterProfile`   a reconstruction filter
 :class:`Cells`           adaptive anti-aliasing's cells of a level, :class:`Level` its rule,
                          :class:`SlotGrid` its lattice points' table
@@ -547,6 +548,15 @@ class StreamSamples(NamedTuple):
     col: np.ndarray   #: (m,) int64 the pixel's column of the frame
     row: np.ndarray   #: (m,) int64 and row
     keys: np.ndarray  #: (m,) int64 the light key of its area-light points
+
+
+class Moments(NamedTuple):
+    """The running moments of each pixel's samples, both streams pooled
+    (``kernels.noise.add_round``): a render by target error or time ranks pixels by them."""
+
+    count: np.ndarray  #: (k,) int64 the pixel's samples
+    mean: np.ndarray   #: (k, 3) float64 their mean
+    m2: np.ndarray     #: (k, 3) float64 their summed squared deviations from it
 
 
 class FilterProfile(NamedTuple):
