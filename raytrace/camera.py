@@ -45,7 +45,7 @@ def sample_offsets(spp: int, seed: int, sample: np.ndarray) -> tuple[np.ndarray,
     return sx, sy
 
 
-def camera_rays(camera: Camera, frame, start: int, stop: int, *,
+def camera_rays(camera: Camera | Pinhole, frame, start: int, stop: int, *,
                 columns: RayBatch | None = None, direction: np.ndarray | None = None,
                 window: tuple[int, int, int, int] | None = None) -> RayBatch:
     """Rays of samples ``start..stop-1`` (sample = pixel·spp + k, pixels counted row by row
@@ -55,9 +55,11 @@ def camera_rays(camera: Camera, frame, start: int, stop: int, *,
     :class:`raytrace.scene.RenderSettings` renders the whole frame); ``window``, where given,
     is the window traced instead of the crop (a crop widened by a filter's reach).
 
-    ``columns``: a batch of at least ``stop − start`` rows from :func:`camera_columns` whose
-    columns other than the direction are reused (views of its first rows); ``direction``: an
-    (n, 3) float64 array to write the directions into. Both new when not given.
+    ``camera``: the scene's camera, or the frame as it sees it (:func:`pinhole`), made once
+    by a caller that traces many passes. ``columns``: a batch of at least ``stop − start``
+    rows from :func:`camera_columns` whose columns other than the direction are reused
+    (views of its first rows); ``direction``: an (n, 3) float64 array to write the
+    directions into. Both new when not given.
     """
     n = stop - start
     if direction is None:
@@ -71,28 +73,32 @@ def camera_rays(camera: Camera, frame, start: int, stop: int, *,
                     kind=columns.kind[:n])
 
 
-def camera_directions(camera: Camera, width: int, height: int, spp: int, seed: int,
+def camera_directions(camera: Camera | Pinhole, width: int, height: int, spp: int, seed: int,
                       start: int, out: np.ndarray,
                       window: tuple[int, int, int, int] | None = None) -> None:
     """Unit directions (n, 3) of samples ``start …`` of ``window`` (the whole frame when
-    None) into ``out``."""
+    None) into ``out``; ``camera`` as :func:`camera_rays` takes it."""
     directions(start, Sampling(width, spp, grid(spp), seed), pinhole(camera, width, height),
                Window(*(window or (0, 0, width, height))), out)
 
 
-def directions_at(camera: Camera, width: int, height: int, x: np.ndarray,
+def directions_at(camera: Camera | Pinhole, width: int, height: int, x: np.ndarray,
                   y: np.ndarray) -> np.ndarray:
     """Unit directions (n, 3) through image positions ``x``, ``y`` (n,) (pixels of the
-    ``width`` × ``height`` frame; :func:`raytrace.kernels.camera.direction1`)."""
+    ``width`` × ``height`` frame; :func:`raytrace.kernels.camera.direction1`); ``camera`` as
+    :func:`camera_rays` takes it."""
     out = np.empty((len(x), 3))
     directions_at_rows(np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64),
                        pinhole(camera, width, height), out)
     return out
 
 
-def pinhole(camera: Camera, width: int, height: int) -> Pinhole:
+def pinhole(camera: Camera | Pinhole, width: int, height: int) -> Pinhole:
     """The ``width`` × ``height`` frame as ``camera`` sees it, as the kernels take it:
-    tan(fov/2) and the camera's unit axes (:meth:`raytrace.scene.Camera.basis`)."""
+    tan(fov/2) and the camera's unit axes (:meth:`raytrace.scene.Camera.basis`); a
+    :class:`Pinhole` is that already (made by a caller for every pass of a frame)."""
+    if isinstance(camera, Pinhole):
+        return camera
     right, up, forward = (tuple(float(c) for c in v) for v in camera.basis())
     return Pinhole(width, height, math.tan(math.radians(camera.fov) / 2.0), right, up, forward)
 

@@ -43,6 +43,7 @@ import copy
 import ctypes
 import dataclasses
 import os
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -55,7 +56,7 @@ import numpy as np
 from . import adaptive, fast_phong, noise, sampling
 from .accel import Hits, Surface
 from .accel_cache import accelerator
-from .camera import camera_columns, camera_rays, directions_at, global_samples, grid
+from .camera import camera_columns, camera_rays, directions_at, global_samples, grid, pinhole
 from .film import aov as aov_images
 from .film import filters
 from .film.image import Image
@@ -111,8 +112,12 @@ DEBUG = os.environ.get("RAYTRACE_DEBUG", "") not in ("", "0")
 #: and optimizes every kernel again into each variant of the loop: docs/performance.md,
 #: "The compiled loop").
 COMPILED_LOOP = os.environ.get("RAYTRACE_LOOP", "") == "compiled"
-#: Seconds between two looks of the thread waiting for the passes at whether a Ctrl-C came.
-WAKE_SECONDS = 0.1
+#: Seconds between two looks of the thread waiting for the passes at whether a Ctrl-C came:
+#: None on Linux, whose lock waits a signal ends (CPython waits on a POSIX semaphore there;
+#: on macOS and Windows it does not, so they look every 0.1 s), so that thread does not wake
+#: during a render: each wake took the GIL from the passes, 6 % of a 2-thread mesh render's
+#: GIL samples at 0.1 s (benchmarks/gil.py).
+WAKE_SECONDS = None if sys.platform.startswith("linux") else 0.1
 NO_LIGHT = np.zeros((0, 3))
 #: :func:`add`'s factor for contributions that are already weighted.
 ONE = np.ones((1, 3))
@@ -360,6 +365,9 @@ class WhittedIntegrator:
             else self.traced
         #: Columns and rows of the window traced.
         self.size = (self.traced[2] - self.traced[0], self.traced[3] - self.traced[1])
+        #: The frame as the camera sees it, as the kernels take it: made once, not per pass
+        #: (its axes' cross products take 0.14 ms).
+        self.view = pinhole(self.scene.camera, options.width, options.height)
 
     def for_window(self, crop: tuple[int, int, int, int] | None,
                    threads: int | None = None) -> WhittedIntegrator:
@@ -589,7 +597,7 @@ class WhittedIntegrator:
                     return
 
         threads, workers = max(1, min(self.opt.threads, len(passes))), []
-        try:  # waking every WAKE_SECONDS: not every platform's lock wait takes a signal
+        try:  # (waking every WAKE_SECONDS where a lock wait takes no signal)
             pool = pass_threads(threads)
             for _ in range(threads):  # one by one: a Ctrl-C between two leaves none unseen
                 workers.append(pool.submit(work))
@@ -651,7 +659,7 @@ class WhittedIntegrator:
         points, as global sample indices do for uniform samples."""
         n, w = len(x), self._worker
         columns = camera_columns(n)
-        rays = RayBatch(columns.origin, directions_at(self.scene.camera, self.opt.width,
+        rays = RayBatch(columns.origin, directions_at(self.view, self.opt.width,
                                                       self.opt.height, x, y),
                         columns.sample, columns.weight, 0, columns.origin_shape, columns.kind)
         samples = np.zeros((n, 3))
@@ -675,7 +683,7 @@ class WhittedIntegrator:
         w.first_sample = start
         if w.camera_columns is None or len(w.camera_columns.origin) < n:
             w.camera_columns = camera_columns(n)
-        rays = camera_rays(self.scene.camera, opt, start, stop, columns=w.camera_columns,
+        rays = camera_rays(self.view, opt, start, stop, columns=w.camera_columns,
                            direction=self.scratch("camera_direction", n, 3),
                            window=self.trace_crop)
         self._trace_batch(rays, n, samples)
