@@ -273,8 +273,10 @@ def whole_power1(c, n):
 @helper
 def checker1(x, y, z, scale):
     """1 where ``floor(x/s + 1e-4) + floor(y/s + 1e-4) + floor(z/s + 1e-4)`` is odd, else 0
-    (SCENE_FORMAT.md; :data:`CHECKER_BIAS`). Parity is taken on the float sum, so it is even
-    beyond 2⁵³ and for NaN and infinities."""
+    (SCENE_FORMAT.md; :data:`CHECKER_BIAS`). numba's ``math.floor`` gives int64 cell
+    indices (one beyond int64's range, an infinity or NaN converts as the CPU converts it:
+    −2⁶³, even, on x86-64); their sum is taken back to float64 for the parity, so a sum
+    beyond 2⁵³ counts as even."""
     cells = (math.floor(x / scale + CHECKER_BIAS) + math.floor(y / scale + CHECKER_BIAS)
              + math.floor(z / scale + CHECKER_BIAS))
     half = 0.5 * cells
