@@ -155,8 +155,11 @@ def with_spread(record: SceneRecord, table: MaterialTable, camera: Camera,
     """``record`` with its ``spread`` (:func:`spread_angle` of ``camera`` and ``options``)
     where some checker of ``table`` is box-filtered (``filter = "box"``); ``record`` itself
     otherwise, spread None, so an unfiltered scene is the same record and compiles no filter
-    code."""
-    if not (table.checkers[:, CHECKER_FILTER] > 0.0).any():
+    code. A noise-driven render (``aa = "noise"``) takes point samples too: its samples are
+    counted only as it goes, so no footprint would shrink with them, and a filtered checker
+    would keep its blur however long it ran, an error the two streams' difference does not
+    see (its estimate of the relative RMSE would no longer hold)."""
+    if options.aa == "noise" or not (table.checkers[:, CHECKER_FILTER] > 0.0).any():
         return record
     return record._replace(spread=spread_angle(camera.fov, options.height, options.spp,
                                                options.aa))
