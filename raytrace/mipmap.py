@@ -138,8 +138,10 @@ def with_mips(record: SceneRecord, table: MaterialTable, camera: Camera,
     itself otherwise, so a bilinear render is the same record bit for bit): the pyramids of
     ``table``'s textures (:func:`pyramids`), each triangle's Δ (:func:`triangle_lods`), its
     face normal, the camera's position and the spread (:func:`spread_angle` of ``camera`` and
-    ``options``)."""
-    if options.texture_filter != "trilinear" or record.texcoords is None:
+    ``options``). A noise-driven render reads level 0 (bilinear), as it point-samples
+    box-filtered checkers (:func:`with_spread`; ``raytrace.render`` warns)."""
+    if options.texture_filter != "trilinear" or options.aa == "noise" \
+            or record.texcoords is None:
         return record
     texels, levels, first, count = pyramids(table)
     size_lod = 0.5 * np.log2(table.tex_info[:, TEX_WIDTH] * table.tex_info[:, TEX_HEIGHT])

@@ -308,6 +308,11 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
         warnings.warn(f"{where}{tree}", RenderWarning, stacklevel=2)
     if (unseen := invisible_warning(scene)) is not None:
         warnings.warn(f"{where}{unseen}", RenderWarning, stacklevel=2)
+    if options.aa == "noise" and options.texture_filter == "trilinear":
+        warnings.warn(f"{where}texture_filter: \"trilinear\" is not used by noise-driven "
+                      "sampling, which reads textures bilinearly so that its image converges "
+                      "to each pixel's mean and its error estimate holds", RenderWarning,
+                      stacklevel=2)
     stop = Stop()
     try:
         with watch_memory(ceiling, stop):

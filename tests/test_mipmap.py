@@ -129,6 +129,21 @@ def test_eight_texels_a_pixel_converge_to_the_average_grey(tmp_path):
     assert np.all(np.abs(_checker_view(tmp_path, 8, "bilinear") - 0.5) > 0.5 - 1e-12)
 
 
+def test_a_noise_driven_render_reads_textures_bilinearly_and_says_so(tmp_path):
+    """Eight texels a pixel, by target error: trilinear's pyramid would make every sample
+    0.5, a blur no sample count removes and the streams' difference cannot see; the render
+    reads level 0 instead (the bilinear image, bit for bit, and its error estimate not 0),
+    and warns that the setting is not used."""
+    mesh = _textured_quad(tmp_path, 512, 2.0 * math.tan(math.radians(1.0)), 1.0, shift=0.5)
+    scene = _scene(mesh, 2.0, 64)
+    common = dict(target_error=0.05, threads=1, max_spp=16)
+    with pytest.warns(raytrace.RenderWarning, match="trilinear.*not used by noise-driven"):
+        tri = raytrace.render(scene, texture_filter="trilinear", **common)
+    bi = raytrace.render(scene, texture_filter="bilinear", **common)
+    np.testing.assert_array_equal(tri.rgb, bi.rgb)
+    assert tri.stats["aa"]["estimated_relative_rmse"] > 0.0
+
+
 # -- the setting ---------------------------------------------------------------------------------
 def test_a_scene_without_textures_is_the_same_record_and_image_under_trilinear():
     scene = make_scene([raytrace.Sphere(center=(0, 0, -3), radius=1.0)],
