@@ -112,12 +112,13 @@ DEBUG = os.environ.get("RAYTRACE_DEBUG", "") not in ("", "0")
 #: and optimizes every kernel again into each variant of the loop: docs/performance.md,
 #: "The compiled loop").
 COMPILED_LOOP = os.environ.get("RAYTRACE_LOOP", "") == "compiled"
-#: Seconds between two looks of the thread waiting for the passes at whether a Ctrl-C came:
-#: None on Linux, whose lock waits a signal ends (CPython waits on a POSIX semaphore there;
-#: on macOS and Windows it does not, so they look every 0.1 s), so that thread does not wake
-#: during a render: each wake took the GIL from the passes, 6 % of a 2-thread mesh render's
-#: GIL samples at 0.1 s (benchmarks/gil.py).
-WAKE_SECONDS = None if sys.platform.startswith("linux") else 0.1
+#: Seconds between two looks of the thread waiting for the passes at whether a Ctrl-C came.
+#: On Linux a SIGINT ends the lock wait itself (CPython waits on a POSIX semaphore there), so
+#: the look is only a net for a signal that lands between Python's last check and the wait:
+#: 1 s. macOS and Windows, whose lock waits no signal ends, look every 0.1 s. Each wake takes
+#: the GIL from the passes: at 0.1 s, 6 % of a 2-thread mesh render's GIL samples
+#: (benchmarks/gil.py).
+WAKE_SECONDS = 1.0 if sys.platform.startswith("linux") else 0.1
 NO_LIGHT = np.zeros((0, 3))
 #: :func:`add`'s factor for contributions that are already weighted.
 ONE = np.ones((1, 3))
