@@ -131,6 +131,16 @@ def spread_angle(fov: float, height: int, spp: int, aa: str) -> float:
     return gamma / math.sqrt(spp) if aa == "uniform" else gamma
 
 
+def point_sampled(options: RenderSettings) -> bool:
+    """Whether the render's texture lookups take no footprint: a noise-driven render
+    (``aa = "noise"``) counts its samples only as it goes, so no footprint would shrink with
+    them, and a footprint-wide blur would stay however long it ran, an error the two streams'
+    difference does not see (its estimate of the relative RMSE would no longer hold). So it
+    reads box-filtered checkers as plain ones (:func:`with_spread`) and image textures at
+    level 0 (:func:`with_mips`; ``raytrace.render`` warns where trilinear was asked for)."""
+    return options.aa == "noise"
+
+
 def with_mips(record: SceneRecord, table: MaterialTable, camera: Camera,
               options: RenderSettings) -> SceneRecord:
     """``record`` (the scene's :class:`raytrace.kernels.records.Scene`) with its ``mips`` where
@@ -138,9 +148,8 @@ def with_mips(record: SceneRecord, table: MaterialTable, camera: Camera,
     itself otherwise, so a bilinear render is the same record bit for bit): the pyramids of
     ``table``'s textures (:func:`pyramids`), each triangle's Δ (:func:`triangle_lods`), its
     face normal, the camera's position and the spread (:func:`spread_angle` of ``camera`` and
-    ``options``). A noise-driven render reads level 0 (bilinear), as it point-samples
-    box-filtered checkers (:func:`with_spread`; ``raytrace.render`` warns)."""
-    if options.texture_filter != "trilinear" or options.aa == "noise" \
+    ``options``); ``record`` itself where the render is :func:`point_sampled`."""
+    if options.texture_filter != "trilinear" or point_sampled(options) \
             or record.texcoords is None:
         return record
     texels, levels, first, count = pyramids(table)
@@ -157,11 +166,8 @@ def with_spread(record: SceneRecord, table: MaterialTable, camera: Camera,
     """``record`` with its ``spread`` (:func:`spread_angle` of ``camera`` and ``options``)
     where some checker of ``table`` is box-filtered (``filter = "box"``); ``record`` itself
     otherwise, spread None, so an unfiltered scene is the same record and compiles no filter
-    code. A noise-driven render (``aa = "noise"``) takes point samples too: its samples are
-    counted only as it goes, so no footprint would shrink with them, and a filtered checker
-    would keep its blur however long it ran, an error the two streams' difference does not
-    see (its estimate of the relative RMSE would no longer hold)."""
-    if options.aa == "noise" or not (table.checkers[:, CHECKER_FILTER] > 0.0).any():
+    code; ``record`` itself too where the render is :func:`point_sampled`."""
+    if point_sampled(options) or not (table.checkers[:, CHECKER_FILTER] > 0.0).any():
         return record
     return record._replace(spread=spread_angle(camera.fov, options.height, options.spp,
                                                options.aa))

@@ -30,6 +30,7 @@ from .film import writers
 from .film.aov import check_aovs
 from .film.image import Image
 from .integrator import PASS_SAMPLES, RenderOptions, Stop, WhittedIntegrator
+from .mipmap import point_sampled
 from .scene import RenderSettings, Scene, object_materials
 
 if TYPE_CHECKING:
@@ -308,7 +309,7 @@ def render(scene: Scene, *, width: int | None = None, height: int | None = None,
         warnings.warn(f"{where}{tree}", RenderWarning, stacklevel=2)
     if (unseen := invisible_warning(scene)) is not None:
         warnings.warn(f"{where}{unseen}", RenderWarning, stacklevel=2)
-    if options.aa == "noise" and options.texture_filter == "trilinear":
+    if point_sampled(options) and options.texture_filter == "trilinear":
         warnings.warn(f"{where}texture_filter: \"trilinear\" is not used by noise-driven "
                       "sampling, which reads textures bilinearly so that its image converges "
                       "to each pixel's mean and its error estimate holds", RenderWarning,

@@ -15,17 +15,13 @@ from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from raytrace import shading
-from raytrace.kernels.core import WHOLE_POWER_MAX
+from raytrace.kernels.core import is_whole1
 from raytrace.lights import Emitter, cos_cutoff
 from raytrace.optics import critical_angle, reflect, refract
 from raytrace.shading import HIGHLIGHT_CODES, cosine_power, direct
 
 FAST = settings(max_examples=150, deadline=None)
 
-
-def is_whole1(n: float) -> bool:
-    """Whether ``cosine_power`` takes ``n`` by squaring (``kernels.core.is_whole1``)."""
-    return 1.0 <= n <= WHOLE_POWER_MAX and n == math.floor(n)
 
 coord = st.floats(-1.0, 1.0, allow_nan=False)
 vec3 = st.tuples(coord, coord, coord)
@@ -109,7 +105,7 @@ def test_cosine_power_is_a_bounded_decreasing_function_of_n(a, b, n, factor):
     p = float(cosine_power(a, b, np.array([n]))[0])
     q = float(cosine_power(a, b, np.array([n * factor]))[0])
     assert 0.0 <= q <= 1.0 and 0.0 <= p <= 1.0
-    if is_whole1(n) == is_whole1(n * factor):
+    if is_whole1.py_func(n) == is_whole1.py_func(n * factor):  # the same form
         assert q <= p
     else:
         assert q <= p * (1.0 + 1.5e-11)
