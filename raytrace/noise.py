@@ -35,15 +35,17 @@ most :func:`margin` away: a crop that traces that margin has the full frame's pi
 
 **By target error or time** (:func:`relative_rmse`, :func:`neyman_counts`): the image's
 relative RMSE is estimated as ``√(mean over pixels and channels of v) / mean over pixels and
-channels of I``; between rounds the pixels of highest ``σ/n`` double, σ² each pixel's sample
-variance (its samples of both streams pooled round by round,
-:func:`raytrace.kernels.noise.add_round`: ``2n − 1``
-degrees of freedom where ``v`` has one, so the first round can be small: 4 samples a pixel
-by default, :data:`raytrace.sampling.MIN_SPP_GOAL`), and the render stops
-after the first round whose estimate is at most the target, once the deadline has passed (no
-pass starts after it, so each pixel keeps whole rounds; the round before it is sized to the
-time left, :func:`time_share`), or when every noisy pixel has ``max_spp``. Near a target a
-round adds what the target needs (:func:`round_share`), elsewhere half the samples spent.
+channels of I``. Between rounds the pixels double their samples, up to :data:`MAX_DOUBLINGS`
+times a round, in order of what each doubling takes off the summed variance per sample
+(:func:`neyman_counts`), judged by each pixel's sample variance (its samples of both streams
+pooled round by round, :func:`raytrace.kernels.noise.add_round`: ``2n − 1`` degrees of
+freedom where ``v`` has one, so the first round can be small: 4 samples a pixel by default,
+:data:`raytrace.sampling.MIN_SPP_GOAL`) and the rate at which the image's pixels converge
+(:func:`convergence_rate`). A round adds half the samples spent, or near a target what the
+target needs (:func:`variance_shrink`). The render stops after the first round whose
+estimate is at most the target, once the deadline has passed (no pass starts after it, so
+each pixel keeps whole rounds; the round before it is sized to the time left,
+:func:`time_share`), or when every noisy pixel has ``max_spp``.
 """
 
 from __future__ import annotations
@@ -61,7 +63,11 @@ from .kernels.records import Moments, StreamSamples, Window
 
 #: The most a round by target error or time adds, as a share of the samples spent so far.
 ROUND_SHARE = 0.5
-#: The least a round by target error adds (:func:`round_share`)…
+#: The most times a pixel's samples double in one round by target error or time
+#: (:func:`neyman_counts`): 16×, so that one chance estimate from the first round's 4 samples
+#: cannot send a pixel to ``max_spp`` at once.
+MAX_DOUBLINGS = 4
+#: The least a round by target error adds (:func:`neyman_counts`)…
 MIN_ROUND_SHARE = 0.1
 #: …and how far past the target it aims, so that the estimate's own noise rarely needs one
 #: more round.
@@ -256,22 +262,14 @@ def box3(values: np.ndarray, cols: int) -> np.ndarray:
     return (total / count).reshape(-1)
 
 
-def round_share(estimate: float, target: float | None, rate: float = 0.5) -> float:
-    """The share of the samples spent that the next round adds: by target error, what the
-    target needs if the error falls as N^−rate, ``TARGET_MARGIN·(estimate/target)^(1/rate)
-    − 1`` (the samples that shrink an estimate e to t are (e/t)^(1/rate) times those that
-    gave it; rate ½ for independent samples, Cochran, "Sampling Techniques", 3rd ed., §4.4;
-    faster where the rounds go to the noisiest pixels: :func:`error_rate`), within
-    [:data:`MIN_ROUND_SHARE`, :data:`ROUND_SHARE`]; otherwise (by time alone, or no finite
-    estimate) :data:`ROUND_SHARE`. A render by target then stops near it instead of up to
-    half its samples past it."""
+def variance_shrink(estimate: float, target: float | None) -> float:
+    """The factor by which a round by target error aims to shrink the summed variance of
+    the pixels' means (:func:`neyman_counts`): ``(target/(TARGET_MARGIN·estimate))²``, the
+    relative RMSE being the root of that variance over the image's mean; 0 (no aim: the
+    round's share alone sizes it) where there is no target or no finite estimate above 0."""
     if target is None or not 0.0 < estimate < math.inf:
-        return ROUND_SHARE
-    # in logarithms: the ratio of a tiny target or a nearly black image overflows a float
-    growth = (math.log(estimate) - math.log(target)) / rate
-    if growth >= math.log((1.0 + ROUND_SHARE) / TARGET_MARGIN):
-        return ROUND_SHARE
-    return max(MIN_ROUND_SHARE, TARGET_MARGIN * math.exp(growth) - 1.0)
+        return 0.0
+    return (target / (TARGET_MARGIN * estimate)) ** 2
 
 
 def round_cost(samples: list[int], seconds: list[float]) -> tuple[float, float]:
@@ -303,46 +301,99 @@ def time_share(seconds_left: float, cost: tuple[float, float], spent: float) -> 
     return min(ROUND_SHARE, (seconds_left - fixed) / per_sample / spent)
 
 
-def error_rate(samples: tuple[float, float], estimates: tuple[float, float]) -> float:
-    """The rate α at which the estimated error has fallen since the first round, e ∝ N^−α
-    from (N₀, e₀) to (N₁, e₁): ``ln(e₀/e₁)/ln(N₁/N₀)``, within [½, 2] (½, the rate of
-    independent samples, where it cannot be read: after the first round, an estimate of 0 or
-    not finite). Read over all the rounds, not the last alone, whose fall is noisier."""
-    (n0, n1), (e0, e1) = samples, estimates
-    if not (n1 > n0 > 0 and e0 > 0 and e1 > 0 and math.isfinite(e0) and math.isfinite(e1)):
-        return 0.5
-    return min(2.0, max(0.5, (math.log(e0) - math.log(e1)) / math.log(n1 / n0)))
+def convergence_rate(variance: np.ndarray, n: np.ndarray, streams: float) -> float:
+    """The rate β at which the variance of a pixel's mean falls with its samples, read from
+    the image: a pixel's mean of N = 2n samples of per-sample variance s² is modelled as
+    varying by ``s²·N^−β`` (at N = 1 every sampler gives s²; β = 1 for independent samples,
+    and Owen-scrambled nets converge faster: N^−3 for a smooth integrand, Owen 1997,
+    "Scrambled net variance for integrals of smooth functions", N^−1.5 across an edge in two
+    dimensions), and β is the one for which the model's sum over the pixels,
+    ``Σ s²·(2n)^−β``, is ``streams``, the sum of the streams' unbiased estimates ``Σ v``
+    (:func:`pixel_variance`), held within [1, 2]. ``variance`` (pixels,) is each pixel's
+    per-sample variance (not finite: 0), ``n`` its samples per stream."""
+    s2 = np.where(np.isfinite(variance), variance, 0.0)
+    counts, group = np.unique(n, return_inverse=True)
+    sums = np.bincount(group, s2)  # the model's sum per sample count: Σ_k S_k·(2k)^−β
+
+    def model(beta: float) -> float:
+        return float((sums * (2.0 * counts) ** -beta).sum())
+
+    if not streams > 0.0 or model(1.0) <= streams:
+        return 1.0
+    if model(2.0) >= streams:
+        return 2.0
+    lo, hi = 1.0, 2.0
+    for _ in range(30):  # bisection: the model falls as β grows
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if model(mid) > streams else (lo, mid)
+    return 0.5 * (lo + hi)
 
 
 def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
-                  share: float = ROUND_SHARE) -> np.ndarray:
+                  share: float = ROUND_SHARE, shrink: float = 0.0,
+                  rate: float = 1.0) -> np.ndarray:
     """Each pixel's samples per stream after the next round of a render by target error or
-    time: the pixels of highest priority ``σ̃/n`` double (to at most ``most``) until the
-    round adds ``share`` of the samples spent. σ̃² is the 3×3 mean (:func:`box3`) of each
-    pixel's per-sample variance ``variance`` (the sample variance of all its samples, both
-    streams pooled, averaged over the channels; not finite: 0, so such a pixel is not
-    sampled further). Giving each next sample to the largest ``σ/n`` tends to Neyman's
-    optimum allocation ``n ∝ σ``, which minimises the summed variance ``Σ σ²/n`` for a given
-    number of samples (J. Neyman 1934, "On the two different aspects of the representative
-    method", §5; with σ estimated from the samples, as Cochran's "Sampling Techniques", 3rd
-    ed., §5.5, allocates strata), where equal per-pixel errors (a threshold) give no lower
-    RMSE than uniform sampling save where σ = 0. Ties go to the earlier pixel."""
-    v = np.where(np.isfinite(variance), variance, 0.0)
-    priority = np.sqrt(box3(v, cols)) / n
-    open_ = np.flatnonzero((n < most) & (priority > 0))
-    order = open_[np.argsort(-priority[open_])]  # (a stable sort takes 3× as long)
-    added, goal = np.minimum(2 * n, most) - n, share * n.sum()
-    cut = int(np.searchsorted(np.cumsum(added[order]), goal))
-    take = order
-    if cut < len(order):  # the round ends among the pixels of one priority: earlier first
-        tie = priority[order[cut]]
-        above = order[priority[order] > tie]
-        ties = open_[priority[open_] == tie]
-        spent = added[above].sum() + np.cumsum(added[ties])
-        take = np.concatenate([above, ties[:int(np.searchsorted(spent, goal)) + 1]])
-    new = n.copy()
-    new[take] = np.minimum(2 * n[take], most)
-    return new
+    time: the doublings of highest priority ``σ̃·m^−(1+β)/2`` are taken, a pixel's j-th
+    doubling of the round taking it from ``m = n·2^j`` to ``2m`` samples a stream (at most
+    ``most``, and at most :data:`MAX_DOUBLINGS` a round), until the round adds ``share`` of
+    the samples spent, or sooner, once it has added :data:`MIN_ROUND_SHARE` of them, where
+    the summed variance of the pixels' means is predicted to fall to ``shrink`` times its
+    present value. A pixel's mean varies by ``s²·(2n)^−β`` (:func:`convergence_rate`: β is
+    ``rate``), s² its per-sample variance ``variance`` (the sample variance of all its
+    samples, both streams pooled, averaged over the channels; not finite: 0, so such a pixel
+    is not sampled further), and σ̃² is the 3×3 mean of s² (:func:`box3`), which steadies
+    the ranking of a pixel whose few samples missed its edge.
+
+    Taking the doublings in order of what each takes off the summed variance per sample,
+    ``∝ σ̃²·m^−(1+β)``, is the greedy (marginal) allocation that tends to the optimum for a
+    given number of samples, ``n ∝ σ^(2/(1+β))``: Neyman's ``n ∝ σ`` for independent samples
+    (J. Neyman 1934, "On the two different aspects of the representative method", §5; with σ
+    estimated from the samples, and sized to a variance asked for, as Cochran's "Sampling
+    Techniques", 3rd ed., §5.5 and §5.9, allocates strata), where equal per-pixel errors (a
+    threshold) give no lower RMSE than uniform sampling save where σ = 0. A pixel's
+    doublings are taken in order (its priority falls with each), so the few pixels that hold
+    an image's error (a penumbra) reach their share in one round instead of one doubling a
+    round. Ties go to the lower doubling, then the earlier pixel."""
+    s2 = np.where(np.isfinite(variance), variance, 0.0)
+    sigma = np.sqrt(box3(s2, cols))
+    # each doubling's powers of its start m = n·2^j, per distinct count (the pixels' counts
+    # take a few values) and doubling j, taken once each: ``cell`` = count·J + j
+    counts, kind = np.unique(n, return_inverse=True)
+    table = (counts[:, None] << np.arange(MAX_DOUBLINGS)).astype(np.float64).ravel()
+    scale = table ** (-0.5 * (1.0 + rate))
+    open_ = np.flatnonzero((n < most) & (sigma > 0))
+    first = sigma[open_] * scale[kind[open_] * MAX_DOUBLINGS]
+    order = np.argsort(-first, kind="stable")
+    ranked, first = open_[order], first[order]
+    goal = share * n.sum()
+    # the first doublings alone reach the goal at priority ``floor``, so no doubling of
+    # lower priority is taken: each doubling's candidates are those above it (a pixel's
+    # priority falls by 2^(−j(1+β)/2) at its j-th; within a rounding, kept), in that
+    # order, a run each; each run is sorted, so a stable sort of them all merges them
+    cut = int(np.searchsorted(np.cumsum(np.minimum(2 * n[ranked], most) - n[ranked]), goal))
+    floor = first[cut] * (1.0 - 1e-9) if cut < len(ranked) else 0.0
+    runs = [ranked[:int(np.searchsorted(-first, -floor * 2.0 ** (0.5 * (1.0 + rate) * j),
+                                        "right"))]
+            for j in range(MAX_DOUBLINGS)]
+    runs = [r[(n[r] << j) < most] for j, r in enumerate(runs)]
+    pixel = np.concatenate(runs)
+    j = np.repeat(np.arange(MAX_DOUBLINGS), [len(r) for r in runs])
+    cell = kind[pixel] * MAX_DOUBLINGS + j
+    order = np.argsort(-(sigma[pixel] * scale[cell]), kind="stable")
+    pixel, cell = pixel[order], cell[order]
+    start = n[pixel] << j[order]
+    added = np.cumsum(np.minimum(2 * start, most) - start)
+    count = int(np.searchsorted(added, goal)) + 1
+    if shrink > 0.0:  # each doubling's fall of the pixel's variance, s²·((2m)^−β − (2m')^−β)
+        before = (2.0 * table) ** -rate
+        fall = np.cumsum(s2[pixel[:count]] * (before - (2.0 * np.minimum(2 * table, most))
+                                              ** -rate)[cell[:count]])
+        total = (s2 * before[kind * MAX_DOUBLINGS]).sum()
+        enough = int(np.searchsorted(fall, (1.0 - shrink) * total))
+        least = int(np.searchsorted(added, MIN_ROUND_SHARE * n.sum())) + 1
+        count = min(count, max(enough + 1, least))
+    doublings = np.bincount(pixel[:count], minlength=len(n))
+    return np.minimum(n << doublings, np.maximum(n, most))
 
 
 def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Budget,
@@ -394,10 +445,7 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
         if goal:
             with np.errstate(invalid="ignore", divide="ignore"):
                 variance = (moments.m2 / (moments.count - 1.0)[:, None]).mean(-1)
-            if rounds == 1:
-                first = float(n.sum()), estimate
-            rate = error_rate((first[0], float(n.sum())), (first[1], estimate))
-            share = round_share(estimate, budget.target_error, rate)
+            share = ROUND_SHARE
             if budget.deadline is not None:
                 # (the first round left out once two others are known: on a cold kernel
                 # cache its seconds are mostly compiling)
@@ -408,7 +456,9 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
             if share <= 0.0:
                 stopped = "time_limit"
                 break
-            new = neyman_counts(n, variance, most, cols, share)
+            rate = convergence_rate(variance, n, float(pixel_variance(a, b).mean(-1).sum()))
+            new = neyman_counts(n, variance, most, cols, share,
+                                variance_shrink(estimate, budget.target_error), rate)
         else:
             new = next_counts(n, pixel_error(a, b), budget.threshold, most, cols, grew)
         grew = new > n

@@ -143,57 +143,107 @@ def test_neyman_counts_samples_the_largest_sigma_over_n_first():
                                share=0.2).tolist() == [4, 2, 4]
 
 
-def test_neyman_counts_takes_pixels_of_one_priority_in_order():
-    """Where the round ends among pixels of equal σ̃/n, the earlier ones double first:
-    the same counts as a stable sort by priority, on 600 pixels whose variances take four
-    values (so thousands of ties), at shares that cut the order at every kind of place."""
+def test_neyman_counts_doubles_a_pixel_again_while_it_stays_first():
+    """Per-sample variances 0, 0, 100 in a row, n = 2 each: σ̃² = 0, 33.3, 50, so the
+    doublings' priorities σ̃/m are 3.54 (pixel 2 at m = 2), 2.89 (pixel 1 at 2), then 1.77
+    (pixel 2 again, at 4): a round of 6 samples (share 1 of the 6 spent: 2 + 2 + 4 ≥ 6)
+    takes pixel 2 to 8 and pixel 1 to 4. No pixel doubles more than MAX_DOUBLINGS times a
+    round, nor past ``most``."""
+    n = np.array([2, 2, 2])
+    assert noise.neyman_counts(n, np.array([0.0, 0.0, 100.0]), 64, 3,
+                               share=1.0).tolist() == [2, 4, 8]
+    assert noise.MAX_DOUBLINGS == 4
+    assert noise.neyman_counts(np.array([2]), np.array([1.0]), 1024, 1,
+                               share=100.0).tolist() == [32]
+    assert noise.neyman_counts(np.array([2]), np.array([1.0]), 12, 1,
+                               share=100.0).tolist() == [12]
+
+
+def test_neyman_counts_stop_where_the_variance_is_predicted_to_shrink_enough():
+    """Per-sample variances 16, 0, 0, 0 in a row, n = 2 each, β = 1: the summed variance of
+    the means Σ s²/(2n) is 16/4 = 4. The doublings in order: pixel 0 at m = 2 (σ̃² = 8,
+    priority 1.41), pixel 1 at 2 (σ̃² = 16/3, 1.15: its neighbour's variance, its own 0),
+    pixel 0 at 4 (0.71), pixel 1 at 4, pixel 0 at 8; they take 16/4m off pixel 0's variance:
+    2, 0, 1, 0, 0.5. To shrink it to half (2 off) the first is enough; to a fifth (3.2 off)
+    the first five: pixel 0 to 16, pixel 1 to 8. The round's share still caps it (0.5 of
+    the 8 samples spent: 2 + 2), and it adds at least MIN_ROUND_SHARE of them."""
+    n = np.full(4, 2)
+    variance = np.array([16.0, 0.0, 0.0, 0.0])
+    assert noise.neyman_counts(n, variance, 64, 4, 10.0, 0.5).tolist() == [4, 2, 2, 2]
+    assert noise.neyman_counts(n, variance, 64, 4, 10.0, 0.2).tolist() == [16, 8, 2, 2]
+    assert noise.neyman_counts(n, variance, 64, 4, 0.5, 0.2).tolist() == [4, 4, 2, 2]
+    # already shrunk enough: the least round, 0.1·8 = 0.8 samples, one doubling
+    assert noise.neyman_counts(n, variance, 64, 4, 10.0, 0.9999).tolist() == [4, 2, 2, 2]
+
+
+def test_neyman_counts_rank_by_the_convergence_rate():
+    """A doubling at m takes ``σ̃²·m^−(1+β)`` off per sample, so the priority is
+    ``σ̃·m^−(1+β)/2``. Pixel 0: variance 128 (σ̃² = (128 + 0)/2 = 64), n = 8; pixel 4:
+    variance 6 (σ̃² = 3), n = 2; those between have ``most`` samples. With β = 1 pixel 0
+    comes first (8/8 = 1.0 against √3/2 = 0.87), with β = 2 pixel 4 (8/8^1.5 = 0.35 against
+    √3/2^1.5 = 0.61): a round of one doubling takes the one that comes first."""
+    n = np.array([8, 64, 64, 64, 2])
+    variance = np.array([128.0, 0.0, 0.0, 0.0, 6.0])
+    assert noise.neyman_counts(n, variance, 64, 5, 0.001, rate=1.0).tolist() == [
+        16, 64, 64, 64, 2]
+    assert noise.neyman_counts(n, variance, 64, 5, 0.001, rate=2.0).tolist() == [
+        8, 64, 64, 64, 4]
+
+
+def test_neyman_counts_take_doublings_of_one_priority_in_order():
+    """Where the round ends among doublings of equal priority, the lower doubling and then
+    the earlier pixel go first: the counts of a stable sort of every doubling (listed
+    doubling by doubling, each in pixel order) by priority, on 600 pixels whose variances
+    take four values (so thousands of ties), at shares that cut the order at every kind of
+    place, by β = 1 and 2."""
     rng = np.random.default_rng(5)
-    cols = 30
+    cols, most = 30, 16
     n = rng.choice([2, 4, 8], 600)
     variance = rng.choice([0.0, 1.0, 4.0, 9.0], 600)
-    priority = np.sqrt(noise.box3(variance, cols)) / n
-    open_ = np.flatnonzero((n < 8) & (priority > 0))
-    order = open_[np.argsort(-priority[open_], kind="stable")]
-    for share in (0.01, 0.05, 0.1, 0.2, 0.3, 0.5):
-        cost = np.cumsum(np.minimum(2 * n[order], 8) - n[order])
-        take = order[:int(np.searchsorted(cost, share * n.sum())) + 1]
-        want = n.copy()
-        want[take] = np.minimum(2 * n[take], 8)
-        assert noise.neyman_counts(n, variance, 8, cols, share).tolist() == want.tolist()
+    sigma = np.sqrt(noise.box3(variance, cols))
+    for rate in (1.0, 2.0):
+        pixel, start = [], []
+        for j in range(noise.MAX_DOUBLINGS):
+            m = n << j
+            open_ = np.flatnonzero((m < most) & (sigma > 0))
+            pixel.append(open_)
+            start.append(m[open_])
+        pixel, start = np.concatenate(pixel), np.concatenate(start)
+        order = np.argsort(-(sigma[pixel] * start ** (-0.5 * (1.0 + rate))), kind="stable")
+        for share in (0.01, 0.05, 0.1, 0.2, 0.3, 0.5, 1.0):
+            cost = np.cumsum(np.minimum(2 * start[order], most) - start[order])
+            take = pixel[order[:int(np.searchsorted(cost, share * n.sum())) + 1]]
+            want = np.minimum(n << np.bincount(take, minlength=len(n)), most)
+            got = noise.neyman_counts(n, variance, most, cols, share, rate=rate)
+            assert got.tolist() == want.tolist()
 
 
-def test_a_round_by_target_adds_what_the_target_needs():
-    """The next round's share of the samples spent, by hand: an estimate 1.1× the target
-    needs 1.21× the samples if the error falls as 1/√N, so with the 10 % margin
-    1.1·1.21 − 1 = 0.331; 1.02×: 1.1·1.0404 − 1 = 0.14444; twice the target would need 3×
-    more, capped at half; an estimate at the target adds 1.1 − 1, below it the least round
-    (0.1); by
-    time alone, or with no finite estimate, half."""
-    assert noise.round_share(0.011, 0.01) == pytest.approx(0.331)
-    assert noise.round_share(0.0102, 0.01) == pytest.approx(0.14444)
-    assert noise.round_share(0.02, 0.01) == 0.5
-    assert noise.round_share(0.01, 0.01) == pytest.approx(0.1)
-    assert noise.round_share(0.009, 0.01) == 0.1
-    assert noise.round_share(0.05, None) == 0.5
-    assert noise.round_share(math.inf, 0.01) == 0.5
-    # a ratio past a float's range (a tiny target, a nearly black image): half, no overflow
-    assert noise.round_share(1.0, 1e-200) == 0.5
+def test_a_round_by_target_aims_at_the_variance_the_target_needs():
+    """An estimate 1.1× the target, aimed at with the 10 % margin: the summed variance must
+    fall to (1/(1.1·1.1))² = 0.683; at the target, to 1/1.21; no target, no finite estimate
+    or one of 0: no aim (0); a target a float cannot square (1e-200): 0, not an error."""
+    assert noise.variance_shrink(0.011, 0.01) == pytest.approx(0.6830135)
+    assert noise.variance_shrink(0.01, 0.01) == pytest.approx(1 / 1.21)
+    assert noise.variance_shrink(0.05, None) == 0.0
+    assert noise.variance_shrink(math.inf, 0.01) == 0.0
+    assert noise.variance_shrink(0.0, 0.01) == 0.0
+    assert noise.variance_shrink(1.0, 1e-200) == 0.0
 
 
-def test_the_error_rate_is_read_from_the_last_round():
-    """e ∝ N^−α from (N₀, e₀) to (N₁, e₁): halving the error by doubling the samples is
-    α = 1, by quadrupling them ½; a slower fall counts as ½, a faster one as at most 2; a
-    first round or an estimate of 0 reads ½. With α = 1 an estimate 1.1× the target needs
-    1.1× the samples: 1.1·1.1 − 1 = 0.21 more."""
-    assert noise.error_rate((100, 200), (0.02, 0.01)) == pytest.approx(1.0)
-    assert noise.error_rate((100, 400), (0.02, 0.01)) == pytest.approx(0.5)
-    assert noise.error_rate((100, 200), (0.02, 0.019)) == 0.5
-    assert noise.error_rate((100, 200), (0.04, 0.01)) == pytest.approx(2.0)
-    assert noise.error_rate((100, 200), (0.08, 0.01)) == 2.0  # 3, at most 2
-    assert noise.error_rate((0, 100), (math.inf, 0.01)) == 0.5
-    assert noise.error_rate((100, 200), (0.02, 0.0)) == 0.5
-    assert noise.error_rate((100, 200), (1e300, 1e-300)) == 2.0  # e₀/e₁ would overflow
-    assert noise.round_share(0.011, 0.01, 1.0) == pytest.approx(0.21)
+def test_the_convergence_rate_matches_the_streams_estimate():
+    """Ten pixels of per-sample variance 1 at N = 4 samples: the model's sum 10·4^−β is the
+    streams' 10·4^−1.5 = 1.25 at β = 1.5; at or above 10/4 (independent samples) β = 1, at
+    or below 10/16 β = 2, and 1 where the streams see no variance. Mixed counts: variances 1
+    and 4 at N = 4 and 16 (and one not finite: 0), streams 4^−1.25 + 4·16^−1.25 = 0.6036 at
+    β = 1.25."""
+    n, s2 = np.full(10, 2), np.ones(10)
+    assert noise.convergence_rate(s2, n, 1.25) == pytest.approx(1.5, abs=1e-8)
+    assert noise.convergence_rate(s2, n, 3.0) == 1.0
+    assert noise.convergence_rate(s2, n, 0.5) == 2.0
+    assert noise.convergence_rate(s2, n, 0.0) == 1.0
+    streams = 4 ** -1.25 + 4 * 16 ** -1.25
+    assert noise.convergence_rate(np.array([1.0, 4.0, np.nan]), np.array([2, 8, 8]),
+                                  streams) == pytest.approx(1.25, abs=1e-8)
 
 
 def test_a_round_by_time_fits_the_time_left():
@@ -260,10 +310,11 @@ def test_a_round_without_moments_adds_its_sums_alone():
 def test_a_render_by_target_doubles_the_pixels_of_widest_spread():
     """A 4 × 3 window whose samples' value is their x offset inside the pixel, and twice it
     in the middle column pair: after a first round of 2 + 2 samples a pixel, each pixel's
-    pooled sample variance is that of its own 4 offsets (times 4 in the middle columns), and
-    the second round doubles the pixels of highest σ̃/n (σ̃² the 3×3 mean, neyman_counts)
-    until half the samples spent are added: the pixels that neyman_counts picks from those
-    variances, computed here with numpy."""
+    pooled sample variance is that of its own 4 offsets (times 4 in the middle columns), the
+    convergence rate is the one that matches the streams' difference (convergence_rate),
+    and the second round takes the doublings of highest priority (σ̃² the 3×3 mean,
+    neyman_counts) until half the samples spent are added: the counts that neyman_counts
+    gives for those variances and that rate, computed here with numpy."""
     rounds = []
 
     def trace(r, first):
@@ -275,10 +326,12 @@ def test_a_render_by_target_doubles_the_pixels_of_widest_spread():
     noise.sample((0, 0, 4, 3), 4, 9, noise.Budget(4, 64, 0.01, target_error=1e-9), trace)
     x = rounds[0].x.reshape(12, 4)
     value = np.where(np.isin(np.floor(x), (1, 2)), 2, 1) * (x - np.floor(x))
-    want = noise.neyman_counts(np.full(12, 2), value.var(1, ddof=1), 32, 4)
+    n = np.full(12, 2)
+    streams = 0.25 * (value[:, :2].mean(1) - value[:, 2:].mean(1)) ** 2
+    rate = noise.convergence_rate(value.var(1, ddof=1), n, float(streams.sum()))
+    want = noise.neyman_counts(n, value.var(1, ddof=1), 32, 4, rate=rate)
     assert 2 < (want > 2).sum() < 12  # the test picks some pixels, not all or none
-    grown = np.diff(rounds[1].bounds) > 0
-    assert grown.tolist() == (want > 2).tolist()
+    assert (np.diff(rounds[1].bounds) // 2).tolist() == (want - n).tolist()
 
 
 def test_margin_counts_the_doublings():
