@@ -41,8 +41,8 @@ times a round, in order of what each doubling takes off the summed variance per 
 pooled round by round, :func:`raytrace.kernels.noise.add_round`: ``2n − 1`` degrees of
 freedom where ``v`` has one, so the first round can be small: 4 samples a pixel by default,
 :data:`raytrace.sampling.MIN_SPP_GOAL`) and the rate at which the image's pixels converge
-(:func:`convergence_rate`). A round adds half the samples spent, or near a target what the
-target needs (:func:`variance_shrink`). The render stops after the first round whose
+(:func:`convergence_rate`). A round adds as many samples as were spent, or near a target
+what the target needs (:func:`variance_shrink`). The render stops after the first round whose
 estimate is at most the target, once the deadline has passed (no pass starts after it, so
 each pixel keeps whole rounds; the round before it is sized to the time left,
 :func:`time_share`), or when every noisy pixel has ``max_spp``.
@@ -61,8 +61,10 @@ from .film.filters import importance
 from .kernels.noise import STREAMS, add_round, round_points, sobol_rows, stream_offset_rows
 from .kernels.records import Moments, StreamSamples, Window
 
-#: The most a round by target error or time adds, as a share of the samples spent so far.
-ROUND_SHARE = 0.5
+#: The most a round by target error or time adds, as a share of the samples spent so far: a
+#: round at most doubles them (half as much took a round more, and its fixed cost, on the
+#: Whitted and mesh scenes; twice as much overshot the target: docs/sampling.md).
+ROUND_SHARE = 1.0
 #: The most times a pixel's samples double in one round by target error or time
 #: (:func:`neyman_counts`): 16×, so that one chance estimate from the first round's 4 samples
 #: cannot send a pixel to ``max_spp`` at once.

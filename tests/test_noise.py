@@ -249,13 +249,15 @@ def test_the_convergence_rate_matches_the_streams_estimate():
 def test_a_round_by_time_fits_the_time_left():
     """Rounds of 100 and 200 samples in 1.1 and 1.2 s cost 1 s fixed and 1 ms a sample; a
     third of 400 in 1.4 s lies on that line too. With 2000 samples spent: 2 s left fit a
-    round of 1000 more, a share of 0.5; 1.5 s: 500, 0.25; 10 s: capped at half; 1 s or less
-    leaves nothing for the samples: 0. One round alone is all per-sample cost."""
+    round of 1000 more, a share of 0.5; 1.5 s: 500, 0.25; 10 s: capped at ROUND_SHARE (1:
+    a round at most doubles the samples spent); 1 s or less leaves nothing for the samples:
+    0. One round alone is all per-sample cost."""
     cost = noise.round_cost([100, 200, 400], [1.1, 1.2, 1.4])
     assert cost == pytest.approx((1.0, 0.001))
     assert noise.time_share(2.0, cost, 2000) == pytest.approx(0.5)
     assert noise.time_share(1.5, cost, 2000) == pytest.approx(0.25)
-    assert noise.time_share(10.0, cost, 2000) == 0.5
+    assert noise.ROUND_SHARE == 1.0
+    assert noise.time_share(10.0, cost, 2000) == 1.0
     assert noise.time_share(1.0, cost, 2000) == 0.0
     assert noise.round_cost([100], [0.5]) == (0.0, 0.005)
     assert noise.round_cost([100, 100], [0.5, 0.7]) == pytest.approx((0.0, 0.006))
@@ -308,30 +310,31 @@ def test_a_round_without_moments_adds_its_sums_alone():
 
 
 def test_a_render_by_target_doubles_the_pixels_of_widest_spread():
-    """A 4 × 3 window whose samples' value is their x offset inside the pixel, and twice it
-    in the middle column pair: after a first round of 2 + 2 samples a pixel, each pixel's
-    pooled sample variance is that of its own 4 offsets (times 4 in the middle columns), the
+    """A 6 × 3 window whose samples' value is their x offset inside the pixel, and 8 times it
+    in the two left columns: after a first round of 2 + 2 samples a pixel, each pixel's
+    pooled sample variance is that of its own 4 offsets (times 64 on the left), the
     convergence rate is the one that matches the streams' difference (convergence_rate),
     and the second round takes the doublings of highest priority (σ̃² the 3×3 mean,
-    neyman_counts) until half the samples spent are added: the counts that neyman_counts
-    gives for those variances and that rate, computed here with numpy."""
+    neyman_counts) until the samples spent are doubled: the counts that neyman_counts gives
+    for those variances and that rate, computed here with numpy. The left pixels double
+    twice, the right ones not at all."""
     rounds = []
 
     def trace(r, first):
         rounds.append(r)
         x = r.x - np.floor(r.x)
-        x = np.where(np.isin(np.floor(r.x), (1, 2)), 2 * x, x)
+        x = np.where(np.floor(r.x) < 2, 8 * x, x)
         return np.repeat(x[:, None], 3, axis=1), np.ones(len(r.x), bool)
 
-    noise.sample((0, 0, 4, 3), 4, 9, noise.Budget(4, 64, 0.01, target_error=1e-9), trace)
-    x = rounds[0].x.reshape(12, 4)
-    value = np.where(np.isin(np.floor(x), (1, 2)), 2, 1) * (x - np.floor(x))
-    n = np.full(12, 2)
+    noise.sample((0, 0, 6, 3), 6, 9, noise.Budget(4, 64, 0.01, target_error=1e-9), trace)
+    x = rounds[0].x.reshape(18, 4)
+    value = np.where(np.floor(x) < 2, 8, 1) * (x - np.floor(x))
+    n = np.full(18, 2)
     streams = 0.25 * (value[:, :2].mean(1) - value[:, 2:].mean(1)) ** 2
     rate = noise.convergence_rate(value.var(1, ddof=1), n, float(streams.sum()))
-    want = noise.neyman_counts(n, value.var(1, ddof=1), 32, 4, rate=rate)
-    assert 2 < (want > 2).sum() < 12  # the test picks some pixels, not all or none
-    assert (np.diff(rounds[1].bounds) // 2).tolist() == (want - n).tolist()
+    want = noise.neyman_counts(n, value.var(1, ddof=1), 32, 6, rate=rate).reshape(3, 6)
+    assert (want[:, 3:] == 2).all() and (want[:2, :2] == 8).all()
+    assert (np.diff(rounds[1].bounds) // 2).tolist() == (want.ravel() - n).tolist()
 
 
 def test_margin_counts_the_doublings():
