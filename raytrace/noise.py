@@ -275,10 +275,10 @@ def variance_shrink(estimate: float, target: float | None) -> float:
 
 
 def round_cost(samples: list[int], seconds: list[float]) -> tuple[float, float]:
-    """A round's wall seconds as ``fixed + per_sample·samples`` (its passes' start and the
-    planning, then its samples), fitted by least squares to the rounds traced so far
-    (``samples``, ``seconds``); from one round, or rounds of one size, no fixed part and
-    their seconds per sample. Neither part is below 0."""
+    """A round's wall seconds as ``fixed + per_sample·samples`` (the estimate, allocation and
+    planning before it and its passes' start, then its samples), fitted by least squares to
+    the rounds traced so far (``samples``, ``seconds``); from one round, or rounds of one
+    size, no fixed part and their seconds per sample. Neither part is below 0."""
     n = np.asarray(samples, np.float64)
     t = np.asarray(seconds, np.float64)
     if len(n) < 2 or np.ptp(n) == 0:
@@ -420,12 +420,15 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
     done = np.empty(n_pixels, bool)
     rounds, stopped = 0, ""
     grew = np.ones(n_pixels, bool)  # the pixels the last round sampled
-    round_samples, round_seconds = [], []  # each round's, for the time it leaves
+    # each round's samples and seconds, for the time it leaves: its seconds from the end of
+    # the round before, its allocation and planning included
+    round_samples, round_seconds = [], []
+    t0 = time.perf_counter()
     while True:
-        t0 = time.perf_counter()
         r = plan(window, width, seed, n, new, filter)
         values, traced = trace(r, rounds == 0)
         round_seconds.append(time.perf_counter() - t0)
+        t0 += round_seconds[-1]
         round_samples.append(int(traced.sum()))
         if r.weight is not None:
             values = values * r.weight[:, None]
