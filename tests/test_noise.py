@@ -190,44 +190,76 @@ def test_neyman_counts_rank_by_the_convergence_rate():
         8, 64, 64, 64, 4]
 
 
-def test_neyman_counts_take_doublings_of_one_priority_in_order():
-    """Where the round ends among doublings of equal priority, the lower doubling and then
-    the earlier pixel go first: the counts of a stable sort of every doubling (listed
-    doubling by doubling, each in pixel order) by priority, on 600 pixels whose variances
-    take four values (so thousands of ties), at shares that cut the order at every kind of
-    place, by β = 1 and 2."""
-    rng = np.random.default_rng(5)
-    cols, most = 30, 16
-    n = rng.choice([2, 4, 8], 600)
-    variance = rng.choice([0.0, 1.0, 4.0, 9.0], 600)
-    sigma = np.sqrt(noise.box3(variance, cols))
-    for rate in (1.0, 2.0):
-        pixel, start = [], []
-        for j in range(noise.MAX_DOUBLINGS):
-            m = n << j
-            open_ = np.flatnonzero((m < most) & (sigma > 0))
-            pixel.append(open_)
-            start.append(m[open_])
-        pixel, start = np.concatenate(pixel), np.concatenate(start)
-        order = np.argsort(-(sigma[pixel] * start ** (-0.5 * (1.0 + rate))), kind="stable")
-        for share in (0.01, 0.05, 0.1, 0.2, 0.3, 0.5, 1.0):
-            cost = np.cumsum(np.minimum(2 * start[order], most) - start[order])
-            take = pixel[order[:int(np.searchsorted(cost, share * n.sum())) + 1]]
-            want = np.minimum(n << np.bincount(take, minlength=len(n)), most)
-            got = noise.neyman_counts(n, variance, most, cols, share, rate=rate)
-            assert got.tolist() == want.tolist()
+def _reference_counts(n, variance, most, cols, share, shrink, rate):
+    """neyman_counts by its definition, with nothing pruned: every doubling j of every open
+    pixel listed, sorted by priority, then doubling, then pixel, and taken until the round's
+    share, or the predicted shrink once MIN_ROUND_SHARE is added."""
+    s2 = np.where(np.isfinite(variance), variance, 0.0)
+    sigma = np.sqrt(noise.box3(s2, cols))
+    pixel = np.array([p for j in range(noise.MAX_DOUBLINGS) for p in range(len(n))
+                      if sigma[p] > 0 and (n[p] << j) < most], np.int64)
+    j = np.array([j for j in range(noise.MAX_DOUBLINGS) for p in range(len(n))
+                  if sigma[p] > 0 and (n[p] << j) < most], np.int64)
+    start = n[pixel] << j
+    order = np.lexsort((pixel, j, -(sigma[pixel] * start.astype(float) ** (-0.5 * (1 + rate)))))
+    pixel, start = pixel[order], start[order]
+    end = np.minimum(2 * start, most)
+    added = np.cumsum(end - start)
+    count = int(np.searchsorted(added, share * n.sum())) + 1
+    if shrink > 0:
+        fall = np.cumsum(s2[pixel] * ((2.0 * start) ** -rate - (2.0 * end) ** -rate))
+        enough = int(np.searchsorted(fall, (1 - shrink) * (s2 * (2.0 * n) ** -rate).sum()))
+        least = int(np.searchsorted(added, noise.MIN_ROUND_SHARE * n.sum())) + 1
+        count = min(count, max(enough + 1, least))
+    return np.minimum(n << np.bincount(pixel[:count], minlength=len(n)), np.maximum(n, most))
+
+
+def test_neyman_counts_are_their_definition():
+    """neyman_counts (its runs merged, its candidates pruned below the priority the first
+    doublings alone reach the round at) against the definition on 600 small random cases:
+    counts not powers of two, ``most`` cutting doublings short, variances with zeros, NaN,
+    inf and ties (so that rounds end among equal priorities, which go to the lower doubling,
+    then the earlier pixel), shares from tiny to several, shrinks with and without the least
+    round, β from 1 to 2."""
+    rng = np.random.default_rng(30)
+    for _ in range(600):
+        rows, cols = rng.integers(1, 4), rng.integers(1, 6)
+        n = rng.choice([1, 2, 3, 4, 6, 8], rows * cols)
+        most = int(n.max()) + int(rng.choice([0, 1, 3, 5, 8, 24, 100]))
+        variance = rng.choice([0.0, 0.0, 0.25, 1.0, 4.0, np.nan, np.inf, rng.random()],
+                              rows * cols)
+        share = float(rng.choice([1e-3, 0.05, 0.3, 1.0, 5.0]))
+        shrink = float(rng.choice([0.0, 0.0, 0.05, 0.5, 0.95, 1.0]))
+        rate = float(rng.choice([1.0, 2.0, rng.uniform(1, 2)]))
+        got = noise.neyman_counts(n, variance, most, cols, share, shrink, rate)
+        want = _reference_counts(n, variance, most, cols, share, shrink, rate)
+        assert got.tolist() == want.tolist(), (n, variance, most, cols, share, shrink, rate)
+
+
+def test_descending_breaks_ties_by_its_keys():
+    """descending: highest priority first, equal ones in the order of the keys, which is
+    numpy's lexsort of the same keys, on arrays with few and with many equal priorities."""
+    rng = np.random.default_rng(7)
+    for trial in range(200):
+        m = int(rng.integers(1, 80))
+        priority = rng.choice([0.5, 1.0, 2.0], m) if trial % 2 else rng.random(m)
+        j, pixel = rng.integers(0, 4, m), rng.permutation(m)
+        assert noise.descending(priority, j, pixel).tolist() == np.lexsort(
+            (pixel, j, -priority)).tolist()
 
 
 def test_a_round_by_target_aims_at_the_variance_the_target_needs():
     """An estimate 1.1× the target, aimed at with the 10 % margin: the summed variance must
     fall to (1/(1.1·1.1))² = 0.683; at the target, to 1/1.21; no target, no finite estimate
-    or one of 0: no aim (0); a target a float cannot square (1e-200): 0, not an error."""
+    or one of 0: no aim (0); a target a float cannot square (1e-200): 0, not an error; an
+    estimate far below the target: 1, not an overflow."""
     assert noise.variance_shrink(0.011, 0.01) == pytest.approx(0.6830135)
     assert noise.variance_shrink(0.01, 0.01) == pytest.approx(1 / 1.21)
     assert noise.variance_shrink(0.05, None) == 0.0
     assert noise.variance_shrink(math.inf, 0.01) == 0.0
     assert noise.variance_shrink(0.0, 0.01) == 0.0
     assert noise.variance_shrink(1.0, 1e-200) == 0.0
+    assert noise.variance_shrink(1e-200, 1.0) == 1.0  # at or below the target: at most 1
 
 
 def test_the_convergence_rate_matches_the_streams_estimate():
