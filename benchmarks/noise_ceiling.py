@@ -34,8 +34,10 @@ SPP = 16
 
 
 class RayCounter:
-    """An integrator observer (the hooks ``raytrace explain`` records by) that counts the
-    rays each pixel traces: camera rays and their children."""
+    """An integrator observer (the hooks of ``raytrace.raytree.Recorder``, which ``raytrace
+    explain`` records by) that counts the rays each pixel traces: camera rays and their
+    children. A ray's sample is its pass's first sample (the worker's, as the integrator
+    keeps it) plus its row's ``sample``."""
 
     def __init__(self, integ: WhittedIntegrator, pixels: int):
         self.integ, self.rays = integ, np.zeros(pixels)
@@ -44,8 +46,20 @@ class RayCounter:
         sample = self.integ._worker.first_sample + rays.sample
         np.add.at(self.rays, sample // self.integ.opt.spp, 1.0)
 
-    def __getattr__(self, hook: str):  # the other hooks (hits, light, shadow, …): nothing
-        return lambda *args, **kwargs: None
+    def hits(self, rays, hits, surf) -> None:
+        pass
+
+    def light(self, emitter, term, rows) -> None:
+        pass
+
+    def shadow(self, factor) -> None:
+        pass
+
+    def shaded(self, contribution, status, weights, tir, past_max_depth) -> None:
+        pass
+
+    def spawned(self, children, parent) -> None:
+        pass
 
 
 def rays_per_sample(scene: raytrace.Scene) -> np.ndarray:

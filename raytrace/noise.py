@@ -367,14 +367,14 @@ def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
 
     Taking the doublings in order of what each takes off the summed variance per sample,
     ``∝ σ̃²·m^−(1+β)`` (a doubling cut short by ``most`` ranked as a whole one), is the
-    greedy (marginal) allocation that tends to the optimum for a
-    given number of samples, ``n ∝ σ^(2/(1+β))``: Neyman's ``n ∝ σ`` for independent samples
-    (J. Neyman 1934, "On the two different aspects of the representative method", §5; with σ
-    estimated from the samples, and sized to a variance asked for, as Cochran's "Sampling
-    Techniques", 3rd ed., §5.5 and §5.9, allocates strata), where equal per-pixel errors (a
-    threshold) give no lower RMSE than uniform sampling save where σ = 0. A pixel's
-    doublings are taken in order (its priority falls with each), so the few pixels that hold
-    an image's error (a penumbra) reach their share in one round instead of one doubling a
+    greedy (marginal) allocation that tends to the optimum for a given number of samples,
+    ``n ∝ σ^(2/(1+β))``: Neyman's ``n ∝ σ`` for independent samples (J. Neyman 1934, "On the
+    two different aspects of the representative method", §5; with σ estimated from the
+    samples, and sized to a variance asked for, as Cochran's "Sampling Techniques", 3rd ed.,
+    §5.5 and §5.9, allocates strata), where equal per-pixel errors (a threshold) give no
+    lower RMSE than uniform sampling save where σ = 0. A pixel's doublings are taken in order
+    (its priority falls with each), so the few pixels that hold an image's error (a
+    penumbra) reach their share in one round instead of one doubling a
     round. Ties go to the lower doubling, then the earlier pixel."""
     s2 = np.where(np.isfinite(variance), variance, 0.0)
     sigma = np.sqrt(box3(s2, cols))
