@@ -92,14 +92,15 @@ class Accelerator:
 
     # -- queries -------------------------------------------------------------------------
     def intersect(self, origin: np.ndarray, direction: np.ndarray, origin_shape: np.ndarray,
-                  tmax: np.ndarray | None = None) -> Hits:
+                  tmax: np.ndarray | None = None, coherent: bool = False) -> Hits:
         """Closest hit of each ray with ``0 < t < tmax`` (mesh and analytic).
 
         The analytic shapes first; then Embree, bounded by the closest analytic hit, and the
-        float64 refinement of Embree's hits. Embree traces the rays in packets without the
-        COHERENT flag, which answers each ray as its single-ray call would; with it, a ray
-        through a shared edge takes whichever triangle the packet's traversal meets first
-        (docs/decisions.md, "Embree's packets").
+        float64 refinement of Embree's hits. Embree traces the rays in packets, answering
+        each ray as its single-ray call would; ``coherent``: neighbouring rays travel
+        together (camera rays), so the packets go with the COHERENT flag and the hits that
+        may tie at a shared edge are traced again without it
+        (:func:`raytrace.kernels.embree.closest_hits`).
         """
         origin, direction, origin_shape = f64(origin), f64(direction), i64(origin_shape)
         tmax = None if tmax is None else f64(tmax)
@@ -114,7 +115,8 @@ class Accelerator:
         uv = np.zeros((n, 2))
         if n:
             has_tmax, lim = (False, NO_TMAX) if tmax is None else (True, tmax)
-            self._closest_triangles(origin, direction, lim, has_tmax, t, shape, triangle, uv)
+            self._closest_triangles(Query(origin, direction, lim, has_tmax),
+                                    Hits(t, shape, triangle, uv), coherent)
         return Hits(t, shape, triangle, uv)
 
     def _no_triangles(self, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -129,29 +131,29 @@ class Accelerator:
             self._none_columns = (triangle, uv)
         return triangle[:n], uv[:n]
 
-    def _closest_triangles(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray,
-                           has_tmax: bool, t: np.ndarray, shape: np.ndarray,
-                           triangle: np.ndarray, uv: np.ndarray) -> None:
-        """Embree's closest hits, written into ``t``, ``shape``, ``triangle``, ``uv`` where a
-        triangle comes before the analytic hit (and ``tmax``).
+    def _closest_triangles(self, query: Query, hits: Hits, coherent: bool = False) -> None:
+        """Embree's closest hits of ``query``'s rays, written into ``hits`` where a triangle
+        comes before the analytic hit (and ``tmax``); ``coherent``: the first pass in
+        COHERENT packets (:meth:`intersect`).
 
         Hits that the float64 solve finds behind the origin are float32 artefacts
         (:func:`raytrace.kernels.accel.refine_hits`): those rays are traced again from
         beyond the artefact's error band, at most :data:`MAX_RETRACES` times."""
-        query = Query(o, d, tmax, has_tmax)
-        rays = _embree_rays(len(o))  # far: a fresh array, Embree overwrites it
-        ak.embree_rays(query, t, rays)
-        hits = Hits(t, shape, triangle, uv)
-        redo = Redo(np.empty(len(o), np.int64), np.empty(len(o)))
+        n = len(query.origin)
+        rays = _embree_rays(n)  # far: a fresh array, Embree overwrites it
+        ak.embree_rays(query, hits.t, rays)
+        redo = Redo(np.empty(n, np.int64), np.empty(n))
         traced = _FIRST_PASS
         for _ in range(MAX_RETRACES + 1):
             out = _embree_hits(len(rays.far))
-            ek.closest_hits(self.embree.record, rays, False, out)
+            ek.closest_hits(self.embree.record, rays, coherent, out)
+            coherent = False  # the rays traced again are a scattered few
             k = ak.refine_hits(out, traced, self.triangles, query, hits, redo)
             if not k:
                 return
             traced, rays = Redo(np.empty(k, np.int64), np.empty(k)), _embree_rays(k)
-            k = ak.retrace_rays(Redo(redo.rows[:k], redo.adv[:k]), query, t, rays, traced)
+            k = ak.retrace_rays(Redo(redo.rows[:k], redo.adv[:k]), query, hits.t, rays,
+                                traced)
             if not k:
                 return
             traced = Redo(traced.rows[:k], traced.adv[:k])
@@ -193,8 +195,8 @@ class Accelerator:
                 rows = recheck[:j]
                 o, d, lim = origin[rows], direction[rows], tmax[rows]
                 t = np.full(j, np.inf)
-                self._closest_triangles(o, d, lim, True, t, np.full(j, NO_SHAPE, np.int64),
-                                        np.empty(j, np.int64), np.empty((j, 2)))
+                self._closest_triangles(Query(o, d, lim, True), Hits(
+                    t, np.full(j, NO_SHAPE, np.int64), np.empty(j, np.int64), np.empty((j, 2))))
                 blocked[rows] = np.isfinite(t)
         return blocked
 

@@ -17,7 +17,13 @@ import math
 
 import numpy as np
 
-from .kernels.camera import directions, directions_at_rows, offset_rows, uniform_rows
+from .kernels.camera import (
+    directions,
+    directions_at_rows,
+    offset_rows,
+    tile_order,
+    uniform_rows,
+)
 from .kernels.records import Pinhole, Sampling, Window
 from .rays import CAMERA, NO_SHAPE, RayBatch
 from .scene import Camera
@@ -47,7 +53,8 @@ def sample_offsets(spp: int, seed: int, sample: np.ndarray) -> tuple[np.ndarray,
 
 def camera_rays(camera: Camera | Pinhole, frame, start: int, stop: int, *,
                 columns: RayBatch | None = None, direction: np.ndarray | None = None,
-                window: tuple[int, int, int, int] | None = None) -> RayBatch:
+                window: tuple[int, int, int, int] | None = None,
+                lanes: int = 0) -> RayBatch:
     """Rays of samples ``start..stop-1`` (sample = pixel·spp + k, pixels counted row by row
     in the crop window (x0, y0, x1, y1), half-open, or the whole frame), from the origin: the
     scene is camera-relative. ``frame`` has the render's ``width``, ``height``, ``spp``,
@@ -60,15 +67,27 @@ def camera_rays(camera: Camera | Pinhole, frame, start: int, stop: int, *,
     rows from :func:`camera_columns` whose columns other than the direction are reused
     (views of its first rows); ``direction``: an (n, 3) float64 array to write the
     directions into. Both new when not given.
+
+    ``lanes``: the rays go in blocks of pixels that fill packets of that many rays
+    (:func:`raytrace.kernels.camera.tile_order`; ``start`` and ``stop`` whole pixels), each
+    ray's ``sample`` its sample's index; 0: in sample order. Every sum is kept by sample, so
+    the order changes no pixel.
     """
     n = stop - start
     if direction is None:
         direction = np.empty((n, 3))
+    window = window if window is not None else getattr(frame, "crop", None)
     camera_directions(camera, frame.width, frame.height, frame.spp, frame.seed, start,
-                      direction, window if window is not None else getattr(frame, "crop", None))
+                      direction, window)
     if columns is None:
         columns = camera_columns(n)
-    return RayBatch(origin=columns.origin[:n], direction=direction, sample=columns.sample[:n],
+    sample = columns.sample[:n]
+    if lanes:
+        x0, _, x1, _ = window or (0, 0, frame.width, frame.height)
+        sample = np.empty(n, np.int64)
+        tile_order(start // frame.spp, n // frame.spp, x1 - x0, frame.spp, lanes, sample)
+        direction = direction[sample]
+    return RayBatch(origin=columns.origin[:n], direction=direction, sample=sample,
                     weight=columns.weight[:n], depth=0, origin_shape=columns.origin_shape[:n],
                     kind=columns.kind[:n])
 

@@ -308,6 +308,9 @@ class WhittedIntegrator:
         #: The scene as arrays, camera-relative (:func:`raytrace.tables.scene_arrays`).
         self.arrays = scene_arrays(scene)
         self.accel = accelerator(scene, self.arrays, options.threads)  # once per geometry
+        #: Camera rays go in blocks of pixels that fill Embree's packets of this many rays
+        #: (:func:`raytrace.camera.camera_rays`); 0 without meshes, where no packet is traced.
+        self.lanes = 0 if self.accel.embree is None else self.accel.embree.record.width
         self.build_seconds = time.perf_counter() - t0
         self.materials, self.table = self.arrays.materials, self.arrays.table
         self.origin = self.arrays.origin
@@ -686,7 +689,7 @@ class WhittedIntegrator:
             w.camera_columns = camera_columns(n)
         rays = camera_rays(self.view, opt, start, stop, columns=w.camera_columns,
                            direction=self.scratch("camera_direction", n, 3),
-                           window=self.trace_crop)
+                           window=self.trace_crop, lanes=self.lanes)
         self._trace_batch(rays, n, samples)
 
     def _trace_batch(self, rays: RayBatch, n: int, samples: np.ndarray) -> None:
@@ -743,7 +746,8 @@ class WhittedIntegrator:
         for name, count in zip(KIND_NAMES, counts.tolist(), strict=True):
             st.rays[name] += count
         t0 = time.perf_counter()
-        hits = self.accel.intersect(rays.origin, rays.direction, rays.origin_shape)
+        hits = self.accel.intersect(rays.origin, rays.direction, rays.origin_shape,
+                                    coherent=rays.depth == 0)  # camera rays: COHERENT
         st.trace_seconds += time.perf_counter() - t0
         found, missed = (self.scratch(name, n, dtype=np.int64) for name in ("found", "missed"))
         k = split_hits(hits.t, found, missed)

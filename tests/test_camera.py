@@ -10,6 +10,7 @@ import pytest
 import raytrace
 from raytrace import RenderSettings
 from raytrace.camera import camera_rays, hash_uniform, sample_offsets
+from raytrace.kernels.camera import tile_order
 
 
 def _rays(camera, w, h, spp=1, seed=0):
@@ -78,6 +79,39 @@ def test_rays_do_not_depend_on_how_the_samples_are_split():
     part = camera_rays(cam, frame, 24, 40)
     np.testing.assert_array_equal(whole.direction[24:40], part.direction)
     np.testing.assert_array_equal(part.sample, np.arange(16))
+
+
+@pytest.mark.parametrize("spp,lanes,start,stop", [(1, 8, 0, 60), (1, 8, 7, 53), (4, 16, 24, 160),
+                                                  (2, 8, 6, 90), (4, 8, 24, 160)])
+def test_packet_order_is_the_same_rays_in_blocks(spp, lanes, start, stop):
+    """With ``lanes`` the camera rays of a pass come block by block: the same rays (each
+    ray's direction is its sample's), every sample once; where a packet holds fewer than 4 pixels
+    (4 samples a pixel, 8 lanes: two) they stay in sample order."""
+    cam = raytrace.Camera(position=[0, 1, 5], look_at=[0, 0, 0])
+    frame = RenderSettings(width=10, height=8, spp=spp, seed=3)
+    plain = camera_rays(cam, frame, start, stop)
+    blocks = camera_rays(cam, frame, start, stop, lanes=lanes)
+    np.testing.assert_array_equal(np.sort(blocks.sample), np.arange(stop - start))
+    np.testing.assert_array_equal(blocks.direction, plain.direction[blocks.sample])
+    assert np.array_equal(blocks.sample, plain.sample) == (lanes // spp < 4)
+
+
+@pytest.mark.parametrize("lanes,spp,block", [(8, 1, (2, 4)), (16, 1, (4, 4)), (8, 2, (2, 2)),
+                                             (16, 4, (2, 2))])
+def test_a_packet_of_rays_covers_a_block_of_pixels(lanes, spp, block):
+    """Each packet of ``lanes`` consecutive camera rays looks through one block of h × w
+    pixels (rows × columns, h = ⌊√p⌋ for p = lanes/spp pixels a packet), on a frame whose
+    size is a multiple of the block."""
+    h, w = block
+    cols, rows = 4 * w, 3 * h
+    order = np.empty(cols * rows * spp, np.int64)
+    tile_order(0, cols * rows, cols, spp, lanes, order)
+    pixel = order // spp
+    for packet in np.split(pixel, len(order) // lanes):
+        r, c = np.divmod(packet, cols)
+        assert set(zip(r.tolist(), c.tolist(), strict=True)) == {
+            (r.min() + i, c.min() + j) for i in range(h) for j in range(w)}
+        assert r.min() % h == 0 and c.min() % w == 0
 
 
 @pytest.mark.parametrize("kw,key", [

@@ -12,11 +12,22 @@ them.
 
 **Packets.** Consecutive rays of a batch fill the lanes of one packet of the library's native
 width (16 with AVX-512, 8 with AVX2); a last, partial packet masks its empty lanes off. The
-caller says whether the batch is coherent: the raytracer says so only for the shadow rays of
-camera-ray hits to one point (an occlusion answer does not depend on traversal order, a
-closest hit on a shared edge does). Embree's COHERENT flag then lets it traverse the packet
-as a frustum (1.5× embreex's single rays here, docs/decisions.md), which EMBREEX_NOTES.md
-measured 2× slower than the default on unrelated rays.
+caller says whether the batch is coherent: the raytracer says so for camera rays and for the
+shadow rays of camera-ray hits to one point. Embree's COHERENT flag then lets it traverse the
+packet as a frustum (2.0× embreex's single rays on camera rays here, 1.8× on shadow rays,
+docs/decisions.md), which EMBREEX_NOTES.md measured 2× slower than the default on unrelated
+rays.
+
+**Ties.** An occlusion answer does not depend on the order Embree meets the triangles in; a
+closest hit does where two triangles give the same ``t``, as both do for a ray through the
+edge or corner they share. A COHERENT packet meets them in the frustum's order, so which one
+it returns depends on the packet's other rays (a crop would then differ from its window of
+the full frame). :func:`closest_hits` therefore traces again, in a plain packet (which
+answers each ray as its single-ray call does), every ray whose COHERENT hit lies within
+:data:`EDGE` (in barycentrics) of its triangle's edges: 1.1 % of the camera rays' hits on
+benchmarks/bench.py's mesh frame. Ties between triangles that meet away from a shared edge
+(coplanar overlaps, triangles crossing each other) are not caught: there the answer depends
+on the packet's other rays.
 """
 
 from __future__ import annotations
@@ -39,6 +50,11 @@ RAYHIT1_WORDS, RAY_WORDS = 21, 12
 INVALID, BLOCKED, FREE = -1, 0, -1
 #: Packets are aligned to 64 bytes (16 words): what a 16-wide packet needs.
 ALIGN_WORDS = 16
+#: A COHERENT closest hit whose barycentrics u, v or 1 − u − v are below this is traced again
+#: without the flag (a possible tie at a shared edge: the module's docstring). Embree's
+#: float32 barycentrics of a point on an edge are off by ~1e-5 at most (measured,
+#: :func:`raytrace.kernels.accel.refine_hits`); this leaves 100 times that.
+EDGE = 1e-3
 
 
 @intrinsic
@@ -129,17 +145,51 @@ def closest_hits(embree, rays, coherent, out):
     :class:`raytrace.kernels.records.EmbreeRays`) in ``embree`` (a
     :class:`raytrace.kernels.records.EmbreeScene`), in packets: geomID (−1 on a miss),
     primID and the barycentrics u, v into ``out`` (a
-    :class:`raytrace.kernels.records.EmbreeHits`), as embreex's ``run(..., output=1)``."""
+    :class:`raytrace.kernels.records.EmbreeHits`), as embreex's ``run(..., output=1)``.
+    ``coherent``: in COHERENT packets, the hits near an edge traced again without the flag
+    (the module's docstring, "Ties"), so that every answer is the single ray's."""
     width, (packet, valid, args) = embree.width, packet_room(embree, coherent)
-    words = packet.view(np.int32)
     for first in range(0, rays.far.shape[0], width):
         count = trace_packet(embree.intersect, embree, rays, first, packet, valid, args)
+        ties = 0
         for j in range(count):
-            i = first + j
-            out.geom_id[i] = words[GEOM_ID * width + j]
-            out.prim_id[i] = words[PRIM_ID * width + j]
-            out.u[i] = packet[U * width + j]
-            out.v[i] = packet[V * width + j]
+            if coherent and on_edge(packet, width, j):
+                valid[j] = -1  # lane j is traced again
+                ties += 1
+            else:
+                valid[j] = 0
+                hit_of(packet, width, j, first + j, out)
+        if ties:  # the possible ties, in a plain packet: each as its single-ray call answers
+            again = np.empty(width, np.int32)
+            again[:] = valid[:width]
+            pack(rays, first, count, width, packet, valid)
+            valid[:width] = again
+            call4(embree.intersect, address(valid), embree.scene, address(packet),
+                  embree.incoherent)
+            for j in range(count):
+                if again[j]:
+                    hit_of(packet, width, j, first + j, out)
+
+
+@inline
+def on_edge(packet, width, j):
+    """Whether lane ``j``'s hit lies within :data:`EDGE` of an edge of its triangle (in
+    barycentrics), where another triangle may tie with it; False for a miss."""
+    if packet.view(np.int32)[GEOM_ID * width + j] == INVALID:
+        return False
+    u, v = packet[U * width + j], packet[V * width + j]
+    return min(u, v, 1.0 - u - v) < EDGE
+
+
+@inline
+def hit_of(packet, width, j, i, out):
+    """Lane ``j``'s answer into row ``i`` of ``out`` (an
+    :class:`raytrace.kernels.records.EmbreeHits`)."""
+    words = packet.view(np.int32)
+    out.geom_id[i] = words[GEOM_ID * width + j]
+    out.prim_id[i] = words[PRIM_ID * width + j]
+    out.u[i] = packet[U * width + j]
+    out.v[i] = packet[V * width + j]
 
 
 @kernel

@@ -118,23 +118,24 @@ def emitter_at(table, e):
 
 
 # -- queries ---------------------------------------------------------------------------------
-def closest_triangles(tracer, query, hits):
+def closest_triangles(tracer, query, hits, coherent):
     """Embree's closest hits of ``query``'s rays into ``hits``: :func:`_closest_triangles`,
     nothing in a scene without meshes (``tracer.embree`` None: no Embree code compiled)."""
 
 
 @overload(closest_triangles, jit_options=INNER)
-def _closest_triangles_by_type(tracer, query, hits):
+def _closest_triangles_by_type(tracer, query, hits, coherent):
     if field_is_none(tracer, "embree"):
-        return lambda tracer, query, hits: None
+        return lambda tracer, query, hits, coherent: None
     return _closest_triangles
 
 
-def _closest_triangles(tracer, query, hits):
+def _closest_triangles(tracer, query, hits, coherent):
     """Embree's closest hits of ``query``'s rays written into ``hits`` where a triangle comes
     before the analytic hit (and ``tmax``), with the float64 re-solve and up to
     :data:`MAX_RETRACES` second passes past float32 artefacts
-    (``raytrace.accel.Accelerator._closest_triangles``, the same steps)."""
+    (``raytrace.accel.Accelerator._closest_triangles``, the same steps); ``coherent``: the
+    first pass in COHERENT packets."""
     n = query.origin.shape[0]
     rays = EmbreeRays(np.empty((n, 3), np.float32), np.empty((n, 3), np.float32),
                       np.empty(n, np.float32))
@@ -145,7 +146,8 @@ def _closest_triangles(tracer, query, hits):
         m = rays.far.shape[0]
         out = EmbreeHits(np.empty(m, np.int32), np.empty(m, np.int32), np.empty(m, np.float32),
                          np.empty(m, np.float32))
-        ek.closest_hits(tracer.embree, rays, False, out)  # answers as single rays would
+        ek.closest_hits(tracer.embree, rays, coherent, out)  # answers as single rays would
+        coherent = False  # the rays traced again are a scattered few
         k = ak.refine_hits(out, traced, tracer.scene.triangles, query, hits, redo)
         if k == 0:
             return
@@ -161,9 +163,10 @@ def _closest_triangles(tracer, query, hits):
 
 
 @inline
-def intersect(tracer, origin, direction, origin_shape, tmax):
+def intersect(tracer, origin, direction, origin_shape, tmax, coherent):
     """Closest hit of each ray with ``0 < t < tmax`` (``tmax`` empty: unbounded), analytic
-    shapes first, then Embree (``raytrace.accel.Accelerator.intersect``)."""
+    shapes first, then Embree (``raytrace.accel.Accelerator.intersect``; ``coherent``:
+    camera rays)."""
     n = origin.shape[0]
     t, shape = np.empty(n), np.empty(n, np.int64)
     has_tmax = tmax.shape[0] > 0
@@ -179,7 +182,7 @@ def intersect(tracer, origin, direction, origin_shape, tmax):
     uv[:] = 0.0
     hits = Hits(t, shape, triangle, uv)
     if n:
-        closest_triangles(tracer, Query(origin, direction, tmax, has_tmax), hits)
+        closest_triangles(tracer, Query(origin, direction, tmax, has_tmax), hits, coherent)
     return hits
 
 
@@ -235,7 +238,7 @@ def _embree_occlusion(tracer, query, coherent, blocked, idx, rays):
         t[:] = np.inf
         shape[:] = NO_SHAPE
         closest_triangles(tracer, Query(o, d, lim, True),
-                          Hits(t, shape, np.empty(j, np.int64), np.empty((j, 2))))
+                          Hits(t, shape, np.empty(j, np.int64), np.empty((j, 2))), False)
         for r in range(j):
             blocked[recheck[r]] = math.isfinite(t[r])
 
@@ -292,7 +295,7 @@ def _transparent_shadow(tracer, settings, shadows, k, coherent, tally):
         live[r] = r
     walked = False
     for _ in range(MAX_SHADOW_CROSSINGS):
-        hits = intersect(tracer, origin, direction, shape, tmax)
+        hits = intersect(tracer, origin, direction, shape, tmax, False)
         t, hit_shape, triangle, uv, origin, direction, tmax, live = sk.crossing_rays(
             hits, origin, direction, tmax, live)
         if live.shape[0] == 0:
@@ -417,7 +420,8 @@ def trace_depth(tracer, lights, settings, rays, depth, pass_io, tally):
     n = rays.origin.shape[0]
     rk.count_kinds(rays.kind, counters)
     t0 = now(settings, timespec)
-    hits = intersect(tracer, rays.origin, rays.direction, rays.origin_shape, NO_TMAX)
+    hits = intersect(tracer, rays.origin, rays.direction, rays.origin_shape, NO_TMAX,
+                     depth == 0)  # camera rays: COHERENT packets
     seconds[TRACE_SECONDS] += now(settings, timespec) - t0
     found, missed = np.empty(n, np.int64), np.empty(n, np.int64)
     k = rk.split_hits(hits.t, found, missed)
