@@ -24,6 +24,7 @@ from .kernels.camera import (
     tile_order,
     uniform_rows,
 )
+from .kernels.rays import take_rows
 from .kernels.records import Pinhole, Sampling, Window
 from .rays import CAMERA, NO_SHAPE, RayBatch
 from .scene import Camera
@@ -86,7 +87,7 @@ def camera_rays(camera: Camera | Pinhole, frame, start: int, stop: int, *,
         x0, _, x1, _ = window or (0, 0, frame.width, frame.height)
         sample = np.empty(n, np.int64)
         tile_order(start // frame.spp, n // frame.spp, x1 - x0, frame.spp, lanes, sample)
-        direction = direction[sample]
+        direction = take_rows(direction, sample)  # (nogil: numpy's indexing holds the GIL)
     return RayBatch(origin=columns.origin[:n], direction=direction, sample=sample,
                     weight=columns.weight[:n], depth=0, origin_shape=columns.origin_shape[:n],
                     kind=columns.kind[:n])
