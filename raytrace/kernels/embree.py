@@ -52,7 +52,7 @@ INVALID, BLOCKED, FREE = -1, 0, -1
 ALIGN_WORDS = 16
 #: A COHERENT closest hit whose barycentrics u, v or 1 − u − v are below this is traced again
 #: without the flag (a possible tie at a shared edge: the module's docstring). Embree's
-#: float32 barycentrics of a point on an edge are off by ~1e-5 at most (measured,
+#: float32 barycentrics are off by ~1e-5 (measured against float64,
 #: :func:`raytrace.kernels.accel.refine_hits`); this leaves 100 times that.
 EDGE = 1e-3
 
@@ -149,6 +149,7 @@ def closest_hits(embree, rays, coherent, out):
     ``coherent``: in COHERENT packets, the hits near an edge traced again without the flag
     (the module's docstring, "Ties"), so that every answer is the single ray's."""
     width, (packet, valid, args) = embree.width, packet_room(embree, coherent)
+    again = np.empty(width, np.int32)  # the lanes traced again
     for first in range(0, rays.far.shape[0], width):
         count = trace_packet(embree.intersect, embree, rays, first, packet, valid, args)
         ties = 0
@@ -160,7 +161,6 @@ def closest_hits(embree, rays, coherent, out):
                 valid[j] = 0
                 hit_of(packet, width, j, first + j, out)
         if ties:  # the possible ties, in a plain packet: each as its single-ray call answers
-            again = np.empty(width, np.int32)
             again[:] = valid[:width]
             pack(rays, first, count, width, packet, valid)
             valid[:width] = again
