@@ -96,11 +96,11 @@ class Accelerator:
         """Closest hit of each ray with ``0 < t < tmax`` (mesh and analytic).
 
         The analytic shapes first; then Embree, bounded by the closest analytic hit, and the
-        float64 refinement of Embree's hits. Embree traces the rays in packets, answering
-        each ray as its single-ray call would; ``coherent``: neighbouring rays travel
-        together (camera rays), so the packets go with the COHERENT flag and the hits that
-        may tie at a shared edge are traced again without it
-        (:func:`raytrace.kernels.embree.closest_hits`).
+        float64 refinement of Embree's hits. Embree traces the rays in plain packets,
+        answering each ray as its single-ray call would; ``coherent``: neighbouring rays
+        travel together (camera rays, ``raytrace.integrator.COHERENT_CAMERA``), so the packets
+        go with the COHERENT flag and the hits that may tie at a shared edge are traced again
+        without it (:func:`raytrace.kernels.embree.closest_hits`).
         """
         origin, direction, origin_shape = f64(origin), f64(direction), i64(origin_shape)
         tmax = None if tmax is None else f64(tmax)

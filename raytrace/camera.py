@@ -69,10 +69,10 @@ def camera_rays(camera: Camera | Pinhole, frame, start: int, stop: int, *,
     (views of its first rows); ``direction``: an (n, 3) float64 array to write the
     directions into. Both new when not given.
 
-    ``lanes``: the rays go in blocks of pixels that fill packets of that many rays
-    (:func:`raytrace.kernels.camera.tile_order`; ``start`` and ``stop`` whole pixels), each
-    ray's ``sample`` its sample's index; 0: in sample order. Every sum is kept by sample, so
-    the order changes no pixel.
+    ``lanes``: where ``start`` and ``stop`` are whole pixels, the rays go in blocks of pixels
+    that fill packets of that many rays (:func:`raytrace.kernels.camera.tile_order`), each
+    ray's ``sample`` its sample's index; 0, or a part of a pixel: in sample order. Every sum
+    is kept by sample, so the order changes no pixel.
     """
     n = stop - start
     if direction is None:
@@ -83,7 +83,7 @@ def camera_rays(camera: Camera | Pinhole, frame, start: int, stop: int, *,
     if columns is None:
         columns = camera_columns(n)
     sample = columns.sample[:n]
-    if lanes:
+    if lanes and start % frame.spp == 0 and n % frame.spp == 0:  # whole pixels only
         x0, _, x1, _ = window or (0, 0, frame.width, frame.height)
         sample = np.empty(n, np.int64)
         tile_order(start // frame.spp, n // frame.spp, x1 - x0, frame.spp, lanes, sample)

@@ -112,6 +112,13 @@ DEBUG = os.environ.get("RAYTRACE_DEBUG", "") not in ("", "0")
 #: and optimizes every kernel again into each variant of the loop: docs/performance.md,
 #: "The compiled loop").
 COMPILED_LOOP = os.environ.get("RAYTRACE_LOOP", "") == "compiled"
+#: Trace camera rays through meshes in Embree's COHERENT packets, in blocks of pixels that fill
+#: a packet: set ``RAYTRACE_COHERENT_CAMERA=1``. Off by default: 13–17 % faster on the mesh
+#: frame (one thread) with the same images wherever ties are on shared edges
+#: (:func:`raytrace.kernels.embree.closest_hits` traces those again), but where triangles
+#: overlap in one plane which one a pixel shows depends on its packet's other rays, so a crop,
+#: a pass size or a tile could change such pixels (docs/decisions.md).
+COHERENT_CAMERA = os.environ.get("RAYTRACE_COHERENT_CAMERA", "") == "1"
 #: Seconds between two looks of the thread waiting for the passes at whether a Ctrl-C came.
 #: On Linux a SIGINT ends the lock wait itself (CPython waits on a POSIX semaphore there), so
 #: the look is only a net for a signal that lands between Python's last check and the wait:
@@ -299,6 +306,8 @@ class WhittedIntegrator:
     #: where this is False, where an observer watches, or under ``RAYTRACE_DEBUG``): tests
     #: compare the two.
     compiled = COMPILED_LOOP
+    #: Whether camera rays go in COHERENT packets (:data:`COHERENT_CAMERA`).
+    coherent_camera = COHERENT_CAMERA
 
     def __init__(self, scene: Scene, options: RenderOptions):
         self.scene = scene
@@ -309,8 +318,9 @@ class WhittedIntegrator:
         self.arrays = scene_arrays(scene)
         self.accel = accelerator(scene, self.arrays, options.threads)  # once per geometry
         #: Camera rays go in blocks of pixels that fill Embree's packets of this many rays
-        #: (:func:`raytrace.camera.camera_rays`); 0 without meshes, where no packet is traced.
-        self.lanes = 0 if self.accel.embree is None else self.accel.embree.record.width
+        #: (:func:`raytrace.camera.camera_rays`) where they are traced COHERENT; else 0.
+        self.lanes = self.accel.embree.record.width if (
+            self.coherent_camera and self.accel.embree is not None) else 0
         self.build_seconds = time.perf_counter() - t0
         self.materials, self.table = self.arrays.materials, self.arrays.table
         self.origin = self.arrays.origin
@@ -542,7 +552,8 @@ class WhittedIntegrator:
             np.cumsum([0, *(len(f) for f in fast[1:])]).astype(np.int64))
         per_pass = self.opt.pass_samples if self.opt.aa != "uniform" else self.pass_size
         settings = PassSettings(per_pass, opt.max_depth, float(opt.min_weight),
-                                self.any_background, self.background, self.ambient, *CLOCK)
+                                self.any_background, self.background, self.ambient,
+                                self.coherent_camera, *CLOCK)
         return tracer, lights, settings
 
     def _adaptive_rows(self, cols: int, rows: int) -> int:
@@ -689,7 +700,7 @@ class WhittedIntegrator:
             w.camera_columns = camera_columns(n)
         rays = camera_rays(self.view, opt, start, stop, columns=w.camera_columns,
                            direction=self.scratch("camera_direction", n, 3),
-                           window=self.trace_crop, lanes=self.lanes)
+                           window=self.traced, lanes=self.lanes)  # None would be the crop
         self._trace_batch(rays, n, samples)
 
     def _trace_batch(self, rays: RayBatch, n: int, samples: np.ndarray) -> None:
@@ -747,7 +758,7 @@ class WhittedIntegrator:
             st.rays[name] += count
         t0 = time.perf_counter()
         hits = self.accel.intersect(rays.origin, rays.direction, rays.origin_shape,
-                                    coherent=rays.depth == 0)  # camera rays: COHERENT
+                                    coherent=rays.depth == 0 and self.coherent_camera)
         st.trace_seconds += time.perf_counter() - t0
         found, missed = (self.scratch(name, n, dtype=np.int64) for name in ("found", "missed"))
         k = split_hits(hits.t, found, missed)

@@ -96,6 +96,18 @@ def test_packet_order_is_the_same_rays_in_blocks(spp, lanes, start, stop):
     assert np.array_equal(blocks.sample, plain.sample) == (lanes // spp < 4)
 
 
+def test_part_of_a_pixel_stays_in_sample_order():
+    """A range that is not whole pixels (``raytrace explain`` traces one sample) is not cut
+    into blocks: every ray keeps its own sample."""
+    cam = raytrace.Camera(position=[0, 1, 5], look_at=[0, 0, 0])
+    frame = RenderSettings(width=10, height=8, spp=2, seed=3)
+    for start, stop in ((5, 6), (4, 13), (3, 11)):
+        plain = camera_rays(cam, frame, start, stop)
+        blocks = camera_rays(cam, frame, start, stop, lanes=8)
+        np.testing.assert_array_equal(blocks.sample, np.arange(stop - start))
+        np.testing.assert_array_equal(blocks.direction, plain.direction)
+
+
 @pytest.mark.parametrize("lanes,spp,block", [(8, 1, (2, 4)), (16, 1, (4, 4)), (8, 2, (2, 2)),
                                              (16, 4, (2, 2))])
 def test_a_packet_of_rays_covers_a_block_of_pixels(lanes, spp, block):

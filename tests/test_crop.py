@@ -67,6 +67,18 @@ def test_a_crop_is_the_full_render_s_window(full, threads, crop):
     assert part.stats["crop"] == list(crop)
 
 
+@pytest.mark.parametrize("crop", [(1, 1, W - 1, H - 1), (2, 2, W - 2, H - 2), (0, 1, W, H)])
+def test_a_crop_under_a_wide_filter_is_the_full_render_s_window(crop):
+    """A filter wider than a pixel (Gaussian: one pixel's reach) traces the crop grown by its
+    reach, clipped to the frame; where that is the whole frame, the crop's pixels are still
+    the full render's."""
+    kw = dict(width=W, height=H, spp=SPP, threads=1, filter="gaussian")
+    whole = raytrace.render(every_ray_scene(), **kw)
+    x0, y0, x1, y1 = crop
+    part = raytrace.render(every_ray_scene(), crop=crop, pass_samples=SMALL_PASS, **kw)
+    assert same_bits(part.rgb, whole.rgb[y0:y1, x0:x1])
+
+
 def test_the_exr_data_window_is_the_crop_in_the_full_display_window(full, tmp_path):
     import OpenEXR
 

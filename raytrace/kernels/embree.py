@@ -12,11 +12,13 @@ them.
 
 **Packets.** Consecutive rays of a batch fill the lanes of one packet of the library's native
 width (16 with AVX-512, 8 with AVX2); a last, partial packet masks its empty lanes off. The
-caller says whether the batch is coherent: the raytracer says so for camera rays and for the
-shadow rays of camera-ray hits to one point. Embree's COHERENT flag then lets it traverse the
-packet as a frustum (camera rays in blocks of 4 × 2 pixels 1.8–2.3× as fast as embreex's
-single rays here, shadow rays 1.8–2.1×: docs/decisions.md), which EMBREEX_NOTES.md measured
-2× slower than the default on unrelated rays.
+caller says whether the batch is coherent: the raytracer says so for the shadow rays of
+camera-ray hits to one point, and for camera rays with ``RAYTRACE_COHERENT_CAMERA=1``
+(``raytrace.integrator.COHERENT_CAMERA``: off by default, for the ties below). Embree's
+COHERENT flag then lets it traverse the packet as a frustum (camera rays in blocks of 4 × 2
+pixels 1.8–2.3× as fast as embreex's single rays here, shadow rays 1.8–2.2×:
+docs/decisions.md), which EMBREEX_NOTES.md measured 2× slower than the default on unrelated
+rays.
 
 **Ties.** An occlusion answer does not depend on the order Embree meets the triangles in; a
 closest hit does where two triangles give the same ``t``, as both do for a ray through the
@@ -147,7 +149,8 @@ def closest_hits(embree, rays, coherent, out):
     primID and the barycentrics u, v into ``out`` (a
     :class:`raytrace.kernels.records.EmbreeHits`), as embreex's ``run(..., output=1)``.
     ``coherent``: in COHERENT packets, the hits near an edge traced again without the flag
-    (the module's docstring, "Ties"), so that every answer is the single ray's."""
+    (the module's docstring, "Ties"), so that a tie on a shared edge answers as its single
+    ray does."""
     width, (packet, valid, args) = embree.width, packet_room(embree, coherent)
     again = np.empty(width, np.int32)  # the lanes traced again
     for first in range(0, rays.far.shape[0], width):

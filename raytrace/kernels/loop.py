@@ -146,7 +146,7 @@ def _closest_triangles(tracer, query, hits, coherent):
         m = rays.far.shape[0]
         out = EmbreeHits(np.empty(m, np.int32), np.empty(m, np.int32), np.empty(m, np.float32),
                          np.empty(m, np.float32))
-        ek.closest_hits(tracer.embree, rays, coherent, out)  # answers as single rays would
+        ek.closest_hits(tracer.embree, rays, coherent, out)
         coherent = False  # the rays traced again are a scattered few
         k = ak.refine_hits(out, traced, tracer.scene.triangles, query, hits, redo)
         if k == 0:
@@ -421,7 +421,7 @@ def trace_depth(tracer, lights, settings, rays, depth, pass_io, tally):
     rk.count_kinds(rays.kind, counters)
     t0 = now(settings, timespec)
     hits = intersect(tracer, rays.origin, rays.direction, rays.origin_shape, NO_TMAX,
-                     depth == 0)  # camera rays: COHERENT packets
+                     depth == 0 and settings.coherent_camera)
     seconds[TRACE_SECONDS] += now(settings, timespec) - t0
     found, missed = np.empty(n, np.int64), np.empty(n, np.int64)
     k = rk.split_hits(hits.t, found, missed)
@@ -552,7 +552,8 @@ def _next_depth(children, rays, surf, depth, settings, counters):
 @kernel
 def trace_paths(tracer, lights, settings, camera, pass_io, tally):
     """Add into ``pass_io``'s sums everything the pass's ``camera`` rays (a
-    :class:`raytrace.kernels.records.Rays`, one per sample, sample = row) see, depth by
+    :class:`raytrace.kernels.records.Rays`, one per sample, each ray's ``sample`` its row of
+    the sums: row by row, or in blocks of pixels where they go COHERENT) see, depth by
     depth (``WhittedIntegrator._trace_batch``): a batch grown past ``settings.per_pass`` rays
     is cut into chunks that keep each sample's rays together (``rays.sample_chunks``),
     finished one after another, so memory stays bounded by the pass size × max depth and each

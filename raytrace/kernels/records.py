@@ -473,6 +473,8 @@ class PassSettings(NamedTuple):
     any_background: bool     #: missed rays add the background
     background: np.ndarray   #: (1, 3) float64
     ambient: np.ndarray      #: (3,) float64 Ia
+    #: camera rays in COHERENT packets (``raytrace.integrator.COHERENT_CAMERA``)
+    coherent_camera: bool
     clock: int               #: the address of ``clock_gettime`` (0: no timing)
     clock_id: int            #: its monotonic clock's id
 
