@@ -113,11 +113,11 @@ DEBUG = os.environ.get("RAYTRACE_DEBUG", "") not in ("", "0")
 #: "The compiled loop").
 COMPILED_LOOP = os.environ.get("RAYTRACE_LOOP", "") == "compiled"
 #: Trace camera rays through meshes in Embree's COHERENT packets, in blocks of pixels that fill
-#: a packet: set ``RAYTRACE_COHERENT_CAMERA=1``. Off by default: 13–17 % faster on the mesh
-#: frame (one thread) with the same images wherever ties are on shared edges
-#: (:func:`raytrace.kernels.embree.closest_hits` traces those again), but where triangles
-#: overlap in one plane which one a pixel shows depends on its packet's other rays, so a crop,
-#: a pass size or a tile could change such pixels (docs/decisions.md).
+#: a packet: set ``RAYTRACE_COHERENT_CAMERA=1``. Off by default: the warm mesh frame takes
+#: 0.69–0.83 of its one-thread time (docs/performance.md), the same images wherever ties are
+#: on shared edges (:func:`raytrace.kernels.embree.closest_hits` traces those again), but
+#: where triangles overlap in one plane which one a pixel shows depends on its packet's other
+#: rays, so a crop, a pass size or a tile could change such pixels (docs/decisions.md).
 COHERENT_CAMERA = os.environ.get("RAYTRACE_COHERENT_CAMERA", "") == "1"
 #: Seconds between two looks of the thread waiting for the passes at whether a Ctrl-C came.
 #: On Linux a SIGINT ends the lock wait itself (CPython waits on a POSIX semaphore there), so

@@ -191,11 +191,12 @@ def test_the_memory_limit_is_each_build_s_own(monkeypatch):
 
 
 def test_coherent_packets_answer_ties_as_single_rays(monkeypatch):
-    """Camera rays go in COHERENT packets, whose traversal order picks among triangles hit at
-    the same distance. The Cornell box's camera rays at 64×48 include rays through the exact
-    corners where two walls' triangles meet: the packet's order gives 8 of them another wall
-    (0.53 in a channel), so the hits near an edge are traced again without the flag, and
-    every answer is the plain packet's, which is the single ray's."""
+    """With ``RAYTRACE_COHERENT_CAMERA=1`` camera rays go in COHERENT packets, whose traversal
+    order picks among triangles hit at the same distance. The Cornell box's camera rays at
+    64×48 include rays through the exact corners where two walls' triangles meet: the
+    packet's order gives 8 of them another wall (0.53 in a channel), so the hits near an edge
+    are traced again without the flag, and every answer is the plain packet's, which is the
+    single ray's."""
     batches = []
     monkeypatch.setattr(accel.Accelerator, "recorder",
                         staticmethod(lambda *batch: batches.append(batch)))
