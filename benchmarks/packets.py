@@ -67,16 +67,23 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     frame = RenderSettings(width=size, height=size)
 
-    def camera(lanes: int) -> EmbreeRays:  # the scene is camera-relative: origin 0
+    def camera(lanes: int) -> tuple[EmbreeRays, np.ndarray]:
+        """The frame's camera rays (origin 0: the scene is camera-relative) and, with
+        ``lanes``, the packets of pixel blocks they go in, as renders trace them."""
         n = size * size
-        direction = camera_rays(scene.camera, frame, 0, n, lanes=lanes).direction
-        return EmbreeRays(np.zeros((n, 3), np.float32), direction.astype(np.float32),
-                          np.full(n, np.finfo(np.float32).max, np.float32))
+        if lanes:
+            packets = camera_rays(scene.camera, frame, 0, n, lanes=lanes).packets
+            direction, bounds = packets.direction, packets.bounds
+        else:
+            direction, bounds = camera_rays(scene.camera, frame, 0, n).direction, None
+        return EmbreeRays(np.zeros((len(direction), 3), np.float32),
+                          direction.astype(np.float32),
+                          np.full(len(direction), np.finfo(np.float32).max, np.float32)), bounds
 
     shadow = [b for b in batches if b[0] == "OCCLUDED"]
     shadow_rays = EmbreeRays(*(np.concatenate([b[k] for b in shadow]) for k in (1, 2, 3)))
     for query in ("INTERSECT", "OCCLUDED"):
-        plain = camera(0) if query == "INTERSECT" else shadow_rays
+        plain = camera(0)[0] if query == "INTERSECT" else shadow_rays
         n = len(plain.far)
         out = {"INTERSECT": {"output": 1}, "OCCLUDED": {"query": "OCCLUDED"}}[query]
         base = best(args.repeat, lambda r=plain, out=out: embreex_scene.run(
@@ -86,16 +93,19 @@ def main(argv: list[str] | None = None) -> int:
             record = meshes.record._replace(
                 width=width, intersect=lib.addresses[f"rtcIntersect{width}"],
                 occluded=lib.addresses[f"rtcOccluded{width}"])
-            forms = [("", plain)]
+            rows_in_order = np.append(np.arange(0, n, width), n)
+            forms = [("", plain, rows_in_order)]
             if query == "INTERSECT":
-                forms.append((", blocks (as rendered)", camera(width)))
+                forms.append((", blocks (as rendered)", *camera(width)))
             for coherent in (False, True):
-                for label, rays in forms:
+                for label, rays, bounds in forms:
                     if query == "INTERSECT":
-                        hits = EmbreeHits(np.empty(n, np.int32), np.empty(n, np.int32),
-                                          np.empty(n, np.float32), np.empty(n, np.float32))
-                        run = lambda r=record, c=coherent, x=rays, h=hits: \
-                            ek.closest_hits(r, x, c, h)  # noqa: E731
+                        m = len(rays.far)
+                        hits = EmbreeHits(np.empty(m, np.int32), np.empty(m, np.int32),
+                                          np.empty(m, np.float32), np.empty(m, np.float32))
+                        packets = bounds if coherent else ek.PLAIN
+                        run = lambda r=record, p=packets, x=rays, h=hits: \
+                            ek.closest_hits(r, x, p, h)  # noqa: E731
                     else:
                         flags = np.empty(n, np.int32)
                         run = lambda r=record, c=coherent, x=rays, f=flags: \

@@ -92,15 +92,16 @@ class Accelerator:
 
     # -- queries -------------------------------------------------------------------------
     def intersect(self, origin: np.ndarray, direction: np.ndarray, origin_shape: np.ndarray,
-                  tmax: np.ndarray | None = None, coherent: bool = False) -> Hits:
+                  tmax: np.ndarray | None = None, packets: np.ndarray = ek.PLAIN) -> Hits:
         """Closest hit of each ray with ``0 < t < tmax`` (mesh and analytic).
 
         The analytic shapes first; then Embree, bounded by the closest analytic hit, and the
         float64 refinement of Embree's hits. Embree traces the rays in plain packets,
-        answering each ray as its single-ray call would; ``coherent``: neighbouring rays
-        travel together (camera rays, ``raytrace.integrator.COHERENT_CAMERA``), so the packets
-        go with the COHERENT flag and the hits that may tie at a shared edge are traced again
-        without it (:func:`raytrace.kernels.embree.closest_hits`).
+        answering each ray as its single-ray call would; ``packets``, where not empty: where
+        each packet of neighbouring rays starts (camera rays in blocks of the frame,
+        :func:`raytrace.kernels.camera.frame_packets`), traced with the COHERENT flag, the
+        hits that may tie at a shared edge traced again without it
+        (:func:`raytrace.kernels.embree.closest_hits`).
         """
         origin, direction, origin_shape = f64(origin), f64(direction), i64(origin_shape)
         tmax = None if tmax is None else f64(tmax)
@@ -116,7 +117,7 @@ class Accelerator:
         if n:
             has_tmax, lim = (False, NO_TMAX) if tmax is None else (True, tmax)
             self._closest_triangles(Query(origin, direction, lim, has_tmax),
-                                    Hits(t, shape, triangle, uv), coherent)
+                                    Hits(t, shape, triangle, uv), packets)
         return Hits(t, shape, triangle, uv)
 
     def _no_triangles(self, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -131,10 +132,10 @@ class Accelerator:
             self._none_columns = (triangle, uv)
         return triangle[:n], uv[:n]
 
-    def _closest_triangles(self, query: Query, hits: Hits, coherent: bool = False) -> None:
+    def _closest_triangles(self, query: Query, hits: Hits, packets: np.ndarray = ek.PLAIN) -> None:
         """Embree's closest hits of ``query``'s rays, written into ``hits`` where a triangle
-        comes before the analytic hit (and ``tmax``); ``coherent``: the first pass in
-        COHERENT packets (:meth:`intersect`).
+        comes before the analytic hit (and ``tmax``); ``packets``: the first pass's COHERENT
+        packets (:meth:`intersect`).
 
         Hits that the float64 solve finds behind the origin are float32 artefacts
         (:func:`raytrace.kernels.accel.refine_hits`): those rays are traced again from
@@ -146,8 +147,8 @@ class Accelerator:
         traced = _FIRST_PASS
         for _ in range(MAX_RETRACES + 1):
             out = _embree_hits(len(rays.far))
-            ek.closest_hits(self.embree.record, rays, coherent, out)
-            coherent = False  # the rays traced again are a scattered few
+            ek.closest_hits(self.embree.record, rays, packets, out)
+            packets = ek.PLAIN  # the rays traced again are a scattered few
             k = ak.refine_hits(out, traced, self.triangles, query, hits, redo)
             if not k:
                 return

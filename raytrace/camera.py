@@ -18,14 +18,15 @@ import math
 import numpy as np
 
 from .kernels.camera import (
+    block_shape,
     directions,
     directions_at_rows,
+    frame_packets,
     offset_rows,
-    tile_order,
+    own_rays,
     uniform_rows,
 )
-from .kernels.rays import take_rows
-from .kernels.records import Pinhole, Sampling, Window
+from .kernels.records import CameraPackets, Pinhole, Sampling, Window
 from .rays import CAMERA, NO_SHAPE, RayBatch
 from .scene import Camera
 
@@ -69,28 +70,50 @@ def camera_rays(camera: Camera | Pinhole, frame, start: int, stop: int, *,
     (views of its first rows); ``direction``: an (n, 3) float64 array to write the
     directions into. Both new when not given.
 
-    ``lanes``: where ``start`` and ``stop`` are whole pixels, the rays go in blocks of pixels
-    that fill packets of that many rays (:func:`raytrace.kernels.camera.tile_order`), each
-    ray's ``sample`` its sample's index; 0, or a part of a pixel: in sample order. Every sum
-    is kept by sample, so the order changes no pixel.
+    ``lanes``: the rays go in packets of that many, blocks of the frame's pixels
+    (:func:`packets`), in the order of their packets, each ray's ``sample`` its sample's
+    index (every sum is kept by sample, so the order changes no pixel); 0: in sample order,
+    in plain packets.
     """
     n = stop - start
     if direction is None:
         direction = np.empty((n, 3))
     window = window if window is not None else getattr(frame, "crop", None)
-    camera_directions(camera, frame.width, frame.height, frame.spp, frame.seed, start,
-                      direction, window)
     if columns is None:
         columns = camera_columns(n)
-    sample = columns.sample[:n]
-    if lanes and start % frame.spp == 0 and n % frame.spp == 0:  # whole pixels only
-        x0, _, x1, _ = window or (0, 0, frame.width, frame.height)
+    sample, found = columns.sample[:n], None
+    if lanes:
+        found = packets(camera, frame, start, stop, window, lanes)
         sample = np.empty(n, np.int64)
-        tile_order(start // frame.spp, n // frame.spp, x1 - x0, frame.spp, lanes, sample)
-        direction = take_rows(direction, sample)  # (nogil: numpy's indexing holds the GIL)
+        own_rays(found, sample, direction)
+    else:
+        camera_directions(camera, frame.width, frame.height, frame.spp, frame.seed, start,
+                          direction, window)
     return RayBatch(origin=columns.origin[:n], direction=direction, sample=sample,
                     weight=columns.weight[:n], depth=0, origin_shape=columns.origin_shape[:n],
-                    kind=columns.kind[:n])
+                    kind=columns.kind[:n], packets=found)
+
+
+def packets(camera: Camera | Pinhole, frame, start: int, stop: int,
+            window: tuple[int, int, int, int] | None, lanes: int) -> CameraPackets:
+    """The COHERENT packets of ``lanes`` rays that samples ``start..stop-1`` of ``window``
+    (None: the frame) go in (:func:`raytrace.kernels.camera.frame_packets`): each a block of
+    the frame's pixels, the same rays whichever crop, pass or tile traces it, the samples of
+    a block outside the range included; ``camera`` and ``frame`` as :func:`camera_rays`
+    takes them."""
+    x0, y0, x1, y1 = window or (0, 0, frame.width, frame.height)
+    h, w = block_shape(frame.spp, lanes)
+    per_row = x1 - x0
+    bands = ((y0 + (stop - 1) // frame.spp // per_row) // h
+             - (y0 + start // frame.spp // per_row) // h + 1)
+    blocks = bands * ((x1 - 1) // w - x0 // w + 1)
+    slots = h * w * frame.spp  # a block's
+    room = CameraPackets(np.empty((blocks * slots, 3)), np.empty(blocks * slots, np.int64),
+                         np.empty(blocks * -(-slots // lanes) + 1, np.int64))
+    m, k = frame_packets(start, stop, Window(x0, y0, x1, y1),
+                         Sampling(frame.width, frame.spp, grid(frame.spp), frame.seed),
+                         pinhole(camera, frame.width, frame.height), lanes, room)
+    return CameraPackets(room.direction[:m], room.sample[:m], room.bounds[:k + 1])
 
 
 def camera_directions(camera: Camera | Pinhole, width: int, height: int, spp: int, seed: int,

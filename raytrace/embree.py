@@ -351,7 +351,7 @@ def probe(lib: Library) -> None:
         hits = EmbreeHits(np.empty(1, np.int32), np.empty(1, np.int32),
                           np.empty(1, np.float32), np.empty(1, np.float32))
         ek.closest_hits(record, EmbreeRays(origin, direction, np.full(1, np.inf, np.float32)),
-                        True, hits)
+                        np.array([0, 1]), hits)  # one COHERENT packet of the ray
         blocked = np.empty(1, np.int32)
         ek.any_hits(record, EmbreeRays(origin, direction, np.full(1, np.inf, np.float32)),
                     True, blocked)

@@ -63,6 +63,7 @@ from .film.image import Image
 from .kernels import loop
 from .kernels import shading as sk  # the compiled passes of this stage
 from .kernels.aov import aov_hits, aov_pixels
+from .kernels.camera import own_hits
 from .kernels.kinds import KIND_NAMES
 from .kernels.rays import count_kinds, gather_chunks, sample_chunks, split_hits, take_hits
 from .kernels.records import (
@@ -86,7 +87,7 @@ from .kernels.records import (
 )
 from .lights import Emitter, emitters
 from .mipmap import with_mips, with_spread
-from .rays import RayBatch
+from .rays import NO_SHAPE, RayBatch
 from .scene import RenderSettings, Scene
 from .shading import NO_KEY, light_words, path_keys
 from .tables import scene_arrays
@@ -112,13 +113,14 @@ DEBUG = os.environ.get("RAYTRACE_DEBUG", "") not in ("", "0")
 #: and optimizes every kernel again into each variant of the loop: docs/performance.md,
 #: "The compiled loop").
 COMPILED_LOOP = os.environ.get("RAYTRACE_LOOP", "") == "compiled"
-#: Trace camera rays through meshes in Embree's COHERENT packets, in blocks of pixels that fill
-#: a packet: set ``RAYTRACE_COHERENT_CAMERA=1``. Off by default: the warm mesh frame takes
-#: 0.69–0.83 of its one-thread time (docs/performance.md), the same images wherever ties are
-#: on shared edges (:func:`raytrace.kernels.embree.closest_hits` traces those again), but
-#: where triangles overlap in one plane which one a pixel shows depends on its packet's other
-#: rays, so a crop, a pass size or a tile could change such pixels (docs/decisions.md).
-COHERENT_CAMERA = os.environ.get("RAYTRACE_COHERENT_CAMERA", "") == "1"
+#: Trace camera rays through meshes in Embree's COHERENT packets, each packet a block of the
+#: frame's pixels that fills it (:func:`raytrace.kernels.camera.frame_packets`): the warm mesh
+#: frame takes 0.69–0.83 of its one-thread time (docs/performance.md). A tie on a shared edge
+#: is traced again in a plain packet (:func:`raytrace.kernels.embree.closest_hits`), and a
+#: packet is the same rays in any crop, pass or tile, so those stay bit-identical even where
+#: triangles overlap in one plane. ``RAYTRACE_COHERENT_CAMERA=0`` turns it off (plain packets,
+#: each ray answered as its single-ray call would).
+COHERENT_CAMERA = os.environ.get("RAYTRACE_COHERENT_CAMERA", "") != "0"
 #: Seconds between two looks of the thread waiting for the passes at whether a Ctrl-C came.
 #: On Linux a SIGINT ends the lock wait itself (CPython waits on a POSIX semaphore there), so
 #: the look is only a net for a signal that lands between Python's last check and the wait:
@@ -317,8 +319,8 @@ class WhittedIntegrator:
         #: The scene as arrays, camera-relative (:func:`raytrace.tables.scene_arrays`).
         self.arrays = scene_arrays(scene)
         self.accel = accelerator(scene, self.arrays, options.threads)  # once per geometry
-        #: Camera rays go in blocks of pixels that fill Embree's packets of this many rays
-        #: (:func:`raytrace.camera.camera_rays`) where they are traced COHERENT; else 0.
+        #: Camera rays go in COHERENT packets of this many rays, blocks of the frame
+        #: (:func:`raytrace.camera.camera_rays`), in a scene with meshes; else 0.
         self.lanes = self.accel.embree.record.width if (
             self.coherent_camera and self.accel.embree is not None) else 0
         self.build_seconds = time.perf_counter() - t0
@@ -552,8 +554,7 @@ class WhittedIntegrator:
             np.cumsum([0, *(len(f) for f in fast[1:])]).astype(np.int64))
         per_pass = self.opt.pass_samples if self.opt.aa != "uniform" else self.pass_size
         settings = PassSettings(per_pass, opt.max_depth, float(opt.min_weight),
-                                self.any_background, self.background, self.ambient,
-                                self.coherent_camera, *CLOCK)
+                                self.any_background, self.background, self.ambient, *CLOCK)
         return tracer, lights, settings
 
     def _adaptive_rows(self, cols: int, rows: int) -> int:
@@ -737,7 +738,8 @@ class WhittedIntegrator:
                       np.zeros(2, np.int64))
         loop.trace_paths(tracer, lights, settings, rays.record,
                          PassIO(samples, None if keys is None else np.ascontiguousarray(
-                             keys, np.int64), w.aov if self.traced_aovs else None, self._stop.flag),
+                             keys, np.int64), w.aov if self.traced_aovs else None, self._stop.flag,
+                             rays.packets),
                          tally)
         st, counters = self.stats, tally.counters.tolist()
         for name, count in zip(KIND_NAMES, counters, strict=False):
@@ -749,6 +751,20 @@ class WhittedIntegrator:
         st.trace_seconds += float(tally.seconds[loop.TRACE_SECONDS])
         st.shade_seconds += float(tally.seconds[loop.SHADE_SECONDS])
 
+    def _hits(self, rays: RayBatch) -> Hits:
+        """The closest hits of ``rays``: camera rays with packets through all of them, every
+        slot traced (origin 0, no start shape) and the hits of the batch's own rays kept
+        (:func:`raytrace.kernels.camera.own_hits`); other batches in plain packets."""
+        p = rays.packets
+        if p is None:
+            return self.accel.intersect(rays.origin, rays.direction, rays.origin_shape)
+        n, m = len(rays), len(p.sample)
+        every = self.accel.intersect(np.zeros((m, 3)), p.direction,
+                                     np.full(m, NO_SHAPE, np.int64), packets=p.bounds)
+        hits = Hits(np.empty(n), np.empty(n, np.int64), np.empty(n, np.int64), np.empty((n, 2)))
+        own_hits(p, every, hits)
+        return hits
+
     def trace(self, rays: RayBatch, samples: np.ndarray) -> RayBatch:
         """One depth: intersect, add background and local shading, return the next depth."""
         st, n = self.stats, len(rays)
@@ -757,8 +773,7 @@ class WhittedIntegrator:
         for name, count in zip(KIND_NAMES, counts.tolist(), strict=True):
             st.rays[name] += count
         t0 = time.perf_counter()
-        hits = self.accel.intersect(rays.origin, rays.direction, rays.origin_shape,
-                                    coherent=rays.depth == 0 and self.coherent_camera)
+        hits = self._hits(rays)
         st.trace_seconds += time.perf_counter() - t0
         found, missed = (self.scratch(name, n, dtype=np.int64) for name in ("found", "missed"))
         k = split_hits(hits.t, found, missed)

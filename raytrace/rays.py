@@ -17,7 +17,7 @@ from .kernels.kinds import CAMERA, KIND_NAMES, NO_SHAPE, REFLECTION, REFRACTION,
 from .kernels.rays import (
     take_rows,
 )
-from .kernels.records import Rays
+from .kernels.records import CameraPackets, Rays
 
 
 @dataclass
@@ -41,6 +41,10 @@ class RayBatch:
         or :data:`NO_SHAPE`; it lets analytic intersection avoid self-hits without an epsilon.
     kind : (n,) int8
         CAMERA, REFLECTION, REFRACTION or SEE_THROUGH.
+    packets : CameraPackets or None
+        Camera rays only: the packets Embree traces them in, every sample of each block of
+        the frame that holds one of them (:func:`raytrace.kernels.camera.frame_packets`);
+        None: plain packets. A batch taken from this one has none.
     """
 
     origin: np.ndarray
@@ -50,6 +54,7 @@ class RayBatch:
     depth: int
     origin_shape: np.ndarray
     kind: np.ndarray
+    packets: CameraPackets | None = None
 
     def __len__(self) -> int:
         return self.origin.shape[0]

@@ -10,7 +10,6 @@ import pytest
 import raytrace
 from raytrace import RenderSettings
 from raytrace.camera import camera_rays, hash_uniform, sample_offsets
-from raytrace.kernels.camera import tile_order
 
 
 def _rays(camera, w, h, spp=1, seed=0):
@@ -81,46 +80,64 @@ def test_rays_do_not_depend_on_how_the_samples_are_split():
     np.testing.assert_array_equal(part.sample, np.arange(16))
 
 
-@pytest.mark.parametrize("spp,lanes,start,stop", [(1, 8, 0, 60), (1, 8, 7, 53), (4, 16, 24, 160),
-                                                  (2, 8, 6, 90), (4, 8, 24, 160)])
-def test_packet_order_is_the_same_rays_in_blocks(spp, lanes, start, stop):
-    """With ``lanes`` the camera rays of a pass come block by block: the same rays (each
-    ray's direction is its sample's), every sample once; where a packet holds fewer than 4 pixels
-    (4 samples a pixel, 8 lanes: two) they stay in sample order."""
+@pytest.mark.parametrize("spp,lanes,start,stop,window", [
+    (1, 8, 0, 60, None), (1, 8, 7, 53, None), (4, 16, 24, 160, None), (2, 8, 6, 90, None),
+    (4, 8, 24, 160, None), (2, 8, 5, 6, None), (2, 8, 3, 11, None), (16, 8, 9, 40, None),
+    (1, 8, 3, 30, (1, 1, 8, 7)), (3, 16, 2, 50, (3, 2, 9, 8))])
+def test_packets_hold_the_pass_s_own_rays(spp, lanes, start, stop, window):
+    """With ``lanes`` the camera rays of a pass come packet by packet: the same rays, each
+    ray's direction bit for bit its sample's, every sample once, for whole pixels, parts of
+    a pixel (``raytrace explain`` traces one sample) and crops."""
     cam = raytrace.Camera(position=[0, 1, 5], look_at=[0, 0, 0])
     frame = RenderSettings(width=10, height=8, spp=spp, seed=3)
-    plain = camera_rays(cam, frame, start, stop)
-    blocks = camera_rays(cam, frame, start, stop, lanes=lanes)
-    np.testing.assert_array_equal(np.sort(blocks.sample), np.arange(stop - start))
-    np.testing.assert_array_equal(blocks.direction, plain.direction[blocks.sample])
-    assert np.array_equal(blocks.sample, plain.sample) == (lanes // spp < 4)
+    plain = camera_rays(cam, frame, start, stop, window=window)
+    packed = camera_rays(cam, frame, start, stop, window=window, lanes=lanes)
+    np.testing.assert_array_equal(np.sort(packed.sample), np.arange(stop - start))
+    np.testing.assert_array_equal(packed.direction, plain.direction[packed.sample])
+    own = packed.packets.sample >= 0
+    np.testing.assert_array_equal(packed.packets.sample[own], packed.sample)
+    np.testing.assert_array_equal(packed.packets.direction[own], packed.direction)
 
 
-def test_part_of_a_pixel_stays_in_sample_order():
-    """A range that is not whole pixels (``raytrace explain`` traces one sample) is not cut
-    into blocks: every ray keeps its own sample."""
+def _packets(p):
+    """Each packet of ``p`` (a CameraPackets) as the bytes of its directions."""
+    return [p.direction[a:b].tobytes() for a, b in zip(p.bounds[:-1], p.bounds[1:], strict=True)]
+
+
+@pytest.mark.parametrize("spp,lanes", [(1, 8), (2, 8), (1, 16), (3, 16), (16, 8)])
+def test_a_range_s_packets_are_the_full_frame_s(spp, lanes):
+    """A COHERENT answer may depend on a packet's other rays, so a pass, a crop or a single
+    sample traces each of its rays in the very packet the full frame traces it in: every
+    packet of a range is one of the full frame's, bit for bit, and holds one of the range's
+    samples at least."""
     cam = raytrace.Camera(position=[0, 1, 5], look_at=[0, 0, 0])
-    frame = RenderSettings(width=10, height=8, spp=2, seed=3)
-    for start, stop in ((5, 6), (4, 13), (3, 11)):
-        plain = camera_rays(cam, frame, start, stop)
-        blocks = camera_rays(cam, frame, start, stop, lanes=8)
-        np.testing.assert_array_equal(blocks.sample, np.arange(stop - start))
-        np.testing.assert_array_equal(blocks.direction, plain.direction)
+    frame = RenderSettings(width=11, height=7, spp=spp, seed=3)
+    full = set(_packets(camera_rays(cam, frame, 0, 77 * spp, lanes=lanes).packets))
+    for window in (None, (1, 1, 8, 7), (3, 2, 10, 5), (0, 3, 11, 4)):
+        x0, y0, x1, y1 = window or (0, 0, 11, 7)
+        n = (x1 - x0) * (y1 - y0) * spp
+        for start, stop in ((0, n), (1, n - 2), (n // 3, n // 2), (n - 1, n)):
+            p = camera_rays(cam, frame, start, stop, window=window, lanes=lanes).packets
+            assert set(_packets(p)) <= full
+            for a, b in zip(p.bounds[:-1], p.bounds[1:], strict=True):
+                assert 0 < b - a <= lanes and (p.sample[a:b] >= 0).any()
 
 
 @pytest.mark.parametrize("lanes,spp,block", [(8, 1, (2, 4)), (16, 1, (4, 4)), (8, 2, (2, 2)),
-                                             (16, 4, (2, 2))])
+                                             (16, 4, (2, 2)), (8, 3, (1, 2))])
 def test_a_packet_of_rays_covers_a_block_of_pixels(lanes, spp, block):
-    """Each packet of ``lanes`` consecutive camera rays looks through one block of h × w
-    pixels (rows × columns, h = ⌊√p⌋ for p = lanes/spp pixels a packet), on a frame whose
-    size is a multiple of the block."""
+    """Each packet looks through one block of h × w pixels (rows × columns, h = ⌊√p⌋ for
+    p = lanes/spp pixels a packet), aligned to the frame's top-left corner, every sample of
+    each of them, on a frame whose size is a multiple of the block."""
     h, w = block
     cols, rows = 4 * w, 3 * h
-    order = np.empty(cols * rows * spp, np.int64)
-    tile_order(0, cols * rows, cols, spp, lanes, order)
-    pixel = order // spp
-    for packet in np.split(pixel, len(order) // lanes):
-        r, c = np.divmod(packet, cols)
+    cam = raytrace.Camera(position=[0, 1, 5], look_at=[0, 0, 0])
+    frame = RenderSettings(width=cols, height=rows, spp=spp, seed=3)
+    p = camera_rays(cam, frame, 0, cols * rows * spp, lanes=lanes).packets
+    assert len(p.bounds) - 1 == cols * rows // (h * w)
+    for a, b in zip(p.bounds[:-1], p.bounds[1:], strict=True):
+        r, c = np.divmod(p.sample[a:b] // spp, cols)
+        assert b - a == h * w * spp
         assert set(zip(r.tolist(), c.tolist(), strict=True)) == {
             (r.min() + i, c.min() + j) for i in range(h) for j in range(w)}
         assert r.min() % h == 0 and c.min() % w == 0

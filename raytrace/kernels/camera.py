@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 
 from .core import camera_uniform, pixel_offset
-from .jit import helper, kernel
+from .jit import helper, inline, kernel
 
 
 @kernel
@@ -80,35 +80,106 @@ def directions(start, sampling, pinhole, window, out):
                 g += (width - cols) * spp
 
 
-@kernel
-def tile_order(first, pixels, cols, spp, lanes, order):
-    """The samples of pixels ``first … first + pixels − 1`` of a window ``cols`` wide
-    (pixels counted row by row, ``spp`` samples each, a pixel's samples together) listed
-    block by block into ``order`` (pass-local sample indices): blocks of h × w pixels, h =
-    ⌊√p⌋ rows and w = ⌊p/h⌋ columns where p = ⌊lanes/spp⌋ pixels fill a packet of ``lanes``
-    rays (4 × 2 pixels for 8 lanes at one sample a pixel, 4 × 4 for 16), bands of h rows from
-    the window's top, blocks from the left. The rays of a packet then look through a compact
-    patch of the image rather than a strip of a row, the shape Embree's COHERENT traversal
-    takes fastest (Wald et al. 2001 trace 2 × 2 packets for the same reason). Where h is 1
-    the order is the samples' own."""
+@inline
+def block_shape(spp, lanes):
+    """The pixels (h rows, w columns) of a block of camera rays that fills a packet of
+    ``lanes`` rays at ``spp`` samples a pixel: h = ⌊√p⌋ and w = ⌊p/h⌋ where p = ⌊lanes/spp⌋
+    (at least 1): 4 × 2 pixels for 8 lanes at one sample a pixel, 4 × 4 for 16. The rays of
+    a packet then look through a compact patch of the image rather than a strip of a row, the
+    shape Embree's COHERENT traversal takes fastest (Wald et al. 2001 trace 2 × 2 packets for
+    the same reason)."""
     per = max(1, lanes // spp)
     h = int(math.sqrt(per))
     while (h + 1) * (h + 1) <= per:  # ⌊√p⌋ exactly
         h += 1
-    w = per // h
-    n = pixels * spp
-    if h == 1:
-        for j in range(n):
-            order[j] = j
-        return
-    last = first + pixels
+    while h * h > per:
+        h -= 1
+    return h, per // h
+
+
+@kernel
+def frame_packets(start, stop, window, sampling, pinhole, lanes, out):
+    """The camera packets of samples ``start … stop − 1`` of ``window`` (a
+    :class:`raytrace.kernels.records.Window`; samples numbered pixel by pixel, row by row,
+    ``spp`` a pixel, as :func:`directions` numbers them) of the frame of ``pinhole`` (a
+    :class:`raytrace.kernels.records.Pinhole`; ``sampling``: a
+    :class:`raytrace.kernels.records.Sampling`) into ``out`` (a
+    :class:`raytrace.kernels.records.CameraPackets`); returns how many slots and packets were
+    written.
+
+    The frame is cut into blocks of h × w pixels (:func:`block_shape`) from its top-left
+    corner, whatever the window, and each block's samples (its pixels row by row, a pixel's
+    samples in order) into packets of at most ``lanes``: every block that holds one of the
+    samples is listed whole, block by block (bands of h rows from the top, blocks from the
+    left): ``out.direction`` each slot's unit direction (as :func:`directions` makes it)
+    and ``out.sample`` its index within ``start … stop − 1``, or −1 for a sample outside
+    them (traced with its packet, then dropped); ``out.bounds[i]`` is where packet i starts.
+    A packet is then the same rays whichever crop, pass or tile traces it, so a COHERENT
+    answer, which may depend on the packet's other rays, does not depend on those."""
+    spp, width, height, k, seed = (sampling.spp, sampling.width, pinhole.height, sampling.k,
+                                   sampling.seed)
+    x0, y0, x1, y1 = window.x0, window.y0, window.x1, window.y1
+    cols = x1 - x0
+    h, w = block_shape(spp, lanes)
+    top, bottom = y0 + start // spp // cols, y0 + (stop - 1) // spp // cols
+    m = n = 0
+    out.bounds[0] = 0
+    for band in range(top // h, bottom // h + 1):
+        for c0 in range(x0 // w * w, x1, w):
+            chunk, real = m, False  # the open packet's first slot, whether it holds one
+            for r in range(band * h, min(band * h + h, height)):
+                for c in range(c0, min(c0 + w, width)):
+                    inside = y0 <= r < y1 and x0 <= c < x1
+                    first = ((r - y0) * cols + c - x0) * spp - start
+                    for cell in range(spp):
+                        s = first + cell
+                        own = inside and 0 <= s < stop - start
+                        g = (r * width + c) * spp + cell
+                        sx, sy = pixel_offset(spp, k, seed, g, cell)
+                        out.direction[m, 0], out.direction[m, 1], out.direction[m, 2] = (
+                            direction1(c + sx, r + sy, pinhole))
+                        out.sample[m] = s if own else -1
+                        real = real or own
+                        m += 1
+                        if m - chunk == lanes:  # a packet is full: kept if one is ours
+                            if real:
+                                n += 1
+                                out.bounds[n] = m
+                            else:
+                                m = chunk
+                            chunk, real = m, False
+            if m > chunk:  # the block's last packet
+                if real:
+                    n += 1
+                    out.bounds[n] = m
+                else:
+                    m = chunk
+    return m, n
+
+
+@kernel
+def own_rays(packets, sample, direction):
+    """The pass's own rays of ``packets`` (a :class:`raytrace.kernels.records.CameraPackets`,
+    :func:`frame_packets`), in packet order: each one's sample into ``sample`` and direction
+    into ``direction``; returns how many."""
     j = 0
-    for band in range(first // cols // h, (last - 1) // cols // h + 1):
-        for c0 in range(0, cols, w):
-            for r in range(band * h, band * h + h):
-                for c in range(c0, min(c0 + w, cols)):
-                    p = r * cols + c
-                    if first <= p < last:
-                        for k in range(spp):
-                            order[j] = (p - first) * spp + k
-                            j += 1
+    for i in range(packets.sample.shape[0]):
+        if packets.sample[i] >= 0:
+            sample[j] = packets.sample[i]
+            for c in range(3):
+                direction[j, c] = packets.direction[i, c]
+            j += 1
+    return j
+
+
+@kernel
+def own_hits(packets, hits, out):
+    """The hits ``hits`` of every slot of ``packets`` (:func:`frame_packets`) that is the
+    pass's own, in order, into ``out`` (both :class:`raytrace.kernels.records.Hits`): the
+    hits of the batch :func:`own_rays` made."""
+    j = 0
+    for i in range(packets.sample.shape[0]):
+        if packets.sample[i] >= 0:
+            out.t[j], out.shape[j], out.triangle[j] = hits.t[i], hits.shape[i], hits.triangle[i]
+            out.uv[j, 0], out.uv[j, 1] = hits.uv[i, 0], hits.uv[i, 1]
+            j += 1

@@ -13,23 +13,23 @@ them.
 **Packets.** Consecutive rays of a batch fill the lanes of one packet of the library's native
 width (16 with AVX-512, 8 with AVX2); a last, partial packet masks its empty lanes off. The
 caller says whether the batch is coherent: the raytracer says so for the shadow rays of
-camera-ray hits to one point, and for camera rays with ``RAYTRACE_COHERENT_CAMERA=1``
-(``raytrace.integrator.COHERENT_CAMERA``: off by default, for the ties below). Embree's
-COHERENT flag then lets it traverse the packet as a frustum (camera rays in blocks of 4 × 2
-pixels 1.8–2.3× as fast as embreex's single rays here, shadow rays 1.8–2.2×:
-docs/decisions.md), which EMBREEX_NOTES.md measured 2× slower than the default on unrelated
-rays.
+camera-ray hits to one point, and gives camera rays in packets of its own, each a block of
+the frame's pixels (``raytrace.kernels.camera.frame_packets``; ``RAYTRACE_COHERENT_CAMERA=0``
+turns them off). Embree's COHERENT flag then lets it traverse the packet as a frustum
+(camera rays in blocks of 4 × 2 pixels 1.8–2.3× as fast as embreex's single rays here,
+shadow rays 1.8–2.2×: docs/decisions.md), which EMBREEX_NOTES.md measured 2× slower than the
+default on unrelated rays.
 
 **Ties.** An occlusion answer does not depend on the order Embree meets the triangles in; a
 closest hit does where two triangles give the same ``t``, as both do for a ray through the
 edge or corner they share. A COHERENT packet meets them in the frustum's order, so which one
-it returns depends on the packet's other rays (a crop would then differ from its window of
-the full frame). :func:`closest_hits` therefore traces again, in a plain packet (which
-answers each ray as its single-ray call does), every ray whose COHERENT hit lies within
-:data:`EDGE` (in barycentrics) of its triangle's edges: 1.1 % of the camera rays' hits on
-benchmarks/bench.py's mesh frame. Ties between triangles that meet away from a shared edge
-(coplanar overlaps, triangles crossing each other) are not caught: there the answer depends
-on the packet's other rays.
+it returns depends on the packet's other rays. :func:`closest_hits` therefore traces again,
+in a plain packet (which answers each ray as its single-ray call does), every ray whose
+COHERENT hit lies within :data:`EDGE` (in barycentrics) of its triangle's edges: 1.1 % of
+the camera rays' hits on benchmarks/bench.py's mesh frame. Ties between triangles that meet
+away from a shared edge (coplanar overlaps, triangles crossing each other) are not caught:
+there a pixel shows the triangle its packet's traversal meets first, and since a packet is
+the same rays whichever crop, pass or tile traces it, that choice is the full frame's.
 """
 
 from __future__ import annotations
@@ -57,6 +57,8 @@ ALIGN_WORDS = 16
 #: float32 barycentrics are off by ~1e-5 (measured against float64,
 #: :func:`raytrace.kernels.accel.refine_hits`); this leaves 100 times that.
 EDGE = 1e-3
+#: :func:`closest_hits`' ``packets`` for plain packets of consecutive rays.
+PLAIN = np.empty(0, np.int64)
 
 
 @intrinsic
@@ -132,29 +134,32 @@ def pack(rays, first, count, width, packet, valid):
 
 
 @inline
-def trace_packet(function, embree, rays, first, packet, valid, args):
-    """Pack the rays of ``rays`` from ``first`` on (a packet's worth at most) and call Embree's
-    ``function`` (the address of rtcIntersectN or rtcOccludedN) on them; returns how many."""
-    count = min(embree.width, rays.far.shape[0] - first)
+def trace_packet(function, embree, rays, first, count, packet, valid, args):
+    """Pack ``count`` rays of ``rays`` from ``first`` on (a packet's worth at most) and call
+    Embree's ``function`` (the address of rtcIntersectN or rtcOccludedN) on them."""
     pack(rays, first, count, embree.width, packet, valid)
     call4(function, address(valid), embree.scene, address(packet), args)
-    return count
 
 
 @kernel
-def closest_hits(embree, rays, coherent, out):
+def closest_hits(embree, rays, packets, out):
     """Embree's closest hit of every ray of ``rays`` (a
     :class:`raytrace.kernels.records.EmbreeRays`) in ``embree`` (a
     :class:`raytrace.kernels.records.EmbreeScene`), in packets: geomID (−1 on a miss),
     primID and the barycentrics u, v into ``out`` (a
     :class:`raytrace.kernels.records.EmbreeHits`), as embreex's ``run(..., output=1)``.
-    ``coherent``: in COHERENT packets, the hits near an edge traced again without the flag
-    (the module's docstring, "Ties"), so that a tie on a shared edge answers as its single
-    ray does."""
+    ``packets`` (int64): empty, plain packets of consecutive rays; else where each COHERENT
+    packet starts (and the rays' count last: camera rays, ``kernels.camera.frame_packets``),
+    the hits near an edge traced again without the flag (the module's docstring, "Ties"), so
+    that a tie on a shared edge answers as its single ray does."""
+    coherent = packets.shape[0] > 0
     width, (packet, valid, args) = embree.width, packet_room(embree, coherent)
+    n = rays.far.shape[0]
     again = np.empty(width, np.int32)  # the lanes traced again
-    for first in range(0, rays.far.shape[0], width):
-        count = trace_packet(embree.intersect, embree, rays, first, packet, valid, args)
+    for p in range(packets.shape[0] - 1 if coherent else (n + width - 1) // width):
+        first = packets[p] if coherent else p * width
+        count = min(width, (packets[p + 1] if coherent else n) - first)
+        trace_packet(embree.intersect, embree, rays, first, count, packet, valid, args)
         ties = 0
         for j in range(count):
             if coherent and on_edge(packet, width, j):
@@ -201,7 +206,9 @@ def any_hits(embree, rays, coherent, out):
     query, in packets): ``out[i]`` is :data:`BLOCKED` or :data:`FREE` (int32, as embreex's
     OCCLUDED answer). Embree marks an occluded ray by setting its tfar to −inf."""
     width, (packet, valid, args) = embree.width, packet_room(embree, coherent)
-    for first in range(0, rays.far.shape[0], width):
-        count = trace_packet(embree.occluded, embree, rays, first, packet, valid, args)
+    n = rays.far.shape[0]
+    for first in range(0, n, width):
+        count = min(width, n - first)
+        trace_packet(embree.occluded, embree, rays, first, count, packet, valid, args)
         for j in range(count):
             out[first + j] = BLOCKED if packet[TFAR * width + j] == -np.inf else FREE

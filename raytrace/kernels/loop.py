@@ -43,6 +43,7 @@ from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from . import accel as ak
 from . import aov as aovk
+from . import camera as ck
 from . import core
 from . import embree as ek
 from . import rays as rk
@@ -118,24 +119,24 @@ def emitter_at(table, e):
 
 
 # -- queries ---------------------------------------------------------------------------------
-def closest_triangles(tracer, query, hits, coherent):
+def closest_triangles(tracer, query, hits, packets):
     """Embree's closest hits of ``query``'s rays into ``hits``: :func:`_closest_triangles`,
     nothing in a scene without meshes (``tracer.embree`` None: no Embree code compiled)."""
 
 
 @overload(closest_triangles, jit_options=INNER)
-def _closest_triangles_by_type(tracer, query, hits, coherent):
+def _closest_triangles_by_type(tracer, query, hits, packets):
     if field_is_none(tracer, "embree"):
-        return lambda tracer, query, hits, coherent: None
+        return lambda tracer, query, hits, packets: None
     return _closest_triangles
 
 
-def _closest_triangles(tracer, query, hits, coherent):
+def _closest_triangles(tracer, query, hits, packets):
     """Embree's closest hits of ``query``'s rays written into ``hits`` where a triangle comes
     before the analytic hit (and ``tmax``), with the float64 re-solve and up to
     :data:`MAX_RETRACES` second passes past float32 artefacts
-    (``raytrace.accel.Accelerator._closest_triangles``, the same steps); ``coherent``: the
-    first pass in COHERENT packets."""
+    (``raytrace.accel.Accelerator._closest_triangles``, the same steps); ``packets``: the
+    first pass's COHERENT packets (empty: plain ones)."""
     n = query.origin.shape[0]
     rays = EmbreeRays(np.empty((n, 3), np.float32), np.empty((n, 3), np.float32),
                       np.empty(n, np.float32))
@@ -146,8 +147,8 @@ def _closest_triangles(tracer, query, hits, coherent):
         m = rays.far.shape[0]
         out = EmbreeHits(np.empty(m, np.int32), np.empty(m, np.int32), np.empty(m, np.float32),
                          np.empty(m, np.float32))
-        ek.closest_hits(tracer.embree, rays, coherent, out)
-        coherent = False  # the rays traced again are a scattered few
+        ek.closest_hits(tracer.embree, rays, packets, out)
+        packets = packets[:0]  # plain: the rays traced again are a scattered few
         k = ak.refine_hits(out, traced, tracer.scene.triangles, query, hits, redo)
         if k == 0:
             return
@@ -163,10 +164,10 @@ def _closest_triangles(tracer, query, hits, coherent):
 
 
 @inline
-def intersect(tracer, origin, direction, origin_shape, tmax, coherent):
+def intersect(tracer, origin, direction, origin_shape, tmax, packets):
     """Closest hit of each ray with ``0 < t < tmax`` (``tmax`` empty: unbounded), analytic
-    shapes first, then Embree (``raytrace.accel.Accelerator.intersect``; ``coherent``:
-    camera rays)."""
+    shapes first, then Embree (``raytrace.accel.Accelerator.intersect``; ``packets``: the
+    COHERENT packets of camera rays; empty: plain ones)."""
     n = origin.shape[0]
     t, shape = np.empty(n), np.empty(n, np.int64)
     has_tmax = tmax.shape[0] > 0
@@ -182,7 +183,43 @@ def intersect(tracer, origin, direction, origin_shape, tmax, coherent):
     uv[:] = 0.0
     hits = Hits(t, shape, triangle, uv)
     if n:
-        closest_triangles(tracer, Query(origin, direction, tmax, has_tmax), hits, coherent)
+        closest_triangles(tracer, Query(origin, direction, tmax, has_tmax), hits, packets)
+    return hits
+
+
+def depth_hits(tracer, rays, depth, packets):
+    """The closest hits of a batch at ``depth``: the camera rays' through their COHERENT
+    packets where the pass has them (:func:`_packet_hits`; ``packets`` None: none), else in
+    plain packets."""
+
+
+@overload(depth_hits, jit_options=INNER)
+def _depth_hits_by_type(tracer, rays, depth, packets):
+    if isinstance(packets, types.NoneType):
+        return lambda tracer, rays, depth, packets: intersect(
+            tracer, rays.origin, rays.direction, rays.origin_shape, NO_TMAX,
+            np.empty(0, np.int64))
+    return _packet_hits
+
+
+def _packet_hits(tracer, rays, depth, packets):
+    """:func:`depth_hits` with the camera rays' packets (a
+    :class:`raytrace.kernels.records.CameraPackets`): at depth 0, every slot of the packets
+    traced (``WhittedIntegrator.trace``, the same steps), the hits of the pass's own rays
+    kept, in the batch's order (``kernels.camera.own_hits``)."""
+    n, m = rays.origin.shape[0], packets.sample.shape[0]
+    own = 0
+    for i in range(m):
+        own += packets.sample[i] >= 0
+    if depth > 0 or own != n:  # (a batch that is not the pass's camera rays)
+        return intersect(tracer, rays.origin, rays.direction, rays.origin_shape, NO_TMAX,
+                         packets.bounds[:0])
+    shape = np.empty(m, np.int64)
+    shape[:] = NO_SHAPE
+    every = intersect(tracer, np.zeros((m, 3)), packets.direction, shape, NO_TMAX,
+                      packets.bounds)
+    hits = Hits(np.empty(n), np.empty(n, np.int64), np.empty(n, np.int64), np.empty((n, 2)))
+    ck.own_hits(packets, every, hits)
     return hits
 
 
@@ -238,7 +275,8 @@ def _embree_occlusion(tracer, query, coherent, blocked, idx, rays):
         t[:] = np.inf
         shape[:] = NO_SHAPE
         closest_triangles(tracer, Query(o, d, lim, True),
-                          Hits(t, shape, np.empty(j, np.int64), np.empty((j, 2))), False)
+                          Hits(t, shape, np.empty(j, np.int64), np.empty((j, 2))),
+                          np.empty(0, np.int64))
         for r in range(j):
             blocked[recheck[r]] = math.isfinite(t[r])
 
@@ -295,7 +333,7 @@ def _transparent_shadow(tracer, settings, shadows, k, coherent, tally):
         live[r] = r
     walked = False
     for _ in range(MAX_SHADOW_CROSSINGS):
-        hits = intersect(tracer, origin, direction, shape, tmax, False)
+        hits = intersect(tracer, origin, direction, shape, tmax, np.empty(0, np.int64))
         t, hit_shape, triangle, uv, origin, direction, tmax, live = sk.crossing_rays(
             hits, origin, direction, tmax, live)
         if live.shape[0] == 0:
@@ -420,8 +458,7 @@ def trace_depth(tracer, lights, settings, rays, depth, pass_io, tally):
     n = rays.origin.shape[0]
     rk.count_kinds(rays.kind, counters)
     t0 = now(settings, timespec)
-    hits = intersect(tracer, rays.origin, rays.direction, rays.origin_shape, NO_TMAX,
-                     depth == 0 and settings.coherent_camera)
+    hits = depth_hits(tracer, rays, depth, pass_io.packets)
     seconds[TRACE_SECONDS] += now(settings, timespec) - t0
     found, missed = np.empty(n, np.int64), np.empty(n, np.int64)
     k = rk.split_hits(hits.t, found, missed)

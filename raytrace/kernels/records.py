@@ -473,21 +473,31 @@ class PassSettings(NamedTuple):
     any_background: bool     #: missed rays add the background
     background: np.ndarray   #: (1, 3) float64
     ambient: np.ndarray      #: (3,) float64 Ia
-    #: camera rays in COHERENT packets (``raytrace.integrator.COHERENT_CAMERA``)
-    coherent_camera: bool
     clock: int               #: the address of ``clock_gettime`` (0: no timing)
     clock_id: int            #: its monotonic clock's id
 
 
+class CameraPackets(NamedTuple):
+    """A pass's camera rays as Embree traces them: every sample of each block of the frame
+    that holds one of the pass's, a slot each, in COHERENT packets
+    (``kernels.camera.frame_packets``)."""
+
+    direction: np.ndarray  #: (m, 3) float64 each slot's unit direction (origin 0)
+    sample: np.ndarray     #: (m,) int64 its sample within the pass, or −1: not the pass's
+    bounds: np.ndarray     #: (k + 1,) int64 where each packet starts, then m
+
+
 class PassIO(NamedTuple):
-    """What one pass writes and the keys it reads, a row per pass sample, and the render's
-    stop flag, which the loop reads between batches and lights
+    """What one pass writes and the rays and keys it reads, a row per pass sample, and the
+    render's stop flag, which the loop reads between batches and lights
     (``raytrace.integrator.Stop``)."""
 
     samples: np.ndarray       #: (S, 3) float64 radiance sums
     keys: np.ndarray | None   #: (S,) int64 jitter keys of a jittered area light, or None
     aov: np.ndarray | None    #: (S, C) float64 the per-sample AOV table, or None
     stop: np.ndarray          #: (1,) int64, not 0: end the pass at the next batch or light
+    #: the camera rays' packets (:class:`CameraPackets`), or None: plain packets
+    packets: CameraPackets | None
 
 
 class Tally(NamedTuple):
