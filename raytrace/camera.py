@@ -82,7 +82,7 @@ def camera_rays(camera: Camera | Pinhole, frame, start: int, stop: int, *,
     if columns is None:
         columns = camera_columns(n)
     sample, found = columns.sample[:n], None
-    if lanes:
+    if lanes and n:
         found = packets(camera, frame, start, stop, window, lanes)
         sample = np.empty(n, np.int64)
         own_rays(found, sample, direction)

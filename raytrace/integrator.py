@@ -115,7 +115,7 @@ DEBUG = os.environ.get("RAYTRACE_DEBUG", "") not in ("", "0")
 COMPILED_LOOP = os.environ.get("RAYTRACE_LOOP", "") == "compiled"
 #: Trace camera rays through meshes in Embree's COHERENT packets, each packet a block of the
 #: frame's pixels that fills it (:func:`raytrace.kernels.camera.frame_packets`): the warm mesh
-#: frame takes 0.69–0.83 of its one-thread time (docs/performance.md). A tie on a shared edge
+#: frame takes 0.81–0.83 of its one-thread time (docs/decisions.md). A tie on a shared edge
 #: is traced again in a plain packet (:func:`raytrace.kernels.embree.closest_hits`), and a
 #: packet is the same rays in any crop, pass or tile, so those stay bit-identical even where
 #: triangles overlap in one plane. ``RAYTRACE_COHERENT_CAMERA=0`` turns it off (plain packets,

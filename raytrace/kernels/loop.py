@@ -590,16 +590,16 @@ def _next_depth(children, rays, surf, depth, settings, counters):
 def trace_paths(tracer, lights, settings, camera, pass_io, tally):
     """Add into ``pass_io``'s sums everything the pass's ``camera`` rays (a
     :class:`raytrace.kernels.records.Rays`, one per sample, each ray's ``sample`` its row of
-    the sums: row by row, or in blocks of pixels where they go COHERENT) see, depth by
-    depth (``WhittedIntegrator._trace_batch``): a batch grown past ``settings.per_pass`` rays
-    is cut into chunks that keep each sample's rays together (``rays.sample_chunks``),
-    finished one after another, so memory stays bounded by the pass size × max depth and each
-    sample's sum is added up in the same order whatever the pass size, the crop or the
-    threads. ``pass_io``: the pass's sums, jitter keys and AOV table (a
-    :class:`raytrace.kernels.records.PassIO`); ``tally``: its counters (a
-    :class:`raytrace.kernels.records.Tally`). The pass ends early, its sums incomplete, once
-    ``pass_io.stop[0]`` is not 0 (read before each batch and each light's pass: a Ctrl-C or
-    the memory ceiling, ``raytrace.integrator.Stop``)."""
+    the sums: row by row, or packet by packet where they go COHERENT, ``pass_io.packets``)
+    see, depth by depth (``WhittedIntegrator._trace_batch``): a batch grown past
+    ``settings.per_pass`` rays is cut into chunks that keep each sample's rays together
+    (``rays.sample_chunks``), finished one after another, so memory stays bounded by the
+    pass size × max depth and each sample's sum is added up in the same order whatever the
+    pass size, the crop or the threads. ``pass_io``: the pass's sums, jitter keys, AOV
+    table and camera packets (a :class:`raytrace.kernels.records.PassIO`); ``tally``: its
+    counters (a :class:`raytrace.kernels.records.Tally`). The pass ends early, its sums
+    incomplete, once ``pass_io.stop[0]`` is not 0 (read before each batch and each light's
+    pass: a Ctrl-C or the memory ceiling, ``raytrace.integrator.Stop``)."""
     n = camera.origin.shape[0]
     pending = [camera]
     depths = [0]
