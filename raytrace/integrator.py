@@ -63,7 +63,7 @@ from .film.image import Image
 from .kernels import loop
 from .kernels import shading as sk  # the compiled passes of this stage
 from .kernels.aov import aov_hits, aov_pixels
-from .kernels.camera import own_hits
+from .kernels.camera import block_shape, own_hits
 from .kernels.kinds import KIND_NAMES
 from .kernels.rays import count_kinds, gather_chunks, sample_chunks, split_hits, take_hits
 from .kernels.records import (
@@ -118,9 +118,10 @@ COMPILED_LOOP = os.environ.get("RAYTRACE_LOOP", "") == "compiled"
 #: frame takes 0.81–0.83 of its one-thread time (docs/decisions.md). A tie on a shared edge
 #: is traced again in a plain packet (:func:`raytrace.kernels.embree.closest_hits`), and a
 #: packet is the same rays in any crop, pass or tile, so those stay bit-identical even where
-#: triangles overlap in one plane. ``RAYTRACE_COHERENT_CAMERA=0`` turns it off (plain packets,
-#: each ray answered as its single-ray call would).
-COHERENT_CAMERA = os.environ.get("RAYTRACE_COHERENT_CAMERA", "") != "0"
+#: triangles overlap in one plane. ``RAYTRACE_COHERENT_CAMERA=0`` (or false, off, no) turns it
+#: off (plain packets, each ray answered as its single-ray call would).
+COHERENT_CAMERA = os.environ.get("RAYTRACE_COHERENT_CAMERA", "").lower() not in (
+    "0", "false", "off", "no")
 #: Seconds between two looks of the thread waiting for the passes at whether a Ctrl-C came.
 #: On Linux a SIGINT ends the lock wait itself (CPython waits on a POSIX semaphore there), so
 #: the look is only a net for a signal that lands between Python's last check and the wait:
@@ -426,11 +427,19 @@ class WhittedIntegrator:
     def pass_size(self) -> int:
         """Camera samples per pass, in whole pixels: at most ``pass_samples``, and for images
         of fewer than :data:`MIN_PASSES` full passes, a :data:`MIN_PASSES`-th of the image
-        (not below :data:`MIN_PASS_SAMPLES`), so small images still use every thread. It
-        depends on the image and the options, never on the number of threads."""
+        (not below :data:`MIN_PASS_SAMPLES`), so small images still use every thread; where
+        camera rays go in packets of blocks h pixels high (:attr:`lanes`), rounded down to
+        whole bands of h rows where it holds one, so that no pass cuts a block of a frame and
+        traces samples not its own (:func:`raytrace.kernels.camera.frame_packets`). It
+        depends on the image, the options and the CPU's packet width, never on the number of
+        threads."""
         opt = self.opt
         total = self.size[0] * self.size[1] * opt.spp
         size = min(opt.pass_samples, max(MIN_PASS_SAMPLES, -(-total // MIN_PASSES)))
+        if self.lanes:
+            band = block_shape(opt.spp, self.lanes)[0] * self.size[0] * opt.spp
+            if size >= band:
+                return size // band * band
         return max(opt.spp, (size // opt.spp) * opt.spp)
 
     # -- the loop ----------------------------------------------------------------------------

@@ -276,3 +276,20 @@ def test_coherent_camera_rays_keep_crops_and_passes_bit_identical(monkeypatch, c
         other = raytrace.render(scene, width=48, height=36, threads=threads,
                                 pass_samples=pass_samples).rgb
         assert np.array_equal(other, full), pass_samples
+
+
+def test_a_frame_s_passes_trace_each_camera_ray_once(monkeypatch):
+    """A pass is rounded down to whole bands of the blocks camera rays go in
+    (``WhittedIntegrator.pass_size``), so no pass cuts a block and the camera rays Embree
+    traces are the frame's, each once: at 40×30 with ``pass_samples`` 500 (12.5 rows), passes
+    of 12 rows. (Unlit, so every closest-hit query is one of camera rays.)"""
+    batches = []
+    monkeypatch.setattr(accel.Accelerator, "recorder",
+                        staticmethod(lambda *batch: batches.append(batch)))
+    monkeypatch.setattr(WhittedIntegrator, "compiled", False)  # the recorder's loop
+    scene = overlapping_grids()
+    scene.lights = []
+    raytrace.render(scene, width=40, height=30, threads=1, pass_samples=500)
+    assert {query for query, *_ in batches} == {"INTERSECT"}
+    assert sum(len(far) for *_, far in batches) == 40 * 30
+    assert len(batches) == 3  # 12, 12 and 6 rows

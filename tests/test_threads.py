@@ -119,22 +119,36 @@ def test_an_error_in_a_pass_stops_the_render_and_is_raised(monkeypatch):
     assert len(calls) <= 4
 
 
-@pytest.mark.parametrize(("width", "height", "spp", "expected"), [
-    (2000, 2000, 1, 65536),   # large: the full pass (PASS_SAMPLES)
-    (1000, 1000, 1, 62500),   # 16 passes of 62 500, just under PASS_SAMPLES
-    (250, 250, 1, 4096),      # 62 500 / 16 = 3907 → raised to MIN_PASS_SAMPLES: 16 passes
-    (500, 500, 1, 15625),     # 250 000 / 16 = 15 625: exactly 16 passes
-    (500, 500, 3, 46875),     # 750 000 / 16 = 46 875 = 15 625 whole pixels of 3 samples
-    (10, 10, 5, 4095),        # MIN_PASS_SAMPLES rounded down to whole pixels of 5 samples
-])
-def test_pass_size_depends_on_the_image_never_on_the_threads(width, height, spp, expected):
+#: Image, spp, and the pass size: plain, then in whole bands of camera-ray blocks of 4 or 8
+#: lanes (h = 2 rows at 1 spp, 1 at 3 and 5) and of 16 lanes (h = 4, 2 and 1).
+PASS_SIZES = [
+    (2000, 2000, 1, 65536, 64000, 64000),  # large: the full pass (PASS_SAMPLES); 16 or 8 rows
+    (1000, 1000, 1, 62500, 62000, 60000),  # 16 passes of 62 500, just under PASS_SAMPLES
+    (250, 250, 1, 4096, 4000, 4000),       # 62 500 / 16 = 3907 → MIN_PASS_SAMPLES: 16 passes
+    (500, 500, 1, 15625, 15000, 14000),    # 250 000 / 16 = 15 625: exactly 16 passes
+    (500, 500, 3, 46875, 46500, 45000),    # 750 000 / 16 = 46 875 = 15 625 pixels of 3 samples
+    (10, 10, 5, 4095, 4050, 4050),         # MIN_PASS_SAMPLES down to whole pixels of 5 samples
+]
+
+
+@pytest.mark.parametrize(("width", "height", "spp", "expected", "bands8", "bands16"),
+                         PASS_SIZES)
+@pytest.mark.parametrize("packets", [False, True], ids=["plain", "packets"])
+def test_pass_size_depends_on_the_image_never_on_the_threads(monkeypatch, width, height, spp,
+                                                             expected, bands8, bands16,
+                                                             packets):
+    """A pass is at most ``pass_samples``, a sixteenth of a small image, whole pixels; with
+    camera rays in packets of pixel blocks (a scene with meshes), whole bands of blocks, so
+    that no pass cuts one (``WhittedIntegrator.pass_size``)."""
     from raytrace.integrator import RenderOptions, WhittedIntegrator
 
-    sizes = {WhittedIntegrator(scene(), RenderOptions(width=width, height=height, spp=spp,
-                                                      max_depth=2, threads=t)).pass_size
-             for t in (1, 2, 7)}
-    assert sizes == {expected}
-    assert expected % spp == 0
+    monkeypatch.setattr(WhittedIntegrator, "coherent_camera", packets)
+    made = [WhittedIntegrator(scene(), RenderOptions(width=width, height=height, spp=spp,
+                                                     max_depth=2, threads=t))
+            for t in (1, 2, 7)]
+    want = expected if not packets else bands16 if made[0].lanes == 16 else bands8
+    assert {m.pass_size for m in made} == {want}
+    assert want % spp == 0
 
 
 def test_threads_default_to_every_core_and_an_explicit_count_is_kept():
@@ -152,17 +166,23 @@ def test_threads_default_to_every_core_and_an_explicit_count_is_kept():
 
 @pytest.mark.parametrize("threads", [1, 2])
 def test_progress_reports_every_pass_once_in_increasing_order(threads):
-    # 48×36 = 1728 samples in passes of 97 (the last one 79): the callback sees the running
-    # total after each pass, one call at a time, ending exactly at the total.
+    # 48×36 = 1728 samples in passes of 97 (the last one 79), or of 96 where camera rays go
+    # in blocks of 2 rows: the callback sees the running total after each pass, one call at
+    # a time, ending exactly at the total.
+    from raytrace.integrator import RenderOptions, WhittedIntegrator
+
+    size = WhittedIntegrator(scene(), RenderOptions(width=W, height=H, threads=threads,
+                                                    pass_samples=SMALL_PASS)).pass_size
+    assert size in (SMALL_PASS, 2 * W)  # 97, or whole bands of 2-row camera-ray blocks
     calls = []
     raytrace.render(scene(), width=W, height=H, threads=threads, pass_samples=SMALL_PASS,
                     progress=lambda done, total: calls.append((done, total)))
-    assert len(calls) == -(-W * H // SMALL_PASS)
+    assert len(calls) == -(-W * H // size)
     assert all(total == W * H for _, total in calls)
     done = [d for d, _ in calls]
     assert done == sorted(done) and done[-1] == W * H
     steps = np.diff([0, *done])
-    assert set(steps.tolist()) <= {SMALL_PASS, W * H % SMALL_PASS}
+    assert set(steps.tolist()) <= {size, W * H % size} - {0}
 
 
 def test_kept_camera_columns_are_never_written_to(monkeypatch):

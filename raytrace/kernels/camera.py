@@ -84,7 +84,7 @@ def directions(start, sampling, pinhole, window, out):
 def block_shape(spp, lanes):
     """The pixels (h rows, w columns) of a block of camera rays that fills a packet of
     ``lanes`` rays at ``spp`` samples a pixel: h = ⌊√p⌋ and w = ⌊p/h⌋ where p = ⌊lanes/spp⌋
-    (at least 1): 4 × 2 pixels for 8 lanes at one sample a pixel, 4 × 4 for 16. The rays of
+    (at least 1): 2 rows of 4 pixels for 8 lanes at one sample a pixel, 4 × 4 for 16. The rays of
     a packet then look through a compact patch of the image rather than a strip of a row, the
     shape Embree's COHERENT traversal takes fastest (Wald et al. 2001 trace 2 × 2 packets for
     the same reason)."""

@@ -42,7 +42,9 @@ record                   what it holds (n rays or hits, M materials, T triangles
 :class:`Tracer`          the scene as the loop reads it
 :class:`LightTable`      the emitters, their colours and fast-Phong tables
 :class:`PassSettings`    the render's settings
-:class:`PassIO`          a pass's sums, jitter keys and AOV table, and the render's stop flag
+:class:`PassIO`          a pass's sums, jitter keys, AOV table and camera packets, and the
+                         render's stop flag
+:class:`CameraPackets`   a pass's camera rays as Embree traces them, block by block
 :class:`Tally`           a pass's counters
 **camera and film**
 :class:`Pinhole`         the frame as a pinhole sees it
