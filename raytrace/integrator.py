@@ -63,13 +63,14 @@ from .film.image import Image
 from .kernels import loop
 from .kernels import shading as sk  # the compiled passes of this stage
 from .kernels.aov import aov_hits, aov_pixels
-from .kernels.camera import block_shape, own_hits
+from .kernels.camera import block_shape, own_hits, pixel_packets
 from .kernels.kinds import KIND_NAMES
 from .kernels.rays import count_kinds, gather_chunks, sample_chunks, split_hits, take_hits
 from .kernels.records import (
     EMITTER_FIELDS,
     FAST_COLUMNS,
     AOVLayout,
+    CameraPackets,
     Children,
     LightTable,
     Local,
@@ -645,8 +646,10 @@ class WhittedIntegrator:
             return
         if opt.aa == "noise":  # samples start to stop of the round (raytrace.noise.Round)
             r = self._round
+            bounds = r.bounds[np.searchsorted(r.bounds, start):
+                              np.searchsorted(r.bounds, stop, "right")] - start
             pixels[start:stop] = self.trace_points(r.x[start:stop], r.y[start:stop],
-                                                   r.keys[start:stop])
+                                                   r.keys[start:stop], bounds)
             self.stats.pass_seconds += time.perf_counter() - t0
             return
         keep = pixels.dtype == np.float64  # every sample kept for the filter
@@ -678,15 +681,24 @@ class WhittedIntegrator:
         with np.errstate(over="ignore", invalid="ignore"):  # beyond float32's range → inf
             pixels[start * (x1 - x0):stop * (x1 - x0)] = values
 
-    def trace_points(self, x: np.ndarray, y: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    def trace_points(self, x: np.ndarray, y: np.ndarray, ids: np.ndarray,
+                     pixels: np.ndarray | None = None) -> np.ndarray:
         """Radiance (n, 3) float64 of camera rays through image positions ``x``, ``y`` (n,)
         (pixels of the frame), one sample each; ``ids`` (n,) key their jittered area-light
-        points, as global sample indices do for uniform samples."""
+        points, as global sample indices do for uniform samples. ``pixels``: where each
+        pixel's points start (then n), where they come pixel by pixel: in a scene with meshes
+        each pixel's rays then go in COHERENT packets of their own
+        (:func:`raytrace.kernels.camera.pixel_packets`)."""
         n, w = len(x), self._worker
         columns = camera_columns(n)
-        rays = RayBatch(columns.origin, directions_at(self.view, self.opt.width,
-                                                      self.opt.height, x, y),
-                        columns.sample, columns.weight, 0, columns.origin_shape, columns.kind)
+        direction = directions_at(self.view, self.opt.width, self.opt.height, x, y)
+        found = None
+        if self.lanes and pixels is not None:
+            bounds = np.empty(len(pixels) + n // self.lanes + 1, np.int64)
+            k = pixel_packets(np.ascontiguousarray(pixels, np.int64), self.lanes, bounds)
+            found = CameraPackets(direction, columns.sample, bounds[:k + 1])
+        rays = RayBatch(columns.origin, direction, columns.sample, columns.weight, 0,
+                        columns.origin_shape, columns.kind, found)
         samples = np.zeros((n, 3))
         w.keys = np.ascontiguousarray(ids, np.int64)
         try:
@@ -715,7 +727,8 @@ class WhittedIntegrator:
 
     def _trace_batch(self, rays: RayBatch, n: int, samples: np.ndarray) -> None:
         """Trace camera ``rays`` of ``n`` samples and their descendants, depth by depth, into
-        ``samples`` (n, 3), in chunks of at most a pass (:meth:`trace_samples`)."""
+        ``samples`` (n, 3), in chunks of at most a pass (:meth:`trace_samples`); camera rays
+        in packets whole (a noise-driven pass, cut at pixel bounds, may hold more)."""
         if self.compiled and self.observer is None and not DEBUG:
             self._trace_compiled(rays, n, samples)
             return
@@ -724,7 +737,7 @@ class WhittedIntegrator:
         pending, stop = [rays], self._stop.flag
         while pending and not stop[0]:  # a stop asked for ends the pass here
             rays = pending.pop()
-            if len(rays) > per_pass:
+            if len(rays) > per_pass and rays.packets is None:  # packets: traced whole
                 pending.extend(reversed(chunks(rays, n, per_pass)))
                 continue
             children = self.trace(rays, samples)

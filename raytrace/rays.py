@@ -43,8 +43,10 @@ class RayBatch:
         CAMERA, REFLECTION, REFRACTION or SEE_THROUGH.
     packets : CameraPackets or None
         Camera rays only: the packets Embree traces them in, every sample of each block of
-        the frame that holds one of them (:func:`raytrace.kernels.camera.frame_packets`);
-        None: plain packets. A batch taken from this one has none.
+        the frame that holds one of them (:func:`raytrace.kernels.camera.frame_packets`),
+        or a noise-driven round's, a pixel's samples each
+        (:func:`raytrace.kernels.camera.pixel_packets`); None: plain packets. A batch taken
+        from this one has none, and one that has them is traced whole, however long.
     """
 
     origin: np.ndarray

@@ -10,6 +10,7 @@ import pytest
 import raytrace
 from raytrace import RenderSettings
 from raytrace.camera import camera_rays, hash_uniform, sample_offsets
+from raytrace.kernels.camera import pixel_packets
 
 
 def _rays(camera, w, h, spp=1, seed=0):
@@ -141,6 +142,25 @@ def test_a_packet_of_rays_covers_a_block_of_pixels(lanes, spp, block):
         assert set(zip(r.tolist(), c.tolist(), strict=True)) == {
             (r.min() + i, c.min() + j) for i in range(h) for j in range(w)}
         assert r.min() % h == 0 and c.min() % w == 0
+
+
+@pytest.mark.parametrize("lanes", [4, 8, 16])
+def test_a_pixel_s_points_fill_packets_of_their_own(lanes):
+    """A noise-driven round's points come pixel by pixel, a pixel's count any number (none
+    included): its packets hold one pixel's points each, ⌈count/lanes⌉ of them, in order,
+    covering every point once, so a packet does not depend on which pass holds its pixel."""
+    counts = np.random.default_rng(lanes).choice([0, 1, 3, 4, 8, 15, 16, 17, 40], 200)
+    pixels = np.concatenate([[0], np.cumsum(counts)])
+    out = np.empty(len(pixels) + pixels[-1] // lanes + 1, np.int64)
+    k = pixel_packets(pixels, lanes, out)
+    assert k == sum(-(-c // lanes) for c in counts)
+    starts = out[:k + 1]
+    assert starts[0] == 0 and starts[-1] == pixels[-1] and (np.diff(starts) > 0).all()
+    assert (np.diff(starts) <= lanes).all()
+    owner = np.searchsorted(pixels, np.arange(pixels[-1]), "right") - 1  # each point's pixel
+    for a, b in zip(starts[:-1], starts[1:], strict=True):
+        assert owner[a] == owner[b - 1]  # one pixel's
+        assert a == pixels[owner[a]] or (a - pixels[owner[a]]) % lanes == 0
 
 
 @pytest.mark.parametrize("kw,key", [

@@ -278,6 +278,30 @@ def test_coherent_camera_rays_keep_crops_and_passes_bit_identical(monkeypatch, c
         assert np.array_equal(other, full), pass_samples
 
 
+@pytest.mark.parametrize("compiled", [False, True], ids=["python-loop", "compiled-loop"])
+def test_noise_driven_rounds_keep_passes_and_crops_bit_identical(monkeypatch, compiled):
+    """A noise-driven round's camera rays go in COHERENT packets of one pixel's samples each
+    (:func:`raytrace.kernels.camera.pixel_packets`), and a round's passes are cut at pixel
+    bounds, so where triangles overlap in one plane a pass size, a thread count or a crop
+    still gives the full render's pixels bit for bit, though the packets' choice is not
+    plain packets'."""
+    monkeypatch.setattr(WhittedIntegrator, "compiled", compiled)
+    scene = overlapping_grids()
+    common = dict(width=48, height=36, aa="noise", min_spp=8, max_spp=32, noise_threshold=0.05)
+    full = raytrace.render(scene, threads=1, **common).rgb
+    with monkeypatch.context() as plain_packets:
+        plain_packets.setattr(WhittedIntegrator, "coherent_camera", False)
+        plain = raytrace.render(scene, threads=1, **common).rgb
+    assert (np.abs(plain - full).max(-1) > 0.05).sum() > 50  # the packets decide ties
+    for pass_samples, threads in ((64, 1), (100, 2), (333, 2)):
+        other = raytrace.render(scene, threads=threads, pass_samples=pass_samples,
+                                **common).rgb
+        assert np.array_equal(other, full), pass_samples
+    x0, y0, x1, y1 = crop = (3, 2, 30, 27)
+    part = raytrace.render(scene, threads=2, crop=crop, **common).rgb
+    assert np.array_equal(part, full[y0:y1, x0:x1])
+
+
 def test_a_frame_s_passes_trace_each_camera_ray_once(monkeypatch):
     """A pass is rounded down to whole bands of the blocks camera rays go in
     (``WhittedIntegrator.pass_size``), so no pass cuts a block and the camera rays Embree

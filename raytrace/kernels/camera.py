@@ -183,3 +183,20 @@ def own_hits(packets, hits, out):
             out.t[j], out.shape[j], out.triangle[j] = hits.t[i], hits.shape[i], hits.triangle[i]
             out.uv[j, 0], out.uv[j, 1] = hits.uv[i, 0], hits.uv[i, 1]
             j += 1
+
+
+@kernel
+def pixel_packets(bounds, lanes, out):
+    """Where each packet of at most ``lanes`` consecutive camera rays starts, for rays laid
+    out pixel by pixel (``bounds`` (p + 1,) int64: where each pixel's rays start, then their
+    count; a pixel may have none), into ``out`` (at least p + ⌈n/lanes⌉ + 1 rows); returns
+    how many packets (``out[k]`` is then n). No packet holds two pixels' rays, so a packet is
+    the same rays whichever pass holds its pixel: the samples of a noise-driven round
+    (``raytrace.noise.plan``), cut into passes at pixel bounds."""
+    k = 0
+    for p in range(bounds.shape[0] - 1):
+        for first in range(bounds[p], bounds[p + 1], lanes):
+            out[k] = first
+            k += 1
+    out[k] = bounds[bounds.shape[0] - 1]
+    return k

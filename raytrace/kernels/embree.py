@@ -14,7 +14,8 @@ them.
 width (16 with AVX-512, 8 with AVX2); a last, partial packet masks its empty lanes off. The
 caller says whether the batch is coherent: the raytracer says so for the shadow rays of
 camera-ray hits to one point, and gives camera rays in packets of its own, each a block of
-the frame's pixels (``raytrace.kernels.camera.frame_packets``; ``RAYTRACE_COHERENT_CAMERA=0``
+the frame's pixels (``raytrace.kernels.camera.frame_packets``) or a noise-driven round's
+samples of one pixel (``pixel_packets``; ``RAYTRACE_COHERENT_CAMERA=0``
 turns them off). Embree's COHERENT flag then lets it traverse the packet as a frustum
 (camera rays in blocks of 4 × 2 pixels 1.8–2.3× as fast as embreex's single rays here,
 shadow rays 1.8–2.2×: docs/decisions.md), which EMBREEX_NOTES.md measured 2× slower than the

@@ -592,7 +592,8 @@ def trace_paths(tracer, lights, settings, camera, pass_io, tally):
     :class:`raytrace.kernels.records.Rays`, one per sample, each ray's ``sample`` its row of
     the sums: row by row, or packet by packet where they go COHERENT, ``pass_io.packets``)
     see, depth by depth (``WhittedIntegrator._trace_batch``): a batch grown past
-    ``settings.per_pass`` rays is cut into chunks that keep each sample's rays together
+    ``settings.per_pass`` rays (not the camera rays where they go in packets, which are
+    traced whole) is cut into chunks that keep each sample's rays together
     (``rays.sample_chunks``), finished one after another, so memory stays bounded by the
     pass size × max depth and each sample's sum is added up in the same order whatever the
     pass size, the crop or the threads. ``pass_io``: the pass's sums, jitter keys, AOV
@@ -603,11 +604,12 @@ def trace_paths(tracer, lights, settings, camera, pass_io, tally):
     n = camera.origin.shape[0]
     pending = [camera]
     depths = [0]
+    whole = pass_io.packets is not None  # camera rays in packets: traced as one batch
     while len(pending) and pass_io.stop[0] == 0:
         rays = pending.pop()
         depth = depths.pop()
         m = rays.origin.shape[0]
-        if m > settings.per_pass:
+        if m > settings.per_pass and not (whole and depth == 0):
             chunk = np.empty(m, np.int64)
             count = rk.sample_chunks(rays.sample, n, settings.per_pass, chunk)
             out = Rays(np.empty((m, 3)), np.empty((m, 3)), np.empty(m, np.int64),

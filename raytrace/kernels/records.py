@@ -482,7 +482,8 @@ class PassSettings(NamedTuple):
 class CameraPackets(NamedTuple):
     """A pass's camera rays as Embree traces them: every sample of each block of the frame
     that holds one of the pass's, a slot each, in COHERENT packets
-    (``kernels.camera.frame_packets``)."""
+    (``kernels.camera.frame_packets``); or a noise-driven round's, each pixel's samples in
+    packets of their own (``kernels.camera.pixel_packets``), every slot the pass's."""
 
     direction: np.ndarray  #: (m, 3) float64 each slot's unit direction (origin 0)
     sample: np.ndarray     #: (m,) int64 its sample within the pass, or −1: not the pass's
