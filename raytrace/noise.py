@@ -167,31 +167,52 @@ def margin(min_spp: int, max_spp: int) -> int:
 
 @dataclass
 class Round:
-    """The samples of one round, pixel by pixel, each pixel's stream A then B, each in
-    sample order: ``x``, ``y`` (m,) image positions (pixels of the frame), ``keys`` (m,)
-    light keys, ``bounds``, the first sample of each pixel (and m at the end), where passes
-    may be cut, and ``weight`` (m,), each sample's filter weight ``f/p`` (None where all are
-    1)."""
+    """The samples of one round, pixel by pixel in ``order`` (the pixels' numbers in the
+    window, row by row, :func:`spread_order`), each pixel's stream A then B, each in sample
+    order: ``x``, ``y`` (m,) image positions (pixels of the frame), ``keys`` (m,) light keys,
+    ``bounds``, the first sample of each pixel (and m at the end), where passes may be cut,
+    and ``weight`` (m,), each sample's filter weight ``f/p`` (None where all are 1)."""
 
     x: np.ndarray
     y: np.ndarray
     keys: np.ndarray
     bounds: np.ndarray
+    order: np.ndarray
     weight: np.ndarray | None = None
+
+
+def spread_order(window: tuple[int, int, int, int]) -> np.ndarray:
+    """The pixels of ``window`` = (x0, y0, x1, y1), numbered row by row, in the order a
+    round traces them: row after row in the bit-reversed order of their index (van der
+    Corput's radical inverse: 0, 64, 32, 96, 16, … of 128 rows), each row's pixels from the
+    left. Any run of rows in that order spreads over the window's height, so the passes a
+    round is cut into (runs of pixels) each hold a like share of sky and of geometry and
+    finish together on the threads; a pixel's value depends on its own samples alone,
+    whatever the order."""
+    x0, y0, x1, y1 = window
+    rows, cols = y1 - y0, x1 - x0
+    bits = max(1, (rows - 1).bit_length())
+    index = np.arange(1 << bits)
+    reverse = np.zeros_like(index)
+    for b in range(bits):
+        reverse |= ((index >> b) & 1) << (bits - 1 - b)
+    row = reverse[reverse < rows]
+    return (row[:, None] * cols + np.arange(cols)).reshape(-1)
 
 
 def plan(window: tuple[int, int, int, int], width: int, seed: int, old: np.ndarray,
          new: np.ndarray, filter: str = "box") -> Round:
     """The samples ``old[p]`` to ``new[p]`` of each stream of each pixel p (window order) of
-    ``window`` = (x0, y0, x1, y1) in a ``width``-wide frame, as a :class:`Round`: each a
+    ``window`` = (x0, y0, x1, y1) in a ``width``-wide frame, as a :class:`Round`, the pixels
+    in :func:`spread_order`: each a
     stream's Owen-scrambled Sobol point (:func:`offsets`), uniform over the pixel for the
     box ``filter``, else mapped through the filter around the pixel's centre
     (:func:`raytrace.film.filters.importance`)."""
-    grow = new - old
-    bounds = np.concatenate([[0], np.cumsum(STREAMS * grow)])
+    order = spread_order(window)
+    bounds = np.concatenate([[0], np.cumsum(STREAMS * (new - old)[order])])
     m = int(bounds[-1])
     out = StreamSamples(np.empty(m), np.empty(m), *(np.empty(m, np.int64) for _ in range(3)))
-    round_points(Window(*window), width, seed, old, new, out)
+    round_points(Window(*window), width, seed, old, new, order, out)
     sx, sy = out.sx, out.sy
     weight = None
     if filter != "box":
@@ -199,7 +220,7 @@ def plan(window: tuple[int, int, int, int], width: int, seed: int, old: np.ndarr
         sx, sy = 0.5 + dx, 0.5 + dy
         if (wx != 1.0).any() or (wy != 1.0).any():  # a filter with negative lobes
             weight = wx * wy
-    return Round(out.col + sx, out.row + sy, out.keys, bounds, weight)
+    return Round(out.col + sx, out.row + sy, out.keys, bounds, order, weight)
 
 
 def passes(bounds: np.ndarray, size: int) -> list[tuple[int, int]]:
@@ -453,7 +474,7 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
             values = values * r.weight[:, None]
         # each (pixel, stream)'s samples of the round are one block, summed in order; a
         # deadline leaves out whole pixels (passes are cut at pixel bounds)
-        add_round(values, new - n, traced, sums, moments, done)
+        add_round(values, new - n, traced, r.order, sums, moments, done)
         n = np.where(done, new, n)
         rounds += 1
         streams = sums / n[:, None, None]

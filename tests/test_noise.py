@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,6 +21,8 @@ from raytrace import cli, noise
 from raytrace.errors import SceneError
 from raytrace.kernels.noise import KEY_STRIDE, add_round
 from raytrace.kernels.records import Moments
+
+ROOT = Path(__file__).resolve().parents[1]
 
 W, H = 8, 6
 
@@ -71,9 +74,49 @@ def test_a_round_draws_each_streams_points():
     col, row = 5 + pixel % 3, 7 + pixel // 3
     sid = (row * 20 + col) * noise.STREAMS + stream
     sx, sy = noise.offsets(11, sid, k)
+    assert r.order.tolist() == [0, 1, 2, 3, 4, 5]  # rows 0, 1 (bit-reversed: the same)
     assert r.x.tolist() == (col + sx).tolist() and r.y.tolist() == (row + sy).tolist()
     assert r.keys.tolist() == (sid * KEY_STRIDE + k).tolist()
     assert r.bounds.tolist() == [0, *np.cumsum(noise.STREAMS * (new - old))]
+
+
+def test_a_round_traces_its_rows_in_bit_reversed_order():
+    """A round's pixels go row after row in the bit-reversed order of the row's index (van
+    der Corput's radical inverse), each row from the left: 8 rows → 0, 4, 2, 6, 1, 5, 3, 7;
+    5 rows → 0, 4, 2, 1, 3 (the order of 8 without 5, 6 and 7), every pixel once."""
+    rows = noise.spread_order((2, 3, 5, 11)) // 3  # 3 × 8 pixels off the frame's origin
+    assert rows.tolist() == [r for r in (0, 4, 2, 6, 1, 5, 3, 7) for _ in range(3)]
+    order = noise.spread_order((0, 0, 2, 5))
+    assert order.tolist() == [0, 1, 8, 9, 4, 5, 2, 3, 6, 7]
+
+
+def test_a_round_s_passes_hold_like_shares_of_the_scene():
+    """The Whitted scene's top rows are sky: cut into 4 passes of rows from the top, the
+    first pass would hold far fewer hits than the others. In :func:`raytrace.noise.spread_order`
+    each quarter of a round's pixels holds within 20 % of the image's share of pixels whose
+    camera ray hits something (from the depth AOV: finite on a hit), so the passes finish
+    together on the threads."""
+    scene = raytrace.load_scene(ROOT / "scenes" / "whitted.toml")
+    depth = raytrace.render(scene, width=160, height=120, aovs=["depth"]).aov("depth")
+    hit = np.isfinite(depth).reshape(-1)
+    share = hit.mean()
+    assert 0.2 < share < 0.9
+    top = hit[:len(hit) // 4].mean()  # window order: the top 30 rows
+    assert top < 0.6 * share
+    for run in np.array_split(noise.spread_order((0, 0, 160, 120)), 4):
+        assert 0.8 * share <= hit[run].mean() <= 1.2 * share
+
+
+def test_a_round_s_order_changes_no_pixel(monkeypatch):
+    """A pixel's value is its own samples' sums, whatever the order a round traces the
+    pixels in: a render by target with the rows in window order is the same bit for bit."""
+    scene = every_ray_scene()
+    kw = dict(width=24, height=18, target_error=0.02, threads=2)
+    spread = raytrace.render(scene, **kw)
+    monkeypatch.setattr(noise, "spread_order", lambda w: np.arange((w[2] - w[0]) * (w[3] - w[1])))
+    plain = raytrace.render(scene, **kw)
+    assert spread.stats["aa"]["rounds"] > 1
+    assert np.array_equal(spread.rgb, plain.rgb)
 
 
 def test_sobol_second_dimension_known_values():
@@ -317,7 +360,8 @@ def test_pooled_moments_are_those_of_all_the_samples():
                 if traced[p]:
                     streams[p, s].append(block)
         done = np.empty(2, bool)
-        add_round(np.concatenate(values), np.array(grow), np.array(flags), sums, moments, done)
+        add_round(np.concatenate(values), np.array(grow), np.array(flags), np.arange(2), sums,
+                  moments, done)
         assert done.tolist() == [traced[p] or grow[p] == 0 for p in (0, 1)]
     for p in (0, 1):
         every = np.concatenate(streams[p, 0] + streams[p, 1])
@@ -335,7 +379,7 @@ def test_a_round_without_moments_adds_its_sums_alone():
     in sample order, bit for bit numpy's sequential sum of the block."""
     values = np.array([[0.1, 0.2, 0.3], [0.7, 0.11, 0.13], [0.3, 0.5, 0.9], [1e16, 1.0, 2.0]])
     sums, done = np.zeros((1, 2, 3)), np.empty(1, bool)
-    add_round(values, np.array([2]), np.ones(4, bool), sums, None, done)
+    add_round(values, np.array([2]), np.ones(4, bool), np.arange(1), sums, None, done)
     assert done.tolist() == [True]
     assert sums[0, 0].tolist() == (values[0] + values[1]).tolist()
     assert sums[0, 1].tolist() == (values[2] + values[3]).tolist()
@@ -359,14 +403,15 @@ def test_a_render_by_target_doubles_the_pixels_of_widest_spread():
         return np.repeat(x[:, None], 3, axis=1), np.ones(len(r.x), bool)
 
     noise.sample((0, 0, 6, 3), 6, 9, noise.Budget(4, 64, 0.01, target_error=1e-9), trace)
-    x = rounds[0].x.reshape(18, 4)
+    x = np.empty((18, 4))
+    x[rounds[0].order] = rounds[0].x.reshape(18, 4)  # the pixels in window order
     value = np.where(np.floor(x) < 2, 8, 1) * (x - np.floor(x))
     n = np.full(18, 2)
     streams = 0.25 * (value[:, :2].mean(1) - value[:, 2:].mean(1)) ** 2
     rate = noise.convergence_rate(value.var(1, ddof=1), n, float(streams.sum()))
     want = noise.neyman_counts(n, value.var(1, ddof=1), 32, 6, rate=rate).reshape(3, 6)
     assert (want[:, 3:] == 2).all() and (want[:2, :2] == 8).all()
-    assert (np.diff(rounds[1].bounds) // 2).tolist() == (want.ravel() - n).tolist()
+    assert (np.diff(rounds[1].bounds) // 2).tolist() == (want.ravel() - n)[rounds[1].order].tolist()
 
 
 def test_margin_counts_the_doublings():
@@ -563,9 +608,7 @@ def test_estimate_is_within_its_bounds_of_the_measured_error(name):
     """At 160×120, a render by ``target_error=0.01``: the relative RMSE measured against a
     1024-spp uniform render (another seed; its own error, about 0.1 %, adds in quadrature)
     is within [0.67, 1.5]× the estimate the render reported (issue #30)."""
-    from pathlib import Path
-
-    scene = raytrace.load_scene(Path(__file__).parents[1] / "scenes" / f"{name}.toml")
+    scene = raytrace.load_scene(ROOT / "scenes" / f"{name}.toml")
     common = dict(width=160, height=120, threads=2)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", raytrace.RenderWarning)

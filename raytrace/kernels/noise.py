@@ -105,18 +105,20 @@ def stream_offset_rows(seed, stream_id, k, sx, sy):
 
 
 @kernel
-def round_points(window, width, seed, old, new, out):
+def round_points(window, width, seed, old, new, order, out):
     """The samples ``old[p]`` to ``new[p] − 1`` of each of the :data:`STREAMS` streams of
-    each pixel p of ``window`` (a :class:`raytrace.kernels.records.Window`: its pixels row by
-    row from (x0, y0), in a ``width``-wide frame), pixel after pixel, stream after stream, in
-    sample order, into ``out`` (a :class:`raytrace.kernels.records.StreamSamples`): each
+    each pixel p of ``window`` (a :class:`raytrace.kernels.records.Window`: its pixels
+    numbered row by row from (x0, y0), in a ``width``-wide frame), pixel after pixel in
+    ``order`` (the pixels' numbers, each once), stream after stream, in sample order, into
+    ``out`` (a :class:`raytrace.kernels.records.StreamSamples`): each
     sample's offset in the pixel (stream ``sid = (row·width + col)·STREAMS + stream``: as
     :func:`stream_offset_rows`, each stream's two seeds hashed once), its pixel's frame
     column and row, and its light key ``sid·KEY_STRIDE + k``."""
     x0, y0 = window.x0, window.y0
     cols = window.x1 - x0
     j = 0
-    for p in range(old.shape[0]):
+    for q in range(order.shape[0]):
+        p = order[q]
         c, r = x0 + p % cols, y0 + p // cols
         for stream in range(STREAMS):
             sid = (r * width + c) * STREAMS + stream
@@ -130,11 +132,11 @@ def round_points(window, width, seed, old, new, out):
 
 
 @kernel
-def add_round(values, grow, traced, sums, moments, done):
+def add_round(values, grow, traced, order, sums, moments, done):
     """Add a round's samples to each pixel's streams. ``values`` (m, 3) are the round's
-    samples in :func:`round_points`' order: pixel after pixel, ``grow[p]`` samples of stream
-    A, then as many of stream B; ``traced`` (m,) says which were traced (a deadline leaves
-    out whole pixels). Each stream's block is summed in order into ``sums`` (k,
+    samples in :func:`round_points`' order: pixel after pixel in ``order``, ``grow[p]``
+    samples of stream A, then as many of stream B; ``traced`` (m,) says which were traced (a
+    deadline leaves out whole pixels). Each stream's block is summed in order into ``sums`` (k,
     :data:`STREAMS`, 3). With ``moments`` (a :class:`raytrace.kernels.records.Moments`; None
     where nothing reads them) each block also updates its pixel's running moments by Chan,
     Golub & LeVeque's pairwise update ("Algorithms for computing the sample variance", The
@@ -144,7 +146,8 @@ def add_round(values, grow, traced, sums, moments, done):
     pixel's small spread is not lost to cancellation. ``done[p]``: pixel p has its round
     (it had none, or it was traced)."""
     j = 0
-    for p in range(grow.shape[0]):
+    for q in range(order.shape[0]):
+        p = order[q]
         k = grow[p]
         if k == 0:
             done[p] = True
