@@ -1,6 +1,7 @@
 """Render seconds by thread count and pass size: what the pass size does to a many-core render.
 
     python3 benchmarks/passes.py --threads 1,2 --json benchmarks/passes.json
+    python3 benchmarks/passes.py --small --threads 2    # small frames: the least pass size
 
 Each benchmark scene of ``benchmarks/bench.py`` (the 82k-triangle mesh at 1000², the Whitted
 scene at 1280×960) is rendered in one process with its BVH kept (:mod:`raytrace.accel_cache`)
@@ -12,6 +13,12 @@ median of ``--repeat`` renders' ``stats["seconds"]["total"]``. The image is the 
 every pass size (tests/test_threads.py), so only the time can differ: more passes balance the
 threads more finely, and each pass costs the same Python between its kernel calls, which
 holds the GIL.
+
+``--small``: frames of fewer than 16 full passes, which the integrator cuts into 16 passes of
+at least :data:`raytrace.integrator.MIN_PASS_SAMPLES`: the scenes of ``scenes/`` that
+benchmarks/noise.py renders, at 160×120 and 4 samples a pixel, and the Whitted scene at
+320×240 and 1, rendered with each least pass size of :data:`SMALL_LEAST` in turn (interleaved,
+``--repeat`` rounds, the API's wall seconds), and the ratio of each to the first.
 """
 
 from __future__ import annotations
@@ -19,20 +26,31 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import bench  # noqa: E402
+from bench_scenes import scene_path  # noqa: E402
 
 import raytrace  # noqa: E402
-from raytrace import malloc  # noqa: E402
+from raytrace import integrator, malloc  # noqa: E402
+
+#: The integrator's own least pass size, put back after ``--small``.
+DEFAULT_LEAST = integrator.MIN_PASS_SAMPLES
 
 #: How many passes the image is cut into.
 PASSES = (16, 32, 64, 128)
+#: The least pass sizes ``--small`` compares, the first the baseline.
+SMALL_LEAST = (4096, 8192, 16384, 32768)
+#: ``--small``'s frames: scene, width, height, samples a pixel.
+SMALL_FRAMES = (("whitted", 160, 120, 4), ("mesh_model", 160, 120, 4),
+                ("area_light", 160, 120, 4), ("whitted", 320, 240, 1))
 
 
 def measure(path: Path, size: tuple[int, int], threads: list[int], repeat: int) -> list[dict]:
@@ -55,22 +73,59 @@ def measure(path: Path, size: tuple[int, int], threads: list[int], repeat: int) 
     return rows
 
 
+def small(threads: list[int], repeat: int) -> list[dict]:
+    """Rows of ``--small``: each frame of :data:`SMALL_FRAMES` at each least pass size of
+    :data:`SMALL_LEAST`, interleaved round by round: best and median wall seconds."""
+    rows = []
+    for name, w, h, spp in SMALL_FRAMES:
+        scene = raytrace.load_scene(scene_path(name))
+        for t in threads:
+            raytrace.render(scene, width=w, height=h, spp=spp, threads=t)  # kernels loaded
+            seconds = {least: [] for least in SMALL_LEAST}
+            for _ in range(repeat):
+                for least in SMALL_LEAST:
+                    integrator.MIN_PASS_SAMPLES = least
+                    t0 = time.perf_counter()
+                    raytrace.render(scene, width=w, height=h, spp=spp, threads=t)
+                    seconds[least].append(time.perf_counter() - t0)
+            integrator.MIN_PASS_SAMPLES = DEFAULT_LEAST
+            base = statistics.median(seconds[SMALL_LEAST[0]])
+            for least, secs in seconds.items():
+                median = statistics.median(secs)
+                rows.append({"scene": name, "size": [w, h], "spp": spp, "threads": t,
+                             "least_pass_samples": least, "best": min(secs), "median": median,
+                             "ratio": median / base})
+                print(f"{name:10s} {w}x{h} {spp:2d} spp, threads {t}, least pass {least:5d}: "
+                      f"best {min(secs):.4f} s, median {median:.4f} s, "
+                      f"{median / base:.3f} of {SMALL_LEAST[0]}'s", flush=True)
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--threads", default="1,2", help="comma-separated thread counts")
     p.add_argument("--repeat", type=int, default=4)
     p.add_argument("--json", help="write the rows here")
+    p.add_argument("--small", action="store_true", help="small frames by least pass size")
     a = p.parse_args(argv)
     threads = [int(x) for x in a.threads.split(",")]
     malloc.tune()  # as the command line does
-    with tempfile.TemporaryDirectory(prefix="raytrace-passes-") as tmp:
-        files = bench.scene_files(Path(tmp))
-        rows = [r for name, path in files.items()
-                for r in measure(path, bench.SIZES[name], threads, a.repeat)]
+    if a.small:
+        rows = small(threads, max(a.repeat, 5))
+    else:
+        rows = large(threads, a.repeat)
     if a.json:
         Path(a.json).write_text(json.dumps({"machine": bench.machine(), "cores": os.cpu_count(),
                                             "rows": rows}, indent=2) + "\n")
     return 0
+
+
+def large(threads: list[int], repeat: int) -> list[dict]:
+    """Rows of the benchmark scenes of ``benchmarks/bench.py`` by pass count."""
+    with tempfile.TemporaryDirectory(prefix="raytrace-passes-") as tmp:
+        files = bench.scene_files(Path(tmp))
+        return [r for name, path in files.items()
+                for r in measure(path, bench.SIZES[name], threads, repeat)]
 
 
 if __name__ == "__main__":

@@ -98,8 +98,11 @@ from .tables import scene_arrays
 PASS_SAMPLES = 1 << 16
 #: A smaller image is cut into this many passes, so that every thread gets some…
 MIN_PASSES = 16
-#: …but no pass is smaller than this (per-batch Python work would dominate).
-MIN_PASS_SAMPLES = 4096
+#: …but no pass is smaller than this: the Python loop's work per depth, and the two threads'
+#: turns at the GIL, make smaller passes slow (2 threads, 160×120 at 4 spp: a Whitted frame in
+#: 0.134 s at passes of 4 800 samples, 0.094 at 8 192, 0.077 at 16 384, 0.082 at 32 768;
+#: docs/performance.md, "Threads").
+MIN_PASS_SAMPLES = 16384
 #: Most surfaces a transparent shadow ray passes through before it counts as blocked
 #: (:data:`raytrace.kernels.loop.MAX_SHADOW_CROSSINGS`, one value for both loops).
 MAX_SHADOW_CROSSINGS = loop.MAX_SHADOW_CROSSINGS

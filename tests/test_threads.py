@@ -124,10 +124,10 @@ def test_an_error_in_a_pass_stops_the_render_and_is_raised(monkeypatch):
 PASS_SIZES = [
     (2000, 2000, 1, 65536, 64000, 64000),  # large: the full pass (PASS_SAMPLES); 16 or 8 rows
     (1000, 1000, 1, 62500, 62000, 60000),  # 16 passes of 62 500, just under PASS_SAMPLES
-    (250, 250, 1, 4096, 4000, 4000),       # 62 500 / 16 = 3907 → MIN_PASS_SAMPLES: 16 passes
-    (500, 500, 1, 15625, 15000, 14000),    # 250 000 / 16 = 15 625: exactly 16 passes
+    (250, 250, 1, 16384, 16000, 16000),    # 62 500 / 16 = 3907 → MIN_PASS_SAMPLES: 4 passes
+    (1024, 512, 1, 32768, 32768, 32768),   # 524 288 / 16 = 32 768: exactly 16 passes
     (500, 500, 3, 46875, 46500, 45000),    # 750 000 / 16 = 46 875 = 15 625 pixels of 3 samples
-    (10, 10, 5, 4095, 4050, 4050),         # MIN_PASS_SAMPLES down to whole pixels of 5 samples
+    (10, 10, 5, 16380, 16350, 16350),      # MIN_PASS_SAMPLES down to whole pixels of 5 samples
 ]
 
 
