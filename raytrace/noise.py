@@ -204,10 +204,9 @@ def plan(window: tuple[int, int, int, int], width: int, seed: int, old: np.ndarr
          new: np.ndarray, filter: str = "box") -> Round:
     """The samples ``old[p]`` to ``new[p]`` of each stream of each pixel p (window order) of
     ``window`` = (x0, y0, x1, y1) in a ``width``-wide frame, as a :class:`Round`, the pixels
-    in :func:`spread_order`: each a
-    stream's Owen-scrambled Sobol point (:func:`offsets`), uniform over the pixel for the
-    box ``filter``, else mapped through the filter around the pixel's centre
-    (:func:`raytrace.film.filters.importance`)."""
+    in :func:`spread_order`: each a stream's Owen-scrambled Sobol point (:func:`offsets`),
+    uniform over the pixel for the box ``filter``, else mapped through the filter around the
+    pixel's centre (:func:`raytrace.film.filters.importance`)."""
     order = spread_order(window)
     bounds = np.concatenate([[0], np.cumsum(STREAMS * (new - old)[order])])
     m = int(bounds[-1])

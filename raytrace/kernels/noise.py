@@ -110,10 +110,10 @@ def round_points(window, width, seed, old, new, order, out):
     each pixel p of ``window`` (a :class:`raytrace.kernels.records.Window`: its pixels
     numbered row by row from (x0, y0), in a ``width``-wide frame), pixel after pixel in
     ``order`` (the pixels' numbers, each once), stream after stream, in sample order, into
-    ``out`` (a :class:`raytrace.kernels.records.StreamSamples`): each
-    sample's offset in the pixel (stream ``sid = (row·width + col)·STREAMS + stream``: as
-    :func:`stream_offset_rows`, each stream's two seeds hashed once), its pixel's frame
-    column and row, and its light key ``sid·KEY_STRIDE + k``."""
+    ``out`` (a :class:`raytrace.kernels.records.StreamSamples`): each sample's offset in the
+    pixel (stream ``sid = (row·width + col)·STREAMS + stream``: as :func:`stream_offset_rows`,
+    each stream's two seeds hashed once), its pixel's frame column and row, and its light key
+    ``sid·KEY_STRIDE + k``."""
     x0, y0 = window.x0, window.y0
     cols = window.x1 - x0
     j = 0
@@ -136,8 +136,8 @@ def add_round(values, grow, traced, order, sums, moments, done):
     """Add a round's samples to each pixel's streams. ``values`` (m, 3) are the round's
     samples in :func:`round_points`' order: pixel after pixel in ``order``, ``grow[p]``
     samples of stream A, then as many of stream B; ``traced`` (m,) says which were traced (a
-    deadline leaves out whole pixels). Each stream's block is summed in order into ``sums`` (k,
-    :data:`STREAMS`, 3). With ``moments`` (a :class:`raytrace.kernels.records.Moments`; None
+    deadline leaves out whole pixels). Each stream's block is summed in order into ``sums``
+    (k, :data:`STREAMS`, 3). With ``moments`` (a :class:`raytrace.kernels.records.Moments`; None
     where nothing reads them) each block also updates its pixel's running moments by Chan,
     Golub & LeVeque's pairwise update ("Algorithms for computing the sample variance", The
     American Statistician 37(3), 1983, eq. 2.1): n₀ samples of mean μ and a block of k of
