@@ -14,8 +14,11 @@ uniform 16 spp's summed variance are then ``n ∝ v16^(1/(1+β))`` (Neyman's ``n
 β = 1: J. Neyman 1934, §5), the fewest rays ``n ∝ (v16/c)^(1/(1+β))`` (Cochran, "Sampling
 Techniques", 3rd ed., §5.5). The table gives their mean samples a pixel and the rays they
 cost against uniform's, every pixel taking at least 1 sample, or at least ``--floor`` (the
-first round a render needs to estimate anything: 4 by target or time). It is a bound on
-what knowing each pixel's variance buys, not a forecast.
+first round a render needs to estimate anything: 4 by target or time). The last column is
+the ceiling of the "RMSE at uniform's time" target, time taken as rays: the RMSE of the
+least-variance allocation of uniform 16 spp's rays (``n ∝ (v16/c)^(1/(1+β))`` scaled to
+``Σ c·n = Σ c·16``) over uniform's. It is a bound on what knowing each pixel's variance
+buys, not a forecast.
 """
 
 from __future__ import annotations
@@ -92,6 +95,19 @@ def allocation(v16: np.ndarray, weight: np.ndarray, beta: float, floor: float) -
     return np.maximum(floor, hi * weight)
 
 
+def at_rays(v16: np.ndarray, cost: np.ndarray, beta: float, floor: float) -> float:
+    """The RMSE over uniform 16 spp's of the allocation of least summed variance that traces
+    uniform's rays, ``n = max(floor, k·(v16/c)^(1/(1+β)))`` with k such that ``Σ c·n`` is
+    uniform's ``Σ c·16`` (bisection in log k; Cochran §5.5's cost-optimal allocation)."""
+    weight, budget = (v16 / cost) ** (1 / (1 + beta)), (cost * SPP).sum()
+    lo, hi = 1e-9, 1e9
+    for _ in range(200):
+        k = np.sqrt(lo * hi)
+        lo, hi = (k, hi) if (cost * np.maximum(floor, k * weight)).sum() < budget else (lo, k)
+    n = np.maximum(floor, lo * weight)
+    return float(np.sqrt((v16 * (SPP / n) ** beta).sum() / v16.sum()))
+
+
 def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--scenes", nargs="*", default=["whitted", "mesh_model", "area_light"])
@@ -102,7 +118,7 @@ def main() -> None:
           f"samples and rays of the least-sample allocation against uniform {SPP} spp's "
           "(least rays: of the least-ray one)")
     print(f"{'scene':<12}{'model':<12}{'floor':>6}{'samples/px':>12}{'samples':>9}"
-          f"{'rays':>7}{'least rays':>12}")
+          f"{'rays':>7}{'least rays':>12}{'RMSE at its rays':>18}")
     for name in a.scenes:
         scene = raytrace.load_scene(scene_path(name))
         v16, v4 = variances(scene, SPP, a.seeds), variances(scene, 4, a.seeds)
@@ -114,7 +130,8 @@ def main() -> None:
                 cheap = allocation(v16, (v16 / cost) ** (1 / (1 + beta)), beta, floor)
                 print(f"{name:<12}{label:<12}{floor:>6g}{n.mean():>12.2f}"
                       f"{n.mean() / SPP:>9.3f}{(cost * n).sum() / (cost * SPP).sum():>7.3f}"
-                      f"{(cost * cheap).sum() / (cost * SPP).sum():>12.3f}")
+                      f"{(cost * cheap).sum() / (cost * SPP).sum():>12.3f}"
+                      f"{at_rays(v16, cost, beta, floor):>18.3f}")
 
 
 if __name__ == "__main__":
