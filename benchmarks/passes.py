@@ -14,8 +14,8 @@ every pass size (tests/test_threads.py), so only the time can differ: more passe
 threads more finely, and each pass costs the same Python between its kernel calls, which
 holds the GIL.
 
-``--small``: frames of fewer than 16 full passes, which the integrator cuts into 16 passes of
-at least :data:`raytrace.integrator.MIN_PASS_SAMPLES`: the scenes of ``scenes/`` that
+``--small``: frames of fewer than 16 full passes, which the integrator cuts into 16 passes,
+or into fewer of :data:`raytrace.integrator.MIN_PASS_SAMPLES`: the scenes of ``scenes/`` that
 benchmarks/noise.py renders, at 160×120 and 4 samples a pixel, and the Whitted scene at
 320×240 and 1, rendered with each least pass size of :data:`SMALL_LEAST` in turn (interleaved,
 ``--repeat`` rounds, the API's wall seconds), and the ratio of each to the first.

@@ -99,8 +99,9 @@ class Accelerator:
         float64 refinement of Embree's hits. Embree traces the rays in plain packets,
         answering each ray as its single-ray call would; ``packets``, where not empty: where
         each packet of neighbouring rays starts (camera rays in blocks of the frame,
-        :func:`raytrace.kernels.camera.frame_packets`), traced with the COHERENT flag, the
-        hits that may tie at a shared edge traced again without it
+        :func:`raytrace.kernels.camera.frame_packets`, or a noise-driven round's samples of
+        one pixel, :func:`raytrace.kernels.camera.pixel_packets`), traced with the COHERENT
+        flag, the hits that may tie at a shared edge traced again without it
         (:func:`raytrace.kernels.embree.closest_hits`).
         """
         origin, direction, origin_shape = f64(origin), f64(direction), i64(origin_shape)

@@ -96,13 +96,18 @@ from .tables import scene_arrays
 #: Camera samples per pass (whole pixels): the unit of work of a thread. Memory is bounded by
 #: threads × pass size, independently of the resolution.
 PASS_SAMPLES = 1 << 16
-#: A smaller image is cut into this many passes, so that every thread gets some…
+#: A smaller image is cut into this many passes, so that more threads get some…
 MIN_PASSES = 16
 #: …but no pass is smaller than this: the Python loop's work per depth, and the two threads'
 #: turns at the GIL, make smaller passes slow (2 threads, 160×120 at 4 spp: a Whitted frame in
 #: 0.134 s at passes of 4 800 samples, 0.094 at 8 192, 0.077 at 16 384, 0.082 at 32 768;
-#: docs/performance.md, "Threads").
+#: docs/performance.md, "Threads"). A frame of fewer than 16 such passes gets fewer threads.
 MIN_PASS_SAMPLES = 16384
+#: The least pass of a noise-driven round, cut into two passes a thread: a small round still
+#: goes to every thread of a many-core machine. (On 2 threads 4 096 and 16 384 measured
+#: alike: renders by target or time of the noise benchmark's scenes within 2 %, medians of
+#: 11.)
+MIN_ROUND_PASS_SAMPLES = 4096
 #: Most surfaces a transparent shadow ray passes through before it counts as blocked
 #: (:data:`raytrace.kernels.loop.MAX_SHADOW_CROSSINGS`, one value for both loops).
 MAX_SHADOW_CROSSINGS = loop.MAX_SHADOW_CROSSINGS
@@ -118,7 +123,9 @@ DEBUG = os.environ.get("RAYTRACE_DEBUG", "") not in ("", "0")
 #: "The compiled loop").
 COMPILED_LOOP = os.environ.get("RAYTRACE_LOOP", "") == "compiled"
 #: Trace camera rays through meshes in Embree's COHERENT packets, each packet a block of the
-#: frame's pixels that fills it (:func:`raytrace.kernels.camera.frame_packets`): the warm mesh
+#: frame's pixels that fills it (:func:`raytrace.kernels.camera.frame_packets`), or a
+#: noise-driven round's samples of one pixel (:func:`raytrace.kernels.camera.pixel_packets`):
+#: the warm mesh
 #: frame takes 0.81–0.83 of its one-thread time (docs/decisions.md). A tie on a shared edge
 #: is traced again in a plain packet (:func:`raytrace.kernels.embree.closest_hits`), and a
 #: packet is the same rays in any crop, pass or tile, so those stay bit-identical even where
@@ -431,7 +438,8 @@ class WhittedIntegrator:
     def pass_size(self) -> int:
         """Camera samples per pass, in whole pixels: at most ``pass_samples``, and for images
         of fewer than :data:`MIN_PASSES` full passes, a :data:`MIN_PASSES`-th of the image
-        (not below :data:`MIN_PASS_SAMPLES`), so small images still use every thread; where
+        but not below :data:`MIN_PASS_SAMPLES` (a small image goes in fewer, larger passes,
+        which the Python loop runs faster than many small ones); where
         camera rays go in packets of blocks h pixels high (:attr:`lanes`), rounded down to
         whole bands of h rows where it holds one, so that no pass cuts a block of a frame and
         traces samples not its own (:func:`raytrace.kernels.camera.frame_packets`). It
@@ -524,7 +532,7 @@ class WhittedIntegrator:
             values = np.zeros((len(r.x), 3))
             # two passes a thread: a round is small, and each pass costs Python per depth
             size = min(opt.pass_samples,
-                       max(MIN_PASS_SAMPLES, -(-len(r.x) // (2 * opt.threads))))
+                       max(MIN_ROUND_PASS_SAMPLES, -(-len(r.x) // (2 * opt.threads))))
             self._round = r
             done = self._run(noise.passes(r.bounds, size), values, progress, len(r.x), stop,
                              None if first else deadline)
@@ -697,6 +705,8 @@ class WhittedIntegrator:
         direction = directions_at(self.view, self.opt.width, self.opt.height, x, y)
         found = None
         if self.lanes and pixels is not None:
+            if not (len(pixels) and pixels[0] == 0 and pixels[-1] == n):  # kernels read them
+                raise ValueError(f"pixel bounds must run from 0 to {n}")
             bounds = np.empty(len(pixels) + n // self.lanes + 1, np.int64)
             k = pixel_packets(np.ascontiguousarray(pixels, np.int64), self.lanes, bounds)
             found = CameraPackets(direction, columns.sample, bounds[:k + 1])

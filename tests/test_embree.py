@@ -302,6 +302,20 @@ def test_noise_driven_rounds_keep_passes_and_crops_bit_identical(monkeypatch, co
     assert np.array_equal(part, full[y0:y1, x0:x1])
 
 
+def test_points_in_pixel_packets_must_run_from_the_first_to_the_last():
+    """``trace_points``' pixel bounds are read by kernels that check no index: bounds that do
+    not run from 0 to the points' count are refused before any is traced."""
+    from raytrace.integrator import RenderOptions
+
+    integ = WhittedIntegrator(overlapping_grids(), RenderOptions(width=8, height=6))
+    assert integ.lanes  # a scene with meshes: its camera rays go in packets
+    x, y, ids = np.full(4, 4.0), np.full(4, 3.0), np.arange(4)
+    for bounds in ([0, 5], [1, 4], [0, 2, 3]):
+        with pytest.raises(ValueError, match="from 0 to 4"):
+            integ.trace_points(x, y, ids, np.array(bounds))
+    assert np.isfinite(integ.trace_points(x, y, ids, np.array([0, 2, 4]))).all()
+
+
 def test_a_frame_s_passes_trace_each_camera_ray_once(monkeypatch):
     """A pass is rounded down to whole bands of the blocks camera rays go in
     (``WhittedIntegrator.pass_size``), so no pass cuts a block and the camera rays Embree

@@ -88,6 +88,9 @@ def test_a_round_traces_its_rows_in_bit_reversed_order():
     assert rows.tolist() == [r for r in (0, 4, 2, 6, 1, 5, 3, 7) for _ in range(3)]
     order = noise.spread_order((0, 0, 2, 5))
     assert order.tolist() == [0, 1, 8, 9, 4, 5, 2, 3, 6, 7]
+    r = noise.plan((0, 0, 2, 5), 2, 3, np.zeros(10, np.int64), np.ones(10, np.int64))
+    assert r.order.tolist() == order.tolist()  # a round is planned in that order
+    assert (r.y[::noise.STREAMS] // 1).tolist() == [0, 0, 4, 4, 2, 2, 1, 1, 3, 3]
 
 
 def test_a_round_s_passes_hold_like_shares_of_the_scene():
@@ -372,6 +375,21 @@ def test_pooled_moments_are_those_of_all_the_samples():
         for s in (0, 1):
             np.testing.assert_allclose(sums[p, s], np.concatenate(streams[p, s]).sum(0),
                                        rtol=1e-15)
+
+
+def test_a_round_in_any_order_adds_each_pixel_s_own_samples():
+    """``add_round`` walks the round's pixels in its ``order``: pixels 2, 0, 1 with 1, 2 and
+    0 samples a stream, the pixel 0's block not traced (a deadline): pixel 2's streams get
+    its first and second values, pixel 0 nothing and is not done, pixel 1 (no samples) is
+    done."""
+    values = np.array([[1.0, 1, 1], [2, 2, 2], [10, 10, 10], [20, 20, 20], [30, 30, 30],
+                       [40, 40, 40]])
+    traced = np.array([True, True, False, False, False, False])
+    sums, done = np.zeros((3, 2, 3)), np.empty(3, bool)
+    add_round(values, np.array([2, 0, 1]), traced, np.array([2, 0, 1]), sums, None, done)
+    assert done.tolist() == [False, True, True]
+    assert sums[2, 0].tolist() == [1, 1, 1] and sums[2, 1].tolist() == [2, 2, 2]
+    assert not sums[0].any() and not sums[1].any()
 
 
 def test_a_round_without_moments_adds_its_sums_alone():

@@ -595,8 +595,9 @@ def trace_paths(tracer, lights, settings, camera, pass_io, tally):
     ``settings.per_pass`` rays (not the camera rays where they go in packets, which are
     traced whole) is cut into chunks that keep each sample's rays together
     (``rays.sample_chunks``), finished one after another, so memory stays bounded by the
-    pass size × max depth and each sample's sum is added up in the same order whatever the
-    pass size, the crop or the threads. ``pass_io``: the pass's sums, jitter keys, AOV
+    pass size × max depth (a noise-driven round's camera rays may pass the pass size by one
+    pixel's samples) and each sample's sum is added up in the same order whatever the pass
+    size, the crop or the threads. ``pass_io``: the pass's sums, jitter keys, AOV
     table and camera packets (a :class:`raytrace.kernels.records.PassIO`); ``tally``: its
     counters (a :class:`raytrace.kernels.records.Tally`). The pass ends early, its sums
     incomplete, once ``pass_io.stop[0]`` is not 0 (read before each batch and each light's
