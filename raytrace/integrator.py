@@ -125,11 +125,10 @@ COMPILED_LOOP = os.environ.get("RAYTRACE_LOOP", "") == "compiled"
 #: Trace camera rays through meshes in Embree's COHERENT packets, each packet a block of the
 #: frame's pixels that fills it (:func:`raytrace.kernels.camera.frame_packets`), or a
 #: noise-driven round's samples of one pixel (:func:`raytrace.kernels.camera.pixel_packets`):
-#: the warm mesh
-#: frame takes 0.81–0.83 of its one-thread time (docs/decisions.md). A tie on a shared edge
-#: is traced again in a plain packet (:func:`raytrace.kernels.embree.closest_hits`), and a
-#: packet is the same rays in any crop, pass or tile, so those stay bit-identical even where
-#: triangles overlap in one plane. ``RAYTRACE_COHERENT_CAMERA=0`` (or false, off, no) turns it
+#: the warm mesh frame takes 0.81–0.83 of its one-thread time (docs/decisions.md). A tie on a
+#: shared edge is traced again in a plain packet (:func:`raytrace.kernels.embree.closest_hits`),
+#: and a packet is the same rays in any crop, pass or tile, so those stay bit-identical even
+#: where triangles overlap in one plane. ``RAYTRACE_COHERENT_CAMERA=0`` (or false, off, no) turns it
 #: off (plain packets, each ray answered as its single-ray call would).
 COHERENT_CAMERA = os.environ.get("RAYTRACE_COHERENT_CAMERA", "").lower() not in (
     "0", "false", "off", "no")
@@ -439,12 +438,11 @@ class WhittedIntegrator:
         """Camera samples per pass, in whole pixels: at most ``pass_samples``, and for images
         of fewer than :data:`MIN_PASSES` full passes, a :data:`MIN_PASSES`-th of the image
         but not below :data:`MIN_PASS_SAMPLES` (a small image goes in fewer, larger passes,
-        which the Python loop runs faster than many small ones); where
-        camera rays go in packets of blocks h pixels high (:attr:`lanes`), rounded down to
-        whole bands of h rows where it holds one, so that no pass cuts a block of a frame and
-        traces samples not its own (:func:`raytrace.kernels.camera.frame_packets`). It
-        depends on the image, the options and the CPU's packet width, never on the number of
-        threads."""
+        which the Python loop runs faster than many small ones); where camera rays go in
+        packets of blocks h pixels high (:attr:`lanes`), rounded down to whole bands of h rows
+        where it holds one, so that no pass cuts a block of a frame and traces samples not its
+        own (:func:`raytrace.kernels.camera.frame_packets`). It depends on the image, the
+        options and the CPU's packet width, never on the number of threads."""
         opt = self.opt
         total = self.size[0] * self.size[1] * opt.spp
         size = min(opt.pass_samples, max(MIN_PASS_SAMPLES, -(-total // MIN_PASSES)))

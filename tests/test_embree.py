@@ -14,7 +14,7 @@ import trimesh
 import raytrace
 from raytrace import accel, cli, embree
 from raytrace.errors import EngineError
-from raytrace.integrator import WhittedIntegrator
+from raytrace.integrator import RenderOptions, WhittedIntegrator
 from raytrace.kernels import embree as ek
 from raytrace.kernels.records import EmbreeHits, EmbreeRays
 from raytrace.tables import scene_arrays
@@ -305,8 +305,6 @@ def test_noise_driven_rounds_keep_passes_and_crops_bit_identical(monkeypatch, co
 def test_points_in_pixel_packets_must_run_from_the_first_to_the_last():
     """``trace_points``' pixel bounds are read by kernels that check no index: bounds that do
     not run from 0 to the points' count are refused before any is traced."""
-    from raytrace.integrator import RenderOptions
-
     integ = WhittedIntegrator(overlapping_grids(), RenderOptions(width=8, height=6))
     assert integ.lanes  # a scene with meshes: its camera rays go in packets
     x, y, ids = np.full(4, 4.0), np.full(4, 3.0), np.arange(4)

@@ -13,6 +13,9 @@ import pytest
 import trimesh
 
 import raytrace
+from raytrace import integrator
+from raytrace.integrator import RenderOptions, WhittedIntegrator
+from raytrace.rays import CAMERA, NO_SHAPE
 
 W, H = 48, 36
 #: 1728 pixels → 18 passes.
@@ -101,8 +104,6 @@ def test_phase_seconds_fit_in_the_total(renders):
 def test_an_error_in_a_pass_stops_the_render_and_is_raised(monkeypatch):
     # A failure in any thread's pass reaches the caller (not swallowed by the pool), and the
     # other threads take no further passes.
-    from raytrace import integrator
-
     calls = []
     real = integrator.WhittedIntegrator.trace_samples
 
@@ -140,8 +141,6 @@ def test_pass_size_depends_on_the_image_never_on_the_threads(monkeypatch, width,
     """A pass is at most ``pass_samples``, a sixteenth of a small image, whole pixels; with
     camera rays in packets of pixel blocks (a scene with meshes), whole bands of blocks, so
     that no pass cuts one (``WhittedIntegrator.pass_size``)."""
-    from raytrace.integrator import RenderOptions, WhittedIntegrator
-
     monkeypatch.setattr(WhittedIntegrator, "coherent_camera", packets)
     made = [WhittedIntegrator(scene(), RenderOptions(width=width, height=height, spp=spp,
                                                      max_depth=2, threads=t))
@@ -169,8 +168,6 @@ def test_progress_reports_every_pass_once_in_increasing_order(threads):
     # 48×36 = 1728 samples in passes of 97 (the last one 79), or of 96 where camera rays go
     # in blocks of 2 rows: the callback sees the running total after each pass, one call at
     # a time, ending exactly at the total.
-    from raytrace.integrator import RenderOptions, WhittedIntegrator
-
     size = WhittedIntegrator(scene(), RenderOptions(width=W, height=H, threads=threads,
                                                     pass_samples=SMALL_PASS)).pass_size
     assert size in (SMALL_PASS, 2 * W)  # 97, or whole bands of 2-row camera-ray blocks
@@ -192,10 +189,6 @@ def test_kept_camera_columns_are_never_written_to(monkeypatch):
     # was handed. After renders with every kind of ray (and a background for the misses) the
     # kept columns must still hold their constants, and a second render must give the same
     # image. (The passes run on worker threads, so the columns are caught as they are made.)
-    from raytrace import integrator
-    from raytrace.integrator import RenderOptions, WhittedIntegrator
-    from raytrace.rays import CAMERA, NO_SHAPE
-
     made = []
 
     def kept(n: int):
@@ -228,8 +221,6 @@ def test_kept_camera_columns_are_never_written_to(monkeypatch):
 def test_a_second_render_of_one_integrator_counts_from_zero(threads):
     # The counters live per thread; the calling thread's outlive a render. Each render must
     # still report its own rays only: W·H camera rays, not the sum over renders.
-    from raytrace.integrator import RenderOptions, WhittedIntegrator
-
     integ = WhittedIntegrator(scene(), RenderOptions(width=W, height=H, max_depth=3,
                                                      threads=threads))
     first, second = integ.render().stats, integ.render().stats

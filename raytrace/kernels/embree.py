@@ -15,11 +15,11 @@ width (16 with AVX-512, 8 with AVX2); a last, partial packet masks its empty lan
 caller says whether the batch is coherent: the raytracer says so for the shadow rays of
 camera-ray hits to one point, and gives camera rays in packets of its own, each a block of
 the frame's pixels (``raytrace.kernels.camera.frame_packets``) or a noise-driven round's
-samples of one pixel (``pixel_packets``; ``RAYTRACE_COHERENT_CAMERA=0``
-turns them off). Embree's COHERENT flag then lets it traverse the packet as a frustum
-(camera rays in blocks of 4 × 2 pixels 1.8–2.3× as fast as embreex's single rays here,
-shadow rays 1.8–2.2×: docs/decisions.md), which EMBREEX_NOTES.md measured 2× slower than the
-default on unrelated rays.
+samples of one pixel (``pixel_packets``); ``RAYTRACE_COHERENT_CAMERA=0`` turns them off.
+Embree's COHERENT flag then lets it traverse the packet as a frustum (camera rays in blocks
+of 4 × 2 pixels 1.8–2.3× as fast as embreex's single rays here, shadow rays 1.8–2.2×:
+docs/decisions.md), which EMBREEX_NOTES.md measured 2× slower than the default on unrelated
+rays.
 
 **Ties.** An occlusion answer does not depend on the order Embree meets the triangles in; a
 closest hit does where two triangles give the same ``t``, as both do for a ray through the
@@ -150,7 +150,8 @@ def closest_hits(embree, rays, packets, out):
     primID and the barycentrics u, v into ``out`` (a
     :class:`raytrace.kernels.records.EmbreeHits`), as embreex's ``run(..., output=1)``.
     ``packets`` (int64): empty, plain packets of consecutive rays; else where each COHERENT
-    packet starts (and the rays' count last: camera rays, ``kernels.camera.frame_packets``),
+    packet starts (and the rays' count last: camera rays, ``kernels.camera.frame_packets`` or
+    ``pixel_packets``),
     the hits near an edge traced again without the flag (the module's docstring, "Ties"), so
     that a tie on a shared edge answers as its single ray does."""
     coherent = packets.shape[0] > 0
