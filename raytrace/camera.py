@@ -84,8 +84,11 @@ def camera_rays(camera: Camera | Pinhole, frame, start: int, stop: int, *,
     sample, found = columns.sample[:n], None
     if lanes and n:
         found = packets(camera, frame, start, stop, window, lanes)
-        sample = np.empty(n, np.int64)
-        own_rays(found, sample, direction)
+        if len(found.sample) == n:  # (whole blocks, as a pass of whole bands holds) all ours
+            sample, direction = found.sample, found.direction
+        else:
+            sample = np.empty(n, np.int64)
+            own_rays(found, sample, direction)
     else:
         camera_directions(camera, frame.width, frame.height, frame.spp, frame.seed, start,
                           direction, window)

@@ -100,6 +100,21 @@ def test_packets_hold_the_pass_s_own_rays(spp, lanes, start, stop, window):
     np.testing.assert_array_equal(packed.packets.direction[own], packed.direction)
 
 
+def test_a_pass_of_whole_blocks_traces_its_packets_as_they_are():
+    """Where every slot of a pass's packets is its own (a pass of whole bands of blocks, as
+    the integrator cuts them), the batch is the packets' rays themselves, not a copy; a pass
+    that cuts a block holds other passes' samples in its packets and keeps its own apart."""
+    cam = raytrace.Camera(position=[0, 1, 5], look_at=[0, 0, 0])
+    frame = RenderSettings(width=10, height=8, spp=1, seed=3)
+    whole = camera_rays(cam, frame, 0, 60, lanes=8)  # rows 0–5: three bands of 2×4 blocks
+    assert len(whole.packets.sample) == 60
+    assert np.shares_memory(whole.direction, whole.packets.direction)
+    assert np.shares_memory(whole.sample, whole.packets.sample)
+    cut = camera_rays(cam, frame, 7, 53, lanes=8)
+    assert len(cut.packets.sample) > 46 and not np.shares_memory(cut.direction,
+                                                                 cut.packets.direction)
+
+
 def _packets(p):
     """Each packet of ``p`` (a CameraPackets) as the bytes of its directions."""
     return [p.direction[a:b].tobytes() for a, b in zip(p.bounds[:-1], p.bounds[1:], strict=True)]

@@ -218,6 +218,8 @@ def _packet_hits(tracer, rays, depth, packets):
     shape[:] = NO_SHAPE
     every = intersect(tracer, np.zeros((m, 3)), packets.direction, shape, NO_TMAX,
                       packets.bounds)
+    if m == n:  # every slot the batch's own, in its order
+        return every
     hits = Hits(np.empty(n), np.empty(n, np.int64), np.empty(n, np.int64), np.empty((n, 2)))
     ck.own_hits(packets, every, hits)
     return hits
