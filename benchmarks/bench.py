@@ -54,7 +54,7 @@ Parts (``--parts``, comma-separated; default all):
     Large meshes (``benchmarks/meshes.py``): the mesh scene with icospheres of 82 k to 5.2 M
     triangles as binary PLY and OBJ, each rendered by a fresh ``raytrace render``: wall time,
     peak memory, load, build and render seconds; reading with raytrace.readers.meshio against
-    trimesh, Embree's copy-in against its BVH build.
+    trimesh, making the mesh, and the build's steps (fingerprint, triangle tables, BVH).
 ``mitsuba``
     Mitsuba 3 (``llvm_ad_rgb``, ``direct`` integrator) as a second peer
     (``benchmarks/mitsuba_peer.py``): the mesh scene's warm frame against raytrace's, in this

@@ -2,7 +2,6 @@
 
     python3 benchmarks/meshes.py                 # 82k, 328k, 1.3M, 5.2M triangles (~2 min)
     python3 benchmarks/meshes.py --quick         # 1.3k and 5k triangles: checks the harness
-    python3 benchmarks/meshes.py --layouts       # embreex's copy-in per array layout, 1.3 M
     python3 benchmarks/bench.py --parts meshes   # the same, inside the benchmark's JSON
 
 Each size is the benchmark's mesh scene (:data:`bench.MESH_SCENE`: a smooth brass sphere on a
@@ -12,11 +11,13 @@ binary PLY and, up to 1.3 M triangles, as OBJ. For each file:
 
 * a fresh ``raytrace render --stats`` process (``--threads``): its wall time, peak resident
   memory and the ``--stats`` seconds (load, build, trace, shade, write);
-* in this process, on one thread, the parts of load and build: reading the file with
-  :func:`raytrace.readers.meshio.read_mesh` against trimesh's ``load`` + ``merge_vertices`` (what
-  raytrace did before; process CPU seconds), and Embree's copy-in
-  (``embreex.mesh_construction.TriangleMesh``, this thread's CPU seconds: it holds the GIL)
-  against the BVH build (the first ``run``, wall seconds; Embree's own threads).
+* in this process, the parts of load and build: reading the file with
+  :func:`raytrace.readers.meshio.read_mesh` against trimesh's ``load`` + ``merge_vertices``
+  (process CPU seconds), making the ``raytrace.Mesh`` (transform, zero-area faces dropped,
+  checks; CPU seconds), and the three steps of the accelerator: the fingerprint it is kept
+  by (:func:`raytrace.accel_cache.fingerprint`, CPU seconds), the float64 triangle tables
+  (``SceneArrays.triangles``, CPU seconds) and Embree's BVH over the float32 vertices it
+  shares (:class:`raytrace.embree.Meshes`, wall seconds on ``--threads`` threads).
 """
 
 from __future__ import annotations
@@ -71,58 +72,30 @@ def load_parts(mesh: Path) -> dict:
     return {"meshio_cpu": t1 - t0, "trimesh_cpu": t2 - t1, "same_as_trimesh": bool(same)}
 
 
-def build_parts(scene_path: Path) -> dict:
-    """Embree's copy-in (this thread's CPU seconds) and BVH build (the first ``run``, wall
-    seconds) of the scene's sphere, as raytrace.accel hands it over."""
-    from embreex import rtcore_scene
-    from embreex.mesh_construction import TriangleMesh
-
+def build_parts(scene_path: Path, threads: int) -> dict:
+    """The seconds of each step raytrace takes from the file to the BVH, in this process:
+    making the mesh (``raytrace.load_scene``, CPU), the accelerator's fingerprint and the
+    float64 triangle tables (CPU), and Embree's BVH (wall, ``threads`` threads; the second
+    of two builds, Embree's library and device loaded by the first)."""
     import raytrace
+    from raytrace.accel_cache import fingerprint
+    from raytrace.embree import Meshes
+    from raytrace.tables import scene_arrays
 
+    t0 = time.process_time()
     scene = raytrace.load_scene(scene_path)
-    mesh = next(o for o in scene.objects if isinstance(o, raytrace.Mesh) and len(o.faces) > 2)
-    v = np.ascontiguousarray(mesh.vertices - np.asarray(scene.camera.position))
-    es = rtcore_scene.EmbreeScene()
-    t0 = time.thread_time()
-    TriangleMesh(es, v, mesh.faces)
-    copy = time.thread_time() - t0
-    t0 = time.perf_counter()
-    es.run(np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32), output=0)
-    bvh = time.perf_counter() - t0
-    return {"copy_in_thread_cpu": copy, "bvh_wall": bvh,
-            "copy_in_us_per_triangle": 1e6 * copy / len(mesh.faces)}
-
-
-def copy_in_layouts(scene_path: Path, runs: int = 5) -> dict:
-    """Thread CPU seconds of embreex's copy-in of the scene's sphere for each array layout
-    it accepts, alternating, ``runs`` times: float32/int32, float64/int64 (what raytrace
-    passes), float64/int32, and indices as a 1-D object array of row lists (with the
-    seconds of making those lists apart)."""
-    from embreex import rtcore_scene
-    from embreex.mesh_construction import TriangleMesh
-
-    import raytrace
-
-    scene = raytrace.load_scene(scene_path)
-    mesh = next(o for o in scene.objects if isinstance(o, raytrace.Mesh) and len(o.faces) > 2)
-    v = np.ascontiguousarray(mesh.vertices - np.asarray(scene.camera.position))
-    f = mesh.faces
-    t0 = time.thread_time()
-    rows = np.empty(len(f), object)
-    rows[:] = f.tolist()
-    making_rows = time.thread_time() - t0
-    layouts = {"float32/int32": (v.astype(np.float32), f.astype(np.int32)),
-               "float64/int64": (v, f), "float64/int32": (v, f.astype(np.int32)),
-               "float64/object rows": (v, rows)}
-    out: dict = {k: [] for k in layouts}
-    for _ in range(runs):
-        for name, (vv, ff) in layouts.items():
-            es = rtcore_scene.EmbreeScene()
-            t0 = time.thread_time()
-            TriangleMesh(es, vv, ff)
-            out[name].append(time.thread_time() - t0)
-    return {"triangles": len(f), "copy_in_thread_cpu": out,
-            "making_object_rows_thread_cpu": making_rows}
+    made = time.process_time() - t0
+    arrays = scene_arrays(scene)
+    t0 = time.process_time()
+    fingerprint(scene, arrays.materials)
+    t1 = time.process_time()
+    arrays.triangles  # noqa: B018 (a cached property: the tables)
+    t2 = time.process_time()
+    Meshes(arrays.meshes, threads).close()
+    t3 = time.perf_counter()
+    Meshes(arrays.meshes, threads).close()
+    return {"mesh_cpu": made, "fingerprint_cpu": t1 - t0, "tables_cpu": t2 - t1,
+            "bvh_wall": time.perf_counter() - t3}
 
 
 def run(workdir: Path, threads: int, quick: bool = False) -> list[dict]:
@@ -130,7 +103,10 @@ def run(workdir: Path, threads: int, quick: bool = False) -> list[dict]:
     from bench import render_cli
 
     rows = []
-    for s in QUICK_SUBDIVISIONS if quick else SUBDIVISIONS:
+    sizes = QUICK_SUBDIVISIONS if quick else SUBDIVISIONS
+    build_parts(write_sphere(workdir / f"ico{sizes[0]}", sizes[0], ".ply"), threads)  # (the
+    # kernels the tables take loaded, Embree's library too: the rows time the work alone)
+    for s in sizes:
         for suffix in (".ply", ".obj"):
             if suffix == ".obj" and s > MAX_OBJ_SUBDIVISION:
                 continue
@@ -143,7 +119,7 @@ def run(workdir: Path, threads: int, quick: bool = False) -> list[dict]:
                    "peak_rss_mib": cli["peak_rss_mib"], "command": cli["command"],
                    "file_mib": (folder / f"sphere{suffix}").stat().st_size / 2**20}
             row.update(load_parts(folder / f"sphere{suffix}"))
-            row.update(build_parts(scene))
+            row.update(build_parts(scene, threads))
             rows.append(row)
             (folder / "out.exr").unlink(missing_ok=True)
     return rows
@@ -156,14 +132,15 @@ def report(rows: list[dict]) -> str:
              _f(r["seconds"]["process_wall"]), _f(r["seconds"]["load"]),
              _f(r["seconds"]["build"]), _f(r["seconds"]["trace"] + r["seconds"]["shade"]),
              _f(r["seconds"]["write"]), _f(r["peak_rss_mib"], "{:.0f}"),
-             _f(r["meshio_cpu"]), _f(r["trimesh_cpu"]), _f(r["copy_in_thread_cpu"]),
-             _f(r["bvh_wall"])] for r in rows]
+             _f(r["meshio_cpu"]), _f(r["trimesh_cpu"]), _f(r["mesh_cpu"]),
+             _f(r["fingerprint_cpu"]), _f(r["tables_cpu"]), _f(r["bvh_wall"])] for r in rows]
     size = f"{rows[0]['width']}x{rows[0]['height']}" if rows else ""
     return (f"large meshes (a fresh `raytrace render` at {size}: wall and --stats seconds; "
-            "in-process: reading with meshio / trimesh (CPU s), Embree copy-in (CPU s, holds "
-            "the GIL) and BVH build (wall s))\n" + table(
+            "in-process: reading with meshio / trimesh, making the mesh, the accelerator's "
+            "fingerprint and triangle tables (CPU s), and the BVH (wall s))\n" + table(
                 ["triangles", "file", "MiB", "wall", "load", "build", "trace+shade", "write",
-                 "peak MiB", "meshio", "trimesh", "copy-in", "BVH"], body))
+                 "peak MiB", "meshio", "trimesh", "mesh", "fingerprint", "tables", "BVH"],
+                body))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -173,18 +150,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--quick", action="store_true", help="1.3k and 5k triangles at 160x160")
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--json", help="also write the rows to this JSON file")
-    p.add_argument("--layouts", type=int, nargs="?", const=8, metavar="SUBDIVISIONS",
-                   help="only time embreex's copy-in per array layout (icosphere 8: 1.3 M "
-                        "triangles)")
     a = p.parse_args(argv)
-    if a.layouts is not None:
-        with tempfile.TemporaryDirectory(prefix="raytrace-meshes-") as tmp:
-            r = copy_in_layouts(write_sphere(Path(tmp), a.layouts, ".ply"))
-        for name, secs in r["copy_in_thread_cpu"].items():
-            print(f"{name:20s} {', '.join(f'{x:.3f}' for x in secs)} s")
-        print(f"making the object rows (tolist): {r['making_object_rows_thread_cpu']:.3f} s; "
-              f"{r['triangles']} triangles, thread CPU seconds")
-        return 0
     with tempfile.TemporaryDirectory(prefix="raytrace-meshes-") as tmp:
         rows = run(Path(tmp), a.threads, a.quick)
     print(report(rows))
