@@ -72,8 +72,10 @@ def camera_rays(camera: Camera | Pinhole, frame, start: int, stop: int, *,
 
     ``lanes``: the rays go in packets of that many, blocks of the frame's pixels
     (:func:`packets`), in the order of their packets, each ray's ``sample`` its sample's
-    index (every sum is kept by sample, so the order changes no pixel); 0: in sample order,
-    in plain packets.
+    index (every sum is kept by sample, so the order changes no pixel); where every slot
+    of the packets is the range's own (whole blocks), the batch takes the packets'
+    directions and samples themselves and ``direction`` is left unwritten; 0: in sample
+    order, in plain packets.
     """
     n = stop - start
     if direction is None:
