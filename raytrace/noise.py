@@ -1,26 +1,34 @@
 """Adaptive sampling to a noise threshold (``aa = "noise"``): samples go where the error is.
 
-Each pixel is sampled by two independent streams of samples (A and B, the "two half
-buffers" of Cycles' adaptive sampling), each the first ``n`` points of an Owen-scrambled
+Each pixel is sampled by its own sequence: the first N points of an Owen-scrambled
 (0, 2)-sequence (Sobol's first two dimensions with Burley's hash-based nested uniform
 scrambling: B. Burley, "Practical Hash-based Owen Scrambling", JCGT 9(4), 2020,
-:func:`raytrace.kernels.noise.owen1`), scrambled by its own seed, hashed from the render's
-seed, the pixel and the stream. So:
+:func:`raytrace.kernels.noise.owen1`), scrambled by a seed hashed from the render's seed and
+the pixel. So:
 
 * every sample is a true sample of the pixel filter: uniform over the pixel for the box, and
   for the others drawn from the filter around the pixel's centre with its weight ``f/p``
   (1 for a positive filter; filter importance sampling,
-  :func:`raytrace.film.filters.importance`), so the pixel's value, the mean of its ``2n``
-  weighted samples, is an unbiased estimate of the filtered image for any ``n`` fixed in
+  :func:`raytrace.film.filters.importance`), so the pixel's value, the mean of its N
+  weighted samples, is an unbiased estimate of the filtered image for any N fixed in
   advance (counts chosen from the samples add a selection bias, which vanishes as
   ``min_spp`` grows; tests/test_noise.py bounds it over 64 seeds), and depends on the
   pixel's own samples alone;
-* the first ``2^m`` points of a stream are a (0, m, 2)-net: stratified at every power of two,
-  as a uniform render's jittered grid is at its one ``spp``;
-* the two streams are independent estimates with one distribution, so ``I = (A + B)/2`` has
-  ``Var(I) = Var(A)/2`` and ``E[(A − B)²] = 2·Var(A)``: :func:`pixel_variance`
-  ``v = (A − B)²/4`` is an unbiased estimate of the variance of the pixel's value, for any
-  sampling pattern inside a stream (stratified points have no simple per-sample variance).
+* the first ``2^m`` points of the sequence are a (0, m, 2)-net, and so is each later block of
+  ``2^m``: a pixel's samples are stratified as a whole at every power of two, and so are
+  their halves and quarters. The mean of a scrambled net's N points varies as ``N^−β``, β
+  above 1 (Owen 1997: up to N^−3 within a logarithm for a smooth integrand, N^−1.5 across an
+  edge), so one sequence of N points varies less than two independent ones of N/2: 0.62–0.73×
+  the MSE on the benchmark's scenes at 4 and 16 samples a pixel (docs/sampling.md);
+* the noise is read from the pixel's halves, A (samples 0 … N/2 − 1) and B (N/2 … N − 1). With
+  ``V_k`` the variance of the mean of k points, A and B each vary by ``V_{N/2}`` and their
+  mean by ``V_N``, so ``E[(A − B)²/4] = V_{N/2} − V_N`` (:func:`half_difference`), which is
+  ``(2^β − 1)·V_N`` where V falls as ``k^−β``: the halves' difference overstates the pixel's
+  variance by ``2^β − 1`` (1 for independent samples, 1.7 at β = 1.45). The quarters'
+  differences give ``V_{N/4} − V_{N/2}`` the same way, so the ratio of the image's two sums
+  is ``2^−β``: β is read from the image each round (:func:`convergence_rate`; Richardson's
+  extrapolation of the error's fall, L. F. Richardson 1911), and the image's variance is
+  ``Σ(A − B)²/4 / (2^β − 1)`` (:func:`relative_rmse`).
 
 **By threshold** (:func:`pixel_error`, :func:`next_counts`): a pixel starts with ``min_spp``
 samples; after each round, a pixel whose error, or a neighbour's (3×3), is above the noise
@@ -29,23 +37,27 @@ threshold doubles its samples, up to ``max_spp``; the error is
     e = Σ_c |A_c − B_c|/2 / (10⁻⁴ + √(Σ_c I_c))
 
 (Dammertz et al. 2010, "A hierarchical automatic stopping condition for Monte Carlo global
-illumination", §2.1, as Cycles' ``film_adaptive_sampling_convergence_check`` computes it, with
-``|I − A| = |A − B|/2``). A pixel that stops stays stopped, so a pixel depends on pixels at
-most :func:`margin` away: a crop that traces that margin has the full frame's pixels.
+illumination", §2.1, as Cycles computes it in ``film_adaptive_sampling_convergence_check``
+from its half buffer of every other sample, with ``|I − A| = |A − B|/2``). A pixel that stops
+stays stopped, so a pixel depends on pixels at most :func:`margin` away: a crop that traces
+that margin has the full frame's pixels.
 
 **By target error or time** (:func:`relative_rmse`, :func:`neyman_counts`): the image's
-relative RMSE is estimated as ``√(mean over pixels and channels of v) / mean over pixels and
-channels of I``. Between rounds the pixels double their samples, up to :data:`MAX_DOUBLINGS`
+relative RMSE is estimated as the root of its estimated variance over the mean of its pixels
+and channels. Between rounds the pixels double their samples, up to :data:`MAX_DOUBLINGS`
 times a round, in order of what each doubling takes off the summed variance per sample
-(:func:`neyman_counts`), judged by each pixel's sample variance (its samples of both streams
-pooled round by round, :func:`raytrace.kernels.noise.add_round`: ``2n − 1`` degrees of
-freedom where ``v`` has one, so the first round can be small: 4 samples a pixel by default,
-:data:`raytrace.sampling.MIN_SPP_GOAL`) and the rate at which the image's pixels converge
-(:func:`convergence_rate`). A round adds as many samples as were spent, or near a target
-what the target needs (:func:`variance_shrink`). The render stops after the first round whose
-estimate is at most the target, once the deadline has passed (no pass starts after it, so
-each pixel keeps whole rounds; the round before it is sized to the time left,
-:func:`time_share`), or when every noisy pixel has ``max_spp``.
+(:func:`neyman_counts`), judged by each pixel's sample variance (all its samples pooled round
+by round, :func:`raytrace.kernels.noise.add_round`: ``N − 1`` degrees of freedom where the
+halves' difference has one, so the first round can be small: 4 samples a pixel by default,
+:data:`raytrace.sampling.MIN_SPP_GOAL`) and the image's β. A round adds as many samples as
+were spent, or near a target what the target needs (:func:`variance_shrink`). The render
+stops after the first round whose estimate is at most the target, once the deadline has
+passed (no pass starts after it, so each pixel keeps whole rounds; the round before it is
+sized to the time left, :func:`time_share`), or when every noisy pixel has its most samples.
+
+A pixel's samples only ever double (or grow by a higher power of two), so its old halves
+become its new quarters: its most is ``min_spp`` times the highest power of two within
+``max_spp`` (:func:`most_samples`).
 """
 
 from __future__ import annotations
@@ -58,7 +70,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .film.filters import importance
-from .kernels.noise import STREAMS, add_round, round_points, sobol_rows, stream_offset_rows
+from .kernels.noise import QUARTERS, add_round, pixel_offset_rows, round_points, sobol_rows
 from .kernels.records import Moments, StreamSamples, Window
 
 #: The most a round by target error or time adds, as a share of the samples spent so far: a
@@ -87,21 +99,29 @@ def sobol2(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return x, y
 
 
-def offsets(seed: int, stream_id: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Positions (x, y) in [0, 1)² inside the pixel of sample ``k`` of the streams
-    ``stream_id`` = ``pixel·STREAMS + stream`` (global pixel numbers): the Owen-scrambled
-    Sobol point ``k``, each axis scrambled by a seed hashed from the render's ``seed`` and the
-    stream (:func:`raytrace.kernels.noise.stream_offset_rows`)."""
-    stream_id = np.ascontiguousarray(stream_id, np.int64).reshape(-1)
+def offsets(seed: int, pixel: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions (x, y) in [0, 1)² inside the pixel of sample ``k`` of the sequences of
+    ``pixel`` (global pixel numbers, ``row·width + col``): the Owen-scrambled Sobol point
+    ``k``, each axis scrambled by a seed hashed from the render's ``seed`` and the pixel
+    (:func:`raytrace.kernels.noise.pixel_offset_rows`)."""
+    pixel = np.ascontiguousarray(pixel, np.int64).reshape(-1)
     k = np.ascontiguousarray(k, np.int64).reshape(-1)
     x, y = np.empty(len(k)), np.empty(len(k))
-    stream_offset_rows(seed, stream_id, k, x, y)
+    pixel_offset_rows(seed, pixel, k, x, y)
     return x, y
 
 
-def pixel_variance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Unbiased estimates (…, 3) of the variance of each pixel's value ``(A + B)/2`` from its
-    two streams' means ``a`` and ``b``: ``(A − B)²/4`` (module docstring)."""
+def halves(sums: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each pixel's halves' means A and B (pixels, 3) from its quarter ``sums`` (pixels,
+    :data:`raytrace.kernels.noise.QUARTERS`, 3) and its ``n`` (pixels,) samples a half."""
+    count = n[:, None]
+    return (sums[:, 0] + sums[:, 1]) / count, (sums[:, 2] + sums[:, 3]) / count
+
+
+def half_difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(A − B)²/4`` (…, 3) of each pixel's halves' means ``a`` and ``b``: in expectation
+    ``V_{N/2} − V_N``, ``(2^β − 1)`` times the variance of the pixel's value (module
+    docstring)."""
     return 0.25 * (a - b) ** 2
 
 
@@ -115,15 +135,16 @@ def pixel_error(a: np.ndarray, b: np.ndarray) -> np.ndarray:
                                               + np.sqrt(np.maximum(mean.sum(-1), 0.0)))
 
 
-def relative_rmse(a: np.ndarray, b: np.ndarray) -> float:
-    """The image's estimated relative RMSE: ``√(mean_{p,c} v) / mean_{p,c} I`` over its finite
-    pixels (:func:`pixel_variance`); 0 for an image without noise, inf for a noisy image whose
-    mean is not positive."""
-    mean, v = 0.5 * (a + b), pixel_variance(a, b)
+def relative_rmse(a: np.ndarray, b: np.ndarray, rate: float) -> float:
+    """The image's estimated relative RMSE, ``√(mean_{p,c} (A − B)²/4 / (2^β − 1)) /
+    mean_{p,c} I`` over its finite pixels (:func:`half_difference`; ``rate`` is β,
+    :func:`convergence_rate`); 0 for an image without noise, inf for a noisy image whose mean
+    is not positive."""
+    mean, v = 0.5 * (a + b), half_difference(a, b)
     if not (np.isfinite(v).all() and np.isfinite(mean).all()):  # (the common case: at once)
         finite = np.isfinite(v).all(-1) & np.isfinite(mean).all(-1)
         mean, v = mean[finite], v[finite]
-    mse = float(v.mean()) if v.size else 0.0
+    mse = float(v.mean()) / (2.0 ** rate - 1.0) if v.size else 0.0
     level = float(mean.mean()) if mean.size else 0.0
     if mse == 0.0:
         return 0.0
@@ -144,32 +165,39 @@ def dilate(mask: np.ndarray, cols: int) -> np.ndarray:
 
 def next_counts(n: np.ndarray, error: np.ndarray, threshold: float, most: int,
                 cols: int, active: np.ndarray | bool = True) -> np.ndarray:
-    """Each pixel's samples per stream after the next round: twice ``n`` (at most ``most``)
+    """Each pixel's samples a half after the next round: twice ``n`` (at most ``most``)
     where it is ``active`` and its ``error`` or a neighbour's (3×3, :func:`dilate`; rows of
     ``cols`` pixels) is above ``threshold``, else ``n``. The neighbours' say is Cycles' (its
     convergence filter marks the neighbours of an unconverged pixel unconverged): a thin
-    stripe or an edge that a pixel's few first samples all missed, so that its two streams
+    stripe or an edge that a pixel's few first samples all missed, so that its two halves
     agree, is seen by a neighbour along it."""
     grow = dilate(error > threshold, cols) & (n < most) & active
     return np.where(grow, np.minimum(2 * n, most), n)
+
+
+def most_samples(min_spp: int, max_spp: int) -> int:
+    """The most samples a pixel reaches: ``min_spp`` doubled while it stays within
+    ``max_spp``. A pixel's samples only double (module docstring), so ``max_spp`` = 100 from
+    ``min_spp`` = 4 gives 64."""
+    most = min_spp
+    while 2 * most <= max_spp:
+        most *= 2
+    return most
 
 
 def margin(min_spp: int, max_spp: int) -> int:
     """Pixels around a crop or tile that a noise-driven render by threshold traces too, so
     that its pixels are the full frame's: a pixel's counts after the r-th doubling depend on
     pixels up to r away (:func:`next_counts`' 3×3), and a pixel that stops stays stopped, so
-    there are at most ``⌈log2(max/min)⌉`` doublings."""
-    doublings, n = 0, min_spp // STREAMS
-    while n < max_spp // STREAMS:
-        n, doublings = 2 * n, doublings + 1
-    return doublings
+    there are at most ``⌊log2(max/min)⌋`` doublings (:func:`most_samples`)."""
+    return (most_samples(min_spp, max_spp) // min_spp).bit_length() - 1
 
 
 @dataclass
 class Round:
     """The samples of one round, pixel by pixel in ``order`` (the pixels' numbers in the
-    window, row by row, :func:`spread_order`), each pixel's stream A then B, each in sample
-    order: ``x``, ``y`` (m,) image positions (pixels of the frame), ``keys`` (m,) light keys,
+    window, row by row, :func:`spread_order`), each pixel's samples in sequence order:
+    ``x``, ``y`` (m,) image positions (pixels of the frame), ``keys`` (m,) light keys,
     ``bounds``, the first sample of each pixel (and m at the end), where passes may be cut,
     and ``weight`` (m,), each sample's filter weight ``f/p`` (None where all are 1)."""
 
@@ -202,13 +230,13 @@ def spread_order(window: tuple[int, int, int, int]) -> np.ndarray:
 
 def plan(window: tuple[int, int, int, int], width: int, seed: int, old: np.ndarray,
          new: np.ndarray, filter: str = "box") -> Round:
-    """The samples ``old[p]`` to ``new[p]`` of each stream of each pixel p (window order) of
-    ``window`` = (x0, y0, x1, y1) in a ``width``-wide frame, as a :class:`Round`, the pixels
-    in :func:`spread_order`: each a stream's Owen-scrambled Sobol point (:func:`offsets`),
+    """The samples ``old[p]`` to ``new[p] − 1`` of each pixel p (window order) of ``window`` =
+    (x0, y0, x1, y1) in a ``width``-wide frame, as a :class:`Round`, the pixels in
+    :func:`spread_order`: each the pixel's Owen-scrambled Sobol point (:func:`offsets`),
     uniform over the pixel for the box ``filter``, else mapped through the filter around the
     pixel's centre (:func:`raytrace.film.filters.importance`)."""
     order = spread_order(window)
-    bounds = np.concatenate([[0], np.cumsum(STREAMS * (new - old)[order])])
+    bounds = np.concatenate([[0], np.cumsum((new - old)[order])])
     m = int(bounds[-1])
     out = StreamSamples(np.empty(m), np.empty(m), *(np.empty(m, np.int64) for _ in range(3)))
     round_points(Window(*window), width, seed, old, new, order, out)
@@ -234,10 +262,10 @@ def passes(bounds: np.ndarray, size: int) -> list[tuple[int, int]]:
 @dataclass(frozen=True)
 class Budget:
     """What a noise-driven render may spend: ``min_spp`` and ``max_spp`` samples a pixel
-    (even: half to each stream), the noise ``threshold`` (:func:`pixel_error`), and the
-    optional ``target_error`` (relative RMSE, :func:`relative_rmse`) and ``deadline``
-    (``time.perf_counter()`` seconds), either of which makes the rounds follow
-    :func:`neyman_counts` instead of the threshold."""
+    (even: a pixel's noise is read from its halves), the noise ``threshold``
+    (:func:`pixel_error`), and the optional ``target_error`` (relative RMSE,
+    :func:`relative_rmse`) and ``deadline`` (``time.perf_counter()`` seconds), either of which
+    makes the rounds follow :func:`neyman_counts` instead of the threshold."""
 
     min_spp: int
     max_spp: int
@@ -324,32 +352,31 @@ def time_share(seconds_left: float, cost: tuple[float, float], spent: float) -> 
     return min(ROUND_SHARE, (seconds_left - fixed) / per_sample / spent)
 
 
-def convergence_rate(variance: np.ndarray, n: np.ndarray, streams: float) -> float:
-    """The rate β at which the variance of a pixel's mean falls with its samples, read from
-    the image: a pixel's mean of N = 2n samples of per-sample variance s² is modelled as
-    varying by ``s²·N^−β`` (at N = 1 every sampler gives s²; β = 1 for independent samples,
-    and Owen-scrambled nets converge faster, up to N^−3 (within a logarithm) for a smooth
-    integrand: Owen 1997, "Scrambled net variance for integrals of smooth functions"; less
-    fast across an edge), and β is the one for which the model's sum over the pixels,
-    ``Σ s²·(2n)^−β``, is ``streams``, the sum of the streams' unbiased estimates ``Σ v``
-    (:func:`pixel_variance`), held within [1, 2]. ``variance`` (pixels,) is each pixel's
-    per-sample variance (not finite: 0), ``n`` its samples per stream."""
-    s2 = np.where(np.isfinite(variance), variance, 0.0)
-    counts, group = np.unique(n, return_inverse=True)
-    sums = np.bincount(group, s2)  # the model's sum per sample count: Σ_k S_k·(2k)^−β
-
-    def model(beta: float) -> float:
-        return float((sums * (2.0 * counts) ** -beta).sum())
-
-    if not streams > 0.0 or model(1.0) <= streams:
+def convergence_rate(sums: np.ndarray, n: np.ndarray) -> float:
+    """The rate β at which the variance ``V_N`` of a pixel's mean of N samples falls, as
+    ``N^−β``, read from the image (module docstring): β = 1 for independent samples, and
+    Owen-scrambled nets converge faster, up to N^−3 (within a logarithm) for a smooth
+    integrand (Owen 1997, "Scrambled net variance for integrals of smooth functions"; less
+    fast across an edge). The halves' difference estimates ``V_{N/2} − V_N`` and the
+    quarters' (each half's two) ``V_{N/4} − V_{N/2}``, so the ratio of their sums over the
+    image is ``2^−β`` (Richardson's extrapolation of the error's fall with the samples, L. F.
+    Richardson 1911), summed over the finite pixels whose N = 2n is a multiple of 4 (equal
+    quarters). ``sums`` (pixels, :data:`raytrace.kernels.noise.QUARTERS`, 3) are each pixel's
+    quarter sums, ``n`` its samples a half. Held within [1, 2]; 1 (the largest estimate of
+    the variance) where the quarters show none."""
+    whole = (n % 2 == 0) & (n > 0)
+    quarter = sums[whole] / (0.5 * n[whole])[:, None, None]  # the quarters' means
+    a, b = 0.5 * (quarter[:, 0] + quarter[:, 1]), 0.5 * (quarter[:, 2] + quarter[:, 3])
+    halves_ = (a - b) ** 2
+    quarters_ = (quarter[:, 0] - quarter[:, 1]) ** 2 + (quarter[:, 2] - quarter[:, 3]) ** 2
+    finite = np.isfinite(halves_).all(-1) & np.isfinite(quarters_).all(-1)
+    fall_half = 0.25 * float(halves_[finite].sum())
+    fall_quarter = 0.125 * float(quarters_[finite].sum())
+    if not fall_quarter > 0.0:
         return 1.0
-    if model(2.0) >= streams:
+    if not fall_half > 0.0:
         return 2.0
-    lo, hi = 1.0, 2.0
-    for _ in range(30):  # bisection: the model falls as β grows
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if model(mid) > streams else (lo, mid)
-    return 0.5 * (lo + hi)
+    return float(np.clip(math.log2(fall_quarter / fall_half), 1.0, 2.0))
 
 
 def descending(priority: np.ndarray, *ties: np.ndarray) -> np.ndarray:
@@ -376,15 +403,15 @@ def descending(priority: np.ndarray, *ties: np.ndarray) -> np.ndarray:
 def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
                   share: float = ROUND_SHARE, shrink: float = 0.0,
                   rate: float = 1.0) -> np.ndarray:
-    """Each pixel's samples per stream after the next round of a render by target error or
-    time: the doublings of highest priority ``σ̃·m^−(1+β)/2`` are taken, a pixel's j-th
-    doubling of the round taking it from ``m = n·2^j`` to ``2m`` samples a stream (at most
+    """Each pixel's samples a half (``n``: half its samples) after the next round of a render
+    by target error or time: the doublings of highest priority ``σ̃·m^−(1+β)/2`` are taken, a
+    pixel's j-th doubling of the round taking it from ``m = n·2^j`` to ``2m`` a half (at most
     ``most``, and at most :data:`MAX_DOUBLINGS` a round), until the round adds ``share`` of
     the samples spent, or sooner, once it has added :data:`MIN_ROUND_SHARE` of them, where
     the summed variance of the pixels' means is predicted to fall to ``shrink`` times its
     present value. A pixel's mean varies by ``s²·(2n)^−β`` (:func:`convergence_rate`: β is
     ``rate``), s² its per-sample variance ``variance`` (the sample variance of all its
-    samples, both streams pooled, averaged over the channels; not finite: 0, the pixel then
+    samples pooled, averaged over the channels; not finite: 0, the pixel then
     ranked by its neighbours'), and σ̃² is the 3×3 mean of s² (:func:`box3`), which steadies
     the ranking of a pixel whose few samples missed its edge.
 
@@ -446,17 +473,17 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
     ``min_spp`` samples each, then rounds that double some pixels' samples: by threshold,
     those whose error or a neighbour's is over it (:func:`next_counts`, a pixel that stopped
     stays stopped); by target error or time, the pixels of highest priority
-    (:func:`neyman_counts`). Each pixel's streams are summed one round's block after
-    another, so its value depends on its own samples only; each sample weighted by its
-    ``filter``'s ``f/p`` (:func:`plan`)."""
-    most = budget.max_spp // STREAMS
+    (:func:`neyman_counts`). Each pixel's quarters are summed sample after sample, so its
+    value depends on its own samples only; each sample weighted by its ``filter``'s ``f/p``
+    (:func:`plan`). Counts are kept a half (``n``: half a pixel's samples)."""
+    most = most_samples(budget.min_spp, budget.max_spp) // 2
     cols = window[2] - window[0]
     n_pixels = cols * (window[3] - window[1])
     n = np.zeros(n_pixels, np.int64)
-    new = np.full(n_pixels, budget.min_spp // STREAMS, np.int64)
-    sums = np.zeros((n_pixels, STREAMS, 3))  # each pixel's streams' sums
+    new = np.full(n_pixels, budget.min_spp // 2, np.int64)
+    sums = np.zeros((n_pixels, QUARTERS, 3))  # each pixel's quarter sums
     goal = budget.target_error is not None or budget.deadline is not None
-    # every sample of a pixel, both streams: count, mean, Σ(x − mean)²
+    # every sample of a pixel: count, mean, Σ(x − mean)²
     moments = Moments(np.zeros(n_pixels, np.int64), np.zeros((n_pixels, 3)),
                       np.zeros((n_pixels, 3))) if goal else None
     done = np.empty(n_pixels, bool)
@@ -467,23 +494,21 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
     round_samples, round_seconds = [], []
     t0 = time.perf_counter()
     while True:
-        r = plan(window, width, seed, n, new, filter)
+        r = plan(window, width, seed, 2 * n, 2 * new, filter)
         values, traced = trace(r, rounds == 0)
         round_seconds.append(time.perf_counter() - t0)
         t0 += round_seconds[-1]
         round_samples.append(int(traced.sum()))
         if r.weight is not None:
             values = values * r.weight[:, None]
-        # each (pixel, stream)'s samples of the round are one block, summed in order; a
-        # deadline leaves out whole pixels (passes are cut at pixel bounds)
-        add_round(values, new - n, traced, r.order, sums, moments, done)
+        # each pixel's samples of the round are one block, summed in order; a deadline
+        # leaves out whole pixels (passes are cut at pixel bounds)
+        add_round(values, 2 * n, 2 * new, traced, r.order, sums, moments, done)
         n = np.where(done, new, n)
         rounds += 1
-        streams = sums / n[:, None, None]
-        # (each stream's means contiguous: numpy's reductions over strided views of the
-        # streams take 4× as long)
-        a, b = np.ascontiguousarray(streams[:, 0]), np.ascontiguousarray(streams[:, 1])
-        estimate = relative_rmse(a, b)
+        a, b = halves(sums, n)
+        rate = convergence_rate(sums, n)
+        estimate = relative_rmse(a, b, rate)
         if not done.all() or (budget.deadline is not None
                               and time.perf_counter() >= budget.deadline):
             stopped = "time_limit"
@@ -501,11 +526,10 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
                 fit = slice(1, None) if len(round_samples) > 2 else slice(None)
                 share = min(share, time_share(budget.deadline - time.perf_counter(),
                                               round_cost(round_samples[fit], round_seconds[fit]),
-                                              STREAMS * n.sum()))
+                                              2 * n.sum()))
             if share <= 0.0:
                 stopped = "time_limit"
                 break
-            rate = convergence_rate(variance, n, float(pixel_variance(a, b).mean(-1).sum()))
             new = neyman_counts(n, variance, most, cols, share,
                                 variance_shrink(estimate, budget.target_error), rate)
         else:
@@ -513,7 +537,7 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
         grew = new > n
         if not (new > n).any():  # by target or time: every noisy pixel has the most
             stopped = "threshold" if not goal else "max_spp" if (
-                pixel_variance(a, b).sum(-1) > 0).any() else "converged"
+                half_difference(a, b).sum(-1) > 0).any() else "converged"
             break
-    return Result(0.5 * (a + b), STREAMS * n, estimate, rounds, stopped)
+    return Result(0.5 * (a + b), 2 * n, estimate, rounds, stopped)
 

@@ -1,9 +1,9 @@
-"""The per-sample arithmetic of noise-driven sampling (:mod:`raytrace.noise`): each pixel
-stream's Owen-scrambled Sobol points (:func:`round_points`) and each round's samples added to
-their pixels' sums and running moments (:func:`add_round`), so a round's planning and
+"""The per-sample arithmetic of noise-driven sampling (:mod:`raytrace.noise`): each pixel's
+Owen-scrambled Sobol points (:func:`round_points`) and each round's samples added to their
+pixel's quarter sums and running moments (:func:`add_round`), so a round's planning and
 bookkeeping cost the main thread little while the passes wait for it.
 
-The streams' integer arithmetic is 32-bit, done in int64 and masked (:data:`MASK32`; every
+The sequences' integer arithmetic is 32-bit, done in int64 and masked (:data:`MASK32`; every
 product stays under 2⁶³), bit for bit numpy's uint32 arithmetic.
 """
 
@@ -18,11 +18,12 @@ from .jit import helper, kernel
 
 #: The low 32 bits.
 MASK32 = 0xFFFFFFFF
-#: Each pixel's independent sample streams (A and B): the pixel's variance is read from their
-#: difference (``raytrace.noise.pixel_variance``).
-STREAMS = 2
-#: Samples of one stream of a pixel are numbered below this: a sample's light key is
-#: ``(pixel·STREAMS + stream)·KEY_STRIDE + k`` (:func:`round_points`).
+#: The sums kept of each pixel's samples, over the quarters of its sequence so far: samples
+#: ``⌊iN/4⌋`` to ``⌊(i + 1)N/4⌋ − 1`` of N (:func:`add_round`). The halves' difference
+#: estimates the pixel's noise, the quarters' how fast it falls (``raytrace.noise``).
+QUARTERS = 4
+#: A pixel's samples are numbered below this: sample k of pixel p (``row·width + col``) has
+#: the light key ``p·KEY_STRIDE + k`` (:func:`round_points`).
 KEY_STRIDE = 1 << 20
 #: Direction numbers of Sobol's second dimension (primitive polynomial x + 1, all initial
 #: m = 1): v₀ = 2³¹, v_i = v_{i−1} ⊕ (v_{i−1} >> 1) (Joe & Kuo's table, dimension 2).
@@ -52,7 +53,7 @@ def owen1(x, seed):
     hash is Vegdahl's improvement of Laine and Karras's ("Building a Better LK Hash", 2021:
     xor-multiplies by even constants and a multiply by an odd one, each of which moves
     information only upward); Burley's original constants left a 10×10 histogram of 20 000
-    streams' first points 4.9σ off uniform in one bin."""
+    sequences' first points 4.9σ off uniform in one bin."""
     v = reverse_bits1(x)
     v ^= (v * 0x3D20ADEA) & MASK32
     v = (v + seed) & MASK32
@@ -77,11 +78,11 @@ def sobol1(index):
 
 
 @helper
-def stream_seed1(seed, stream_id, axis):
-    """The 32-bit scrambling seed of axis ``axis`` (0: x, 1: y) of stream ``stream_id``:
-    ⌊2³²·u⌋ of the camera's draw u (:func:`raytrace.kernels.core.camera_uniform`) of the
-    render's ``seed``."""
-    return int(math.floor(camera_uniform(seed, stream_id, axis) * 4294967296.0))
+def pixel_seed1(seed, pixel, axis):
+    """The 32-bit scrambling seed of axis ``axis`` (0: x, 1: y) of the sequence of pixel
+    ``pixel`` (``row·width + col``): ⌊2³²·u⌋ of the camera's draw u
+    (:func:`raytrace.kernels.core.camera_uniform`) of the render's ``seed``."""
+    return int(math.floor(camera_uniform(seed, pixel, axis) * 4294967296.0))
 
 
 @kernel
@@ -93,88 +94,104 @@ def sobol_rows(index, x, y):
 
 
 @kernel
-def stream_offset_rows(seed, stream_id, k, sx, sy):
-    """Positions (sx, sy) in [0, 1)² inside the pixel of sample ``k[i]`` of stream
-    ``stream_id[i]``: the Owen-scrambled (:func:`owen1`, each axis by its
-    :func:`stream_seed1`) Sobol point ``k[i]`` (:func:`sobol1`)."""
+def pixel_offset_rows(seed, pixel, k, sx, sy):
+    """Positions (sx, sy) in [0, 1)² inside the pixel of sample ``k[i]`` of pixel
+    ``pixel[i]``'s sequence: the Owen-scrambled (:func:`owen1`, each axis by its
+    :func:`pixel_seed1`) Sobol point ``k[i]`` (:func:`sobol1`)."""
     for i in range(k.shape[0]):
         ux, uy = sobol1(k[i] & MASK32)
-        sid = stream_id[i]
-        sx[i] = owen1(ux, stream_seed1(seed, sid, 0)) * 2.0**-32
-        sy[i] = owen1(uy, stream_seed1(seed, sid, 1)) * 2.0**-32
+        sx[i] = owen1(ux, pixel_seed1(seed, pixel[i], 0)) * 2.0**-32
+        sy[i] = owen1(uy, pixel_seed1(seed, pixel[i], 1)) * 2.0**-32
 
 
 @kernel
 def round_points(window, width, seed, old, new, order, out):
-    """The samples ``old[p]`` to ``new[p] − 1`` of each of the :data:`STREAMS` streams of
-    each pixel p of ``window`` (a :class:`raytrace.kernels.records.Window`: its pixels
-    numbered row by row from (x0, y0), in a ``width``-wide frame), pixel after pixel in
-    ``order`` (the pixels' numbers, each once), stream after stream, in sample order, into
-    ``out`` (a :class:`raytrace.kernels.records.StreamSamples`): each sample's offset in the
-    pixel (stream ``sid = (row·width + col)·STREAMS + stream``: as :func:`stream_offset_rows`,
-    each stream's two seeds hashed once), its pixel's frame column and row, and its light key
-    ``sid·KEY_STRIDE + k``."""
+    """The samples ``old[p]`` to ``new[p] − 1`` of the sequence of each pixel p of ``window``
+    (a :class:`raytrace.kernels.records.Window`: its pixels numbered row by row from (x0,
+    y0), in a ``width``-wide frame), pixel after pixel in ``order`` (the pixels' numbers,
+    each once), in sample order, into ``out`` (a
+    :class:`raytrace.kernels.records.StreamSamples`): each sample's offset in the pixel (as
+    :func:`pixel_offset_rows`, the pixel's two seeds hashed once), its pixel's frame column
+    and row, and its light key ``(row·width + col)·KEY_STRIDE + k``."""
     x0, y0 = window.x0, window.y0
     cols = window.x1 - x0
     j = 0
     for q in range(order.shape[0]):
         p = order[q]
         c, r = x0 + p % cols, y0 + p // cols
-        for stream in range(STREAMS):
-            sid = (r * width + c) * STREAMS + stream
-            seed_x, seed_y = stream_seed1(seed, sid, 0), stream_seed1(seed, sid, 1)
-            for k in range(old[p], new[p]):
-                ux, uy = sobol1(k & MASK32)
-                out.sx[j] = owen1(ux, seed_x) * 2.0**-32
-                out.sy[j] = owen1(uy, seed_y) * 2.0**-32
-                out.col[j], out.row[j], out.keys[j] = c, r, sid * KEY_STRIDE + k
-                j += 1
+        pixel = r * width + c
+        seed_x, seed_y = pixel_seed1(seed, pixel, 0), pixel_seed1(seed, pixel, 1)
+        for k in range(old[p], new[p]):
+            ux, uy = sobol1(k & MASK32)
+            out.sx[j] = owen1(ux, seed_x) * 2.0**-32
+            out.sy[j] = owen1(uy, seed_y) * 2.0**-32
+            out.col[j], out.row[j], out.keys[j] = c, r, pixel * KEY_STRIDE + k
+            j += 1
 
 
 @kernel
-def add_round(values, grow, traced, order, sums, moments, done):
-    """Add a round's samples to each pixel's streams. ``values`` (m, 3) are the round's
-    samples in :func:`round_points`' order: pixel after pixel in ``order``, ``grow[p]``
-    samples of stream A, then as many of stream B; ``traced`` (m,) says which were traced (a
-    deadline leaves out whole pixels). Each stream's block is summed in order into ``sums``
-    (k, :data:`STREAMS`, 3). With ``moments`` (a :class:`raytrace.kernels.records.Moments`; None
-    where nothing reads them) each block also updates its pixel's running moments by Chan,
-    Golub & LeVeque's pairwise update ("Algorithms for computing the sample variance", The
-    American Statistician 37(3), 1983, eq. 2.1): n₀ samples of mean μ and a block of k of
-    mean μ_b make n₀ + k samples of mean ``μ + δ·k/(n₀ + k)``, δ = μ_b − μ, and summed squared
-    deviations ``m2 + m2_b + δ²·n₀·k/(n₀ + k)``: no difference of large sums, so a bright
-    pixel's small spread is not lost to cancellation. ``done[p]``: pixel p has its round
-    (it had none, or it was traced)."""
+def add_round(values, old, new, traced, order, sums, moments, done):
+    """Add a round's samples to their pixels' quarter sums. ``values`` (m, 3) are the
+    round's samples in :func:`round_points`' order: pixel after pixel in ``order``, the
+    samples ``old[p]`` to ``new[p] − 1`` of pixel p, where ``new[p]`` is 0 or ``old[p]``
+    times a power of two; ``traced`` (m,) says which were traced (a deadline leaves out whole
+    pixels). ``sums`` (k, :data:`QUARTERS`, 3) hold each pixel's sums over the quarters of
+    its samples, ``⌊iN/4⌋`` to ``⌊(i + 1)N/4⌋ − 1`` of N: a pixel's samples doubled, its old
+    halves are its new first two quarters; grown more, its old samples all lie in its new
+    first quarter. Each sample is added in order. With ``moments`` (a
+    :class:`raytrace.kernels.records.Moments`; None where nothing reads them) the round's
+    block also updates its pixel's running moments by Chan, Golub & LeVeque's pairwise update
+    ("Algorithms for computing the sample variance", The American Statistician 37(3), 1983,
+    eq. 2.1): n₀ samples of mean μ and a block of k of mean μ_b make n₀ + k samples of mean
+    ``μ + δ·k/(n₀ + k)``, δ = μ_b − μ, and summed squared deviations ``m2 + m2_b +
+    δ²·n₀·k/(n₀ + k)``: no difference of large sums, so a bright pixel's small spread is not
+    lost to cancellation. ``done[p]``: pixel p has its round (it had none, or it was
+    traced)."""
     j = 0
     for q in range(order.shape[0]):
         p = order[q]
-        k = grow[p]
+        n0, n1 = old[p], new[p]
+        k = n1 - n0
         if k == 0:
             done[p] = True
             continue
         done[p] = traced[j]
         if not traced[j]:
-            j += STREAMS * k
+            j += k
             continue
-        for stream in range(STREAMS):
-            n0, n = 0, 0
+        b1, b2, b3 = n1 // 4, n1 // 2, (3 * n1) // 4
+        for c in range(3):
+            if n0 == 0:
+                s0, s1 = 0.0, 0.0
+            elif b1 >= n0:  # grown fourfold or more: the old samples are the first quarter's
+                s0 = sums[p, 0, c] + sums[p, 1, c] + sums[p, 2, c] + sums[p, 3, c]
+                s1 = 0.0
+            else:  # doubled: the old halves are the first two quarters
+                s0, s1 = sums[p, 0, c] + sums[p, 1, c], sums[p, 2, c] + sums[p, 3, c]
+            s2, s3 = 0.0, 0.0
+            for i in range(k):
+                x, at = values[j + i, c], n0 + i
+                if at < b1:
+                    s0 += x
+                elif at < b2:
+                    s1 += x
+                elif at < b3:
+                    s2 += x
+                else:
+                    s3 += x
+            sums[p, 0, c], sums[p, 1, c], sums[p, 2, c], sums[p, 3, c] = s0, s1, s2, s3
             if moments is not None:
-                n0 = moments.count[p]
-                n = n0 + k
-            for c in range(3):
                 total = values[j, c]
                 for i in range(j + 1, j + k):
                     total += values[i, c]
-                sums[p, stream, c] += total
-                if moments is not None:
-                    mu = total / k
-                    s2 = 0.0
-                    for i in range(j, j + k):
-                        d = values[i, c] - mu
-                        s2 += d * d
-                    delta = mu - moments.mean[p, c]
-                    moments.mean[p, c] += delta * (k / n)
-                    moments.m2[p, c] += s2 + delta * delta * (n0 * (k / n))
-            if moments is not None:
-                moments.count[p] = n
-            j += k
+                mu = total / k
+                m2 = 0.0
+                for i in range(j, j + k):
+                    d = values[i, c] - mu
+                    m2 += d * d
+                delta = mu - moments.mean[p, c]
+                moments.mean[p, c] += delta * (k / n1)
+                moments.m2[p, c] += m2 + delta * delta * (n0 * (k / n1))
+        if moments is not None:
+            moments.count[p] = n1
+        j += k

@@ -566,7 +566,7 @@ class StreamSamples(NamedTuple):
 
 
 class Moments(NamedTuple):
-    """The running moments of each pixel's samples, both streams pooled
+    """The running moments of each pixel's samples, all of them pooled
     (``kernels.noise.add_round``): a render by target error or time ranks pixels by them."""
 
     count: np.ndarray  #: (k,) int64 the pixel's samples
