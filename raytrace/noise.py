@@ -112,10 +112,11 @@ def offsets(seed: int, pixel: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np
 
 
 def halves(sums: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each pixel's halves' means A and B (pixels, 3) from its quarter ``sums`` (pixels,
-    :data:`raytrace.kernels.noise.QUARTERS`, 3) and its ``n`` (pixels,) samples a half."""
+    """Each pixel's halves' means A and B (pixels, 3) from its quarter ``sums``
+    (:data:`raytrace.kernels.noise.QUARTERS`, pixels, 3) and its ``n`` (pixels,) samples a
+    half."""
     count = n[:, None]
-    return (sums[:, 0] + sums[:, 1]) / count, (sums[:, 2] + sums[:, 3]) / count
+    return (sums[0] + sums[1]) / count, (sums[2] + sums[3]) / count
 
 
 def half_difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -362,22 +363,26 @@ def convergence_rate(sums: np.ndarray, n: np.ndarray) -> float:
     quarters' (each half's two) ``V_{N/4} − V_{N/2}``, so the ratio of their sums over the
     image is ``2^−β`` (Richardson's extrapolation of the error's fall with the samples, L. F.
     Richardson 1911), summed over the finite pixels whose N = 2n is a multiple of 4 (equal
-    quarters). ``sums`` (pixels, :data:`raytrace.kernels.noise.QUARTERS`, 3) are each pixel's
+    quarters). ``sums`` (:data:`raytrace.kernels.noise.QUARTERS`, pixels, 3) are each pixel's
     quarter sums, ``n`` its samples a half. Held within [1, 2]; 1 (the largest estimate of
     the variance) where the quarters show none."""
     whole = (n % 2 == 0) & (n > 0)
-    quarter = sums[whole] / (0.5 * n[whole])[:, None, None]  # the quarters' means
-    a, b = 0.5 * (quarter[:, 0] + quarter[:, 1]), 0.5 * (quarter[:, 2] + quarter[:, 3])
-    halves_ = (a - b) ** 2
-    quarters_ = (quarter[:, 0] - quarter[:, 1]) ** 2 + (quarter[:, 2] - quarter[:, 3]) ** 2
-    finite = np.isfinite(halves_).all(-1) & np.isfinite(quarters_).all(-1)
-    fall_half = 0.25 * float(halves_[finite].sum())
-    fall_quarter = 0.125 * float(quarters_[finite].sum())
+    if not whole.all():
+        sums, n = sums[:, whole], n[whole]
+    first, second = sums[0] - sums[1], sums[2] - sums[3]
+    both = sums[0] + sums[1] - sums[2] - sums[3]  # 2·(A − B)·n
+    halves_, quarters_ = both * both, first * first + second * second
+    scale = (2.0 / n) ** 2  # a quarter's sum to its mean, squared
+    if not (np.isfinite(halves_).all() and np.isfinite(quarters_).all()):
+        finite = np.isfinite(halves_).all(-1) & np.isfinite(quarters_).all(-1)
+        halves_, quarters_, scale = halves_[finite], quarters_[finite], scale[finite]
+    fall_half = float((scale @ halves_).sum()) / 16.0
+    fall_quarter = float((scale @ quarters_).sum()) / 8.0
     if not fall_quarter > 0.0:
         return 1.0
     if not fall_half > 0.0:
         return 2.0
-    return float(np.clip(math.log2(fall_quarter / fall_half), 1.0, 2.0))
+    return min(2.0, max(1.0, math.log2(fall_quarter / fall_half)))
 
 
 def descending(priority: np.ndarray, *ties: np.ndarray) -> np.ndarray:
@@ -483,7 +488,7 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
     n_pixels = cols * (window[3] - window[1])
     n = np.zeros(n_pixels, np.int64)
     new = np.full(n_pixels, budget.min_spp // 2, np.int64)
-    sums = np.zeros((n_pixels, QUARTERS, 3))  # each pixel's quarter sums
+    sums = np.zeros((QUARTERS, n_pixels, 3))  # each pixel's quarter sums
     goal = budget.target_error is not None or budget.deadline is not None
     # every sample of a pixel: count, mean, Σ(x − mean)²
     moments = Moments(np.zeros(n_pixels, np.int64), np.zeros((n_pixels, 3)),

@@ -136,11 +136,11 @@ def test_sobol_second_dimension_known_values():
 # -- estimators and rules, by hand ----------------------------------------------------------
 def _sequence_sums(f, pixels: int, n: int, seed: int = 9, first: int = 0):
     """``f(x, y)`` at the first ``n`` points of the sequences of pixels ``first`` to
-    ``first + pixels − 1``: the values (pixels, n) and their quarter sums (pixels, 4, 3)."""
+    ``first + pixels − 1``: the values (pixels, n) and their quarter sums (4, pixels, 3)."""
     pixel = np.repeat(np.arange(first, first + pixels), n)
     x, y = noise.offsets(seed, pixel, np.tile(np.arange(n), pixels))
     v = f(x, y).reshape(pixels, n)
-    return v, np.repeat(v.reshape(pixels, 4, n // 4).sum(2)[:, :, None], 3, axis=2)
+    return v, np.repeat(v.reshape(pixels, 4, n // 4).sum(2).T[:, :, None], 3, axis=2)
 
 
 @pytest.mark.parametrize("name", ["edge", "smooth", "independent"])
@@ -351,7 +351,7 @@ def test_the_convergence_rate_is_the_quarters_over_the_halves():
     difference at all: 1."""
     def rate(q, extra=()):
         means = np.array([[0.0, 2.0, q, q + 2.0], *extra])
-        sums = np.repeat((2.0 * means)[:, :, None], 3, axis=2)
+        sums = np.repeat((2.0 * means).T[:, :, None], 3, axis=2)
         n = np.array([4] + [3] * len(extra)) if extra else np.array([4])
         return noise.convergence_rate(sums, n)
 
@@ -359,7 +359,7 @@ def test_the_convergence_rate_is_the_quarters_over_the_halves():
     assert rate(q) == pytest.approx(1.5, abs=1e-12)
     assert rate(2.0) == 1.0 and rate(0.0) == 2.0
     assert rate(q, [[9.0, -9.0, 4.0, 0.0]]) == pytest.approx(1.5, abs=1e-12)
-    sums = np.repeat(np.array([[2.0, 2.0, 2.0, 2.0], [0.0, np.inf, 1.0, 0.0]])[:, :, None],
+    sums = np.repeat(np.array([[2.0, 2.0, 2.0, 2.0], [0.0, np.inf, 1.0, 0.0]]).T[:, :, None],
                      3, axis=2)
     assert noise.convergence_rate(sums, np.array([4, 4])) == 1.0
 
@@ -397,7 +397,7 @@ def test_quarter_sums_and_pooled_moments_are_those_of_all_the_samples():
     1e16, whose ulp is 2): the pooled moments (Chan et al.'s update) equal numpy's of the
     concatenated samples, and the quarter sums numpy's sums of the quarters."""
     rng = np.random.default_rng(4)
-    sums = np.zeros((2, 4, 3))
+    sums = np.zeros((4, 2, 3))
     moments = Moments(np.zeros(2, np.int64), np.zeros((2, 3)), np.zeros((2, 3)))
     kept = {0: [], 1: []}
     for old, new, traced in (([0, 0], [2, 6], [True, True]), ([2, 6], [4, 12], [True, True]),
@@ -419,7 +419,7 @@ def test_quarter_sums_and_pooled_moments_are_those_of_all_the_samples():
         np.testing.assert_allclose(moments.mean[p], every.mean(0), rtol=1e-15)
         np.testing.assert_allclose(moments.m2[p] / (moments.count[p] - 1),
                                    every.var(0, ddof=1), rtol=1e-6)
-        np.testing.assert_allclose(sums[p], _quarters(every), rtol=1e-14)
+        np.testing.assert_allclose(sums[:, p], _quarters(every), rtol=1e-14)
 
 
 def test_a_round_in_any_order_adds_each_pixel_s_own_samples():
@@ -430,12 +430,12 @@ def test_a_round_in_any_order_adds_each_pixel_s_own_samples():
     values = np.array([[1.0, 1, 1], [2, 2, 2], [10, 10, 10], [20, 20, 20], [30, 30, 30],
                        [40, 40, 40]])
     traced = np.array([True, True, False, False, False, False])
-    sums, done = np.zeros((3, 4, 3)), np.empty(3, bool)
+    sums, done = np.zeros((4, 3, 3)), np.empty(3, bool)
     add_round(values, np.zeros(3, np.int64), np.array([4, 0, 2]), traced, np.array([2, 0, 1]),
               sums, None, done)
     assert done.tolist() == [False, True, True]
-    assert sums[2, :, 0].tolist() == [0, 1, 0, 2]
-    assert not sums[0].any() and not sums[1].any()
+    assert sums[:, 2, 0].tolist() == [0, 1, 0, 2]
+    assert not sums[:, 0].any() and not sums[:, 1].any()
 
 
 def test_a_round_without_moments_adds_its_sums_alone():
@@ -444,13 +444,14 @@ def test_a_round_without_moments_adds_its_sums_alone():
     doubled to 8, the old halves becoming the first two quarters."""
     values = np.array([[0.1, 0.2, 0.3], [0.7, 0.11, 0.13], [0.3, 0.5, 0.9], [1e16, 1.0, 2.0],
                        [0.3, 0.7, 1.1], [0.9, 0.13, 0.17], [1e-3, 2.5, 0.75], [3.0, 1e8, 0.6]])
-    sums, done = np.zeros((1, 4, 3)), np.empty(1, bool)
+    sums, done = np.zeros((4, 1, 3)), np.empty(1, bool)
     add_round(values[:4], np.array([0]), np.array([4]), np.ones(4, bool), np.arange(1), sums,
               None, done)
-    assert done.tolist() == [True] and sums[0].tolist() == values[:4].tolist()
+    assert done.tolist() == [True] and sums[:, 0].tolist() == values[:4].tolist()
     add_round(values[4:], np.array([4]), np.array([8]), np.ones(4, bool), np.arange(1), sums,
               None, done)
-    assert sums[0].tolist() == [(values[2 * i] + values[2 * i + 1]).tolist() for i in range(4)]
+    assert sums[:, 0].tolist() == [(values[2 * i] + values[2 * i + 1]).tolist()
+                                   for i in range(4)]
 
 
 def test_a_render_by_target_doubles_the_pixels_of_widest_spread():
@@ -475,7 +476,7 @@ def test_a_render_by_target_doubles_the_pixels_of_widest_spread():
     x[rounds[0].order] = rounds[0].x.reshape(18, 4)  # the pixels in window order
     value = np.where(np.floor(x) < 2, 8, 1) * (x - np.floor(x))
     n = np.full(18, 2)
-    rate = noise.convergence_rate(np.repeat(value[:, :, None], 3, axis=2), n)
+    rate = noise.convergence_rate(np.repeat(value.T[:, :, None], 3, axis=2), n)
     want = noise.neyman_counts(n, value.var(1, ddof=1), 32, 6, rate=rate).reshape(3, 6)
     assert (want[:, 3:] == 2).all() and (want[:, :2] > 2).all() and (want[:, :2] == 8).sum() > 3
     assert (np.diff(rounds[1].bounds) // 2).tolist() == (want.ravel() - n)[rounds[1].order].tolist()

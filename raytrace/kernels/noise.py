@@ -135,7 +135,7 @@ def add_round(values, old, new, traced, order, sums, moments, done):
     round's samples in :func:`round_points`' order: pixel after pixel in ``order``, the
     samples ``old[p]`` to ``new[p] − 1`` of pixel p, where ``new[p]`` is 0 or ``old[p]``
     times a power of two; ``traced`` (m,) says which were traced (a deadline leaves out whole
-    pixels). ``sums`` (k, :data:`QUARTERS`, 3) hold each pixel's sums over the quarters of
+    pixels). ``sums`` (:data:`QUARTERS`, k, 3) hold each pixel's sums over the quarters of
     its samples, ``⌊iN/4⌋`` to ``⌊(i + 1)N/4⌋ − 1`` of N: a pixel's samples doubled, its old
     halves are its new first two quarters; grown more, its old samples all lie in its new
     first quarter. Each sample is added in order. With ``moments`` (a
@@ -164,10 +164,10 @@ def add_round(values, old, new, traced, order, sums, moments, done):
             if n0 == 0:
                 s0, s1 = 0.0, 0.0
             elif b1 >= n0:  # grown fourfold or more: the old samples are the first quarter's
-                s0 = sums[p, 0, c] + sums[p, 1, c] + sums[p, 2, c] + sums[p, 3, c]
+                s0 = sums[0, p, c] + sums[1, p, c] + sums[2, p, c] + sums[3, p, c]
                 s1 = 0.0
             else:  # doubled: the old halves are the first two quarters
-                s0, s1 = sums[p, 0, c] + sums[p, 1, c], sums[p, 2, c] + sums[p, 3, c]
+                s0, s1 = sums[0, p, c] + sums[1, p, c], sums[2, p, c] + sums[3, p, c]
             s2, s3 = 0.0, 0.0
             for i in range(k):
                 x, at = values[j + i, c], n0 + i
@@ -179,7 +179,7 @@ def add_round(values, old, new, traced, order, sums, moments, done):
                     s2 += x
                 else:
                     s3 += x
-            sums[p, 0, c], sums[p, 1, c], sums[p, 2, c], sums[p, 3, c] = s0, s1, s2, s3
+            sums[0, p, c], sums[1, p, c], sums[2, p, c], sums[3, p, c] = s0, s1, s2, s3
             if moments is not None:
                 total = values[j, c]
                 for i in range(j + 1, j + k):
