@@ -36,22 +36,21 @@ from raytrace import noise
 from raytrace.kernels.noise import KEY_STRIDE
 
 
-def two_sequences(plan):
-    """``noise.plan`` with each pixel's second half drawn from the sequence of another pixel
-    (its number plus the frame's pixels): two independent sequences of N/2 points. For a
+class TwoSequences(noise.Round):
+    """A round whose pixels' second halves come from the sequence of another pixel (its
+    number plus a million frame widths): two independent sequences of N/2 points. For a
     single round from 0 to N samples a pixel, the box filter."""
-    def planned(window, width, seed, old, new, filter="box"):
-        r = plan(window, width, seed, old, new, filter)
-        per = int(new[0] - old[0])
-        col, row = np.floor(r.x).astype(np.int64), np.floor(r.y).astype(np.int64)
-        k = np.tile(np.arange(per), len(r.x) // per)
+
+    def points(self, start: int, stop: int) -> noise.Points:
+        p = super().points(start, stop)
+        per = int(self.new[0] - self.old[0])
+        col, row = np.floor(p.x).astype(np.int64), np.floor(p.y).astype(np.int64)
+        k = np.tile(np.arange(per), len(p.x) // per)
         second = k >= per // 2
-        pixel = row * width + col + np.where(second, width * 10**6, 0)
+        pixel = row * self.width + col + np.where(second, self.width * 10**6, 0)
         k = np.where(second, k - per // 2, k)
-        sx, sy = noise.offsets(seed, pixel, k)
-        r.x, r.y, r.keys = col + sx, row + sy, pixel * KEY_STRIDE + k
-        return r
-    return planned
+        sx, sy = noise.offsets(self.seed, pixel, k)
+        return noise.Points(col + sx, row + sy, pixel * KEY_STRIDE + k, None)
 
 
 def main() -> None:
@@ -62,7 +61,7 @@ def main() -> None:
     p.add_argument("--cache", type=Path, default=Path("/tmp/raytrace-noise-references"))
     a = p.parse_args()
     common = dict(width=160, height=120, threads=2)
-    plan = noise.plan
+    plain = noise.Round
     print(f"{'scene':<12}{'N':>4}{'MSE one':>11}{'two':>11}{'uniform':>11}{'one/two':>9}"
           f"{'one/unif':>9}{'estimate/measured (range)':>28}")
     for name in a.scenes:
@@ -75,11 +74,11 @@ def main() -> None:
             for seed in range(a.seeds):
                 kw = dict(common, aa="noise", min_spp=n, max_spp=n, seed=seed)
                 one = raytrace.render(scene, **kw)
-                noise.plan = two_sequences(plan)
+                noise.Round = TwoSequences  # (what noise.plan makes)
                 try:
                     two = raytrace.render(scene, **kw)
                 finally:
-                    noise.plan = plan
+                    noise.Round = plain
                 uniform = raytrace.render(scene, **common, spp=n, seed=seed)
                 for key, image in (("one", one), ("two", two), ("uniform", uniform)):
                     mse[key].append(float(np.mean((image.rgb.astype(np.float64) - ref) ** 2)))

@@ -526,18 +526,14 @@ class WhittedIntegrator:
         deadline = None if opt.time_limit is None else (
             t_start + opt.time_limit - self.build_seconds)
 
-        def trace(r: noise.Round, first: bool) -> tuple[np.ndarray, np.ndarray]:
-            values = np.zeros((len(r.x), 3))
+        def trace(r: noise.Round, first: bool) -> int:
             # two passes a thread: a round is small, and each pass costs Python per depth
             size = min(opt.pass_samples,
-                       max(MIN_ROUND_PASS_SAMPLES, -(-len(r.x) // (2 * opt.threads))))
+                       max(MIN_ROUND_PASS_SAMPLES, -(-r.size // (2 * opt.threads))))
             self._round = r
-            done = self._run(noise.passes(r.bounds, size), values, progress, len(r.x), stop,
+            done = self._run(noise.passes(r.bounds, size), None, progress, r.size, stop,
                              None if first else deadline)
-            traced = np.zeros(len(r.x), bool)
-            for a, b in done:
-                traced[a:b] = True
-            return values, traced
+            return sum(b - a for a, b in done)
 
         result = noise.sample(self.traced, opt.width, opt.seed, noise.Budget(
             opt.min_spp, opt.max_spp, opt.noise_threshold, opt.target_error, deadline), trace,
@@ -600,10 +596,11 @@ class WhittedIntegrator:
         return filters.gather(samples, opt.filter, self.traced, self.window,
                               Sampling(opt.width, opt.spp, grid(opt.spp), opt.seed))
 
-    def _run(self, passes: list[tuple[int, int]], pixels: np.ndarray,
+    def _run(self, passes: list[tuple[int, int]], pixels: np.ndarray | None,
              progress: Callable[[int, int], None] | None, total: int, stop: Stop,
              deadline: float | None = None) -> list[tuple[int, int]]:
-        """Render ``passes`` into ``pixels``: worker threads take the next pass from a shared
+        """Render ``passes`` into ``pixels`` (None: a noise-driven round, whose passes add to
+        it, :meth:`_render_pass`): worker threads take the next pass from a shared
         queue until none is left, while this thread waits (so that it takes a Ctrl-C at
         once). A stop asked for (``stop``), an exception in any thread, or a Ctrl-C while
         waiting stops them all at their next batch, and the first of these is raised once
@@ -644,21 +641,24 @@ class WhittedIntegrator:
         stop.check()
         return finished
 
-    def _render_pass(self, start: int, stop: int, pixels: np.ndarray) -> None:
+    def _render_pass(self, start: int, stop: int, pixels: np.ndarray | None) -> None:
         """Camera samples ``start`` to ``stop`` (whole pixels), depth by depth, into their
-        pixels (and AOVs); with adaptive anti-aliasing, the rows ``start`` to ``stop``."""
+        pixels (and AOVs); with adaptive anti-aliasing, the rows ``start`` to ``stop``; with
+        noise-driven sampling, the samples ``start`` to ``stop`` of the round, drawn and added
+        to it here (:class:`raytrace.noise.Round`), on the pass's thread."""
         opt, w, n = self.opt, self._worker, stop - start
         t0 = time.perf_counter()
         if opt.aa == "adaptive":
             self._render_rows(start, stop, pixels)
             self.stats.pass_seconds += time.perf_counter() - t0
             return
-        if opt.aa == "noise":  # samples start to stop of the round (raytrace.noise.Round)
+        if opt.aa == "noise":  # samples start to stop of the round, added to it
             r = self._round
             bounds = r.bounds[np.searchsorted(r.bounds, start):
                               np.searchsorted(r.bounds, stop, "right")] - start
-            pixels[start:stop] = self.trace_points(r.x[start:stop], r.y[start:stop],
-                                                   r.keys[start:stop], bounds)
+            points = r.points(start, stop)
+            r.add(start, stop, self.trace_points(points.x, points.y, points.keys, bounds),
+                  points.weight)
             self.stats.pass_seconds += time.perf_counter() - t0
             return
         keep = pixels.dtype == np.float64  # every sample kept for the filter

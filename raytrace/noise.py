@@ -66,6 +66,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -194,20 +195,81 @@ def margin(min_spp: int, max_spp: int) -> int:
     return (most_samples(min_spp, max_spp) // min_spp).bit_length() - 1
 
 
-@dataclass
-class Round:
-    """The samples of one round, pixel by pixel in ``order`` (the pixels' numbers in the
-    window, row by row, :func:`spread_order`), each pixel's samples in sequence order:
-    ``x``, ``y`` (m,) image positions (pixels of the frame), ``keys`` (m,) light keys,
-    ``bounds``, the first sample of each pixel (and m at the end), where passes may be cut,
-    and ``weight`` (m,), each sample's filter weight ``f/p`` (None where all are 1)."""
+class Points(NamedTuple):
+    """Samples of a round (:meth:`Round.points`): ``x``, ``y`` (m,) image positions (pixels
+    of the frame), ``keys`` (m,) light keys, and ``weight`` (m,), each sample's filter weight
+    ``f/p`` (None where all are 1)."""
 
     x: np.ndarray
     y: np.ndarray
     keys: np.ndarray
-    bounds: np.ndarray
+    weight: np.ndarray | None
+
+
+@dataclass
+class Round:
+    """The samples of one round, and the sums they go to. The samples ``old[p]`` to ``new[p]
+    − 1`` of each pixel p (window order) of ``window`` = (x0, y0, x1, y1) in a ``width``-wide
+    frame, pixel by pixel in ``order`` (the pixels' numbers in the window, row by row,
+    :func:`spread_order`), each pixel's in sequence order; ``bounds``, the first sample of
+    each pixel in that order (and the round's size at the end), where passes may be cut.
+    Each pass draws its own samples (:meth:`points`) and adds what it traced into ``sums``,
+    ``moments`` and ``done`` (:meth:`add`): its pixels are its own, so passes on several
+    threads touch none of the same."""
+
+    window: tuple[int, int, int, int]
+    width: int
+    seed: int
+    filter: str
+    old: np.ndarray
+    new: np.ndarray
     order: np.ndarray
-    weight: np.ndarray | None = None
+    bounds: np.ndarray
+    #: each pixel's quarter sums (:func:`raytrace.kernels.noise.add_round`)
+    sums: np.ndarray | None = None
+    moments: Moments | None = None
+    #: whether each pixel has its round (it had none, or its pass added it)
+    done: np.ndarray | None = None
+
+    @property
+    def size(self) -> int:
+        """The round's samples."""
+        return int(self.bounds[-1])
+
+    def pixels(self, start: int, stop: int) -> np.ndarray:
+        """The pixels (window numbers, in ``order``) whose samples are ``start`` to ``stop``,
+        both pixel bounds."""
+        return self.order[np.searchsorted(self.bounds, start):
+                          np.searchsorted(self.bounds, stop)]
+
+    def points(self, start: int, stop: int) -> Points:
+        """The samples ``start`` to ``stop`` (pixel bounds): each the pixel's Owen-scrambled
+        Sobol point (:func:`offsets`, :func:`raytrace.kernels.noise.round_points`), uniform
+        over the pixel for the box ``filter``, else mapped through the filter around the
+        pixel's centre (:func:`raytrace.film.filters.importance`)."""
+        m = stop - start
+        out = StreamSamples(np.empty(m), np.empty(m), *(np.empty(m, np.int64) for _ in range(3)))
+        round_points(Window(*self.window), self.width, self.seed, self.old, self.new,
+                     self.pixels(start, stop), out)
+        sx, sy = out.sx, out.sy
+        weight = None
+        if self.filter != "box":
+            (dx, wx), (dy, wy) = importance(self.filter, sx), importance(self.filter, sy)
+            sx, sy = 0.5 + dx, 0.5 + dy
+            if (wx != 1.0).any() or (wy != 1.0).any():  # a filter with negative lobes
+                weight = wx * wy
+        return Points(out.col + sx, out.row + sy, out.keys, weight)
+
+    def add(self, start: int, stop: int, values: np.ndarray,
+            weight: np.ndarray | None = None) -> None:
+        """Add the radiance ``values`` (stop − start, 3) of the samples ``start`` to ``stop``
+        (pixel bounds), each times its ``weight`` (:meth:`points`), to their pixels' sums and
+        moments, and mark the pixels done (:func:`raytrace.kernels.noise.add_round`: each
+        pixel's samples summed in sequence order, whatever the pass)."""
+        if weight is not None:
+            values = values * weight[:, None]
+        add_round(values, self.old, self.new, self.pixels(start, stop), self.sums,
+                  self.moments, self.done)
 
 
 def spread_order(window: tuple[int, int, int, int]) -> np.ndarray:
@@ -230,25 +292,14 @@ def spread_order(window: tuple[int, int, int, int]) -> np.ndarray:
 
 
 def plan(window: tuple[int, int, int, int], width: int, seed: int, old: np.ndarray,
-         new: np.ndarray, filter: str = "box") -> Round:
-    """The samples ``old[p]`` to ``new[p] − 1`` of each pixel p (window order) of ``window`` =
-    (x0, y0, x1, y1) in a ``width``-wide frame, as a :class:`Round`, the pixels in
-    :func:`spread_order`: each the pixel's Owen-scrambled Sobol point (:func:`offsets`),
-    uniform over the pixel for the box ``filter``, else mapped through the filter around the
-    pixel's centre (:func:`raytrace.film.filters.importance`)."""
+         new: np.ndarray, filter: str = "box", sums: np.ndarray | None = None,
+         moments: Moments | None = None, done: np.ndarray | None = None) -> Round:
+    """The :class:`Round` of the samples ``old[p]`` to ``new[p] − 1`` of each pixel p (window
+    order) of ``window`` = (x0, y0, x1, y1) in a ``width``-wide frame, the pixels in
+    :func:`spread_order`, adding into ``sums``, ``moments`` and ``done``."""
     order = spread_order(window)
     bounds = np.concatenate([[0], np.cumsum((new - old)[order])])
-    m = int(bounds[-1])
-    out = StreamSamples(np.empty(m), np.empty(m), *(np.empty(m, np.int64) for _ in range(3)))
-    round_points(Window(*window), width, seed, old, new, order, out)
-    sx, sy = out.sx, out.sy
-    weight = None
-    if filter != "box":
-        (dx, wx), (dy, wy) = importance(filter, sx), importance(filter, sy)
-        sx, sy = 0.5 + dx, 0.5 + dy
-        if (wx != 1.0).any() or (wy != 1.0).any():  # a filter with negative lobes
-            weight = wx * wy
-    return Round(out.col + sx, out.row + sy, out.keys, bounds, order, weight)
+    return Round(window, width, seed, filter, old, new, order, bounds, sums, moments, done)
 
 
 def passes(bounds: np.ndarray, size: int) -> list[tuple[int, int]]:
@@ -291,9 +342,10 @@ class Result:
     stopped: str
 
 
-#: ``trace(round, first)``: the radiance (m, 3) of a :class:`Round`'s samples and whether each
-#: was traced (m,) bool (all of them when ``first``; a deadline may leave passes out).
-RoundTracer = Callable[[Round, bool], tuple[np.ndarray, np.ndarray]]
+#: ``trace(round, first)``: trace a :class:`Round`'s samples, each pass adding what it traced
+#: (:meth:`Round.add`), and return how many were traced (all of them when ``first``; a
+#: deadline may leave passes out).
+RoundTracer = Callable[[Round, bool], int]
 
 
 def box3(values: np.ndarray, cols: int) -> np.ndarray:
@@ -501,16 +553,13 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
     round_samples, round_seconds = [], []
     t0 = time.perf_counter()
     while True:
-        r = plan(window, width, seed, 2 * n, 2 * new, filter)
-        values, traced = trace(r, rounds == 0)
+        # each pass adds its pixels' samples, each pixel's summed in sequence order; a
+        # deadline leaves out whole pixels (passes are cut at pixel bounds), not done
+        done[:] = new == n
+        round_samples.append(trace(plan(window, width, seed, 2 * n, 2 * new, filter, sums,
+                                        moments, done), rounds == 0))
         round_seconds.append(time.perf_counter() - t0)
         t0 += round_seconds[-1]
-        round_samples.append(int(traced.sum()))
-        if r.weight is not None:
-            values = values * r.weight[:, None]
-        # each pixel's samples of the round are one block, summed in order; a deadline
-        # leaves out whole pixels (passes are cut at pixel bounds)
-        add_round(values, 2 * n, 2 * new, traced, r.order, sums, moments, done)
         n = np.where(done, new, n)
         rounds += 1
         a, b = halves(sums, n)

@@ -71,14 +71,20 @@ def test_a_round_draws_each_pixel_s_points():
     old = np.array([0, 2, 4, 0, 2, 4])
     new = np.array([4, 4, 16, 4, 4, 16])
     r = noise.plan((5, 7, 8, 9), 20, 11, old, new)
+    points = r.points(0, r.size)
     pixel = np.repeat(np.arange(6), new - old)
     k = np.concatenate([np.arange(a, b) for a, b in zip(old, new, strict=True)])
     col, row = 5 + pixel % 3, 7 + pixel // 3
     sx, sy = noise.offsets(11, row * 20 + col, k)
     assert r.order.tolist() == [0, 1, 2, 3, 4, 5]  # rows 0, 1 (bit-reversed: the same)
-    assert r.x.tolist() == (col + sx).tolist() and r.y.tolist() == (row + sy).tolist()
-    assert r.keys.tolist() == ((row * 20 + col) * KEY_STRIDE + k).tolist()
-    assert r.bounds.tolist() == [0, *np.cumsum(new - old)]
+    assert points.x.tolist() == (col + sx).tolist() and points.y.tolist() == (row + sy).tolist()
+    assert points.keys.tolist() == ((row * 20 + col) * KEY_STRIDE + k).tolist()
+    assert r.bounds.tolist() == [0, *np.cumsum(new - old)] and points.weight is None
+    # each pass draws its own: two passes cut at a pixel bound draw the same samples
+    cut = int(r.bounds[2])
+    parts = [r.points(0, cut), r.points(cut, r.size)]
+    assert np.concatenate([q.x for q in parts]).tolist() == points.x.tolist()
+    assert np.concatenate([q.keys for q in parts]).tolist() == points.keys.tolist()
 
 
 def test_a_round_traces_its_rows_in_bit_reversed_order():
@@ -91,7 +97,7 @@ def test_a_round_traces_its_rows_in_bit_reversed_order():
     assert order.tolist() == [0, 1, 8, 9, 4, 5, 2, 3, 6, 7]
     r = noise.plan((0, 0, 2, 5), 2, 3, np.zeros(10, np.int64), np.full(10, 2, np.int64))
     assert r.order.tolist() == order.tolist()  # a round is planned in that order
-    assert (r.y[::2] // 1).tolist() == [0, 0, 4, 4, 2, 2, 1, 1, 3, 3]
+    assert (r.points(0, r.size).y[::2] // 1).tolist() == [0, 0, 4, 4, 2, 2, 1, 1, 3, 3]
 
 
 def test_a_round_s_passes_hold_like_shares_of_the_scene():
@@ -402,16 +408,15 @@ def test_quarter_sums_and_pooled_moments_are_those_of_all_the_samples():
     kept = {0: [], 1: []}
     for old, new, traced in (([0, 0], [2, 6], [True, True]), ([2, 6], [4, 12], [True, True]),
                              ([4, 12], [16, 24], [True, False])):
-        values, flags = [], []
+        values = []
         for p in (0, 1):
             block = 1e8 + rng.standard_normal((new[p] - old[p], 3))
-            values.append(block)
-            flags += [traced[p]] * len(block)
-            if traced[p]:
+            if traced[p]:  # (a pass adds what it traced)
+                values.append(block)
                 kept[p].append(block)
-        done = np.empty(2, bool)
-        add_round(np.concatenate(values), np.array(old), np.array(new), np.array(flags),
-                  np.arange(2), sums, moments, done)
+        done = np.array(old) == np.array(new)
+        add_round(np.concatenate(values), np.array(old), np.array(new),
+                  np.flatnonzero(traced), sums, moments, done)
         assert done.tolist() == traced
     for p in (0, 1):
         every = np.concatenate(kept[p])
@@ -422,19 +427,21 @@ def test_quarter_sums_and_pooled_moments_are_those_of_all_the_samples():
         np.testing.assert_allclose(sums[:, p], _quarters(every), rtol=1e-14)
 
 
-def test_a_round_in_any_order_adds_each_pixel_s_own_samples():
-    """``add_round`` walks the round's pixels in its ``order``: pixels 2, 0, 1 growing from 0
-    to 2, 4 and 0 samples, the pixel 0's block not traced (a deadline): pixel 2's quarters of
-    2 samples (⌊2i/4⌋: empty, the first, empty, the second) get its values, pixel 0 nothing
-    and is not done, pixel 1 (no samples) is done."""
-    values = np.array([[1.0, 1, 1], [2, 2, 2], [10, 10, 10], [20, 20, 20], [30, 30, 30],
-                       [40, 40, 40]])
-    traced = np.array([True, True, False, False, False, False])
-    sums, done = np.zeros((4, 3, 3)), np.empty(3, bool)
-    add_round(values, np.zeros(3, np.int64), np.array([4, 0, 2]), traced, np.array([2, 0, 1]),
-              sums, None, done)
+def test_a_round_s_passes_add_their_own_pixels():
+    """A round of pixels 2, 0, 1 (in that order) growing from 0 to 2, 4 and 0 samples, in
+    passes cut at pixel bounds: the pass of samples 0–2 adds pixel 2's quarters of 2 samples
+    (⌊2i/4⌋: empty, the first, empty, the second); the pass of pixel 0 never runs (a
+    deadline), so pixel 0 gets nothing and is not done; pixel 1, with no samples, is done
+    from the start, as the render marks it. A filter's weight multiplies each sample."""
+    values = np.array([[1.0, 1, 1], [2, 2, 2]])
+    old, new = np.zeros(3, np.int64), np.array([4, 0, 2])
+    sums, done = np.zeros((4, 3, 3)), old == new
+    r = noise.Round((0, 0, 3, 1), 3, 1, "box", old, new, np.array([2, 0, 1]),
+                    np.array([0, 2, 6, 6]), sums, None, done)
+    assert r.pixels(0, 2).tolist() == [2] and r.pixels(2, 6).tolist() == [0]
+    r.add(0, 2, values, np.array([1.0, -0.5]))
     assert done.tolist() == [False, True, True]
-    assert sums[:, 2, 0].tolist() == [0, 1, 0, 2]
+    assert sums[:, 2, 0].tolist() == [0, 1, 0, -1]
     assert not sums[:, 0].any() and not sums[:, 1].any()
 
 
@@ -444,12 +451,10 @@ def test_a_round_without_moments_adds_its_sums_alone():
     doubled to 8, the old halves becoming the first two quarters."""
     values = np.array([[0.1, 0.2, 0.3], [0.7, 0.11, 0.13], [0.3, 0.5, 0.9], [1e16, 1.0, 2.0],
                        [0.3, 0.7, 1.1], [0.9, 0.13, 0.17], [1e-3, 2.5, 0.75], [3.0, 1e8, 0.6]])
-    sums, done = np.zeros((4, 1, 3)), np.empty(1, bool)
-    add_round(values[:4], np.array([0]), np.array([4]), np.ones(4, bool), np.arange(1), sums,
-              None, done)
+    sums, done = np.zeros((4, 1, 3)), np.zeros(1, bool)
+    add_round(values[:4], np.array([0]), np.array([4]), np.arange(1), sums, None, done)
     assert done.tolist() == [True] and sums[:, 0].tolist() == values[:4].tolist()
-    add_round(values[4:], np.array([4]), np.array([8]), np.ones(4, bool), np.arange(1), sums,
-              None, done)
+    add_round(values[4:], np.array([4]), np.array([8]), np.arange(1), sums, None, done)
     assert sums[:, 0].tolist() == [(values[2 * i] + values[2 * i + 1]).tolist()
                                    for i in range(4)]
 
@@ -466,20 +471,23 @@ def test_a_render_by_target_doubles_the_pixels_of_widest_spread():
     rounds = []
 
     def trace(r, first):
-        rounds.append(r)
-        x = r.x - np.floor(r.x)
-        x = np.where(np.floor(r.x) < 2, 8 * x, x)
-        return np.repeat(x[:, None], 3, axis=1), np.ones(len(r.x), bool)
+        points = r.points(0, r.size)
+        rounds.append((r, points))
+        x = points.x - np.floor(points.x)
+        x = np.where(np.floor(points.x) < 2, 8 * x, x)
+        r.add(0, r.size, np.repeat(x[:, None], 3, axis=1))
+        return r.size
 
     noise.sample((0, 0, 6, 3), 6, 9, noise.Budget(4, 64, 0.01, target_error=1e-9), trace)
     x = np.empty((18, 4))
-    x[rounds[0].order] = rounds[0].x.reshape(18, 4)  # the pixels in window order
+    x[rounds[0][0].order] = rounds[0][1].x.reshape(18, 4)  # the pixels in window order
     value = np.where(np.floor(x) < 2, 8, 1) * (x - np.floor(x))
     n = np.full(18, 2)
     rate = noise.convergence_rate(np.repeat(value.T[:, :, None], 3, axis=2), n)
     want = noise.neyman_counts(n, value.var(1, ddof=1), 32, 6, rate=rate).reshape(3, 6)
     assert (want[:, 3:] == 2).all() and (want[:, :2] > 2).all() and (want[:, :2] == 8).sum() > 3
-    assert (np.diff(rounds[1].bounds) // 2).tolist() == (want.ravel() - n)[rounds[1].order].tolist()
+    second = rounds[1][0]
+    assert (np.diff(second.bounds) // 2).tolist() == (want.ravel() - n)[second.order].tolist()
 
 
 def test_a_pixel_s_most_samples_are_doublings_of_its_first():

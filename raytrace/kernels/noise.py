@@ -130,34 +130,28 @@ def round_points(window, width, seed, old, new, order, out):
 
 
 @kernel
-def add_round(values, old, new, traced, order, sums, moments, done):
-    """Add a round's samples to their pixels' quarter sums. ``values`` (m, 3) are the
-    round's samples in :func:`round_points`' order: pixel after pixel in ``order``, the
-    samples ``old[p]`` to ``new[p] − 1`` of pixel p, where ``new[p]`` is 0 or ``old[p]``
-    times a power of two; ``traced`` (m,) says which were traced (a deadline leaves out whole
-    pixels). ``sums`` (:data:`QUARTERS`, k, 3) hold each pixel's sums over the quarters of
-    its samples, ``⌊iN/4⌋`` to ``⌊(i + 1)N/4⌋ − 1`` of N: a pixel's samples doubled, its old
-    halves are its new first two quarters; grown more, its old samples all lie in its new
-    first quarter. Each sample is added in order. With ``moments`` (a
-    :class:`raytrace.kernels.records.Moments`; None where nothing reads them) the round's
-    block also updates its pixel's running moments by Chan, Golub & LeVeque's pairwise update
-    ("Algorithms for computing the sample variance", The American Statistician 37(3), 1983,
-    eq. 2.1): n₀ samples of mean μ and a block of k of mean μ_b make n₀ + k samples of mean
-    ``μ + δ·k/(n₀ + k)``, δ = μ_b − μ, and summed squared deviations ``m2 + m2_b +
+def add_round(values, old, new, order, sums, moments, done):
+    """Add a round's traced samples to their pixels' quarter sums. ``values`` (m, 3) are
+    samples in :func:`round_points`' order: pixel after pixel in ``order``, the samples
+    ``old[p]`` to ``new[p] − 1`` of pixel p, where ``new[p]`` is ``old[p]`` or ``old[p]``
+    times a power of two (or ``old[p]`` is 0). ``sums`` (:data:`QUARTERS`, k, 3) hold each
+    pixel's sums over the quarters of its samples, ``⌊iN/4⌋`` to ``⌊(i + 1)N/4⌋ − 1`` of N: a
+    pixel's samples doubled, its old halves are its new first two quarters; grown more, its
+    old samples all lie in its new first quarter. Each sample is added in order. With
+    ``moments`` (a :class:`raytrace.kernels.records.Moments`; None where nothing reads them)
+    the pixel's block also updates its running moments by Chan, Golub & LeVeque's pairwise
+    update ("Algorithms for computing the sample variance", The American Statistician 37(3),
+    1983, eq. 2.1): n₀ samples of mean μ and a block of k of mean μ_b make n₀ + k samples of
+    mean ``μ + δ·k/(n₀ + k)``, δ = μ_b − μ, and summed squared deviations ``m2 + m2_b +
     δ²·n₀·k/(n₀ + k)``: no difference of large sums, so a bright pixel's small spread is not
-    lost to cancellation. ``done[p]``: pixel p has its round (it had none, or it was
-    traced)."""
+    lost to cancellation. Each pixel of ``order`` is marked ``done``."""
     j = 0
     for q in range(order.shape[0]):
         p = order[q]
         n0, n1 = old[p], new[p]
         k = n1 - n0
+        done[p] = True
         if k == 0:
-            done[p] = True
-            continue
-        done[p] = traced[j]
-        if not traced[j]:
-            j += k
             continue
         b1, b2, b3 = n1 // 4, n1 // 2, (3 * n1) // 4
         for c in range(3):
