@@ -6,16 +6,17 @@ work before, between and after them.
 
 For one scene at 160×120 on 2 threads, a render by the target of uniform 16 spp's relative
 RMSE (against the 1024-spp reference of ``benchmarks/noise.py``, kept in ``--cache``), timed
-``--renders`` times after a warm-up. Each round's passes run inside one call of the
-integrator's ``_run`` (wrapped here to note when it starts and ends); the rest of the render
-is the main thread's: building the integrator, then per round the estimate, the allocation
-(:func:`raytrace.noise.neyman_counts`) and the round's plan, and after the last round the
-image. Prints, per render, the milliseconds before the first round's passes, between each two
-rounds, after the last, in the passes, and in all; then, round by round, the estimated
-relative RMSE and β (:func:`raytrace.noise.convergence_rate`), and for each allocation the fall
-of the summed variance it was to give (``shrink``, :func:`raytrace.noise.variance_shrink`),
-the fall the model predicts for the counts chosen (:func:`predicted_fall`),
-the fall of the estimate's square the round gave, and the actual over the predicted.
+``--renders`` times after a warm-up, render i with seed i. Each round's passes run inside
+one call of the integrator's ``_run`` (wrapped here to note when it starts and ends); the
+rest of the render is the main thread's: building the integrator, then per round the
+estimate, the allocation (:func:`raytrace.noise.neyman_counts`) and the round's plan, and
+after the last round the image. Prints, per render, the milliseconds before the first
+round's passes, between each two rounds, after the last, in the passes, and in all; then,
+round by round, the estimated relative RMSE and β (:func:`raytrace.noise.convergence_rate`),
+and for each allocation the fall of the summed variance it was to give (``shrink``,
+:func:`raytrace.noise.variance_shrink`), the fall the model predicts for the counts chosen
+(:func:`predicted_fall`), the fall of the estimate's square the round gave, and the actual
+over the predicted.
 """
 
 from __future__ import annotations
@@ -81,11 +82,11 @@ def main() -> None:
     print(f"{a.scene} 160x120, 2 threads, target {target:.4f} (uniform 16 spp's): ms")
     print(f"{'before':>8}{'between rounds':>24}{'after':>8}{'passes':>9}{'total':>8}")
     notes = []
-    for _ in range(a.renders):
+    for seed in range(a.renders):
         marks.clear()
         rounds.clear()
         t0 = time.perf_counter()
-        raytrace.render(scene, target_error=target, **common)
+        raytrace.render(scene, target_error=target, seed=seed, **common)
         t1 = time.perf_counter()
         ms = 1e3 * np.diff([t0, *marks, t1])
         between = ", ".join(f"{x:.1f}" for x in ms[2:-1:2])
