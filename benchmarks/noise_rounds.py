@@ -3,20 +3,22 @@ work before, between and after them.
 
     python3 benchmarks/noise_rounds.py                          # whitted, by uniform's error
     python3 benchmarks/noise_rounds.py --scene mesh_model --renders 5
+    python3 benchmarks/noise_rounds.py --target 0.01 --set MIN_ROUND_SHARE=0.25
 
-For one scene at 160×120 on 2 threads, a render by the target of uniform 16 spp's relative
-RMSE (against the 1024-spp reference of ``benchmarks/noise.py``, kept in ``--cache``), timed
-``--renders`` times after a warm-up, render i with seed i. Each round's passes run inside
-one call of the integrator's ``_run`` (wrapped here to note when it starts and ends); the
-rest of the render is the main thread's: building the integrator, then per round the
-estimate, the allocation (:func:`raytrace.noise.neyman_counts`) and the round's plan, and
-after the last round the image. Prints, per render, the milliseconds before the first
-round's passes, between each two rounds, after the last, in the passes, and in all; then,
-round by round, the estimated relative RMSE and β (:func:`raytrace.noise.convergence_rate`),
-and for each allocation the fall of the summed variance it was to give (``shrink``,
-:func:`raytrace.noise.variance_shrink`), the fall the model predicts for the counts chosen
-(:func:`predicted_fall`), the fall of the estimate's square the round gave, and the actual
-over the predicted.
+For one scene at 160×120 on 2 threads, a render by ``--target``, or by the target of uniform
+16 spp's relative RMSE (against the 1024-spp reference of ``benchmarks/noise.py``, kept in
+``--cache``), timed ``--renders`` times after a warm-up, render i with seed i. Each round's
+passes run inside one call of the integrator's ``_run`` (wrapped here to note when it starts
+and ends); the rest of the render is the main thread's: building the integrator, then per
+round the estimate, the allocation (:func:`raytrace.noise.neyman_counts`) and the round's
+plan, and after the last round the image. Prints, per render, the milliseconds before the
+first round's passes, between each two rounds, after the last, in the passes, and in all,
+its samples a pixel and rounds, and the relative RMSE measured against the reference over
+the target; then, round by round, the estimated relative RMSE and β
+(:func:`raytrace.noise.convergence_rate`), and for each allocation the fall of the summed
+variance it was to give (``shrink``, :func:`raytrace.noise.variance_shrink`), the fall the
+model predicts for the counts chosen (:func:`predicted_fall`), the fall of the estimate's
+square the round gave, and the actual over the predicted.
 """
 
 from __future__ import annotations
@@ -45,14 +47,23 @@ def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--scene", default="whitted")
     p.add_argument("--renders", type=int, default=3)
+    p.add_argument("--target", type=float, help="the target error (default: uniform 16 spp's "
+                   "relative RMSE)")
+    p.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE",
+                   help="set constants of raytrace.noise (ROUND_SHARE, MIN_ROUND_SHARE, "
+                   "TARGET_MARGIN, MAX_DOUBLINGS) for this run")
     p.add_argument("--cache", type=Path, default=Path("/tmp/raytrace-noise-references"))
     a = p.parse_args()
+    for setting in a.set:
+        name, value = setting.split("=")
+        setattr(noise, name, type(getattr(noise, name))(value))
     malloc.tune()  # as the command line does
     scene = raytrace.load_scene(scene_path(a.scene))
     common = dict(width=160, height=120, threads=2)
     ref = reference(scene, a.scene, 1024, a.cache, **common)
+    level = float(ref.mean())
     uniform = raytrace.render(scene, spp=16, **common).rgb.astype(np.float64)
-    target = float(np.sqrt(np.mean((uniform - ref) ** 2)) / ref.mean())
+    target = a.target or float(np.sqrt(np.mean((uniform - ref) ** 2)) / level)
     raytrace.render(scene, target_error=target, **common)  # warm-up
     marks: list[float] = []
     run = integrator.WhittedIntegrator._run
@@ -79,20 +90,28 @@ def main() -> None:
         return new
 
     noise.relative_rmse, noise.neyman_counts = noted_estimate, noted_allocation
-    print(f"{a.scene} 160x120, 2 threads, target {target:.4f} (uniform 16 spp's): ms")
-    print(f"{'before':>8}{'between rounds':>24}{'after':>8}{'passes':>9}{'total':>8}")
-    notes = []
+    print(f"{a.scene} 160x120, 2 threads, target {target:.4f}"
+          f"{'' if a.target else ' (uniform 16 spp' + chr(39) + 's)'} {' '.join(a.set)}: ms")
+    print(f"{'before':>8}{'between rounds':>24}{'after':>8}{'passes':>9}{'total':>8}"
+          f"{'samples/px':>12}{'rounds':>8}{'measured/target':>17}")
+    notes, spent = [], []
     for seed in range(a.renders):
         marks.clear()
         rounds.clear()
         t0 = time.perf_counter()
-        raytrace.render(scene, target_error=target, seed=seed, **common)
+        image = raytrace.render(scene, target_error=target, seed=seed, **common)
         t1 = time.perf_counter()
         ms = 1e3 * np.diff([t0, *marks, t1])
         between = ", ".join(f"{x:.1f}" for x in ms[2:-1:2])
+        st = image.stats["aa"]
+        measured = np.sqrt(np.mean((image.rgb.astype(np.float64) - ref) ** 2)) / level
+        spent.append((st["samples_per_pixel"], st["rounds"]))
         print(f"{ms[0]:>8.1f}{between:>24}{ms[-1]:>8.1f}{ms[1::2].sum():>9.1f}"
-              f"{1e3 * (t1 - t0):>8.1f}")
+              f"{1e3 * (t1 - t0):>8.1f}{st['samples_per_pixel']:>12.2f}{st['rounds']:>8}"
+              f"{measured / target:>17.2f}")
         notes.append(list(rounds))
+    mean = np.mean(spent, axis=0)
+    print(f"mean of {a.renders}: {mean[0]:.2f} samples a pixel in {mean[1]:.2f} rounds")
     print("round by round: estimate, beta; shrink asked, fall predicted, fall of the "
           "estimate's square, actual/predicted")
     for steps in notes:
