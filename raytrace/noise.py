@@ -72,7 +72,7 @@ import numpy as np
 
 from .film.filters import importance
 from .kernels.noise import QUARTERS, add_round, pixel_offset_rows, round_points, sobol_rows
-from .kernels.records import Moments, StreamSamples, Window
+from .kernels.records import Moments, RoundSamples, Window
 
 #: The most a round by target error or time adds, as a share of the samples spent so far: a
 #: round at most doubles them (half as much took a round more, and its fixed cost, on the
@@ -248,7 +248,7 @@ class Round:
         over the pixel for the box ``filter``, else mapped through the filter around the
         pixel's centre (:func:`raytrace.film.filters.importance`)."""
         m = stop - start
-        out = StreamSamples(np.empty(m), np.empty(m), *(np.empty(m, np.int64) for _ in range(3)))
+        out = RoundSamples(np.empty(m), np.empty(m), *(np.empty(m, np.int64) for _ in range(3)))
         round_points(Window(*self.window), self.width, self.seed, self.old, self.new,
                      self.pixels(start, stop), out)
         sx, sy = out.sx, out.sy

@@ -110,7 +110,7 @@ def round_points(window, width, seed, old, new, order, out):
     (a :class:`raytrace.kernels.records.Window`: its pixels numbered row by row from (x0,
     y0), in a ``width``-wide frame), pixel after pixel in ``order`` (the pixels' numbers,
     each once), in sample order, into ``out`` (a
-    :class:`raytrace.kernels.records.StreamSamples`): each sample's offset in the pixel (as
+    :class:`raytrace.kernels.records.RoundSamples`): each sample's offset in the pixel (as
     :func:`pixel_offset_rows`, the pixel's two seeds hashed once), its pixel's frame column
     and row, and its light key ``(row·width + col)·KEY_STRIDE + k``."""
     x0, y0 = window.x0, window.y0

@@ -50,7 +50,7 @@ record                   what it holds (n rays or hits, M materials, T triangles
 :class:`Pinhole`         the frame as a pinhole sees it
 :class:`Sampling`        how a frame's pixel samples are numbered and placed
 :class:`Window`          a window of pixels (a crop, or what is traced)
-:class:`StreamSamples`   a noise-driven round's samples: offsets, pixels and light keys
+:class:`RoundSamples`    a noise-driven round's samples: offsets, pixels and light keys
 :class:`Moments`         the running moments of each pixel's samples (a noise-driven render)
 :class:`FilterProfile`   a reconstruction filter
 :class:`Cells`           adaptive anti-aliasing's cells of a level, :class:`Level` its rule,
@@ -554,7 +554,7 @@ class Window(NamedTuple):
     y1: int
 
 
-class StreamSamples(NamedTuple):
+class RoundSamples(NamedTuple):
     """The ``m`` samples of a noise-driven round (``kernels.noise.round_points``), in the
     round's order."""
 
