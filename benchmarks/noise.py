@@ -4,6 +4,7 @@
     python3 benchmarks/noise.py --json out.json       # the table's numbers as JSON too
     python3 benchmarks/noise.py --curves docs/sampling  # + error-against-time curves, PNG each
     python3 benchmarks/noise.py --min-spp 8            # noise-driven renders from 8 samples
+    python3 benchmarks/noise.py --seeds 10             # + the two ratios, interleaved
 
 For each scene (2 threads, a reference of ``--reference-spp`` uniform samples with another
 seed, kept in ``--cache``): uniform 16 spp, timed (best of ``--repeats`` after a warm-up);
@@ -17,6 +18,12 @@ of at least 3, :func:`timed`)
 * ``--target-error 0.01``: the relative RMSE measured (target within [0.0067, 0.015]) and the
   renderer's estimate;
 * the default threshold (0.01, 8 to 1024 samples).
+
+``--seeds K`` adds, per scene, the two ratios of the targets measured so that the machine's
+drift cancels (:func:`interleaved`): seed by seed, uniform 16 spp and then a render by its
+error, each timed once; then, seed by seed, a render by a time limit of the median uniform
+time; the medians over the seeds of the time ratio, and of each render's RMSE over uniform's
+(of the same seed).
 
 ``--curves FOLDER`` adds, per scene, the error-against-time curves of four ways to spend
 time: uniform stratified spp (:data:`CURVE_SPP`), the corner-adaptive mode at its defaults
@@ -107,6 +114,28 @@ def curves(scene, common: dict, rmse, level: float, t_u: float, repeats: int) ->
         "noise, by time limit": [row(f"{f:g}x", time_limit=f * t_u) for f in CURVE_TIMES]}
 
 
+def interleaved(scene, common: dict, rmse, level: float, seeds: int) -> dict:
+    """The targets' two ratios over ``seeds`` seeds, interleaved (module docstring): the
+    medians of the time of a render by uniform 16 spp's error over uniform's, of its RMSE
+    over uniform's, and of the RMSE of a render by uniform's median time over uniform's."""
+    uniform, by_error = [], []
+    for seed in range(seeds):
+        t0 = time.perf_counter()
+        image = raytrace.render(scene, spp=16, seed=seed, **common)
+        t1 = time.perf_counter()
+        e = rmse(image)
+        noisy = raytrace.render(scene, target_error=e / level, seed=seed, **common)
+        by_error.append(((time.perf_counter() - t1) / (t1 - t0), rmse(noisy) / e))
+        uniform.append((t1 - t0, e))
+    limit = float(np.median([t for t, _ in uniform]))
+    by_time = [rmse(raytrace.render(scene, time_limit=limit, seed=seed, **common)) / e
+               for seed, (_, e) in enumerate(uniform)]
+    return {"seeds": seeds, "uniform_seconds": limit,
+            "time_to_error": float(np.median([r for r, _ in by_error])),
+            "rmse_reached": float(np.median([r for _, r in by_error])),
+            "rmse_at_time": float(np.median(by_time))}
+
+
 def plot_curves(name: str, size: tuple[int, int], threads: int, series: dict,
                 folder: Path) -> Path:
     """``noise_curves_<name>.png``: relative RMSE against CPU seconds, log-log, a series each
@@ -147,6 +176,9 @@ def main() -> None:
     p.add_argument("--cache", type=Path, default=Path("/tmp/raytrace-noise-references"))
     p.add_argument("--min-spp", type=int, help="the noise-driven renders' first round "
                    "(default: the renderer's, 4 by target or time, 8 by threshold)")
+    p.add_argument("--seeds", type=int, default=0,
+                   help="also measure the targets' two ratios over this many seeds, "
+                   "interleaved (medians)")
     p.add_argument("--json", type=Path)
     p.add_argument("--curves", type=Path, metavar="FOLDER",
                    help="also measure the error-against-time curves; their PNGs go here")
@@ -195,6 +227,14 @@ def main() -> None:
         out[name] = {"mean": level, "rows": {k: dict(zip(
             ("seconds", "cpu", "spp", "rmse", "estimate"), v, strict=True))
             for k, v in rows.items()}}
+        if a.seeds:
+            medians = interleaved(scene, common, rmse, level, a.seeds)
+            print(f"interleaved over {a.seeds} seeds (medians): RMSE at uniform 16 spp's wall "
+                  f"time {medians['rmse_at_time']:.2f}x uniform's; time to uniform's error "
+                  f"{medians['time_to_error']:.2f}x wall (reaching "
+                  f"{medians['rmse_reached']:.2f}x its RMSE); uniform "
+                  f"{medians['uniform_seconds']:.3f} s")
+            out[name]["interleaved"] = medians
         if a.curves:
             series = curves(scene, common, rmse, level, t_u, a.repeats)
             print(f"\n{name}: error against time ({'wall s':>6}, CPU s, spp, relative RMSE, "
