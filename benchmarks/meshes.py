@@ -30,6 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
+import raytrace
+from raytrace.accel_cache import fingerprint
+from raytrace.embree import Meshes
+from raytrace.readers import meshio
+from raytrace.tables import scene_arrays
+
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
@@ -59,8 +65,6 @@ def load_parts(mesh: Path) -> dict:
     merge_vertices, raytrace's reading before meshio)."""
     import trimesh
 
-    from raytrace.readers import meshio
-
     t0 = time.process_time()
     fast = meshio.read_mesh(mesh)
     t1 = time.process_time()
@@ -77,11 +81,6 @@ def build_parts(scene_path: Path, threads: int) -> dict:
     making the mesh (``raytrace.load_scene``, CPU), the accelerator's fingerprint and the
     float64 triangle tables (CPU), and Embree's BVH (wall, ``threads`` threads; the second
     of two builds, Embree's library and device loaded by the first)."""
-    import raytrace
-    from raytrace.accel_cache import fingerprint
-    from raytrace.embree import Meshes
-    from raytrace.tables import scene_arrays
-
     t0 = time.process_time()
     scene = raytrace.load_scene(scene_path)
     made = time.process_time() - t0
