@@ -26,6 +26,7 @@ import bench  # noqa: E402
 import gil  # noqa: E402
 import meshes  # noqa: E402
 import mitsuba_peer  # noqa: E402
+import noise_oracle  # noqa: E402
 import povray  # noqa: E402
 
 needs_povray = pytest.mark.skipif(not povray.available(), reason="povray is not installed")
@@ -323,3 +324,50 @@ def test_a_4000x3000_preview_adds_under_150_mb(tmp_path):
                                   bits=bits, repeat=1, cold=False)
         assert "error" not in row, row
         assert row["file_mb"] > 0.01 and row["peak_mb"] < png_preview.BOUND_MB, row
+
+
+# -- noise_oracle.py: allocations by known variances -------------------------------------------
+def test_oracle_doublings_reach_the_goal_by_hand():
+    # β = 1: a pixel of 16-sample variance 1 varies by 16/n at n samples, 4 at the first
+    # round's 4; reaching 1 takes 4 → 8 → 16, and past it (0.999) one doubling more. A pixel
+    # of no variance keeps its 4.
+    v16, ones = np.array([1.0, 0.0]), np.ones(2)
+    assert noise_oracle.doublings(v16, ones, 1.0, goal=1.0).tolist() == [16, 4]
+    assert noise_oracle.doublings(v16, ones, 1.0, goal=0.999).tolist() == [32, 4]
+
+
+def test_oracle_doublings_within_a_budget_by_hand():
+    # equal variances, the second pixel's samples 3× as dear: per unit of cost pixel 0's
+    # 4 → 8 takes off 16·(1/4 − 1/8)/4 = 0.5, pixel 1's 0.5/3, pixel 0's 8 → 16 0.125;
+    # the first round costs 4 + 12 and the budget leaves room for 4 more, pixel 0's doubling
+    v16, cost = np.ones(2), np.array([1.0, 3.0])
+    assert noise_oracle.doublings(v16, cost, 1.0, budget=20.0).tolist() == [8, 4]
+    assert noise_oracle.doublings(v16, cost, 1.0, budget=31.9).tolist() == [8, 4]
+    assert noise_oracle.doublings(v16, cost, 1.0, budget=32.0).tolist() == [8, 8]
+
+
+def test_oracle_doublings_are_the_fewest_that_reach_the_goal():
+    rng = np.random.default_rng(3)
+    v16, beta = rng.gamma(0.5, 1.0, 500), 1.5
+    goal = 0.3 * (v16 * 4.0 ** beta).sum()  # 16/4 = 4: the first round's summed variance × 0.3
+    n = noise_oracle.doublings(v16, np.ones(500), beta, goal=goal)
+    assert set(np.unique(n)) <= {4, 8, 16, 32, 64}
+    assert (v16 * (16.0 / n) ** beta).sum() <= goal
+    # the last doubling taken was needed: undoing the cheapest-to-lose one overshoots
+    loss = np.where(n > 4, v16 * 16.0 ** beta * ((n / 2.0) ** -beta - n ** -beta), np.inf)
+    i = int(np.argmin(loss))
+    assert (v16 * (16.0 / n) ** beta).sum() + loss[i] > goal
+
+
+def test_a_render_follows_the_oracle_s_counts():
+    # an edge down the image (so the estimate is not 0 and the render goes on past its
+    # first round): each pixel ends with the samples it was given, in two rounds
+    quad = raytrace.Mesh(vertices=[[-100, -100, -1], [0.1, -100, -1], [0.1, 100, -1],
+                                   [-100, 100, -1]], faces=[[0, 1, 2], [0, 2, 3]],
+                         material={"ka": 1.0, "kd": 0.0})
+    scene = raytrace.Scene(camera=raytrace.Camera(), objects=[quad], ambient=1.0,
+                           render=raytrace.RenderSettings(width=8, height=6))
+    counts = np.array([4, 8, 16, 64] * 12)
+    image = noise_oracle.render_counts(scene, counts, 0, threads=1, aovs=["samples"])
+    assert image.aovs["samples"].ravel().tolist() == counts.tolist()
+    assert image.stats["aa"]["rounds"] == 2
