@@ -49,7 +49,8 @@ times a round, in order of what each doubling takes off the summed variance per 
 (:func:`neyman_counts`), judged by each pixel's sample variance (all its samples pooled round
 by round, :func:`raytrace.kernels.noise.add_round`: ``N − 1`` degrees of freedom where the
 halves' difference has one, so the first round can be small: 4 samples a pixel by default,
-:data:`raytrace.sampling.MIN_SPP_GOAL`) and the image's β. A round adds as many samples as
+:data:`raytrace.sampling.MIN_SPP_GOAL`), its neighbourhood's (by time, moderated by the
+pixel's own: :data:`TIME_PRIOR`) and the image's β. A round adds as many samples as
 were spent, or near a target what the target needs (:func:`variance_shrink`). The render
 stops after the first round whose estimate is at most the target, once the deadline has
 passed (no pass starts after it, so each pixel keeps whole rounds; the round before it is
@@ -87,6 +88,12 @@ MIN_ROUND_SHARE = 0.1
 #: …and how far past the target it aims, so that the estimate's own noise rarely needs one
 #: more round.
 TARGET_MARGIN = 1.1
+#: The degrees of freedom a render by time gives the neighbourhood's variance in a pixel's
+#: moderated variance, which it ranks pixels by (:func:`neyman_counts`): at equal samples
+#: 0.88–1.00× the RMSE of the neighbourhood's alone (``benchmarks/noise_budget.py``). A
+#: render by target ranks by the neighbourhood's alone, with which its rounds fall short of
+#: their aim less often (docs/decisions.md, "Sampling").
+TIME_PRIOR = 8.0
 #: The error's guard against division by zero in black pixels (Cycles' 0.0001).
 ERROR_EPSILON = 1e-4
 
@@ -460,7 +467,7 @@ def descending(priority: np.ndarray, *ties: np.ndarray) -> np.ndarray:
 
 def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
                   share: float = ROUND_SHARE, shrink: float = 0.0,
-                  rate: float = 1.0) -> np.ndarray:
+                  rate: float = 1.0, prior: float = math.inf) -> np.ndarray:
     """Each pixel's samples a half (``n``: half its samples) after the next round of a render
     by target error or time: the doublings of highest priority ``σ̃·m^−(1+β)/2`` are taken, a
     pixel's j-th doubling of the round taking it from ``m = n·2^j`` to ``2m`` a half (at most
@@ -470,8 +477,14 @@ def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
     present value. A pixel's mean varies by ``s²·(2n)^−β`` (:func:`convergence_rate`: β is
     ``rate``), s² its per-sample variance ``variance`` (the sample variance of all its
     samples pooled, averaged over the channels; not finite: 0, the pixel then
-    ranked by its neighbours'), and σ̃² is the 3×3 mean of s² (:func:`box3`), which steadies
-    the ranking of a pixel whose few samples missed its edge.
+    ranked by its neighbours'), and σ̃² is its moderated variance
+    ``(d₀·s̄² + d·s²)/(d₀ + d)``: the 3×3 mean of s² (:func:`box3`), s̄², taken as a prior
+    worth ``d₀ = prior`` degrees of freedom, and the pixel's own, worth its ``d = 2n − 1``
+    (the posterior variance of Smyth 2004, "Linear models and empirical Bayes methods for
+    assessing differential expression in microarray experiments", whose prior is fitted
+    where this one is the neighbourhood). The neighbourhood steadies the ranking of a pixel
+    whose few samples missed its edge, and the pixel's own samples count the more the more
+    it has. With ``prior`` infinite (the default) σ̃² is the neighbourhood's alone.
 
     Taking the doublings in order of what each takes off the summed variance per sample,
     ``∝ σ̃²·m^−(1+β)`` (a doubling cut short by ``most`` ranked as a whole one), is the
@@ -485,7 +498,11 @@ def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
     penumbra) reach their share in one round instead of one doubling a
     round. Ties go to the lower doubling, then the earlier pixel."""
     s2 = np.where(np.isfinite(variance), variance, 0.0)
-    sigma = np.sqrt(box3(s2, cols))
+    sigma = box3(s2, cols)
+    if prior < math.inf:
+        dof = 2.0 * n - 1.0
+        sigma = (prior * sigma + dof * s2) / (prior + dof)
+    sigma = np.sqrt(sigma)
     # each doubling's powers of its start m = n·2^j, per distinct count (the pixels' counts
     # take a few values) and doubling j, taken once each: ``cell`` = count·J + j
     present = np.bincount(n) > 0
@@ -587,7 +604,8 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
                 stopped = "time_limit"
                 break
             new = neyman_counts(n, variance, most, cols, share,
-                                variance_shrink(estimate, budget.target_error), rate)
+                                variance_shrink(estimate, budget.target_error), rate,
+                                math.inf if budget.target_error is not None else TIME_PRIOR)
         else:
             new = next_counts(n, pixel_error(a, b), budget.threshold, most, cols, grew)
         grew = new > n

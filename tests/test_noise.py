@@ -229,6 +229,27 @@ def test_neyman_counts_samples_the_largest_sigma_over_n_first():
                                share=0.2).tolist() == [4, 2, 4]
 
 
+def test_neyman_counts_rank_by_the_moderated_variance_given_a_prior():
+    """Per-sample variances 1, 0, 0.9 in a row, 4 samples each (n = 2 a half, d = 3 degrees
+    of freedom): the neighbourhood's means are 0.5, 0.633, 0.45, so by them alone the middle
+    pixel, whose own samples agree, doubles first. With a prior of 8 degrees of freedom the
+    moderated variances (8·s̄² + 3·s²)/11 are 0.636, 0.461, 0.573: the first pixel doubles
+    first. A round of one doubling (a share of 2 of the 6 halves spent)."""
+    n = np.array([2, 2, 2])
+    variance = np.array([1.0, 0.0, 0.9])
+    assert noise.neyman_counts(n, variance, 64, 3, share=1 / 3).tolist() == [2, 4, 2]
+    assert noise.neyman_counts(n, variance, 64, 3, share=1 / 3,
+                               prior=8.0).tolist() == [4, 2, 2]
+    # the more samples a pixel has, the more its own count: past a prior of 64 the middle
+    # pixel leads at 4 samples (0.60 against 0.52 and 0.47), the first at 64 (d = 63: 0.75
+    # against 0.32 and 0.67)
+    assert noise.neyman_counts(n, variance, 64, 3, share=1 / 3,
+                               prior=64.0).tolist() == [2, 4, 2]
+    n = np.full(3, 32)
+    assert noise.neyman_counts(n, variance, 1024, 3, share=1 / 3,
+                               prior=64.0).tolist() == [64, 32, 32]
+
+
 def test_neyman_counts_doubles_a_pixel_again_while_it_stays_first():
     """Per-sample variances 0, 0, 100 in a row, n = 2 each: σ̃² = 0, 33.3, 50, so the
     doublings' priorities σ̃/m are 3.54 (pixel 2 at m = 2), 2.89 (pixel 1 at 2), then 1.77
