@@ -651,6 +651,25 @@ def test_a_render_by_target_error_is_deterministic(threads):
     assert st["stopped_by"] != "target_error" or st["estimated_relative_rmse"] <= 0.02
 
 
+@pytest.mark.parametrize(("kw", "prior"), [
+    (dict(time_limit=60.0), noise.TIME_PRIOR), (dict(target_error=1e-6), math.inf),
+    (dict(time_limit=60.0, target_error=1e-6), math.inf)])
+def test_renders_by_time_alone_rank_by_the_moderated_variance(monkeypatch, kw, prior):
+    """A render by time ranks pixels by their variance moderated by their neighbourhood's
+    (``noise.TIME_PRIOR`` degrees of freedom); one with a target, whose estimate decides when
+    it stops, by the neighbourhood's alone."""
+    allocate, priors = noise.neyman_counts, []
+
+    def noted(*args):
+        priors.append(args[-1])
+        return allocate(*args)
+
+    monkeypatch.setattr(noise, "neyman_counts", noted)
+    raytrace.render(every_ray_scene(), width=12, height=9, threads=1, max_spp=16, **kw)
+    assert priors and set(priors) == {prior}
+    assert 0 < noise.TIME_PRIOR < math.inf
+
+
 def test_a_time_limit_stops_after_the_first_round():
     """A limit already past when the render starts: the first round (min_spp everywhere:
     4, the default by target or time, or as given) still runs, then nothing more."""
