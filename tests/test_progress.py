@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import re
+import select
 import subprocess
 import sys
 
@@ -60,8 +61,13 @@ def test_a_terminal_of_no_size_still_gets_a_bar(monkeypatch):
         bar = ProgressBar(file=sys.stderr)
         bar(1000, 4000)
         bar(4000, 4000)
-    drawn = os.read(master, 65536).decode()
+    # the kernel hands a pty's writes to its reader asynchronously: read until the bar's
+    # last draw, its newline, has come (or nothing more comes for 5 s)
+    drawn = b""
+    while not drawn.endswith(b"\n") and select.select([master], [], [], 5.0)[0]:
+        drawn += os.read(master, 65536)
     os.close(master)
+    drawn = drawn.decode()
     assert "100%|" in drawn and TIMES.search(drawn), drawn
 
 
