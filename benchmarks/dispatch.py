@@ -24,13 +24,13 @@ import statistics
 import sys
 import time
 
+import numba.core.registry
+
+import raytrace
+from raytrace import integrator, malloc
+
 
 def main(argv: list[str] | None = None) -> int:
-    import numba.core.registry
-
-    import raytrace
-    from raytrace import integrator, malloc
-
     integrator.WhittedIntegrator.compiled = False  # kernels wrapped from Python: its loop
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("scene")

@@ -18,7 +18,7 @@ the pixel. So:
   ``2^m``: a pixel's samples are stratified as a whole at every power of two, and so are
   their halves and quarters. The mean of a scrambled net's N points varies as ``N^−β``, β
   above 1 (Owen 1997: up to N^−3 within a logarithm for a smooth integrand, N^−1.5 across an
-  edge), so one sequence of N points varies less than two independent ones of N/2: 0.62–0.73×
+  edge), so one sequence of N points varies less than two independent ones of N/2: 0.62–0.74×
   the MSE on the benchmark's scenes at 4 and 16 samples a pixel (docs/sampling.md);
 * the noise is read from the pixel's halves, A (samples 0 … N/2 − 1) and B (N/2 … N − 1). With
   ``V_k`` the variance of the mean of k points, A and B each vary by ``V_{N/2}`` and their
