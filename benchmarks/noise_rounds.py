@@ -24,6 +24,7 @@ square the round gave, and the actual over the predicted.
 from __future__ import annotations
 
 import argparse
+import inspect
 import time
 from pathlib import Path
 
@@ -84,8 +85,12 @@ def main() -> None:
         rounds.append((e, rate))
         return e
 
-    def noted_allocation(n, variance, most, cols, share, shrink, rate):
-        new = allocate(n, variance, most, cols, share, shrink, rate)
+    def noted_allocation(*args, **kw):  # whatever arguments the renderer passes
+        new = allocate(*args, **kw)
+        given = inspect.signature(allocate).bind(*args, **kw)
+        given.apply_defaults()
+        n, variance, shrink, rate = (given.arguments[k]
+                                     for k in ("n", "variance", "shrink", "rate"))
         rounds.append((shrink, predicted_fall(n, new, variance, rate)))
         return new
 
