@@ -103,10 +103,9 @@ MIN_PASSES = 16
 #: 0.134 s at passes of 4 800 samples, 0.094 at 8 192, 0.077 at 16 384, 0.082 at 32 768;
 #: docs/performance.md, "Threads"). A frame of fewer than 16 such passes gets fewer threads.
 MIN_PASS_SAMPLES = 16384
-#: The least pass of a noise-driven round, cut into two passes a thread: a small round still
-#: goes to every thread of a many-core machine. (On 2 threads 4 096 and 16 384 measured
-#: alike: renders by target or time of the noise benchmark's scenes within 2 %, medians of
-#: 11.)
+#: The least pass of a noise-driven round (:func:`round_pass_size`): a small round still goes
+#: to every thread of a many-core machine. (On 2 threads 4 096 and 16 384 measured alike:
+#: renders by target or time of the noise benchmark's scenes within 2 %, medians of 11.)
 MIN_ROUND_PASS_SAMPLES = 4096
 #: Most surfaces a transparent shadow ray passes through before it counts as blocked
 #: (:data:`raytrace.kernels.loop.MAX_SHADOW_CROSSINGS`, one value for both loops).
@@ -246,6 +245,24 @@ def pass_threads(n: int) -> ThreadPoolExecutor:
             own.pool.shutdown(wait=False)
         own.pool, own.size = ThreadPoolExecutor(n, thread_name_prefix="raytrace"), n
     return own.pool
+
+
+def round_pass_size(samples: int, threads: int, most: int) -> int:
+    """Samples a pass of a noise-driven round of ``samples`` samples on ``threads`` threads:
+    the fewest passes of at most ``most`` samples, rounded up to a multiple of the threads and
+    cut evenly, so that each thread takes as many whole passes and they end together (a round
+    orders its pixels so that any run of them holds a like share of sky and of geometry,
+    :func:`raytrace.noise.spread_order`); no pass under :data:`MIN_ROUND_PASS_SAMPLES`.
+
+    One pass a thread where a round fits: each pass pays its depths' Python and kernel
+    dispatch once, however few its samples, and two threads wait for each other's turns at
+    the GIL. 16 samples a pixel in three rounds of 4, 4 and 8 took 160 ms in one pass a
+    thread, 179 ms in two and 202 ms in three, against 136 ms in one round of 16 (the mesh
+    scene at 160×120 on 2 threads, medians of 12: ``python3 benchmarks/noise_passes.py
+    --per-thread 1 2 3 --seeds 12``; docs/sampling.md, "Stopping by error or time")."""
+    count = -(-samples // most)
+    count = -(-count // threads) * threads
+    return max(MIN_ROUND_PASS_SAMPLES, -(-samples // count))
 
 
 class Scratch:
@@ -527,10 +544,8 @@ class WhittedIntegrator:
             t_start + opt.time_limit - self.build_seconds)
 
         def trace(r: noise.Round, first: bool) -> int:
-            # two passes a thread: a round is small, and each pass costs Python per depth
-            size = min(opt.pass_samples,
-                       max(MIN_ROUND_PASS_SAMPLES, -(-r.size // (2 * opt.threads))))
             self._round = r
+            size = round_pass_size(r.size, opt.threads, opt.pass_samples)
             done = self._run(noise.passes(r.bounds, size), None, progress, r.size, stop,
                              None if first else deadline)
             return sum(b - a for a, b in done)

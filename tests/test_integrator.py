@@ -30,6 +30,7 @@ import pytest
 import trimesh
 from helpers import aimed_camera, make_scene, pixel
 from reference_tracer import ReferenceTracer
+from test_threads import scene as every_ray_scene
 
 import raytrace
 from raytrace import (
@@ -46,7 +47,15 @@ from raytrace import (
 from raytrace import integrator as integrator_module
 from raytrace.cli import main
 from raytrace.film import read_exr
-from raytrace.integrator import KERNEL_FEATURES, RenderOptions, Stop, WhittedIntegrator, chunks
+from raytrace.integrator import (
+    KERNEL_FEATURES,
+    MIN_ROUND_PASS_SAMPLES,
+    RenderOptions,
+    Stop,
+    WhittedIntegrator,
+    chunks,
+    round_pass_size,
+)
 from raytrace.kernels.kinds import CAMERA, NO_SHAPE, REFRACTION
 from raytrace.kernels.rays import gather_chunks, sample_chunks
 from raytrace.rays import RayBatch
@@ -943,3 +952,33 @@ def test_an_error_in_the_progress_callback_stops_the_render_and_is_raised(thread
         raytrace.render(scene, width=400, height=300, threads=threads, pass_samples=4096,
                         progress=progress)
     assert 1 <= len(calls) <= threads  # the first call stops every thread
+
+
+# -- a noise-driven round's passes ------------------------------------------------------------
+@pytest.mark.parametrize(("samples", "threads", "size"), [
+    (76800, 2, 38400),  # 160×120 at 4 a pixel: one pass a thread
+    (307200, 2, 51200),  # over 2 × 65 536: six passes, three a thread
+    (5000, 2, MIN_ROUND_PASS_SAMPLES),  # no pass under the least
+    (76800, 16, 4800),  # one pass for each of 16 threads
+    (76800, 1, 38400)])  # two passes, as one would pass 65 536
+def test_a_noise_round_goes_in_the_fewest_passes_a_thread(samples, threads, size):
+    assert round_pass_size(samples, threads, 65536) == size
+    passes = -(-samples // size)
+    assert size <= 65536 or passes == 1
+    assert passes % threads == 0 or size == MIN_ROUND_PASS_SAMPLES
+
+
+def test_a_render_by_target_cuts_each_round_into_one_pass_a_thread(monkeypatch):
+    """Each pass pays its depths' Python once, so a round on 2 threads goes in 2 passes
+    (64×48 at 4 samples a pixel: 12 288 samples, two of 6 144), not more."""
+    run, cuts = WhittedIntegrator._run, []
+
+    def noted(self, passes, *args, **kw):
+        cuts.append(len(passes))
+        return run(self, passes, *args, **kw)
+
+    monkeypatch.setattr(WhittedIntegrator, "_run", noted)
+    image = raytrace.render(every_ray_scene(), width=64, height=48, threads=2,
+                            target_error=1e-6, max_spp=16)
+    assert image.stats["aa"]["rounds"] == len(cuts) >= 2
+    assert cuts[0] == 2 and max(cuts) == 2
