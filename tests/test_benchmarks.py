@@ -27,6 +27,7 @@ import gil  # noqa: E402
 import meshes  # noqa: E402
 import mitsuba_peer  # noqa: E402
 import noise_oracle  # noqa: E402
+import noise_passes  # noqa: E402
 import povray  # noqa: E402
 
 needs_povray = pytest.mark.skipif(not povray.available(), reason="povray is not installed")
@@ -371,3 +372,12 @@ def test_a_render_follows_the_oracle_s_counts():
     image = noise_oracle.render_counts(scene, counts, 0, threads=1, aovs=["samples"])
     assert image.aovs["samples"].ravel().tolist() == counts.tolist()
     assert image.stats["aa"]["rounds"] == 2
+
+
+# -- noise_passes.py: a round in k passes a thread ---------------------------------------------
+@pytest.mark.parametrize("k", [1, 2, 3])
+def test_the_passes_benchmark_cuts_k_passes_a_thread(k):
+    """76 800 samples (160×120 at 4 a pixel) on 2 threads: 2k passes of equal size, each under
+    65 536."""
+    size = noise_passes.per_thread(k)(76800, 2, 65536)
+    assert -(-76800 // size) == 2 * k and size == -(-76800 // (2 * k))
