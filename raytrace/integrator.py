@@ -252,7 +252,8 @@ def round_pass_size(samples: int, threads: int, most: int) -> int:
     the fewest passes of at most ``most`` samples, rounded up to a multiple of the threads and
     cut evenly, so that each thread takes as many whole passes and they end together (a round
     orders its pixels so that any run of them holds a like share of sky and of geometry,
-    :func:`raytrace.noise.spread_order`); no pass under :data:`MIN_ROUND_PASS_SAMPLES`.
+    :func:`raytrace.noise.spread_order`); none under :data:`MIN_ROUND_PASS_SAMPLES` unless
+    ``most`` (which bounds the memory a pass takes) is smaller.
 
     One pass a thread where a round fits: each pass pays its depths' Python and kernel
     dispatch once, however few its samples, and two threads wait for each other's turns at
@@ -262,7 +263,7 @@ def round_pass_size(samples: int, threads: int, most: int) -> int:
     --per-thread 1 2 3 --seeds 12``; docs/sampling.md, "Stopping by error or time")."""
     count = -(-samples // most)
     count = -(-count // threads) * threads
-    return max(MIN_ROUND_PASS_SAMPLES, -(-samples // count))
+    return min(most, max(MIN_ROUND_PASS_SAMPLES, -(-samples // count)))
 
 
 class Scratch:

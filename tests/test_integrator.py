@@ -964,8 +964,14 @@ def test_an_error_in_the_progress_callback_stops_the_render_and_is_raised(thread
 def test_a_noise_round_goes_in_the_fewest_passes_a_thread(samples, threads, size):
     assert round_pass_size(samples, threads, 65536) == size
     passes = -(-samples // size)
-    assert size <= 65536 or passes == 1
     assert passes % threads == 0 or size == MIN_ROUND_PASS_SAMPLES
+
+
+def test_a_noise_round_s_pass_keeps_within_pass_samples():
+    """``pass_samples`` bounds a pass's memory, below the least pass too."""
+    assert round_pass_size(76800, 2, 50) == 50
+    assert round_pass_size(76800, 2, 4096) == 4096  # the least pass, not an even 3 840
+
 
 
 def test_a_render_by_target_cuts_each_round_into_one_pass_a_thread(monkeypatch):
