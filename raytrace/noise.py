@@ -72,7 +72,16 @@ from typing import NamedTuple
 import numpy as np
 
 from .film.filters import importance
-from .kernels.noise import QUARTERS, add_round, pixel_offset_rows, round_points, sobol_rows
+from .kernels.noise import (
+    QUARTERS,
+    add_round,
+    half_noise,
+    pixel_halves,
+    pixel_offset_rows,
+    quarter_falls,
+    round_points,
+    sobol_rows,
+)
 from .kernels.records import Moments, RoundSamples, Window
 
 #: The most a round by target error or time adds, as a share of the samples spent so far: a
@@ -122,9 +131,10 @@ def offsets(seed: int, pixel: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np
 def halves(sums: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each pixel's halves' means A and B (pixels, 3) from its quarter ``sums``
     (:data:`raytrace.kernels.noise.QUARTERS`, pixels, 3) and its ``n`` (pixels,) samples a
-    half."""
-    count = n[:, None]
-    return (sums[0] + sums[1]) / count, (sums[2] + sums[3]) / count
+    half (:func:`raytrace.kernels.noise.pixel_halves`)."""
+    a, b = np.empty(sums.shape[1:]), np.empty(sums.shape[1:])
+    pixel_halves(sums, np.ascontiguousarray(n, np.int64), a, b)
+    return a, b
 
 
 def half_difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -148,13 +158,10 @@ def relative_rmse(a: np.ndarray, b: np.ndarray, rate: float) -> float:
     """The image's estimated relative RMSE, ``√(mean_{p,c} (A − B)²/4 / (2^β − 1)) /
     mean_{p,c} I`` over its finite pixels (:func:`half_difference`; ``rate`` is β,
     :func:`convergence_rate`); 0 for an image without noise, inf for a noisy image whose mean
-    is not positive."""
-    mean, v = 0.5 * (a + b), half_difference(a, b)
-    if not (np.isfinite(v).all() and np.isfinite(mean).all()):  # (the common case: at once)
-        finite = np.isfinite(v).all(-1) & np.isfinite(mean).all(-1)
-        mean, v = mean[finite], v[finite]
-    mse = float(v.mean()) / (2.0 ** rate - 1.0) if v.size else 0.0
-    level = float(mean.mean()) if mean.size else 0.0
+    is not positive (the sums in one pass: :func:`raytrace.kernels.noise.half_noise`)."""
+    noise_sum, level_sum, pixels = half_noise(a, b)
+    mse = noise_sum / (3 * pixels) / (2.0 ** rate - 1.0) if pixels else 0.0
+    level = level_sum / (3 * pixels) if pixels else 0.0
     if mse == 0.0:
         return 0.0
     return float(np.sqrt(mse) / level) if level > 0 else float("inf")
@@ -424,19 +431,10 @@ def convergence_rate(sums: np.ndarray, n: np.ndarray) -> float:
     Richardson 1911), summed over the finite pixels whose N = 2n is a multiple of 4 (equal
     quarters). ``sums`` (:data:`raytrace.kernels.noise.QUARTERS`, pixels, 3) are each pixel's
     quarter sums, ``n`` its samples a half. Held within [1, 2]; 1 (the largest estimate of
-    the variance) where the quarters show none."""
-    whole = (n % 2 == 0) & (n > 0)
-    if not whole.all():
-        sums, n = sums[:, whole], n[whole]
-    first, second = sums[0] - sums[1], sums[2] - sums[3]
-    both = sums[0] + sums[1] - sums[2] - sums[3]  # 2·(A − B)·n
-    halves_, quarters_ = both * both, first * first + second * second
-    scale = (2.0 / n) ** 2  # a quarter's sum to its mean, squared
-    if not (np.isfinite(halves_).all() and np.isfinite(quarters_).all()):
-        finite = np.isfinite(halves_).all(-1) & np.isfinite(quarters_).all(-1)
-        halves_, quarters_, scale = halves_[finite], quarters_[finite], scale[finite]
-    fall_half = float((scale @ halves_).sum()) / 16.0
-    fall_quarter = float((scale @ quarters_).sum()) / 8.0
+    the variance) where the quarters show none. (The sums in one pass:
+    :func:`raytrace.kernels.noise.quarter_falls`.)"""
+    half_sum, quarter_sum = quarter_falls(sums, np.ascontiguousarray(n, np.int64))
+    fall_half, fall_quarter = half_sum / 16.0, quarter_sum / 8.0
     if not fall_quarter > 0.0:
         return 1.0
     if not fall_half > 0.0:

@@ -192,6 +192,45 @@ def test_relative_rmse_by_hand():
     assert noise.relative_rmse(a, a, 1.5) == 0.0
 
 
+def test_the_round_s_statistics_leave_out_exactly_the_pixels_they_should():
+    """The one-pass sums (``raytrace.kernels.noise``) against the formulas over whole
+    arrays: β from the pixels of even, non-zero n whose differences are finite in every
+    channel, and the relative RMSE from the pixels whose halves are finite in every channel
+    (among 500: a pixel of no samples, one of a NaN sample, one of an infinite one, one
+    whose halves are finite but whose mean overflows, and one whose quarters' differences are
+    finite but whose halves' square overflows)."""
+    rng = np.random.default_rng(3)
+    h, q1, q2 = rng.normal(0, 1, (3, 500, 3)) * np.array([1.0, 1.5, 1.5])[:, None, None]
+    sums = 4.0 + np.array([h + q1, h - q1, q2 - h, -h - q2])  # β = log2(2.25) or so
+    n = rng.integers(1, 9, 500)
+    n[:5] = (0, 4, 6, 1, 2)
+    sums[:, 1, 1], sums[0, 2, 2] = np.nan, np.inf
+    sums[:, 3, 0] = (1e308, 0.0, 1e308, 0.0)  # halves alike and finite, their mean not
+    sums[:, 4, 0] = (1e200, 1e200, -1e200, -1e200)  # quarters alike, the halves' square not
+    whole = (n % 2 == 0) & (n > 0)
+    with np.errstate(all="ignore"):  # the non-finite pixels, left out below
+        both = sums[0] + sums[1] - sums[2] - sums[3]
+        quarters = (sums[0] - sums[1]) ** 2 + (sums[2] - sums[3]) ** 2
+        halves = both**2
+    keep = whole & np.isfinite(halves).all(-1) & np.isfinite(quarters).all(-1)
+    scale = np.zeros(500)
+    scale[keep] = (2.0 / n[keep]) ** 2
+    falls = (scale @ np.where(keep[:, None], quarters, 0)).sum() / 8.0, (
+        scale @ np.where(keep[:, None], halves, 0)).sum() / 16.0
+    assert keep.sum() < whole.sum() < 500
+    rate = math.log2(falls[0] / falls[1])
+    assert 1.05 < rate < 1.5 and noise.convergence_rate(sums, n) == pytest.approx(rate, rel=1e-12)
+    a, b = noise.halves(sums, n)
+    with np.errstate(all="ignore"):
+        np.testing.assert_array_equal(a, (sums[0] + sums[1]) / n[:, None])
+        np.testing.assert_array_equal(b, (sums[2] + sums[3]) / n[:, None])
+        v, mean = 0.25 * (a - b) ** 2, 0.5 * (a + b)
+    fine = np.isfinite(v).all(-1) & np.isfinite(mean).all(-1)
+    assert fine.sum() == 495 and np.isfinite(v[3]).all()
+    assert noise.relative_rmse(a, b, 1.5) == pytest.approx(
+        math.sqrt(v[fine].mean() / (2**1.5 - 1)) / mean[fine].mean(), rel=1e-12)
+
+
 def test_pixel_error_is_cycles_formula():
     """A = (1, 1, 1), B = (0.6, 1, 1): Σ|A − B|/2 = 0.2, I sums to 2.8: 0.2/(1e-4 + √2.8)."""
     e = noise.pixel_error(np.array([[1.0, 1, 1]]), np.array([[0.6, 1, 1]]))

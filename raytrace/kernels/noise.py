@@ -189,3 +189,63 @@ def add_round(values, old, new, order, sums, moments, done):
         if moments is not None:
             moments.count[p] = n1
         j += k
+
+
+@kernel
+def pixel_halves(sums, n, a, b):
+    """Each pixel's halves' means into ``a`` and ``b`` (pixels, 3): its first two quarter
+    ``sums`` (:data:`QUARTERS`, pixels, 3) and its last two, each over its ``n`` samples a
+    half (``raytrace.noise.halves``); a pixel of no samples is not finite."""
+    for p in range(n.shape[0]):
+        for c in range(3):
+            a[p, c] = (sums[0, p, c] + sums[1, p, c]) / n[p]
+            b[p, c] = (sums[2, p, c] + sums[3, p, c]) / n[p]
+
+
+@kernel
+def quarter_falls(sums, n):
+    """Over the pixels whose samples ``2·n`` split into four equal quarters (n even, above 0)
+    and whose differences are finite in every channel: the sums of ``(2/n)²·(Q₀ + Q₁ − Q₂ −
+    Q₃)²`` (the halves' difference, the sums being the quarters' ``sums``) and of
+    ``(2/n)²·((Q₀ − Q₁)² + (Q₂ − Q₃)²)`` (the quarters'), over the channels too
+    (``raytrace.noise.convergence_rate``)."""
+    halves_sum, quarters_sum = 0.0, 0.0
+    for p in range(n.shape[0]):
+        if n[p] <= 0 or n[p] % 2 != 0:
+            continue
+        scale = (2.0 / n[p]) ** 2
+        h0, q0 = 0.0, 0.0
+        finite = True
+        for c in range(3):
+            s0, s1, s2, s3 = sums[0, p, c], sums[1, p, c], sums[2, p, c], sums[3, p, c]
+            both, first, second = s0 + s1 - s2 - s3, s0 - s1, s2 - s3
+            h, q = both * both, first * first + second * second
+            finite = finite and math.isfinite(h) and math.isfinite(q)
+            h0 += scale * h
+            q0 += scale * q
+        if finite:
+            halves_sum += h0
+            quarters_sum += q0
+    return halves_sum, quarters_sum
+
+
+@kernel
+def half_noise(a, b):
+    """Over the pixels whose halves' means ``a`` and ``b`` (pixels, 3) give a finite
+    ``(A − B)²/4`` and mean ``(A + B)/2`` in every channel: the sum of the one and of the
+    other over pixels and channels, and how many pixels (``raytrace.noise.relative_rmse``)."""
+    noise_sum, level_sum, pixels = 0.0, 0.0, 0
+    for p in range(a.shape[0]):
+        v0, m0 = 0.0, 0.0
+        finite = True
+        for c in range(3):
+            d = a[p, c] - b[p, c]
+            v, m = 0.25 * (d * d), 0.5 * (a[p, c] + b[p, c])
+            finite = finite and math.isfinite(v) and math.isfinite(m)
+            v0 += v
+            m0 += m
+        if finite:
+            noise_sum += v0
+            level_sum += m0
+            pixels += 1
+    return noise_sum, level_sum, pixels
