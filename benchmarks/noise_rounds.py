@@ -134,7 +134,7 @@ def main() -> None:
         totals.append(1e3 * (t1 - t0))
         idles.append(idle)
         print(f"{ms[0]:>8.1f}{between:>24}{ms[-1]:>8.1f}{ms[1::2].sum():>9.1f}"
-              f"{totals[-1]:>8.1f}{', '.join(f'{x:.1f}' for x in idle):>18}"
+              f"{totals[-1]:>8.1f}  {', '.join(f'{x:.1f}' for x in idle):>16}"
               f"{st['samples_per_pixel']:>12.2f}{st['rounds']:>8}{measured / target:>17.2f}")
         notes.append(list(rounds))
     mean = np.mean(spent, axis=0)

@@ -257,8 +257,8 @@ def round_pass_size(samples: int, threads: int, most: int) -> int:
 
     One pass a thread where a round fits: each pass pays its depths' Python and kernel
     dispatch once, however few its samples, and two threads wait for each other's turns at
-    the GIL. 16 samples a pixel in three rounds of 4, 4 and 8 took 160 ms in one pass a
-    thread, 179 ms in two and 202 ms in three, against 136 ms in one round of 16 (the mesh
+    the GIL. 16 samples a pixel in three rounds of 4, 4 and 8 took 154 ms in one pass a
+    thread, 172 ms in two and 203 ms in three, against 136 ms in one round of 16 (the mesh
     scene at 160×120 on 2 threads, medians of 12: ``python3 benchmarks/noise_passes.py
     --per-thread 1 2 3 --seeds 12``; docs/sampling.md, "Stopping by error or time")."""
     count = -(-samples // most)
