@@ -104,8 +104,7 @@ MIN_PASSES = 16
 #: docs/performance.md, "Threads"). A frame of fewer than 16 such passes gets fewer threads.
 MIN_PASS_SAMPLES = 16384
 #: The least pass of a noise-driven round (:func:`round_pass_size`): a small round still goes
-#: to every thread of a many-core machine. (On 2 threads 4 096 and 16 384 measured alike:
-#: renders by target or time of the noise benchmark's scenes within 2 %, medians of 11.)
+#: to every thread of a many-core machine.
 MIN_ROUND_PASS_SAMPLES = 4096
 #: Most surfaces a transparent shadow ray passes through before it counts as blocked
 #: (:data:`raytrace.kernels.loop.MAX_SHADOW_CROSSINGS`, one value for both loops).
@@ -257,10 +256,12 @@ def round_pass_size(samples: int, threads: int, most: int) -> int:
 
     One pass a thread where a round fits: each pass pays its depths' Python and kernel
     dispatch once, however few its samples, and two threads wait for each other's turns at
-    the GIL. 16 samples a pixel in three rounds of 4, 4 and 8 took 154 ms in one pass a
-    thread, 172 ms in two and 203 ms in three, against 136 ms in one round of 16 (the mesh
+    the GIL. 16 samples a pixel in three rounds of 4, 4 and 8 take 154 ms cut so, 172 ms in
+    two passes a thread and 203 ms in three, against 136 ms in one round of 16 (the mesh
     scene at 160×120 on 2 threads, medians of 12: ``python3 benchmarks/noise_passes.py
-    --per-thread 1 2 3 --seeds 12``; docs/sampling.md, "Stopping by error or time")."""
+    --per-thread 1 2 3 --seeds 12``; the third round's 153 600 samples go in two passes a
+    thread in the first two cuts, at most 65 536 a pass; docs/sampling.md, "Stopping by
+    error or time")."""
     count = -(-samples // most)
     count = -(-count // threads) * threads
     return min(most, max(MIN_ROUND_PASS_SAMPLES, -(-samples // count)))

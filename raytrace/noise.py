@@ -128,10 +128,20 @@ def offsets(seed: int, pixel: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np
     return x, y
 
 
+def check_pixels(sums: np.ndarray, n: np.ndarray) -> None:
+    """That quarter ``sums`` are (:data:`raytrace.kernels.noise.QUARTERS`, pixels, 3) and
+    ``n`` (pixels,): the kernels that read them check no bounds."""
+    if sums.shape[0] != QUARTERS or sums.ndim != 3 or sums.shape[2] != 3 or \
+            np.shape(n) != sums.shape[1:2]:
+        raise ValueError(f"quarter sums of shape {sums.shape} and counts of shape "
+                         f"{np.shape(n)}: ({QUARTERS}, pixels, 3) and (pixels,)")
+
+
 def halves(sums: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each pixel's halves' means A and B (pixels, 3) from its quarter ``sums``
     (:data:`raytrace.kernels.noise.QUARTERS`, pixels, 3) and its ``n`` (pixels,) samples a
     half (:func:`raytrace.kernels.noise.pixel_halves`)."""
+    check_pixels(sums, n)
     a, b = np.empty(sums.shape[1:]), np.empty(sums.shape[1:])
     pixel_halves(sums, np.ascontiguousarray(n, np.int64), a, b)
     return a, b
@@ -159,6 +169,8 @@ def relative_rmse(a: np.ndarray, b: np.ndarray, rate: float) -> float:
     mean_{p,c} I`` over its finite pixels (:func:`half_difference`; ``rate`` is β,
     :func:`convergence_rate`); 0 for an image without noise, inf for a noisy image whose mean
     is not positive (the sums in one pass: :func:`raytrace.kernels.noise.half_noise`)."""
+    if a.shape != b.shape or a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(f"halves of shapes {a.shape} and {b.shape}: (pixels, 3) each")
     noise_sum, level_sum, pixels = half_noise(a, b)
     mse = noise_sum / (3 * pixels) / (2.0 ** rate - 1.0) if pixels else 0.0
     level = level_sum / (3 * pixels) if pixels else 0.0
@@ -433,6 +445,7 @@ def convergence_rate(sums: np.ndarray, n: np.ndarray) -> float:
     quarter sums, ``n`` its samples a half. Held within [1, 2]; 1 (the largest estimate of
     the variance) where the quarters show none. (The sums in one pass:
     :func:`raytrace.kernels.noise.quarter_falls`.)"""
+    check_pixels(sums, n)
     half_sum, quarter_sum = quarter_falls(sums, np.ascontiguousarray(n, np.int64))
     fall_half, fall_quarter = half_sum / 16.0, quarter_sum / 8.0
     if not fall_quarter > 0.0:

@@ -973,7 +973,6 @@ def test_a_noise_round_s_pass_keeps_within_pass_samples():
     assert round_pass_size(76800, 2, 4096) == 4096  # the least pass, not an even 3 840
 
 
-
 def test_a_render_by_target_cuts_each_round_into_one_pass_a_thread(monkeypatch):
     """Each pass pays its depths' Python once, so a round on 2 threads goes in 2 passes
     (64×48 at 4 samples a pixel: 12 288 samples, two of 6 144), not more."""

@@ -197,16 +197,18 @@ def test_the_round_s_statistics_leave_out_exactly_the_pixels_they_should():
     arrays: β from the pixels of even, non-zero n whose differences are finite in every
     channel, and the relative RMSE from the pixels whose halves are finite in every channel
     (among 500: a pixel of no samples, one of a NaN sample, one of an infinite one, one
-    whose halves are finite but whose mean overflows, and one whose quarters' differences are
-    finite but whose halves' square overflows)."""
+    whose halves are finite but whose mean overflows, one whose quarters' differences are
+    finite but whose halves' square overflows, and one the other way round); counts that do
+    not fit the sums are refused (the kernels check no bounds)."""
     rng = np.random.default_rng(3)
     h, q1, q2 = rng.normal(0, 1, (3, 500, 3)) * np.array([1.0, 1.5, 1.5])[:, None, None]
     sums = 4.0 + np.array([h + q1, h - q1, q2 - h, -h - q2])  # β = log2(2.25) or so
     n = rng.integers(1, 9, 500)
-    n[:5] = (0, 4, 6, 1, 2)
+    n[:6] = (0, 4, 6, 1, 2, 2)
     sums[:, 1, 1], sums[0, 2, 2] = np.nan, np.inf
     sums[:, 3, 0] = (1e308, 0.0, 1e308, 0.0)  # halves alike and finite, their mean not
     sums[:, 4, 0] = (1e200, 1e200, -1e200, -1e200)  # quarters alike, the halves' square not
+    sums[:, 5, 0] = (1e308, -1e308, 0.0, 0.0)  # halves alike, the quarters' difference not
     whole = (n % 2 == 0) & (n > 0)
     with np.errstate(all="ignore"):  # the non-finite pixels, left out below
         both = sums[0] + sums[1] - sums[2] - sums[3]
@@ -227,6 +229,10 @@ def test_the_round_s_statistics_leave_out_exactly_the_pixels_they_should():
         v, mean = 0.25 * (a - b) ** 2, 0.5 * (a + b)
     fine = np.isfinite(v).all(-1) & np.isfinite(mean).all(-1)
     assert fine.sum() == 495 and np.isfinite(v[3]).all()
+    with pytest.raises(ValueError, match="pixels"):
+        noise.convergence_rate(sums, n[1:])
+    with pytest.raises(ValueError, match="pixels"):
+        noise.relative_rmse(a, b[1:], 1.5)
     assert noise.relative_rmse(a, b, 1.5) == pytest.approx(
         math.sqrt(v[fine].mean() / (2**1.5 - 1)) / mean[fine].mean(), rel=1e-12)
 
