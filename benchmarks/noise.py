@@ -46,6 +46,7 @@ import argparse
 import json
 import os
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -86,6 +87,11 @@ def reference(scene, name: str, spp: int, cache: Path, **common) -> np.ndarray:
     rgb = raytrace.render(scene, spp=spp, seed=12345, **common).rgb.astype(np.float64)
     np.save(path, rgb)
     return rgb
+
+
+def rms_error(image: raytrace.Image, ref: np.ndarray) -> float:
+    """The RMSE of ``image``'s linear RGB against ``ref`` (a :func:`reference`), in float64."""
+    return float(np.sqrt(np.mean((image.rgb.astype(np.float64) - ref) ** 2)))
 
 
 #: Uniform stratified sample counts of the curves (perfect squares: a k×k jittered grid).
@@ -194,8 +200,7 @@ def main() -> None:
         ref = reference(scene, name, a.reference_spp, a.cache, **common)
         level = float(ref.mean())
 
-        def rmse(image: raytrace.Image, ref: np.ndarray = ref) -> float:
-            return float(np.sqrt(np.mean((image.rgb.astype(np.float64) - ref) ** 2)))
+        rmse = partial(rms_error, ref=ref)
 
         uniform, t_u, c_u = timed(scene, a.repeats, spp=16, **common)
         e_u = rmse(uniform)

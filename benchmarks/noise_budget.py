@@ -21,11 +21,12 @@ NAME=A,B`` sets a constant of :mod:`raytrace.noise` (``TIME_PRIOR``, ``ROUND_SHA
 from __future__ import annotations
 
 import argparse
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 from bench_scenes import scene_path
-from noise import reference
+from noise import reference, rms_error
 
 import raytrace
 from raytrace import noise
@@ -46,8 +47,7 @@ def main() -> None:
     ref = reference(scene, a.scene, 1024, a.cache, **common)
     level = float(ref.mean())
 
-    def rmse(image: raytrace.Image) -> float:
-        return float(np.sqrt(np.mean((image.rgb.astype(np.float64) - ref) ** 2)))
+    rmse = partial(rms_error, ref=ref)
 
     uniform = [rmse(raytrace.render(scene, spp=16, seed=seed, **common))
                for seed in range(a.renders)]

@@ -39,11 +39,12 @@ from __future__ import annotations
 
 import argparse
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 from bench_scenes import scene_path
-from noise import reference
+from noise import reference, rms_error
 from noise_ceiling import SIZE, SPP, rays_per_sample, variances
 
 import raytrace
@@ -103,8 +104,7 @@ def measure(name: str, a: argparse.Namespace, common: dict) -> list[tuple]:
     cost = rays_per_sample(scene)
     raytrace.render(scene, spp=SPP, **common)  # warm-up
 
-    def rmse(image: raytrace.Image) -> float:
-        return float(np.sqrt(np.mean((image.rgb.astype(np.float64) - ref) ** 2)))
+    rmse = partial(rms_error, ref=ref)
 
     uniform_rmse = [rmse(raytrace.render(scene, spp=SPP, seed=1000 + seed, **common))
                     for seed in range(a.calibrate)]

@@ -27,11 +27,12 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 from bench_scenes import scene_path
-from noise import reference
+from noise import reference, rms_error
 
 import raytrace
 from raytrace import integrator, malloc, noise
@@ -91,8 +92,7 @@ def targets(scene: raytrace.Scene, name: str, ks: list[int], seeds: int,
     ref = reference(scene, name, 1024, cache, **COMMON)
     level = float(ref.mean())
 
-    def rmse(image: raytrace.Image) -> float:
-        return float(np.sqrt(np.mean((image.rgb.astype(np.float64) - ref) ** 2)))
+    rmse = partial(rms_error, ref=ref)
 
     uniform, by_error = [], {k: [] for k in ks}
     by_time = {k: [] for k in ks}

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 from bench_scenes import scene_path
-from noise import reference
+from noise import reference, rms_error
 
 import raytrace
 from raytrace import malloc
@@ -58,7 +58,7 @@ def main() -> None:
               f"{'estimate':>10}{'est/measured':>14}{'est/own out':>13}")
         for times in a.times:
             image = raytrace.render(scene, time_limit=times * uniform, seed=0, **COMMON)
-            measured = float(np.sqrt(np.mean((image.rgb.astype(np.float64) - ref) ** 2)))
+            measured = rms_error(image, ref)
             corrected = math.sqrt(max(measured**2 - own**2, 0.0)) / level
             estimate = image.stats["aa"]["estimated_relative_rmse"]
             print(f"  {times:>9.2f}x{image.stats['aa']['samples_per_pixel']:>12.1f}"

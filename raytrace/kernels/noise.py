@@ -1,7 +1,9 @@
 """The per-sample arithmetic of noise-driven sampling (:mod:`raytrace.noise`): each pixel's
-Owen-scrambled Sobol points (:func:`round_points`) and each round's samples added to their
-pixel's quarter sums and running moments (:func:`add_round`), so a round's planning and
-bookkeeping cost the main thread little while the passes wait for it.
+Owen-scrambled Sobol points (:func:`round_points`), each round's samples added to their
+pixel's quarter sums and running moments (:func:`add_round`), and the round's statistics in
+one pass over the pixels each (:func:`pixel_halves`, :func:`quarter_falls`,
+:func:`half_noise`), so a round's planning and bookkeeping cost the main thread little while
+the passes wait for it.
 
 The sequences' integer arithmetic is 32-bit, done in int64 and masked (:data:`MASK32`; every
 product stays under 2⁶³), bit for bit numpy's uint32 arithmetic.
