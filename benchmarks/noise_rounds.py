@@ -6,23 +6,24 @@ work before, between and after them.
     python3 benchmarks/noise_rounds.py --target 0.01 --set MIN_ROUND_SHARE=0.25
     python3 benchmarks/noise_rounds.py --renders 15 --window-order
 
-For one scene at 160×120 on 2 threads, a render by ``--target``, or by the target of uniform
-16 spp's relative RMSE (against the 1024-spp reference of ``benchmarks/noise.py``, kept in
-``--cache``), timed ``--renders`` times after a warm-up, render i with seed i. Each round's
-passes run inside one call of the integrator's ``_run`` (wrapped here to note when it starts
-and ends); the rest of the render is the main thread's: building the integrator, then per
-round the estimate, the allocation (:func:`raytrace.noise.neyman_counts`) and the round's
-plan, and after the last round the image. Prints, per render, the milliseconds before the
-first round's passes, between each two rounds, after the last, in the passes, and in all,
-how long the first thread to finish a round sat idle until the last finished it (each
-thread's last pass of the round timed), its samples a pixel and rounds, and the relative
-RMSE measured against the reference over the target; then the medians of the total and of
-each round's idle time; then, round by round, the estimated relative RMSE and β
-(:func:`raytrace.noise.convergence_rate`), and for each allocation the fall of the summed
-variance it was to give (``shrink``, :func:`raytrace.noise.variance_shrink`), the fall the
-model predicts for the counts chosen (:func:`predicted_fall`), the fall of the estimate's
-square the round gave, and the actual over the predicted. ``--window-order`` traces each
-round's pixels in window order instead of :func:`raytrace.noise.spread_order`'s.
+For one scene at 160×120 on 2 threads, a render by ``--target``, or by the target of
+uniform 16 spp's relative RMSE (against the 1024-spp reference of ``benchmarks/noise.py``,
+kept in ``--cache``), timed ``--renders`` times after a warm-up, render i with seed i. Each
+round's passes run inside one call of the integrator's ``_run`` (wrapped here to note when
+it starts and ends); the rest of the render is the main thread's: building the integrator,
+then per round the estimate, the allocation (:func:`raytrace.noise.neyman_counts`) and the
+round's plan, and after the last round the image. Prints, per render, the milliseconds
+before the first round's passes, between each two rounds, after the last, in the passes,
+and in all, how long the first thread to finish a round sat idle until the last finished it
+(each thread's last pass of the round timed), its samples a pixel and rounds, and the
+relative RMSE measured against the reference over the target; then the medians of the
+total, of each round's idle time and of an allocation's; then, round by round, the
+estimated relative RMSE and β (:func:`raytrace.noise.convergence_rate`), and for each
+allocation the fall of the summed variance it was to give (``shrink``,
+:func:`raytrace.noise.variance_shrink`), the fall the model predicts for the counts chosen
+(:func:`predicted_fall`), the fall of the estimate's square the round gave, and the actual
+over the predicted. ``--window-order`` traces each round's pixels in window order instead
+of :func:`raytrace.noise.spread_order`'s.
 """
 
 from __future__ import annotations
@@ -103,8 +104,12 @@ def main() -> None:
         rounds.append((e, rate))
         return e
 
+    allocations: list[float] = []  # each allocation's milliseconds
+
     def noted_allocation(*args, **kw):  # whatever arguments the renderer passes
+        t = time.perf_counter()
         new = allocate(*args, **kw)
+        allocations.append(1e3 * (time.perf_counter() - t))
         given = inspect.signature(allocate).bind(*args, **kw)
         given.apply_defaults()
         n, variance, shrink, rate = (given.arguments[k]
@@ -141,7 +146,8 @@ def main() -> None:
     print(f"mean of {a.renders}: {mean[0]:.2f} samples a pixel in {mean[1]:.2f} rounds")
     idle = [np.median([x[k] for x in idles if len(x) > k]) for k in range(max(map(len, idles)))]
     print(f"medians: {np.median(totals):.1f} ms in all (best {min(totals):.1f}); idle at the "
-          f"end of each round {', '.join(f'{x:.1f}' for x in idle)} ms")
+          f"end of each round {', '.join(f'{x:.1f}' for x in idle)} ms; an allocation "
+          f"(neyman_counts) {np.median(allocations):.1f} ms")
     print("round by round: estimate, beta; shrink asked, fall predicted, fall of the "
           "estimate's square, actual/predicted")
     for steps in notes:

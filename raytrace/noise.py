@@ -79,10 +79,11 @@ from .kernels.noise import (
     pixel_halves,
     pixel_offset_rows,
     quarter_falls,
+    rank_doublings,
     round_points,
     sobol_rows,
 )
-from .kernels.records import Moments, RoundSamples, Window
+from .kernels.records import Doublings, Moments, RoundSamples, Window
 
 #: The most a round by target error or time adds, as a share of the samples spent so far: a
 #: round at most doubles them (half as much took a round more, and its fixed cost, on the
@@ -455,27 +456,6 @@ def convergence_rate(sums: np.ndarray, n: np.ndarray) -> float:
     return min(2.0, max(1.0, math.log2(fall_quarter / fall_half)))
 
 
-def descending(priority: np.ndarray, *ties: np.ndarray) -> np.ndarray:
-    """The order of ``priority`` from highest to lowest, equal priorities in the order of the
-    ``ties`` keys (the first first, each ascending): a stable sort (Timsort, which merges runs
-    already sorted in a few passes), then a lexicographic sort of the runs of equal priority
-    alone (one of everything made :func:`neyman_counts` 2.5× as slow)."""
-    order = np.argsort(-priority, kind="stable")
-    value = priority[order]
-    same = value[1:] == value[:-1]
-    if not same.any():
-        return order
-    member = np.zeros(len(value), bool)  # the runs of equal priority (no sort to find them)
-    member[:-1] |= same
-    member[1:] |= same
-    members = np.flatnonzero(member)
-    run = np.cumsum(np.concatenate([[1], np.diff(members) > 1]) |
-                    np.concatenate([[False], value[members[1:]] != value[members[:-1]]]))
-    keys = [key[order[members]] for key in reversed(ties)]
-    order[members] = order[members][np.lexsort((*keys, run))]
-    return order
-
-
 def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
                   share: float = ROUND_SHARE, shrink: float = 0.0,
                   rate: float = 1.0, prior: float = math.inf) -> np.ndarray:
@@ -507,47 +487,32 @@ def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
     lower RMSE than uniform sampling save where σ = 0. A pixel's doublings are taken in order
     (its priority falls with each), so the few pixels that hold an image's error (a
     penumbra) reach their share in one round instead of one doubling a
-    round. Ties go to the lower doubling, then the earlier pixel."""
+    round. Ties go to the lower doubling, then the earlier pixel
+    (:func:`raytrace.kernels.noise.rank_doublings` merges the doublings in that order)."""
     s2 = np.where(np.isfinite(variance), variance, 0.0)
     sigma = box3(s2, cols)
     if prior < math.inf:
         dof = 2.0 * n - 1.0
         sigma = (prior * sigma + dof * s2) / (prior + dof)
     sigma = np.sqrt(sigma)
-    # each doubling's powers of its start m = n·2^j, per distinct count (the pixels' counts
-    # take a few values) and doubling j, taken once each: ``cell`` = count·J + j
+    # each doubling's start m = n·2^j, per distinct count (the pixels' counts take a few
+    # values, ``kind``) and doubling j: its powers taken once each
     present = np.bincount(n) > 0
     counts, kind = np.flatnonzero(present), (np.cumsum(present) - 1)[n]
-    table = (counts[:, None] << np.arange(MAX_DOUBLINGS)).astype(np.float64).ravel()
-    scale = table ** (-0.5 * (1.0 + rate))
+    table = (counts[:, None] << np.arange(MAX_DOUBLINGS)).astype(np.float64)
+    ranked = Doublings(*(np.empty(MAX_DOUBLINGS * len(n), np.int64) for _ in range(2)))
     open_ = np.flatnonzero((n < most) & (sigma > 0))
-    first = sigma[open_] * scale[kind[open_] * MAX_DOUBLINGS]
-    order = np.argsort(-first)
-    ranked, first = open_[order], first[order]
-    goal = share * n.sum()
-    # the first doublings alone reach the goal at priority ``floor``, so no doubling of
-    # lower priority is taken: each doubling's candidates are those above it (a pixel's
-    # priority falls by 2^(−j(1+β)/2) at its j-th; within a rounding, kept)
-    cut = int(np.searchsorted(np.cumsum(np.minimum(2 * n[ranked], most) - n[ranked]), goal))
-    floor = first[cut] * (1.0 - 1e-9) if cut < len(ranked) else 0.0
-    runs = [ranked[:int(np.searchsorted(-first, -floor * 2.0 ** (0.5 * (1.0 + rate) * j),
-                                        "right"))]
-            for j in range(MAX_DOUBLINGS)]
-    runs = [r[(n[r] << j) < most] for j, r in enumerate(runs)]
-    pixel = np.concatenate(runs)
-    j = np.repeat(np.arange(MAX_DOUBLINGS), [len(r) for r in runs])
-    cell = kind[pixel] * MAX_DOUBLINGS + j
-    order = descending(sigma[pixel] * scale[cell], j, pixel)
-    pixel, cell = pixel[order], cell[order]
-    start = n[pixel] << j[order]
-    added = np.cumsum(np.minimum(2 * start, most) - start)
-    count = int(np.searchsorted(added, goal)) + 1
+    count = rank_doublings(n, sigma, table ** (-0.5 * (1.0 + rate)), kind, most,
+                           share * n.sum(), open_[np.argsort(-sigma[open_])], ranked)
+    pixel, j = ranked.pixel[:count], ranked.step[:count]
     if shrink > 0.0:  # each doubling's fall of the pixel's variance, s²·((2m)^−β − (2m')^−β)
         before = (2.0 * table) ** -rate
-        fall = np.cumsum(s2[pixel[:count]] * (before - (2.0 * np.minimum(2 * table, most))
-                                              ** -rate)[cell[:count]])
-        total = (s2 * before[kind * MAX_DOUBLINGS]).sum()
+        fall = np.cumsum(s2[pixel] * (before - (2.0 * np.minimum(2 * table, most))
+                                      ** -rate)[kind[pixel], j])
+        total = (s2 * before[kind, 0]).sum()
         enough = int(np.searchsorted(fall, (1.0 - shrink) * total))
+        start = n[pixel] << j
+        added = np.cumsum(np.minimum(2 * start, most) - start)
         least = int(np.searchsorted(added, MIN_ROUND_SHARE * n.sum())) + 1
         count = min(count, max(enough + 1, least))
     doublings = np.bincount(pixel[:count], minlength=len(n))

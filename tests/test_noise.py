@@ -19,8 +19,8 @@ from test_threads import scene as every_ray_scene
 import raytrace
 from raytrace import cli, noise
 from raytrace.errors import SceneError
-from raytrace.kernels.noise import KEY_STRIDE, add_round
-from raytrace.kernels.records import Moments
+from raytrace.kernels.noise import KEY_STRIDE, add_round, rank_doublings
+from raytrace.kernels.records import Doublings, Moments
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -367,8 +367,8 @@ def _reference_counts(n, variance, most, cols, share, shrink, rate):
 
 
 def test_neyman_counts_are_their_definition():
-    """neyman_counts (its runs merged, its candidates pruned below the priority the first
-    doublings alone reach the round at) against the definition on 600 small random cases:
+    """neyman_counts (its doublings merged from a stream per count and doubling,
+    :func:`rank_doublings`) against the definition on 600 small random cases:
     counts not powers of two, ``most`` cutting doublings short, variances with zeros, NaN,
     inf and ties (so that rounds end among equal priorities, which go to the lower doubling,
     then the earlier pixel), shares from tiny to several, shrinks with and without the least
@@ -388,16 +388,43 @@ def test_neyman_counts_are_their_definition():
         assert got.tolist() == want.tolist(), (n, variance, most, cols, share, shrink, rate)
 
 
-def test_descending_breaks_ties_by_its_keys():
-    """descending: highest priority first, equal ones in the order of the keys, which is
-    numpy's lexsort of the same keys, on arrays with few and with many equal priorities."""
-    rng = np.random.default_rng(7)
-    for trial in range(200):
-        m = int(rng.integers(1, 80))
-        priority = rng.choice([0.5, 1.0, 2.0], m) if trial % 2 else rng.random(m)
-        j, pixel = rng.integers(0, 4, m), rng.permutation(m)
-        assert noise.descending(priority, j, pixel).tolist() == np.lexsort(
-            (pixel, j, -priority)).tolist()
+def test_rank_doublings_takes_every_doubling_in_the_order_of_the_definition():
+    """rank_doublings merges its streams into the order of sorting every candidate doubling
+    by priority, then doubling, then pixel, and stops at the first that reaches the goal.
+    σ's a few ulps apart make priorities that rounding makes equal for some doublings and not
+    others (so a stream's runs of equal priority must be put in pixel order), equal σ's make
+    ties in every stream, and ``ranked`` comes with equal σ's in a shuffled order."""
+    rng = np.random.default_rng(11)
+    for trial in range(300):
+        m = int(rng.integers(1, 40))
+        n = rng.choice([1, 2, 3, 4, 8], m)
+        most = int(n.max()) + int(rng.choice([0, 1, 5, 30]))
+        if trial % 3 == 0:
+            sigma = np.nextafter(1.0, 2.0) ** rng.integers(0, 6, m)  # 1 + k ulps
+        elif trial % 3 == 1:
+            sigma = rng.choice([0.0, 0.5, 1.0, 2.0], m)
+        else:
+            sigma = rng.random(m) * (rng.random(m) < 0.8)
+        rate = float(rng.uniform(1, 2))
+        present = np.bincount(n) > 0
+        counts, kind = np.flatnonzero(present), (np.cumsum(present) - 1)[n]
+        table = (counts[:, None] << np.arange(noise.MAX_DOUBLINGS)).astype(np.float64)
+        scale = table ** (-0.5 * (1.0 + rate))
+        open_ = np.flatnonzero((n < most) & (sigma > 0))
+        ranked = open_[np.lexsort((rng.random(len(open_)), -sigma[open_]))]
+        pixel, j = np.array([(p, j) for j in range(noise.MAX_DOUBLINGS) for p in open_
+                             if (n[p] << j) < most], np.int64).reshape(-1, 2).T
+        order = np.lexsort((pixel, j, -(sigma[pixel] * scale[kind[pixel], j])))
+        pixel, j = pixel[order], j[order]
+        start = n[pixel] << j
+        added = np.cumsum(np.minimum(2 * start, most) - start)
+        goal = float(rng.choice([0.5, 3.0, 0.3 * n.sum(), 1e9]))
+        want = min(int(np.searchsorted(added, goal)) + 1, len(pixel))
+        out = Doublings(np.full(m * noise.MAX_DOUBLINGS, -1), np.full(m * noise.MAX_DOUBLINGS, -1))
+        got = rank_doublings(n, sigma, scale, kind, most, goal, ranked, out)
+        assert got == want, (trial, got, want)
+        assert out.pixel[:got].tolist() == pixel[:want].tolist(), trial
+        assert out.step[:got].tolist() == j[:want].tolist(), trial
 
 
 def test_a_round_by_target_aims_at_the_variance_the_target_needs():

@@ -52,6 +52,7 @@ record                   what it holds (n rays or hits, M materials, T triangles
 :class:`Window`          a window of pixels (a crop, or what is traced)
 :class:`RoundSamples`    a noise-driven round's samples: offsets, pixels and light keys
 :class:`Moments`         the running moments of each pixel's samples (a noise-driven render)
+:class:`Doublings`       a noise-driven round's doublings of samples, in order of priority
 :class:`FilterProfile`   a reconstruction filter
 :class:`Cells`           adaptive anti-aliasing's cells of a level, :class:`Level` its rule,
                          :class:`SlotGrid` its lattice points' table
@@ -572,6 +573,14 @@ class Moments(NamedTuple):
     count: np.ndarray  #: (k,) int64 the pixel's samples
     mean: np.ndarray   #: (k, 3) float64 their mean
     m2: np.ndarray     #: (k, 3) float64 their summed squared deviations from it
+
+
+class Doublings(NamedTuple):
+    """Pixels' doublings of samples in order of priority (``kernels.noise.rank_doublings``):
+    the j-th takes pixel ``pixel[j]``'s samples a half from ``n·2^step[j]`` to twice that."""
+
+    pixel: np.ndarray  #: (k,) int64 the pixel (window order)
+    step: np.ndarray   #: (k,) int64 the doubling's number in the round, from 0
 
 
 class FilterProfile(NamedTuple):
