@@ -120,21 +120,22 @@ def curves(scene, common: dict, rmse, level: float, t_u: float, repeats: int) ->
         "noise, by time limit": [row(f"{f:g}x", time_limit=f * t_u) for f in CURVE_TIMES]}
 
 
-def interleaved(scene, common: dict, rmse, level: float, seeds: int) -> dict:
+def interleaved(scene, common: dict, rmse, level: float, seeds: int, **first) -> dict:
     """The targets' two ratios over ``seeds`` seeds, interleaved (module docstring): the
     medians of the time of a render by uniform 16 spp's error over uniform's, of its RMSE
-    over uniform's, and of the RMSE of a render by uniform's median time over uniform's."""
+    over uniform's, and of the RMSE of a render by uniform's median time over uniform's;
+    ``first``: the noise-driven renders' ``min_spp``, where given."""
     uniform, by_error = [], []
     for seed in range(seeds):
         t0 = time.perf_counter()
         image = raytrace.render(scene, spp=16, seed=seed, **common)
         t1 = time.perf_counter()
         e = rmse(image)
-        noisy = raytrace.render(scene, target_error=e / level, seed=seed, **common)
+        noisy = raytrace.render(scene, target_error=e / level, seed=seed, **common, **first)
         by_error.append(((time.perf_counter() - t1) / (t1 - t0), rmse(noisy) / e))
         uniform.append((t1 - t0, e))
     limit = float(np.median([t for t, _ in uniform]))
-    by_time = [rmse(raytrace.render(scene, time_limit=limit, seed=seed, **common)) / e
+    by_time = [rmse(raytrace.render(scene, time_limit=limit, seed=seed, **common, **first)) / e
                for seed, (_, e) in enumerate(uniform)]
     return {"seeds": seeds, "uniform_seconds": limit,
             "time_to_error": float(np.median([r for r, _ in by_error])),
@@ -233,7 +234,7 @@ def main() -> None:
             ("seconds", "cpu", "spp", "rmse", "estimate"), v, strict=True))
             for k, v in rows.items()}}
         if a.seeds:
-            medians = interleaved(scene, common, rmse, level, a.seeds)
+            medians = interleaved(scene, common, rmse, level, a.seeds, **first)
             print(f"interleaved over {a.seeds} seeds (medians): RMSE at uniform 16 spp's wall "
                   f"time {medians['rmse_at_time']:.2f}x uniform's; time to uniform's error "
                   f"{medians['time_to_error']:.2f}x wall (reaching "

@@ -26,6 +26,7 @@ import bench  # noqa: E402
 import gil  # noqa: E402
 import meshes  # noqa: E402
 import mitsuba_peer  # noqa: E402
+import noise  # noqa: E402
 import noise_oracle  # noqa: E402
 import noise_passes  # noqa: E402
 import povray  # noqa: E402
@@ -372,6 +373,34 @@ def test_a_render_follows_the_oracle_s_counts():
     image = noise_oracle.render_counts(scene, counts, 0, threads=1, aovs=["samples"])
     assert image.aovs["samples"].ravel().tolist() == counts.tolist()
     assert image.stats["aa"]["rounds"] == 2
+
+
+# -- noise.py: the interleaved ratios ---------------------------------------------------------
+def test_the_interleaved_ratios_render_with_the_first_round_asked_for():
+    """``noise.py --min-spp M --seeds K``: the interleaved renders by error and by time start
+    from M samples a pixel too, as the table's do (a 4×3 scene of an edge, two seeds), and
+    the uniform renders take 16 samples a pixel."""
+    quad = raytrace.Mesh(vertices=[[-100, -100, -1], [0.1, -100, -1], [0.1, 100, -1],
+                                   [-100, 100, -1]], faces=[[0, 1, 2], [0, 2, 3]],
+                         material={"ka": 1.0, "kd": 0.0})
+    scene = raytrace.Scene(camera=raytrace.Camera(), objects=[quad], ambient=1.0,
+                           render=raytrace.RenderSettings(width=4, height=3))
+    ref = np.full((3, 4, 3), 0.5)
+    seen = []
+    render = raytrace.render
+
+    def noted(*args, **kw):
+        image = render(*args, **kw)
+        seen.append((kw.get("spp"), image.stats.get("aa", {}).get("min_spp")))
+        return image
+
+    raytrace.render = noted
+    try:
+        noise.interleaved(scene, dict(width=4, height=3, threads=1),
+                          lambda image: noise.rms_error(image, ref), 0.5, 2, min_spp=8)
+    finally:
+        raytrace.render = render
+    assert seen.count((16, None)) == 2 and seen.count((None, 8)) == 4, seen
 
 
 # -- noise_passes.py: a round in k passes a thread ---------------------------------------------
