@@ -83,7 +83,15 @@ from .kernels.noise import (
     round_points,
     sobol_rows,
 )
-from .kernels.records import Doublings, Moments, RoundSamples, Window
+from .kernels.records import (
+    Aim,
+    DoublingPixels,
+    Doublings,
+    DoublingTable,
+    Moments,
+    RoundSamples,
+    Window,
+)
 
 #: The most a round by target error or time adds, as a share of the samples spent so far: a
 #: round at most doubles them (half as much took a round more, and its fixed cost, on the
@@ -456,6 +464,20 @@ def convergence_rate(sums: np.ndarray, n: np.ndarray) -> float:
     return min(2.0, max(1.0, math.log2(fall_quarter / fall_half)))
 
 
+def ranking_sigma(n: np.ndarray, variance: np.ndarray, cols: int,
+                  prior: float = math.inf) -> tuple[np.ndarray, np.ndarray]:
+    """Each pixel's s², its per-sample ``variance`` where finite (else 0), and σ̃, the root of
+    the moderated variance :func:`neyman_counts` ranks it by, ``(d₀·s̄² + d·s²)/(d₀ + d)``:
+    s̄² the 3×3 mean of s² (:func:`box3`, rows of ``cols`` pixels), ``d₀ = prior``, ``d = 2n −
+    1`` (``n`` its samples a half); with ``prior`` infinite, s̄² alone."""
+    s2 = np.where(np.isfinite(variance), variance, 0.0)
+    sigma = box3(s2, cols)
+    if prior < math.inf:
+        dof = 2.0 * n - 1.0
+        sigma = (prior * sigma + dof * s2) / (prior + dof)
+    return s2, np.sqrt(sigma)
+
+
 def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
                   share: float = ROUND_SHARE, shrink: float = 0.0,
                   rate: float = 1.0, prior: float = math.inf) -> np.ndarray:
@@ -468,7 +490,7 @@ def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
     present value. A pixel's mean varies by ``s²·(2n)^−β`` (:func:`convergence_rate`: β is
     ``rate``), s² its per-sample variance ``variance`` (the sample variance of all its
     samples pooled, averaged over the channels; not finite: 0, the pixel then
-    ranked by its neighbours'), and σ̃² is its moderated variance
+    ranked by its neighbours'), and σ̃² is its moderated variance (:func:`ranking_sigma`)
     ``(d₀·s̄² + d·s²)/(d₀ + d)``: the 3×3 mean of s² (:func:`box3`), s̄², taken as a prior
     worth ``d₀ = prior`` degrees of freedom, and the pixel's own, worth its ``d = 2n − 1``
     (the posterior variance of Smyth 2004, "Linear models and empirical Bayes methods for
@@ -489,33 +511,23 @@ def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
     penumbra) reach their share in one round instead of one doubling a
     round. Ties go to the lower doubling, then the earlier pixel
     (:func:`raytrace.kernels.noise.rank_doublings` merges the doublings in that order)."""
-    s2 = np.where(np.isfinite(variance), variance, 0.0)
-    sigma = box3(s2, cols)
-    if prior < math.inf:
-        dof = 2.0 * n - 1.0
-        sigma = (prior * sigma + dof * s2) / (prior + dof)
-    sigma = np.sqrt(sigma)
+    s2, sigma = ranking_sigma(n, variance, cols, prior)
     # each doubling's start m = n·2^j, per distinct count (the pixels' counts take a few
     # values, ``kind``) and doubling j: its powers taken once each
     present = np.bincount(n) > 0
     counts, kind = np.flatnonzero(present), (np.cumsum(present) - 1)[n]
-    table = (counts[:, None] << np.arange(MAX_DOUBLINGS)).astype(np.float64)
-    ranked = Doublings(*(np.empty(MAX_DOUBLINGS * len(n), np.int64) for _ in range(2)))
+    start = (counts[:, None] << np.arange(MAX_DOUBLINGS)).astype(np.float64)
+    before = (2.0 * start) ** -rate  # a pixel's mean's variance over s², before and after
+    table = DoublingTable(start ** (-0.5 * (1.0 + rate)),
+                          before - (2.0 * np.minimum(2 * start, most)) ** -rate, most)
+    goal = share * n.sum()
+    aim = Aim(goal, (1.0 - shrink) * (s2 * before[kind, 0]).sum(),
+              MIN_ROUND_SHARE * n.sum()) if shrink > 0.0 else Aim(goal, math.inf, math.inf)
     open_ = np.flatnonzero((n < most) & (sigma > 0))
-    count = rank_doublings(n, sigma, table ** (-0.5 * (1.0 + rate)), kind, most,
-                           share * n.sum(), open_[np.argsort(-sigma[open_])], ranked)
-    pixel, j = ranked.pixel[:count], ranked.step[:count]
-    if shrink > 0.0:  # each doubling's fall of the pixel's variance, s²·((2m)^−β − (2m')^−β)
-        before = (2.0 * table) ** -rate
-        fall = np.cumsum(s2[pixel] * (before - (2.0 * np.minimum(2 * table, most))
-                                      ** -rate)[kind[pixel], j])
-        total = (s2 * before[kind, 0]).sum()
-        enough = int(np.searchsorted(fall, (1.0 - shrink) * total))
-        start = n[pixel] << j
-        added = np.cumsum(np.minimum(2 * start, most) - start)
-        least = int(np.searchsorted(added, MIN_ROUND_SHARE * n.sum())) + 1
-        count = min(count, max(enough + 1, least))
-    doublings = np.bincount(pixel[:count], minlength=len(n))
+    taken = Doublings(*(np.empty(MAX_DOUBLINGS * len(n), np.int64) for _ in range(2)))
+    count = rank_doublings(DoublingPixels(n, sigma, s2, kind), open_[np.argsort(-sigma[open_])],
+                           table, aim, taken)
+    doublings = np.bincount(taken.pixel[:count], minlength=len(n))
     return np.minimum(n << doublings, np.maximum(n, most))
 
 

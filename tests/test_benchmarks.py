@@ -22,6 +22,7 @@ from raytrace import accel
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
+import allocation  # noqa: E402
 import bench  # noqa: E402
 import gil  # noqa: E402
 import meshes  # noqa: E402
@@ -373,6 +374,23 @@ def test_a_render_follows_the_oracle_s_counts():
     image = noise_oracle.render_counts(scene, counts, 0, threads=1, aovs=["samples"])
     assert image.aovs["samples"].ravel().tolist() == counts.tolist()
     assert image.stats["aa"]["rounds"] == 2
+
+
+# -- allocation.py: the numpy baseline ---------------------------------------------------------
+def test_the_allocation_benchmark_s_baseline_gives_the_renderer_s_counts():
+    """allocation.py's baseline (numpy's sort of the candidates) and the renderer's merge give
+    the same counts on 200 random rounds with ties, zeros and NaN, shares, aims and priors."""
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        rows, cols = int(rng.integers(1, 6)), int(rng.integers(1, 8))
+        n = rng.choice([1, 2, 4, 8], rows * cols)
+        most = int(n.max()) + int(rng.choice([0, 3, 24]))
+        variance = rng.choice([0.0, 0.25, 1.0, np.nan, rng.random()], rows * cols)
+        args = (n, variance, most, cols, float(rng.choice([0.05, 1.0, 3.0])),
+                float(rng.choice([0.0, 0.5, 0.95])), float(rng.choice([1.0, 1.5, 2.0])),
+                float(rng.choice([math.inf, 8.0])))
+        assert allocation.numpy_counts(*args).tolist() == \
+            raytrace.noise.neyman_counts(*args).tolist(), args
 
 
 # -- noise.py: the interleaved ratios ---------------------------------------------------------

@@ -20,7 +20,7 @@ import raytrace
 from raytrace import cli, noise
 from raytrace.errors import SceneError
 from raytrace.kernels.noise import KEY_STRIDE, add_round, rank_doublings
-from raytrace.kernels.records import Doublings, Moments
+from raytrace.kernels.records import Aim, DoublingPixels, Doublings, DoublingTable, Moments
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -390,12 +390,15 @@ def test_neyman_counts_are_their_definition():
 
 def test_rank_doublings_takes_every_doubling_in_the_order_of_the_definition():
     """rank_doublings merges its streams into the order of sorting every candidate doubling
-    by priority, then doubling, then pixel, and stops at the first that reaches the goal.
-    σ's a few ulps apart make priorities that rounding makes equal for some doublings and not
-    others (so a stream's runs of equal priority must be put in pixel order), equal σ's make
-    ties in every stream, and ``ranked`` comes with equal σ's in a shuffled order."""
+    by priority, then doubling, then pixel, and stops where the definition does: at the
+    first doubling that reaches the goal, or, with an aim, at the first that has added the
+    least and whose summed drops reach the need (at least one). σ's a few ulps apart make
+    priorities that rounding makes equal for some doublings and not others (so a stream's
+    runs of equal priority must be put in pixel order), equal σ's make ties in every
+    stream (runs of up to 40), β of 1 or 2 makes ties between counts, and ``ranked`` comes
+    with equal σ's in a shuffled order."""
     rng = np.random.default_rng(11)
-    for trial in range(300):
+    for trial in range(400):
         m = int(rng.integers(1, 40))
         n = rng.choice([1, 2, 3, 4, 8], m)
         most = int(n.max()) + int(rng.choice([0, 1, 5, 30]))
@@ -405,26 +408,49 @@ def test_rank_doublings_takes_every_doubling_in_the_order_of_the_definition():
             sigma = rng.choice([0.0, 0.5, 1.0, 2.0], m)
         else:
             sigma = rng.random(m) * (rng.random(m) < 0.8)
-        rate = float(rng.uniform(1, 2))
+        s2 = rng.random(m) * (rng.random(m) < 0.9)
+        rate = float(rng.choice([1.0, 2.0, rng.uniform(1, 2)]))
         present = np.bincount(n) > 0
         counts, kind = np.flatnonzero(present), (np.cumsum(present) - 1)[n]
-        table = (counts[:, None] << np.arange(noise.MAX_DOUBLINGS)).astype(np.float64)
-        scale = table ** (-0.5 * (1.0 + rate))
+        start = (counts[:, None] << np.arange(noise.MAX_DOUBLINGS)).astype(np.float64)
+        table = DoublingTable(start ** (-0.5 * (1.0 + rate)), (2.0 * start) ** -rate
+                              - (2.0 * np.minimum(2 * start, most)) ** -rate, most)
         open_ = np.flatnonzero((n < most) & (sigma > 0))
         ranked = open_[np.lexsort((rng.random(len(open_)), -sigma[open_]))]
         pixel, j = np.array([(p, j) for j in range(noise.MAX_DOUBLINGS) for p in open_
                              if (n[p] << j) < most], np.int64).reshape(-1, 2).T
-        order = np.lexsort((pixel, j, -(sigma[pixel] * scale[kind[pixel], j])))
+        order = np.lexsort((pixel, j, -(sigma[pixel] * table.scale[kind[pixel], j])))
         pixel, j = pixel[order], j[order]
         start = n[pixel] << j
         added = np.cumsum(np.minimum(2 * start, most) - start)
+        fall = np.cumsum(s2[pixel] * table.drop[kind[pixel], j])
         goal = float(rng.choice([0.5, 3.0, 0.3 * n.sum(), 1e9]))
-        want = min(int(np.searchsorted(added, goal)) + 1, len(pixel))
+        aim = Aim(goal, math.inf, math.inf)
+        want = int(np.searchsorted(added, goal)) + 1
+        if trial % 2:
+            aim = Aim(goal, float(rng.choice([0.0, 0.3, 1.0]) * fall[-1:].sum()),
+                      float(rng.choice([0.0, 2.0, 0.1 * n.sum()])))
+            want = min(want, max(int(np.searchsorted(fall, aim.need)) + 1,
+                                 int(np.searchsorted(added, aim.least)) + 1))
+        want = min(want, len(pixel))
         out = Doublings(np.full(m * noise.MAX_DOUBLINGS, -1), np.full(m * noise.MAX_DOUBLINGS, -1))
-        got = rank_doublings(n, sigma, scale, kind, most, goal, ranked, out)
+        got = rank_doublings(DoublingPixels(n, sigma, s2, kind), ranked, table, aim, out)
         assert got == want, (trial, got, want)
         assert out.pixel[:got].tolist() == pixel[:want].tolist(), trial
         assert out.step[:got].tolist() == j[:want].tolist(), trial
+
+
+def test_a_run_of_equal_priority_goes_in_pixel_order():
+    """A stream's run of equal priority, however long, is put in pixel order (sort_run's
+    heapsort): 300 pixels of one σ given in reverse order come out 0, 1, 2, … ."""
+    n, sigma = np.full(300, 2), np.full(300, 1.0)
+    table = DoublingTable(np.ones((1, noise.MAX_DOUBLINGS)),
+                          np.ones((1, noise.MAX_DOUBLINGS)), 64)
+    out = Doublings(np.empty(1200, np.int64), np.empty(1200, np.int64))
+    got = rank_doublings(DoublingPixels(n, sigma, sigma, np.zeros(300, np.int64)),
+                         np.arange(300)[::-1].copy(), table, Aim(300.0, math.inf, math.inf),
+                         out)
+    assert got == 150 and out.pixel[:got].tolist() == list(range(150))
 
 
 def test_a_round_by_target_aims_at_the_variance_the_target_needs():

@@ -1,9 +1,10 @@
 """The per-sample arithmetic of noise-driven sampling (:mod:`raytrace.noise`): each pixel's
 Owen-scrambled Sobol points (:func:`round_points`), each round's samples added to their
-pixel's quarter sums and running moments (:func:`add_round`), and the round's statistics in
+pixel's quarter sums and running moments (:func:`add_round`), the round's statistics in
 one pass over the pixels each (:func:`pixel_halves`, :func:`quarter_falls`,
-:func:`half_noise`), so a round's planning and bookkeeping cost the main thread little while
-the passes wait for it.
+:func:`half_noise`) and the next round's doublings in order of priority
+(:func:`rank_doublings`), so a round's planning and bookkeeping cost the main thread little
+while the passes wait for it.
 
 The sequences' integer arithmetic is 32-bit, done in int64 and masked (:data:`MASK32`; every
 product stays under 2⁶³), bit for bit numpy's uint32 arithmetic.
@@ -253,56 +254,86 @@ def half_noise(a, b):
     return noise_sum, level_sum, pixels
 
 
-@kernel
-def rank_doublings(n, sigma, scale, kind, most, goal, ranked, out):
-    """The doublings of a round of a render by target error or time in order of priority,
-    into ``out`` (a :class:`~raytrace.kernels.records.Doublings` with room for every pixel's
-    every doubling), until they add ``goal`` samples a half (at least one) or none is left;
-    returns how many (``raytrace.noise.neyman_counts``). Pixel p, with ``n[p]`` samples a
-    half, has doublings j = 0 … J − 1 (``scale`` is (kinds, J), ``kind[p]`` the row of p's
-    count) while ``n[p]·2^j`` is under ``most``, each of priority ``sigma[p]·scale[kind[p],
-    j]`` and adding ``min(2m, most) − m`` at ``m = n[p]·2^j``; they are taken highest
-    first, equal ones by the lower j and then the lower pixel. ``ranked`` holds the pixels
-    that can double (``n[p] < most``, ``sigma[p] > 0``) in order of falling σ, equal ones in
-    any order.
+@helper
+def sift_down(values, lo, root, end):
+    """Move ``values[lo + root]`` down the max-heap ``values[lo:lo + end]`` to its place."""
+    while 2 * root + 1 < end:
+        child = 2 * root + 1
+        if child + 1 < end and values[lo + child + 1] > values[lo + child]:
+            child += 1
+        if values[lo + root] >= values[lo + child]:
+            return
+        values[lo + root], values[lo + child] = values[lo + child], values[lo + root]
+        root = child
 
-    The pixels of one kind (one count) in that order give, for each j, a stream of doublings
-    of falling priority (one factor times σ; where rounding or equal σ makes priorities
-    equal, the run is put in pixel order), so the doublings' order is a merge of the kinds ×
-    J streams (a k-way merge, each stream's head compared at every step), where sorting
-    every doubling took 3–4 ms a round on the mesh scene."""
-    kinds, steps = scale.shape
+
+@helper
+def sort_run(values, lo, hi):
+    """``values[lo:hi]`` (int64) in ascending order, in place: a heapsort (J. W. J. Williams,
+    "Algorithm 232: Heapsort", CACM 7(6), 1964), O(r log r) for a run of r, in plain loops
+    (numba's ``np.sort`` adds about 5 s to a kernel's first compile)."""
+    size = hi - lo
+    for root in range(size // 2 - 1, -1, -1):
+        sift_down(values, lo, root, size)
+    for end in range(size - 1, 0, -1):
+        values[lo], values[lo + end] = values[lo + end], values[lo]
+        sift_down(values, lo, 0, end)
+
+
+@kernel
+def rank_doublings(pixels, ranked, table, aim, out):
+    """A round's doublings of samples in order of priority (``raytrace.noise.neyman_counts``),
+    into ``out`` (a :class:`~raytrace.kernels.records.Doublings` with room for every pixel's
+    every doubling), until they have added ``aim.goal`` samples a half, or sooner, once they
+    have added ``aim.least``, where the variance they take off reaches ``aim.need`` (at least
+    one is taken, all where none of these is reached); returns how many.
+
+    Pixel p of ``pixels`` (a :class:`~raytrace.kernels.records.DoublingPixels`), with ``n``
+    samples a half, has doublings j = 0 … J − 1 while ``n·2^j < table.most`` (``table``: a
+    :class:`~raytrace.kernels.records.DoublingTable` of (kinds, J), each row one count), the
+    j-th of priority ``σ·table.scale[kind, j]``, adding ``min(2m, most) − m`` samples at ``m
+    = n·2^j`` and taking ``s²·table.drop[kind, j]`` off the summed variance. They are taken
+    highest priority first, equal ones by the lower j and then the lower pixel. ``ranked``
+    holds the pixels that can double (``n < most``, ``σ > 0``) in order of falling σ, equal
+    ones in any order.
+
+    The pixels of one kind in that order give, for each j, a stream of doublings of falling
+    priority (a factor times σ), whose runs of equal priority (equal σ, or a tie that rounding
+    makes) are put in pixel order (:func:`sort_run`), so the doublings' order is a merge of
+    the kinds × J streams (a k-way merge, each stream's head compared at every step)."""
+    kinds, steps = table.scale.shape
+    n, kind = pixels.n, pixels.kind
     bounds = np.zeros(kinds + 1, np.int64)  # kind k's pixels: bounds[k] … bounds[k + 1] − 1
     for p in ranked:
         bounds[kind[p] + 1] += 1
     for k in range(kinds):  # (a loop: np.cumsum adds 0.4 s to the kernel's first compile)
         bounds[k + 1] += bounds[k]
-    pixels = np.empty(len(ranked), np.int64)
+    order = np.empty(len(ranked), np.int64)
     fill = bounds[:kinds].copy()
     for p in ranked:
-        pixels[fill[kind[p]]] = p
+        order[fill[kind[p]]] = p
         fill[kind[p]] += 1
     # stream (k, j): row j of ``stream`` and ``priority`` over kind k's columns; ``head`` its
     # next, ``bounds[k + 1]`` once spent (or where the kind's count cannot double j times)
-    stream = np.empty((steps, len(pixels)), np.int64)
-    priority = np.empty((steps, len(pixels)))
+    stream = np.empty((steps, len(order)), np.int64)
+    priority = np.empty((steps, len(order)))
     head = np.empty((kinds, steps), np.int64)
     for k in range(kinds):
         lo, hi = bounds[k], bounds[k + 1]
         for j in range(steps):
-            head[k, j] = lo if hi > lo and (n[pixels[lo]] << j) < most else hi
+            head[k, j] = lo if hi > lo and (n[order[lo]] << j) < table.most else hi
             for i in range(lo, hi):
-                stream[j, i] = pixels[i]
-                priority[j, i] = sigma[pixels[i]] * scale[k, j]
-            # runs of equal priority put in pixel order, by an insertion sort within each run
-            # (runs are few and short, and numba's np.sort adds about 5 s to the first compile)
-            for i in range(lo + 1, hi):
-                p, e = stream[j, i], i
-                while e > lo and priority[j, e - 1] == priority[j, i] and stream[j, e - 1] > p:
-                    stream[j, e] = stream[j, e - 1]
-                    e -= 1
-                stream[j, e] = p
-    taken, added = 0, 0
+                stream[j, i] = order[i]
+                priority[j, i] = pixels.sigma[order[i]] * table.scale[k, j]
+            i = lo
+            while i < hi:
+                e = i + 1
+                while e < hi and priority[j, e] == priority[j, i]:
+                    e += 1
+                if e - i > 1:
+                    sort_run(stream[j], i, e)
+                i = e
+    taken, added, fall = 0, 0, 0.0
     while True:
         best_k, best_j, best_i = -1, -1, -1
         for k in range(kinds):
@@ -322,7 +353,8 @@ def rank_doublings(n, sigma, scale, kind, most, goal, ranked, out):
         taken += 1
         head[best_k, best_j] += 1
         m = n[p] << best_j
-        added += min(2 * m, most) - m
-        if added >= goal:
+        added += min(2 * m, table.most) - m
+        fall += pixels.s2[p] * table.drop[best_k, best_j]
+        if added >= aim.goal or (fall >= aim.need and added >= aim.least):
             break
     return taken

@@ -52,7 +52,9 @@ record                   what it holds (n rays or hits, M materials, T triangles
 :class:`Window`          a window of pixels (a crop, or what is traced)
 :class:`RoundSamples`    a noise-driven round's samples: offsets, pixels and light keys
 :class:`Moments`         the running moments of each pixel's samples (a noise-driven render)
-:class:`Doublings`       a noise-driven round's doublings of samples, in order of priority
+:class:`Doublings`       a noise-driven round's doublings of samples, in order of priority;
+                         :class:`DoublingPixels` the pixels, :class:`DoublingTable` what
+                         each doubling gives, :class:`Aim` where they stop
 :class:`FilterProfile`   a reconstruction filter
 :class:`Cells`           adaptive anti-aliasing's cells of a level, :class:`Level` its rule,
                          :class:`SlotGrid` its lattice points' table
@@ -575,9 +577,40 @@ class Moments(NamedTuple):
     m2: np.ndarray     #: (k, 3) float64 their summed squared deviations from it
 
 
+class DoublingPixels(NamedTuple):
+    """The pixels a noise-driven round's doublings are ranked over
+    (``kernels.noise.rank_doublings``), in window order."""
+
+    n: np.ndarray      #: (k,) int64 the pixel's samples a half
+    sigma: np.ndarray  #: (k,) float64 σ̃, the standard deviation it is ranked by
+    s2: np.ndarray     #: (k,) float64 s², its per-sample variance (0 where not finite)
+    kind: np.ndarray   #: (k,) int64 its count's row of the :class:`DoublingTable`
+
+
+class DoublingTable(NamedTuple):
+    """What a pixel's j-th doubling of a round gives, by its count (a row of J columns):
+    from m = count·2^j samples a half to m' = min(2m, ``most``)."""
+
+    scale: np.ndarray  #: (kinds, J) float64 its priority over σ̃, m^−(1+β)/2
+    #: (kinds, J) float64 the variance it takes off over s², (2m)^−β − (2m')^−β
+    drop: np.ndarray
+    most: int          #: the most samples a half a pixel reaches
+
+
+class Aim(NamedTuple):
+    """Where a round's doublings stop (``kernels.noise.rank_doublings``): at the first that
+    has added ``goal`` samples a half, or sooner, at the first that has added ``least`` and
+    whose summed drops of the variance reach ``need`` (inf: no such stop)."""
+
+    goal: float
+    need: float
+    least: float
+
+
 class Doublings(NamedTuple):
     """Pixels' doublings of samples in order of priority (``kernels.noise.rank_doublings``):
-    the j-th takes pixel ``pixel[j]``'s samples a half from ``n·2^step[j]`` to twice that."""
+    the j-th takes pixel ``pixel[j]``'s samples a half from ``n·2^step[j]`` to twice that
+    (at most the most a pixel reaches)."""
 
     pixel: np.ndarray  #: (k,) int64 the pixel (window order)
     step: np.ndarray   #: (k,) int64 the doubling's number in the round, from 0
