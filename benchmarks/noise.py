@@ -146,18 +146,25 @@ def interleaved(scene, common: dict, rmse, level: float, seeds: int, **first) ->
 def plot_curves(name: str, size: tuple[int, int], threads: int, series: dict,
                 folder: Path) -> Path:
     """``noise_curves_<name>.png``: relative RMSE against CPU seconds, log-log, a series each
-    way of spending time, each point labelled (spp, target, or time multiple)."""
+    way of spending time, each point labelled (spp, target, or time multiple; the renders of
+    a series that stopped at the same image under one label)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7, 5))
-    for (label, rows), fmt in zip(series.items(), ("o-", "s", "^-", "v-"), strict=True):
+    # (the series by target labelled below left, so that their labels and the others' part)
+    styles = (("o-", (4, 4), "left"), ("s", (4, 4), "left"), ("^-", (-4, -10), "right"),
+              ("v-", (4, 4), "left"))
+    for (label, rows), (fmt, offset, align) in zip(series.items(), styles, strict=True):
         ax.plot([r["cpu"] for r in rows], [r["relative_rmse"] for r in rows], fmt, label=label)
+        labels: dict[float, list] = {}  # renders that stopped at the same image: one label
         for r in rows:
-            ax.annotate(r["label"], (r["cpu"], r["relative_rmse"]), textcoords="offset points",
-                        xytext=(4, 4), fontsize=7)
+            labels.setdefault(r["relative_rmse"], [r, []])[1].append(r["label"])
+        for r, names in labels.values():
+            ax.annotate(", ".join(names), (r["cpu"], r["relative_rmse"]), ha=align,
+                        textcoords="offset points", xytext=offset, fontsize=7)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel(f"render CPU seconds ({threads} threads, all threads' time)")
