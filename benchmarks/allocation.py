@@ -10,10 +10,9 @@ with :func:`raytrace.noise.neyman_counts` wrapped to keep the arguments of each 
 between its rounds. Each allocation is then timed ``--repeats`` times, alternating between
 the renderer's (numpy's ``argsort`` of σ, then the merge of per-count streams in
 :func:`raytrace.kernels.noise.rank_doublings`) and the baseline, :func:`numpy_counts`: the
-allocation as numpy computed it before, its candidate doublings sorted by priority, then
-doubling, then pixel. Both must give the same counts. Prints the
-medians (ms) and their ratio. The allocator is set up as the ``raytrace`` command sets it
-(:func:`raytrace.malloc.tune`).
+allocation of 9b6f263, its candidate doublings sorted in numpy by priority, then doubling,
+then pixel. Both must give the same counts. Prints the medians (ms) and their ratio. The
+allocator is set up as the ``raytrace`` command sets it (:func:`raytrace.malloc.tune`).
 
 ``--cold`` adds, in a fresh process with an empty kernel cache (``NUMBA_CACHE_DIR``), the
 seconds of the first call of ``neyman_counts`` (compiling ``rank_doublings``) after
@@ -60,10 +59,10 @@ def descending(priority: np.ndarray, *ties: np.ndarray) -> np.ndarray:
 
 def numpy_counts(n, variance, most, cols, share=noise.ROUND_SHARE, shrink=0.0, rate=1.0,
                  prior=math.inf):
-    """:func:`raytrace.noise.neyman_counts` as numpy computed it before the merge (9b6f263):
-    the first doublings ranked by ``np.argsort``, the candidates below the priority at which
-    they alone reach the round's share left out, and the rest sorted by priority, then
-    doubling, then pixel (:func:`descending`)."""
+    """:func:`raytrace.noise.neyman_counts` as 9b6f263 computed it, in numpy (σ̃ by
+    :func:`raytrace.noise.ranking_sigma`): the first doublings ranked by ``np.argsort``, the
+    candidates below the priority at which they alone reach the round's share left out, and
+    the rest sorted by priority, then doubling, then pixel (:func:`descending`)."""
     s2, sigma = noise.ranking_sigma(n, variance, cols, prior)
     # each doubling's powers of its start m = n·2^j, per distinct count (the pixels' counts
     # take a few values) and doubling j, taken once each: ``cell`` = count·J + j

@@ -271,7 +271,7 @@ def sift_down(values, lo, root, end):
 def sort_run(values, lo, hi):
     """``values[lo:hi]`` (int64) in ascending order, in place: a heapsort (J. W. J. Williams,
     "Algorithm 232: Heapsort", CACM 7(6), 1964), O(r log r) for a run of r, in plain loops
-    (numba's ``np.sort`` adds about 5 s to a kernel's first compile)."""
+    (numba's ``np.sort`` lengthens a kernel's first compile by seconds)."""
     size = hi - lo
     for root in range(size // 2 - 1, -1, -1):
         sift_down(values, lo, root, size)
@@ -306,7 +306,7 @@ def rank_doublings(pixels, ranked, table, aim, out):
     bounds = np.zeros(kinds + 1, np.int64)  # kind k's pixels: bounds[k] … bounds[k + 1] − 1
     for p in ranked:
         bounds[kind[p] + 1] += 1
-    for k in range(kinds):  # (a loop: np.cumsum adds 0.4 s to the kernel's first compile)
+    for k in range(kinds):  # (a loop: np.cumsum lengthens the kernel's first compile)
         bounds[k + 1] += bounds[k]
     order = np.empty(len(ranked), np.int64)
     fill = bounds[:kinds].copy()

@@ -600,7 +600,8 @@ class DoublingTable(NamedTuple):
 class Aim(NamedTuple):
     """Where a round's doublings stop (``kernels.noise.rank_doublings``): at the first that
     has added ``goal`` samples a half, or sooner, at the first that has added ``least`` and
-    whose summed drops of the variance reach ``need`` (inf: no such stop)."""
+    whose summed drops of the variance reach ``need`` (``need`` and ``least`` inf: no such
+    stop; a ``need`` that is NaN never reached)."""
 
     goal: float
     need: float
