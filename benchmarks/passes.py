@@ -19,6 +19,13 @@ or into fewer of :data:`raytrace.integrator.MIN_PASS_SAMPLES`: the scenes of ``s
 benchmarks/noise.py renders, at 160×120 and 4 samples a pixel, and the Whitted scene at
 320×240 and 1, rendered with each least pass size of :data:`SMALL_LEAST` in turn (interleaved,
 ``--repeat`` rounds, the API's wall seconds), and the ratio of each to the first.
+
+``--per-thread``: frames of 16 to 64 passes of the least size, which the integrator cuts into
+:data:`raytrace.integrator.PASSES_PER_THREAD` passes a thread where that is fewer than 16
+(:func:`raytrace.integrator.frame_passes`): the three scenes at 160×120 and 16 samples a
+pixel, the Whitted scene at 320×240 and 4 and at 640×480 and 1 (the README's frame), rendered
+with each count a thread of :data:`PER_THREAD` in turn, the first 16 (every frame in 16
+passes or more, whatever the threads), interleaved as ``--small``.
 """
 
 from __future__ import annotations
@@ -41,9 +48,6 @@ from bench_scenes import scene_path  # noqa: E402
 import raytrace  # noqa: E402
 from raytrace import integrator, malloc  # noqa: E402
 
-#: The integrator's own least pass size, put back after ``--small``.
-DEFAULT_LEAST = integrator.MIN_PASS_SAMPLES
-
 #: How many passes the image is cut into.
 PASSES = (16, 32, 64, 128)
 #: The least pass sizes ``--small`` compares, the first the baseline.
@@ -51,6 +55,12 @@ SMALL_LEAST = (4096, 8192, 16384, 32768)
 #: ``--small``'s frames: scene, width, height, samples a pixel.
 SMALL_FRAMES = (("whitted", 160, 120, 4), ("mesh_model", 160, 120, 4),
                 ("area_light", 160, 120, 4), ("whitted", 320, 240, 1))
+#: The passes a thread ``--per-thread`` compares, the first the baseline.
+PER_THREAD = (integrator.MIN_PASSES, 2, 4)
+#: ``--per-thread``'s frames.
+PER_THREAD_FRAMES = (("whitted", 160, 120, 16), ("mesh_model", 160, 120, 16),
+                     ("area_light", 160, 120, 16), ("whitted", 320, 240, 4),
+                     ("whitted", 640, 480, 1))
 
 
 def measure(path: Path, size: tuple[int, int], threads: list[int], repeat: int) -> list[dict]:
@@ -75,29 +85,45 @@ def measure(path: Path, size: tuple[int, int], threads: list[int], repeat: int) 
 
 def small(threads: list[int], repeat: int) -> list[dict]:
     """Rows of ``--small``: each frame of :data:`SMALL_FRAMES` at each least pass size of
-    :data:`SMALL_LEAST`, interleaved round by round: best and median wall seconds."""
-    rows = []
-    for name, w, h, spp in SMALL_FRAMES:
+    :data:`SMALL_LEAST`."""
+    return interleaved(SMALL_FRAMES, "MIN_PASS_SAMPLES", SMALL_LEAST, threads, repeat)
+
+
+def per_thread(threads: list[int], repeat: int) -> list[dict]:
+    """Rows of ``--per-thread``: each frame of :data:`PER_THREAD_FRAMES` at each count of
+    :data:`PER_THREAD` passes a thread."""
+    return interleaved(PER_THREAD_FRAMES, "PASSES_PER_THREAD", PER_THREAD, threads, repeat)
+
+
+def interleaved(frames, setting: str, values: tuple[int, ...], threads: list[int],
+                repeat: int) -> list[dict]:
+    """Each frame rendered with each value of the integrator's ``setting`` in turn,
+    ``repeat`` rounds: best and median wall seconds, and the median's ratio to the first
+    value's (the setting put back after)."""
+    rows, default = [], getattr(integrator, setting)
+    for name, w, h, spp in frames:
         scene = raytrace.load_scene(scene_path(name))
         for t in threads:
             raytrace.render(scene, width=w, height=h, spp=spp, threads=t)  # kernels loaded
-            seconds = {least: [] for least in SMALL_LEAST}
-            for _ in range(repeat):
-                for least in SMALL_LEAST:
-                    integrator.MIN_PASS_SAMPLES = least
-                    t0 = time.perf_counter()
-                    raytrace.render(scene, width=w, height=h, spp=spp, threads=t)
-                    seconds[least].append(time.perf_counter() - t0)
-            integrator.MIN_PASS_SAMPLES = DEFAULT_LEAST
-            base = statistics.median(seconds[SMALL_LEAST[0]])
-            for least, secs in seconds.items():
+            seconds = {value: [] for value in values}
+            try:
+                for _ in range(repeat):
+                    for value in values:
+                        setattr(integrator, setting, value)
+                        t0 = time.perf_counter()
+                        raytrace.render(scene, width=w, height=h, spp=spp, threads=t)
+                        seconds[value].append(time.perf_counter() - t0)
+            finally:
+                setattr(integrator, setting, default)
+            base = statistics.median(seconds[values[0]])
+            for value, secs in seconds.items():
                 median = statistics.median(secs)
                 rows.append({"scene": name, "size": [w, h], "spp": spp, "threads": t,
-                             "least_pass_samples": least, "best": min(secs), "median": median,
+                             setting.lower(): value, "best": min(secs), "median": median,
                              "ratio": median / base})
-                print(f"{name:10s} {w}x{h} {spp:2d} spp, threads {t}, least pass {least:5d}: "
+                print(f"{name:10s} {w}x{h} {spp:2d} spp, threads {t}, {setting} {value:5d}: "
                       f"best {min(secs):.4f} s, median {median:.4f} s, "
-                      f"{median / base:.3f} of {SMALL_LEAST[0]}'s", flush=True)
+                      f"{median / base:.3f} of {values[0]}'s", flush=True)
     return rows
 
 
@@ -107,11 +133,15 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--repeat", type=int, default=4)
     p.add_argument("--json", help="write the rows here")
     p.add_argument("--small", action="store_true", help="small frames by least pass size")
+    p.add_argument("--per-thread", action="store_true",
+                   help="frames of 16 to 64 least passes by passes a thread")
     a = p.parse_args(argv)
     threads = [int(x) for x in a.threads.split(",")]
     malloc.tune()  # as the command line does
     if a.small:
         rows = small(threads, max(a.repeat, 5))
+    elif a.per_thread:
+        rows = per_thread(threads, max(a.repeat, 5))
     else:
         rows = large(threads, a.repeat)
     if a.json:

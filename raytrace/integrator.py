@@ -98,6 +98,10 @@ from .tables import scene_arrays
 PASS_SAMPLES = 1 << 16
 #: A smaller image is cut into this many passes, so that more threads get some…
 MIN_PASSES = 16
+#: …or, where fewer threads render it, into this many a thread (rounded up to a multiple of
+#: the threads, so that they end together): each pass drives its depths from Python, so a
+#: frame in fewer, larger passes renders faster (:attr:`WhittedIntegrator.pass_size`).
+PASSES_PER_THREAD = 2
 #: …but no pass is smaller than this: the Python loop's work per depth, and the two threads'
 #: turns at the GIL, make smaller passes slow (2 threads, 160×120 at 4 spp: a Whitted frame in
 #: 0.134 s at passes of 4 800 samples, 0.094 at 8 192, 0.077 at 16 384, 0.082 at 32 768;
@@ -244,6 +248,25 @@ def pass_threads(n: int) -> ThreadPoolExecutor:
             own.pool.shutdown(wait=False)
         own.pool, own.size = ThreadPoolExecutor(n, thread_name_prefix="raytrace"), n
     return own.pool
+
+
+def frame_passes(samples: int, threads: int, most: int) -> int:
+    """How many passes a frame of ``samples`` camera samples is cut into evenly on
+    ``threads`` threads, before :attr:`WhittedIntegrator.pass_size` bounds a pass by ``most``
+    and :data:`MIN_PASS_SAMPLES` and rounds it to whole pixels: :data:`MIN_PASSES`, so that
+    16 threads get some; where :data:`PASSES_PER_THREAD` a thread is fewer, that many, or the
+    fewest of at most ``most`` samples, rounded up to a multiple of the threads so that each
+    takes as many.
+
+    Each pass drives its depths from Python, between ~150 kernel calls, so a frame in fewer,
+    larger passes renders faster: on 2 threads 160×120 at 16 samples a pixel in 6 passes
+    takes 0.80× the time of 18 on the Whitted scene, 0.91× on the mesh scene (docs/
+    performance.md, "Small frames": ``python3 benchmarks/passes.py --per-thread``)."""
+    least = PASSES_PER_THREAD * threads
+    if least >= MIN_PASSES:
+        return MIN_PASSES
+    count = max(least, -(-samples // most))
+    return -(-count // threads) * threads
 
 
 def round_pass_size(samples: int, threads: int, most: int) -> int:
@@ -454,17 +477,17 @@ class WhittedIntegrator:
 
     @property
     def pass_size(self) -> int:
-        """Camera samples per pass, in whole pixels: at most ``pass_samples``, and for images
-        of fewer than :data:`MIN_PASSES` full passes, a :data:`MIN_PASSES`-th of the image
-        but not below :data:`MIN_PASS_SAMPLES` (a small image goes in fewer, larger passes,
-        which the Python loop runs faster than many small ones); where camera rays go in
-        packets of blocks h pixels high (:attr:`lanes`), rounded down to whole bands of h rows
-        where it holds one, so that no pass cuts a block of a frame and traces samples not its
-        own (:func:`raytrace.kernels.camera.frame_packets`). It depends on the image, the
-        options and the CPU's packet width, never on the number of threads."""
+        """Camera samples per pass, in whole pixels: the image cut evenly into
+        :func:`frame_passes` passes, but at most ``pass_samples`` and none below
+        :data:`MIN_PASS_SAMPLES` (a small image goes in fewer, larger passes, which the Python
+        loop runs faster than many small ones); where camera rays go in packets of blocks h
+        pixels high (:attr:`lanes`), rounded down to whole bands of h rows where it holds one,
+        so that no pass cuts a block of a frame and traces samples not its own
+        (:func:`raytrace.kernels.camera.frame_packets`). Any cut gives the same image."""
         opt = self.opt
         total = self.size[0] * self.size[1] * opt.spp
-        size = min(opt.pass_samples, max(MIN_PASS_SAMPLES, -(-total // MIN_PASSES)))
+        size = min(opt.pass_samples, max(MIN_PASS_SAMPLES, -(-total // frame_passes(
+            total, opt.threads, opt.pass_samples))))
         if self.lanes:
             band = block_shape(opt.spp, self.lanes)[0] * self.size[0] * opt.spp
             if size >= band:

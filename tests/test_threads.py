@@ -14,7 +14,7 @@ import trimesh
 
 import raytrace
 from raytrace import integrator
-from raytrace.integrator import RenderOptions, WhittedIntegrator
+from raytrace.integrator import RenderOptions, WhittedIntegrator, frame_passes
 from raytrace.rays import CAMERA, NO_SHAPE
 
 W, H = 48, 36
@@ -120,34 +120,53 @@ def test_an_error_in_a_pass_stops_the_render_and_is_raised(monkeypatch):
     assert len(calls) <= 4
 
 
-#: Image, spp, and the pass size: plain, then in whole bands of camera-ray blocks of 4 or 8
-#: lanes (h = 2 rows at 1 spp, 1 at 3 and 5) and of 16 lanes (h = 4, 2 and 1).
+#: Image, spp, threads, and the pass size: plain, then in whole bands of camera-ray blocks of
+#: 4 or 8 lanes (h = 2 rows at 1 spp, 1 at 3 and 5) and of 16 lanes (h = 4, 2 and 1). From 8
+#: threads a frame goes in 16 passes or more; on fewer, in 2 a thread or more, a multiple of
+#: the threads, cut evenly.
 PASS_SIZES = [
-    (2000, 2000, 1, 65536, 64000, 64000),  # large: the full pass (PASS_SAMPLES); 16 or 8 rows
-    (1000, 1000, 1, 62500, 62000, 60000),  # 16 passes of 62 500, just under PASS_SAMPLES
-    (250, 250, 1, 16384, 16000, 16000),    # 62 500 / 16 = 3907 → MIN_PASS_SAMPLES: 4 passes
-    (1024, 512, 1, 32768, 32768, 32768),   # 524 288 / 16 = 32 768: exactly 16 passes
-    (500, 500, 3, 46875, 46500, 45000),    # 750 000 / 16 = 46 875 = 15 625 pixels of 3 samples
-    (10, 10, 5, 16380, 16350, 16350),      # MIN_PASS_SAMPLES down to whole pixels of 5 samples
+    (2000, 2000, 1, 16, 65536, 64000, 64000),  # large: the full pass (PASS_SAMPLES); 16 or 8 rows
+    (2000, 2000, 1, 2, 64517, 64000, 64000),   # 62 passes: 4 000 000 / 62, rounded up
+    (1000, 1000, 1, 16, 62500, 62000, 60000),  # 16 passes of 62 500, just under PASS_SAMPLES
+    (1000, 1000, 1, 1, 62500, 62000, 60000),   # 16 of at most 65 536, on any threads…
+    (1000, 1000, 1, 7, 47620, 46000, 44000),   # …but 21 on 7 threads, 3 each: 10⁶ / 21
+    (250, 250, 1, 16, 16384, 16000, 16000),    # 62 500 / 16 = 3907 → MIN_PASS_SAMPLES: 4 passes
+    (250, 250, 1, 2, 16384, 16000, 16000),     # 62 500 / 4 = 15 625 → MIN_PASS_SAMPLES
+    (250, 250, 1, 1, 31250, 31000, 31000),     # 2 passes on one thread
+    (1024, 512, 1, 16, 32768, 32768, 32768),   # 524 288 / 16 = 32 768: exactly 16 passes
+    (1024, 512, 1, 2, 65536, 65536, 65536),    # 8 passes on 2 threads, the most a pass
+    (500, 500, 3, 16, 46875, 46500, 45000),    # 750 000 / 16 = 46 875 = 15 625 pixels of 3
+    (500, 500, 3, 2, 62499, 61500, 60000),     # 12 passes: 62 500, whole pixels of 3 samples
+    (10, 10, 5, 16, 16380, 16350, 16350),      # MIN_PASS_SAMPLES down to whole pixels of 5
+    (10, 10, 5, 2, 16380, 16350, 16350),
 ]
 
 
-@pytest.mark.parametrize(("width", "height", "spp", "expected", "bands8", "bands16"),
+@pytest.mark.parametrize(("width", "height", "spp", "threads", "expected", "bands8", "bands16"),
                          PASS_SIZES)
 @pytest.mark.parametrize("packets", [False, True], ids=["plain", "packets"])
-def test_pass_size_depends_on_the_image_never_on_the_threads(monkeypatch, width, height, spp,
-                                                             expected, bands8, bands16,
-                                                             packets):
-    """A pass is at most ``pass_samples``, a sixteenth of a small image, whole pixels; with
-    camera rays in packets of pixel blocks (a scene with meshes), whole bands of blocks, so
-    that no pass cuts one (``WhittedIntegrator.pass_size``)."""
+def test_pass_size_cuts_the_image_for_its_threads(monkeypatch, width, height, spp, threads,
+                                                  expected, bands8, bands16, packets):
+    """A pass is at most ``pass_samples``, an even cut of a small image into 16 passes, or 2
+    a thread where that is fewer, whole pixels; with camera rays in packets of pixel blocks
+    (a scene with meshes), whole bands of blocks, so that no pass cuts one
+    (``WhittedIntegrator.pass_size``, ``integrator.frame_passes``)."""
     monkeypatch.setattr(WhittedIntegrator, "coherent_camera", packets)
-    made = [WhittedIntegrator(scene(), RenderOptions(width=width, height=height, spp=spp,
-                                                     max_depth=2, threads=t))
-            for t in (1, 2, 7)]
-    want = expected if not packets else bands16 if made[0].lanes == 16 else bands8
-    assert {m.pass_size for m in made} == {want}
+    made = WhittedIntegrator(scene(), RenderOptions(width=width, height=height, spp=spp,
+                                                    max_depth=2, threads=threads))
+    want = expected if not packets else bands16 if made.lanes == 16 else bands8
+    assert made.pass_size == want
     assert want % spp == 0
+
+
+@pytest.mark.parametrize(("samples", "threads", "passes"), [
+    (307200, 16, 16), (307200, 8, 16),  # 160×120 at 16 spp: 16 passes from 8 threads up…
+    (307200, 4, 8), (307200, 2, 6),     # …2 a thread, or the fewest of at most 65 536 (5),
+    (307200, 3, 6), (307200, 1, 5),     # rounded up to a multiple of the threads
+    (76800, 2, 4), (76800, 1, 2),       # 160×120 at 4: 2 a thread
+])
+def test_frame_passes_are_two_a_thread_up_to_sixteen(samples, threads, passes):
+    assert frame_passes(samples, threads, 65536) == passes
 
 
 def test_threads_default_to_every_core_and_an_explicit_count_is_kept():
