@@ -10,13 +10,12 @@ speed. Here that share is replaced by the share of a budget of ``--spp`` samples
 that is left (at most :data:`raytrace.noise.ROUND_SHARE` of the samples spent, as a round by
 time takes): the rounds are those of a render by time, with its first round, doublings and
 ranking, but they stop at the budget (within a doubling), so every setting spends the same
-samples and is judged by its RMSE (the rounds counted in samples, as the budget is:
-:data:`raytrace.noise.RAYS_BY_TIME` off). For one scene at 160×120 on 2 threads,
-``--renders`` seeds each: the mean of each render's RMSE over uniform 16 spp's of the same
-seed (against the 1024-spp reference of ``benchmarks/noise.py``, kept in ``--cache``), the
-samples a pixel and the rounds, and the range of the error measured over the renderer's
-estimate. ``--set NAME=A,B`` sets a constant of :mod:`raytrace.noise` (``TIME_PRIOR``,
-``ROUND_SHARE``, ``MAX_DOUBLINGS``) to each value in turn.
+samples and is judged by its RMSE. For one scene at 160×120 on 2 threads, ``--renders``
+seeds each: the mean of each render's RMSE over uniform 16 spp's of the same seed (against
+the 1024-spp reference of ``benchmarks/noise.py``, kept in ``--cache``), the samples a pixel
+and the rounds, and the range of the error measured over the renderer's estimate. ``--set
+NAME=A,B`` sets a constant of :mod:`raytrace.noise` (``TIME_PRIOR``, ``ROUND_SHARE``,
+``MAX_DOUBLINGS``) to each value in turn.
 """
 
 from __future__ import annotations
@@ -58,7 +57,6 @@ def main() -> None:
         return max(0.0, min(noise.ROUND_SHARE, (budget[0] - spent) / spent))
 
     time_share, noise.time_share = noise.time_share, left_of_budget
-    noise.RAYS_BY_TIME = False  # (spent: samples, as the budget)
     print(f"{a.scene} 160x120, 2 threads, {a.renders} seeds: a render by time whose rounds "
           "stop at a budget of samples; its RMSE over uniform 16 spp's")
     print(f"{'spp':>5}  {'setting':<24}{'RMSE':>7}{'samples/px':>12}{'rounds':>8}"

@@ -65,14 +65,7 @@ from .kernels import shading as sk  # the compiled passes of this stage
 from .kernels.aov import aov_hits, aov_pixels
 from .kernels.camera import block_shape, own_hits, pixel_packets
 from .kernels.kinds import KIND_NAMES
-from .kernels.rays import (
-    count_kinds,
-    count_samples,
-    gather_chunks,
-    sample_chunks,
-    split_hits,
-    take_hits,
-)
+from .kernels.rays import count_kinds, gather_chunks, sample_chunks, split_hits, take_hits
 from .kernels.records import (
     EMITTER_FIELDS,
     FAST_COLUMNS,
@@ -345,8 +338,6 @@ class Worker(threading.local):
         self.camera_columns: RayBatch | None = None  # raytrace.camera.camera_columns
         self.first_sample = 0  # index (in the window) of the current pass's first sample
         self.keys: np.ndarray | None = None  # adaptive: each sample's lattice id (light key)
-        # a noise round's pass: each sample's rays so far, where the round counts them
-        self.ray_counts: np.ndarray | None = None
         self.aov = NO_AOV_PIXELS  # this pass's per-sample AOV table
         self.stats: Stats | None = None
         self.render = -1  # the render (WhittedIntegrator._renders) the stats count
@@ -580,13 +571,13 @@ class WhittedIntegrator:
         def trace(r: noise.Round, first: bool) -> int:
             self._round = r
             size = round_pass_size(r.size, opt.threads, opt.pass_samples)
-            cut = noise.passes(r.bounds, size, r.costs(), opt.pass_samples)  # by rays, if counted
-            done = self._run(cut, None, progress, r.size, stop, None if first else deadline)
+            done = self._run(noise.passes(r.bounds, size), None, progress, r.size, stop,
+                             None if first else deadline)
             return sum(b - a for a, b in done)
 
         result = noise.sample(self.traced, opt.width, opt.seed, noise.Budget(
             opt.min_spp, opt.max_spp, opt.noise_threshold, opt.target_error, deadline), trace,
-            opt.filter, count_rays=not self.compiled)  # (the compiled loop counts no sample's)
+            opt.filter)
         (x0, y0, x1, y1), (tx, ty) = self.window, self.traced[:2]
         cols = self.size[0]
         inside = ((np.arange(y0, y1) - ty)[:, None] * cols + (np.arange(x0, x1) - tx)).ravel()
@@ -706,12 +697,8 @@ class WhittedIntegrator:
             bounds = r.bounds[np.searchsorted(r.bounds, start):
                               np.searchsorted(r.bounds, stop, "right")] - start
             points = r.points(start, stop)
-            w.ray_counts = rays = None if r.rays is None else np.zeros(n, np.int64)
-            try:
-                values = self.trace_points(points.x, points.y, points.keys, bounds)
-            finally:
-                w.ray_counts = None
-            r.add(start, stop, values, points.weight, rays)
+            r.add(start, stop, self.trace_points(points.x, points.y, points.keys, bounds),
+                  points.weight)
             self.stats.pass_seconds += time.perf_counter() - t0
             return
         keep = pixels.dtype == np.float64  # every sample kept for the filter
@@ -858,8 +845,6 @@ class WhittedIntegrator:
         st, n = self.stats, len(rays)
         counts = np.zeros(len(KIND_NAMES), np.int64)
         count_kinds(rays.kind, counts)
-        if self._worker.ray_counts is not None:  # each sample's rays (a noise round's)
-            count_samples(rays.sample, self._worker.ray_counts)
         for name, count in zip(KIND_NAMES, counts.tolist(), strict=True):
             st.rays[name] += count
         t0 = time.perf_counter()

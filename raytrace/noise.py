@@ -112,12 +112,6 @@ TARGET_MARGIN = 1.1
 #: render by target ranks by the neighbourhood's alone, with which its rounds fall short of
 #: their aim less often (docs/decisions.md, "Sampling").
 TIME_PRIOR = 8.0
-#: Whether a render by time counts each pixel's rays (:attr:`Round.rays`) and sizes its rounds
-#: by them (:func:`round_cost`, :func:`neyman_counts`' ``cost``), not by samples, and cuts
-#: the rounds after the first into passes of equal rays (:func:`passes`): those rounds go to
-#: the pixels of most variance, whose samples trace more rays than the first round's
-#: (docs/sampling.md, "Stopping by error or time").
-RAYS_BY_TIME = True
 #: The error's guard against division by zero in black pixels (Cycles' 0.0001).
 ERROR_EPSILON = 1e-4
 
@@ -271,21 +265,11 @@ class Round:
     moments: Moments | None = None
     #: whether each pixel has its round (it had none, or its pass added it)
     done: np.ndarray | None = None
-    #: each pixel's rays traced so far, every round's, or None: not counted
-    rays: np.ndarray | None = None
 
     @property
     def size(self) -> int:
         """The round's samples."""
         return int(self.bounds[-1])
-
-    def costs(self) -> np.ndarray | None:
-        """Each pixel's rays this round, in the round's order, as its rays so far a sample
-        predict them; None before the first round is traced or where rays are not counted."""
-        old = self.old[self.order]
-        if self.rays is None or not old.all():
-            return None
-        return (self.new - self.old)[self.order] * (self.rays[self.order] / old)
 
     def pixels(self, start: int, stop: int) -> np.ndarray:
         """The pixels (window numbers, in ``order``) whose samples are ``start`` to ``stop``,
@@ -312,21 +296,15 @@ class Round:
         return Points(out.col + sx, out.row + sy, out.keys, weight)
 
     def add(self, start: int, stop: int, values: np.ndarray,
-            weight: np.ndarray | None = None, rays: np.ndarray | None = None) -> None:
+            weight: np.ndarray | None = None) -> None:
         """Add the radiance ``values`` (stop − start, 3) of the samples ``start`` to ``stop``
         (pixel bounds), each times its ``weight`` (:meth:`points`), to their pixels' sums and
         moments, and mark the pixels done (:func:`raytrace.kernels.noise.add_round`: each
-        pixel's samples summed in sequence order, whatever the pass); each sample's ``rays``
-        (stop − start,) to its pixel's :attr:`rays`, where both are kept."""
+        pixel's samples summed in sequence order, whatever the pass)."""
         if weight is not None:
             values = values * weight[:, None]
-        pixels = self.pixels(start, stop)
-        add_round(values, self.old, self.new, pixels, self.sums, self.moments, self.done)
-        if rays is not None and self.rays is not None:
-            first = self.bounds[np.searchsorted(self.bounds, start):
-                                np.searchsorted(self.bounds, stop)] - start
-            some = np.diff(first, append=stop - start) > 0  # pixels with samples this round
-            self.rays[pixels[some]] += np.add.reduceat(rays, first[some])
+        add_round(values, self.old, self.new, self.pixels(start, stop), self.sums,
+                  self.moments, self.done)
 
 
 def spread_order(window: tuple[int, int, int, int]) -> np.ndarray:
@@ -350,32 +328,19 @@ def spread_order(window: tuple[int, int, int, int]) -> np.ndarray:
 
 def plan(window: tuple[int, int, int, int], width: int, seed: int, old: np.ndarray,
          new: np.ndarray, filter: str = "box", sums: np.ndarray | None = None,
-         moments: Moments | None = None, done: np.ndarray | None = None,
-         rays: np.ndarray | None = None) -> Round:
+         moments: Moments | None = None, done: np.ndarray | None = None) -> Round:
     """The :class:`Round` of the samples ``old[p]`` to ``new[p] − 1`` of each pixel p (window
     order) of ``window`` = (x0, y0, x1, y1) in a ``width``-wide frame, the pixels in
-    :func:`spread_order`, adding into ``sums``, ``moments``, ``done`` and ``rays``."""
+    :func:`spread_order`, adding into ``sums``, ``moments`` and ``done``."""
     order = spread_order(window)
     bounds = np.concatenate([[0], np.cumsum((new - old)[order])])
-    return Round(window, width, seed, filter, old, new, order, bounds, sums, moments, done,
-                 rays)
+    return Round(window, width, seed, filter, old, new, order, bounds, sums, moments, done)
 
 
-def passes(bounds: np.ndarray, size: int, cost: np.ndarray | None = None,
-           most: int | None = None) -> list[tuple[int, int]]:
+def passes(bounds: np.ndarray, size: int) -> list[tuple[int, int]]:
     """A round's samples cut into passes of about ``size`` samples at pixel ``bounds``
-    (:class:`Round`), empty pixels skipped; with each pixel's ``cost`` this round (in the
-    round's order, :meth:`Round.costs`), as many passes cut at equal shares of it instead,
-    where none is then over ``most`` samples: threads that take one pass each then end
-    together where their pixels' rays differ."""
+    (:class:`Round`), empty pixels skipped."""
     total = int(bounds[-1])
-    if cost is not None and total > 0 and cost.sum() > 0:
-        k = -(-total // size)
-        spent = np.cumsum(cost)
-        at = bounds[np.searchsorted(spent, spent[-1] * np.arange(1, k) / k) + 1]
-        cuts = np.unique(np.concatenate([[0], at, [total]]))
-        if most is None or np.diff(cuts).max() <= most:
-            return [(int(a), int(b)) for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
     cuts = np.unique(bounds[np.searchsorted(bounds, np.arange(0, total, size))])
     cuts = [int(c) for c in cuts if c < total] + [total]
     return [(a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True) if b > a]
@@ -449,10 +414,9 @@ def variance_shrink(estimate: float, target: float | None) -> float:
 
 def round_cost(samples: list[int], seconds: list[float]) -> tuple[float, float]:
     """A round's wall seconds as ``fixed + per_sample·samples`` (the estimate, allocation and
-    planning before it and its passes' start, then its samples, or its rays where they are
-    counted: :data:`RAYS_BY_TIME`), fitted by least squares to the rounds traced so far
-    (``samples``, ``seconds``); from one round, or rounds of one size, no fixed part and
-    their seconds per sample. Neither part is below 0."""
+    planning before it and its passes' start, then its samples), fitted by least squares to
+    the rounds traced so far (``samples``, ``seconds``); from one round, or rounds of one
+    size, no fixed part and their seconds per sample. Neither part is below 0."""
     n = np.asarray(samples, np.float64)
     t = np.asarray(seconds, np.float64)
     if len(n) < 2 or np.ptp(n) == 0:
@@ -464,8 +428,8 @@ def round_cost(samples: list[int], seconds: list[float]) -> tuple[float, float]:
 
 
 def time_share(seconds_left: float, cost: tuple[float, float], spent: float) -> float:
-    """The share of the ``spent`` samples (or rays) that a round can add in ``seconds_left`` at
-    ``cost`` (:func:`round_cost`: its fixed seconds and seconds a sample, or a ray), at most
+    """The share of the ``spent`` samples that a round can add in ``seconds_left`` at
+    ``cost`` (:func:`round_cost`: its fixed seconds and seconds a sample), at most
     :data:`ROUND_SHARE`; 0 where not even the fixed part fits. A render by time sizes its last
     round to its deadline, and the allocation spends it on the pixels of highest priority,
     not on those a cut round would reach first."""
@@ -516,8 +480,7 @@ def ranking_sigma(n: np.ndarray, variance: np.ndarray, cols: int,
 
 def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
                   share: float = ROUND_SHARE, shrink: float = 0.0,
-                  rate: float = 1.0, prior: float = math.inf,
-                  cost: np.ndarray | None = None) -> np.ndarray:
+                  rate: float = 1.0, prior: float = math.inf) -> np.ndarray:
     """Each pixel's samples a half (``n``: half its samples) after the next round of a render
     by target error or time: the doublings of highest priority ``σ̃·m^−(1+β)/2`` are taken, a
     pixel's j-th doubling of the round taking it from ``m = n·2^j`` to ``2m`` a half (at most
@@ -547,13 +510,7 @@ def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
     (its priority falls with each), so the few pixels that hold an image's error (a
     penumbra) reach their share in one round instead of one doubling a
     round. Ties go to the lower doubling, then the earlier pixel
-    (:func:`raytrace.kernels.noise.rank_doublings` merges the doublings in that order).
-
-    ``cost``: what each pixel's samples cost (its rays so far over ``n``, a render by time's,
-    :class:`Round`), or None: ``share`` and :data:`MIN_ROUND_SHARE` are then shares of the
-    cost spent (``n·cost`` summed), each doubling counted at its pixel's cost, so that a
-    round on the pixels that trace more rays (glass, a mirror, a knot of triangles) takes
-    fewer samples for its time; the ranking is the same."""
+    (:func:`raytrace.kernels.noise.rank_doublings` merges the doublings in that order)."""
     s2, sigma = ranking_sigma(n, variance, cols, prior)
     # each doubling's start m = n·2^j, per distinct count (the pixels' counts take a few
     # values, ``kind``) and doubling j: its powers taken once each
@@ -563,31 +520,26 @@ def neyman_counts(n: np.ndarray, variance: np.ndarray, most: int, cols: int,
     before = (2.0 * start) ** -rate  # a pixel's mean's variance over s², before and after
     table = DoublingTable(start ** (-0.5 * (1.0 + rate)),
                           before - (2.0 * np.minimum(2 * start, most)) ** -rate, most)
-    cost = np.ones(len(n)) if cost is None else np.asarray(cost, np.float64)
-    spent = float((n * cost).sum())
-    goal = share * spent
+    goal = share * n.sum()
     aim = Aim(goal, (1.0 - shrink) * (s2 * before[kind, 0]).sum(),
-              MIN_ROUND_SHARE * spent) if shrink > 0.0 else Aim(goal, math.inf, math.inf)
+              MIN_ROUND_SHARE * n.sum()) if shrink > 0.0 else Aim(goal, math.inf, math.inf)
     open_ = np.flatnonzero((n < most) & (sigma > 0))
     taken = Doublings(*(np.empty(MAX_DOUBLINGS * len(n), np.int64) for _ in range(2)))
-    count = rank_doublings(DoublingPixels(n, sigma, s2, kind, cost),
-                           open_[np.argsort(-sigma[open_])], table, aim, taken)
+    count = rank_doublings(DoublingPixels(n, sigma, s2, kind), open_[np.argsort(-sigma[open_])],
+                           table, aim, taken)
     doublings = np.bincount(taken.pixel[:count], minlength=len(n))
     return np.minimum(n << doublings, np.maximum(n, most))
 
 
 def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Budget,
-           trace: RoundTracer, filter: str = "box", count_rays: bool = False) -> Result:
+           trace: RoundTracer, filter: str = "box") -> Result:
     """Adaptive sampling of the pixels of ``window`` (module docstring): a first round of
     ``min_spp`` samples each, then rounds that double some pixels' samples: by threshold,
     those whose error or a neighbour's is over it (:func:`next_counts`, a pixel that stopped
     stays stopped); by target error or time, the pixels of highest priority
     (:func:`neyman_counts`). Each pixel's quarters are summed sample after sample, so its
     value depends on its own samples only; each sample weighted by its ``filter``'s ``f/p``
-    (:func:`plan`). Counts are kept a half (``n``: half a pixel's samples). ``count_rays``:
-    whether ``trace``'s passes can count each pixel's rays (:attr:`Round.rays`), which a
-    render by time then sizes its rounds by, and cuts those after the first into passes by
-    (:data:`RAYS_BY_TIME`, :meth:`Round.costs`)."""
+    (:func:`plan`). Counts are kept a half (``n``: half a pixel's samples)."""
     most = most_samples(budget.min_spp, budget.max_spp) // 2
     cols = window[2] - window[0]
     n_pixels = cols * (window[3] - window[1])
@@ -599,25 +551,18 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
     moments = Moments(np.zeros(n_pixels, np.int64), np.zeros((n_pixels, 3)),
                       np.zeros((n_pixels, 3))) if goal else None
     done = np.empty(n_pixels, bool)
-    # a render by time's: each pixel's rays so far, which it sizes its rounds and cuts their
-    # passes by (counting them costs a render by target more than the cut saves it)
-    rays = np.zeros(n_pixels, np.int64) if (
-        count_rays and RAYS_BY_TIME and budget.deadline is not None) else None
-    by_rays = rays is not None
     rounds, stopped = 0, ""
     grew = np.ones(n_pixels, bool)  # the pixels the last round sampled
-    # each round's work (samples, or rays where counted) and seconds, for the time it leaves:
-    # its seconds from the end of the round before, its allocation and planning included
-    round_work, round_seconds = [], []
+    # each round's samples and seconds, for the time it leaves: its seconds from the end of
+    # the round before, its allocation and planning included
+    round_samples, round_seconds = [], []
     t0 = time.perf_counter()
     while True:
         # each pass adds its pixels' samples, each pixel's summed in sequence order; a
         # deadline leaves out whole pixels (passes are cut at pixel bounds), not done
         done[:] = new == n
-        spent = 0 if rays is None else int(rays.sum())
-        samples = trace(plan(window, width, seed, 2 * n, 2 * new, filter, sums, moments, done,
-                             rays), rounds == 0)
-        round_work.append(int(rays.sum()) - spent if by_rays else samples)
+        round_samples.append(trace(plan(window, width, seed, 2 * n, 2 * new, filter, sums,
+                                        moments, done), rounds == 0))
         round_seconds.append(time.perf_counter() - t0)
         t0 += round_seconds[-1]
         n = np.where(done, new, n)
@@ -639,17 +584,16 @@ def sample(window: tuple[int, int, int, int], width: int, seed: int, budget: Bud
             if budget.deadline is not None:
                 # (the first round left out once two others are known: on a cold kernel
                 # cache its seconds are mostly compiling)
-                fit = slice(1, None) if len(round_work) > 2 else slice(None)
+                fit = slice(1, None) if len(round_samples) > 2 else slice(None)
                 share = min(share, time_share(budget.deadline - time.perf_counter(),
-                                              round_cost(round_work[fit], round_seconds[fit]),
-                                              rays.sum() if by_rays else 2 * n.sum()))
+                                              round_cost(round_samples[fit], round_seconds[fit]),
+                                              2 * n.sum()))
             if share <= 0.0:
                 stopped = "time_limit"
                 break
             new = neyman_counts(n, variance, most, cols, share,
                                 variance_shrink(estimate, budget.target_error), rate,
-                                math.inf if budget.target_error is not None else TIME_PRIOR,
-                                cost=rays / n if by_rays else None)
+                                math.inf if budget.target_error is not None else TIME_PRIOR)
         else:
             new = next_counts(n, pixel_error(a, b), budget.threshold, most, cols, grew)
         grew = new > n

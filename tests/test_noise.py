@@ -19,7 +19,6 @@ from test_threads import scene as every_ray_scene
 import raytrace
 from raytrace import cli, noise
 from raytrace.errors import SceneError
-from raytrace.integrator import WhittedIntegrator
 from raytrace.kernels.noise import KEY_STRIDE, add_round, rank_doublings
 from raytrace.kernels.records import Aim, DoublingPixels, Doublings, DoublingTable, Moments
 
@@ -343,13 +342,10 @@ def test_neyman_counts_rank_by_the_convergence_rate():
         8, 64, 64, 64, 4]
 
 
-def _reference_counts(n, variance, most, cols, share, shrink, rate, cost=None):
+def _reference_counts(n, variance, most, cols, share, shrink, rate):
     """neyman_counts by its definition, with nothing pruned: every doubling j of every open
     pixel listed, sorted by priority, then doubling, then pixel, and taken until the round's
-    share, or the predicted shrink once MIN_ROUND_SHARE is added: shares of the cost spent,
-    each sample a half at its pixel's ``cost`` (None: 1, shares of the samples)."""
-    cost = np.ones(len(n)) if cost is None else cost
-    spent = (n * cost).sum()
+    share, or the predicted shrink once MIN_ROUND_SHARE is added."""
     s2 = np.where(np.isfinite(variance), variance, 0.0)
     sigma = np.sqrt(noise.box3(s2, cols))
     pixel = np.array([p for j in range(noise.MAX_DOUBLINGS) for p in range(len(n))
@@ -360,12 +356,12 @@ def _reference_counts(n, variance, most, cols, share, shrink, rate, cost=None):
     order = np.lexsort((pixel, j, -(sigma[pixel] * start.astype(float) ** (-0.5 * (1 + rate)))))
     pixel, start = pixel[order], start[order]
     end = np.minimum(2 * start, most)
-    added = np.cumsum((end - start) * cost[pixel])
-    count = int(np.searchsorted(added, share * spent)) + 1
+    added = np.cumsum(end - start)
+    count = int(np.searchsorted(added, share * n.sum())) + 1
     if shrink > 0:
         fall = np.cumsum(s2[pixel] * ((2.0 * start) ** -rate - (2.0 * end) ** -rate))
         enough = int(np.searchsorted(fall, (1 - shrink) * (s2 * (2.0 * n) ** -rate).sum()))
-        least = int(np.searchsorted(added, noise.MIN_ROUND_SHARE * spent)) + 1
+        least = int(np.searchsorted(added, noise.MIN_ROUND_SHARE * n.sum())) + 1
         count = min(count, max(enough + 1, least))
     return np.minimum(n << np.bincount(pixel[:count], minlength=len(n)), np.maximum(n, most))
 
@@ -376,8 +372,7 @@ def test_neyman_counts_are_their_definition():
     counts not powers of two, ``most`` cutting doublings short, variances with zeros, NaN,
     inf and ties (so that rounds end among equal priorities, which go to the lower doubling,
     then the earlier pixel), shares from tiny to several, shrinks with and without the least
-    round, β from 1 to 2, and half the cases with a cost a pixel (multiples of 1/4, so that
-    the sums are exact: rays a sample, which a render by time counts its round in)."""
+    round, β from 1 to 2."""
     rng = np.random.default_rng(30)
     for _ in range(600):
         rows, cols = rng.integers(1, 4), rng.integers(1, 6)
@@ -388,11 +383,9 @@ def test_neyman_counts_are_their_definition():
         share = float(rng.choice([1e-3, 0.05, 0.3, 1.0, 5.0]))
         shrink = float(rng.choice([0.0, 0.0, 0.05, 0.5, 0.95, 1.0]))
         rate = float(rng.choice([1.0, 2.0, rng.uniform(1, 2)]))
-        cost = rng.integers(1, 40, rows * cols) / 4 if rng.random() < 0.5 else None
-        got = noise.neyman_counts(n, variance, most, cols, share, shrink, rate, cost=cost)
-        want = _reference_counts(n, variance, most, cols, share, shrink, rate, cost)
-        assert got.tolist() == want.tolist(), (n, variance, most, cols, share, shrink, rate,
-                                               cost)
+        got = noise.neyman_counts(n, variance, most, cols, share, shrink, rate)
+        want = _reference_counts(n, variance, most, cols, share, shrink, rate)
+        assert got.tolist() == want.tolist(), (n, variance, most, cols, share, shrink, rate)
 
 
 def test_rank_doublings_takes_every_doubling_in_the_order_of_the_definition():
@@ -403,8 +396,7 @@ def test_rank_doublings_takes_every_doubling_in_the_order_of_the_definition():
     priorities that rounding makes equal for some doublings and not others (so a stream's
     runs of equal priority must be put in pixel order), equal σ's make ties in every
     stream (runs of up to 40), β of 1 or 2 makes ties between counts, and ``ranked`` comes
-    with equal σ's in a shuffled order. Half the trials count each pixel's samples at a cost
-    (multiples of 1/4: exact sums)."""
+    with equal σ's in a shuffled order."""
     rng = np.random.default_rng(11)
     for trial in range(400):
         m = int(rng.integers(1, 40))
@@ -417,7 +409,6 @@ def test_rank_doublings_takes_every_doubling_in_the_order_of_the_definition():
         else:
             sigma = rng.random(m) * (rng.random(m) < 0.8)
         s2 = rng.random(m) * (rng.random(m) < 0.9)
-        cost = rng.integers(1, 40, m) / 4 if trial % 4 < 2 else np.ones(m)
         rate = float(rng.choice([1.0, 2.0, rng.uniform(1, 2)]))
         present = np.bincount(n) > 0
         counts, kind = np.flatnonzero(present), (np.cumsum(present) - 1)[n]
@@ -431,7 +422,7 @@ def test_rank_doublings_takes_every_doubling_in_the_order_of_the_definition():
         order = np.lexsort((pixel, j, -(sigma[pixel] * table.scale[kind[pixel], j])))
         pixel, j = pixel[order], j[order]
         start = n[pixel] << j
-        added = np.cumsum((np.minimum(2 * start, most) - start) * cost[pixel])
+        added = np.cumsum(np.minimum(2 * start, most) - start)
         fall = np.cumsum(s2[pixel] * table.drop[kind[pixel], j])
         goal = float(rng.choice([0.5, 3.0, 0.3 * n.sum(), 1e9]))
         aim = Aim(goal, math.inf, math.inf)
@@ -443,7 +434,7 @@ def test_rank_doublings_takes_every_doubling_in_the_order_of_the_definition():
                                  int(np.searchsorted(added, aim.least)) + 1))
         want = min(want, len(pixel))
         out = Doublings(np.full(m * noise.MAX_DOUBLINGS, -1), np.full(m * noise.MAX_DOUBLINGS, -1))
-        got = rank_doublings(DoublingPixels(n, sigma, s2, kind, cost), ranked, table, aim, out)
+        got = rank_doublings(DoublingPixels(n, sigma, s2, kind), ranked, table, aim, out)
         assert got == want, (trial, got, want)
         assert out.pixel[:got].tolist() == pixel[:want].tolist(), trial
         assert out.step[:got].tolist() == j[:want].tolist(), trial
@@ -456,7 +447,7 @@ def test_a_run_of_equal_priority_goes_in_pixel_order():
     table = DoublingTable(np.ones((1, noise.MAX_DOUBLINGS)),
                           np.ones((1, noise.MAX_DOUBLINGS)), 64)
     out = Doublings(np.empty(1200, np.int64), np.empty(1200, np.int64))
-    got = rank_doublings(DoublingPixels(n, sigma, sigma, np.zeros(300, np.int64), np.ones(300)),
+    got = rank_doublings(DoublingPixels(n, sigma, sigma, np.zeros(300, np.int64)),
                          np.arange(300)[::-1].copy(), table, Aim(300.0, math.inf, math.inf),
                          out)
     assert got == 150 and out.pixel[:got].tolist() == list(range(150))
@@ -758,88 +749,23 @@ def test_a_render_by_target_error_is_deterministic(threads):
     assert st["stopped_by"] != "target_error" or st["estimated_relative_rmse"] <= 0.02
 
 
-@pytest.mark.parametrize(("kw", "prior", "by_rays"), [
-    (dict(time_limit=60.0), noise.TIME_PRIOR, True), (dict(target_error=1e-6), math.inf, False),
-    (dict(time_limit=60.0, target_error=1e-6), math.inf, True)])
-def test_renders_by_time_alone_rank_by_the_moderated_variance(monkeypatch, kw, prior, by_rays):
+@pytest.mark.parametrize(("kw", "prior"), [
+    (dict(time_limit=60.0), noise.TIME_PRIOR), (dict(target_error=1e-6), math.inf),
+    (dict(time_limit=60.0, target_error=1e-6), math.inf)])
+def test_renders_by_time_alone_rank_by_the_moderated_variance(monkeypatch, kw, prior):
     """A render by time ranks pixels by their variance moderated by their neighbourhood's
     (``noise.TIME_PRIOR`` degrees of freedom); one with a target, whose estimate decides when
-    it stops, by the neighbourhood's alone. One with a time limit counts its rounds in rays:
-    each pixel's cost is its rays so far a sample a half, at least 2 (a camera ray a
-    sample), more where its rays go on (the scene has every kind of ray)."""
-    allocate, priors, costs = noise.neyman_counts, [], []
+    it stops, by the neighbourhood's alone."""
+    allocate, priors = noise.neyman_counts, []
 
-    def noted(*args, **kw):
+    def noted(*args):
         priors.append(args[-1])
-        costs.append(kw["cost"])
-        return allocate(*args, **kw)
+        return allocate(*args)
 
     monkeypatch.setattr(noise, "neyman_counts", noted)
     raytrace.render(every_ray_scene(), width=12, height=9, threads=1, max_spp=16, **kw)
     assert priors and set(priors) == {prior}
     assert 0 < noise.TIME_PRIOR < math.inf
-    if by_rays:
-        assert all(c.min() >= 2.0 and c.max() > 2.0 for c in costs)
-    else:
-        assert costs == [None] * len(costs)
-
-
-def test_a_render_by_time_counts_each_pixels_rays(monkeypatch):
-    """Each pass of a render by time adds its samples' rays to their pixels
-    (``noise.Round.rays``): over the image they are the render's camera, reflection,
-    refraction and see-through rays, every pixel's at least its samples (a camera ray each),
-    and more where a sample's rays go on. A render through the compiled loop counts none:
-    its passes count no sample's rays."""
-    made = []
-    plan = noise.plan
-    monkeypatch.setattr(noise, "plan", lambda *a, **kw: made.append(plan(*a, **kw)) or made[-1])
-    image = raytrace.render(every_ray_scene(), width=24, height=18, threads=2, pass_samples=64,
-                            time_limit=60.0, max_spp=16, aovs="samples")
-    rays, st = made[-1].rays, image.stats
-    assert len(made) > 1 and all(r.rays is rays for r in made)  # one count, every round's
-    assert rays.sum() == sum(st["rays"][k] for k in ("camera", "reflection", "refraction",
-                                                     "see_through"))
-    samples = image.aov("samples").ravel()
-    assert np.all(rays >= samples) and np.any(rays > samples)
-
-    class Stop(Exception):
-        pass
-
-    asked = []
-
-    def sample(*args, count_rays=False, **kw):
-        asked.append(count_rays)
-        raise Stop
-
-    monkeypatch.setattr(noise, "sample", sample)
-    for compiled in (False, True):
-        monkeypatch.setattr(WhittedIntegrator, "compiled", compiled)
-        with pytest.raises(Stop):
-            raytrace.render(every_ray_scene(), width=12, height=9, threads=1, time_limit=60.0)
-    assert asked == [True, False]
-
-
-def test_a_round_is_cut_at_pixel_bounds_by_samples_or_by_their_rays():
-    """Four pixels of 10 samples and an empty one: passes of about 20 samples cut at pixel
-    bounds; with each pixel's rays this round (3, 1, 0, 1, 1: the first traces three times as
-    many a sample), as many passes at equal shares of the rays, (0, 10) and (10, 40), unless
-    one would be over the most a pass may hold (25: then by samples again). A pixel's
-    predicted rays are its rays so far a sample times its new samples, and there are none
-    before its first round."""
-    bounds = np.array([0, 10, 20, 20, 30, 40])
-    assert noise.passes(bounds, 20) == [(0, 20), (20, 40)]
-    assert noise.passes(bounds, 15) == [(0, 20), (20, 30), (30, 40)]
-    cost = np.array([3.0, 1.0, 0.0, 1.0, 1.0])
-    assert noise.passes(bounds, 20, cost) == [(0, 10), (10, 40)]
-    assert noise.passes(bounds, 20, cost, most=30) == [(0, 10), (10, 40)]
-    assert noise.passes(bounds, 20, cost, most=25) == [(0, 20), (20, 40)]
-    assert noise.passes(bounds, 20, np.zeros(5)) == [(0, 20), (20, 40)]
-    window, old = (0, 0, 2, 1), np.array([4, 8])
-    r = noise.plan(window, 2, 0, old, np.array([8, 8]), rays=np.array([12, 8]))
-    assert r.costs().tolist() == [12.0, 0.0]  # 3 rays a sample, 4 new; none new
-    assert noise.plan(window, 2, 0, old, old).costs() is None  # rays not counted
-    assert noise.plan(window, 2, 0, np.zeros(2, np.int64), old,
-                      rays=np.zeros(2, np.int64)).costs() is None  # the first round
 
 
 def test_a_time_limit_stops_after_the_first_round():

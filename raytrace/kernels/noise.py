@@ -286,8 +286,7 @@ def rank_doublings(pixels, ranked, table, aim, out):
     into ``out`` (a :class:`~raytrace.kernels.records.Doublings` with room for every pixel's
     every doubling), until they have added ``aim.goal`` samples a half, or sooner, once they
     have added ``aim.least``, where the variance they take off reaches ``aim.need`` (at least
-    one is taken, all where none of these is reached); returns how many. The samples added
-    are counted at each pixel's ``pixels.cost`` a sample a half (all 1: samples).
+    one is taken, all where none of these is reached); returns how many.
 
     Pixel p of ``pixels`` (a :class:`~raytrace.kernels.records.DoublingPixels`), with ``n``
     samples a half, has doublings j = 0 … J − 1 while ``n·2^j < table.most`` (``table``: a
@@ -334,7 +333,7 @@ def rank_doublings(pixels, ranked, table, aim, out):
                 if e - i > 1:
                     sort_run(stream[j], i, e)
                 i = e
-    taken, added, fall = 0, 0.0, 0.0
+    taken, added, fall = 0, 0, 0.0
     while True:
         best_k, best_j, best_i = -1, -1, -1
         for k in range(kinds):
@@ -354,7 +353,7 @@ def rank_doublings(pixels, ranked, table, aim, out):
         taken += 1
         head[best_k, best_j] += 1
         m = n[p] << best_j
-        added += (min(2 * m, table.most) - m) * pixels.cost[p]
+        added += min(2 * m, table.most) - m
         fall += pixels.s2[p] * table.drop[best_k, best_j]
         if added >= aim.goal or (fall >= aim.need and added >= aim.least):
             break

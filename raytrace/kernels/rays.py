@@ -1,6 +1,6 @@
-"""Compiled passes over ray batches (:class:`raytrace.rays.RayBatch`'s columns): counting kinds
-and each sample's rays, splitting hits from misses, gathering rows, and cutting a batch into
-chunks of whole samples. Serial ``nogil`` kernels (:mod:`.jit`)."""
+"""Compiled passes over ray batches (:class:`raytrace.rays.RayBatch`'s columns): counting kinds,
+splitting hits from misses, gathering rows, and cutting a batch into chunks of whole samples.
+Serial ``nogil`` kernels (:mod:`.jit`)."""
 
 from __future__ import annotations
 
@@ -27,13 +27,6 @@ def count_kinds(kind, counts):
     counts[REFLECTION] += reflection
     counts[REFRACTION] += refraction
     counts[SEE_THROUGH] += see_through
-
-
-@kernel
-def count_samples(sample, counts):
-    """``counts[s] +=`` the number of rays of sample s (the rays' ``sample`` column)."""
-    for i in range(sample.shape[0]):
-        counts[sample[i]] += 1
 
 
 @kernel

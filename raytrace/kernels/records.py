@@ -585,9 +585,6 @@ class DoublingPixels(NamedTuple):
     sigma: np.ndarray  #: (k,) float64 σ̃, the standard deviation it is ranked by
     s2: np.ndarray     #: (k,) float64 s², its per-sample variance (0 where not finite)
     kind: np.ndarray   #: (k,) int64 its count's row of the :class:`DoublingTable`
-    #: (k,) float64 what a sample a half of it costs, in the units of :class:`Aim`'s ``goal``
-    #: and ``least`` (1: samples; its rays a sample a half: rays)
-    cost: np.ndarray
 
 
 class DoublingTable(NamedTuple):
@@ -602,10 +599,9 @@ class DoublingTable(NamedTuple):
 
 class Aim(NamedTuple):
     """Where a round's doublings stop (``kernels.noise.rank_doublings``): at the first that
-    has added ``goal`` samples a half (each at its pixel's :attr:`DoublingPixels.cost`), or
-    sooner, at the first that has added ``least`` and whose summed drops of the variance
-    reach ``need`` (``need`` and ``least`` inf: no such stop; a ``need`` that is NaN never
-    reached)."""
+    has added ``goal`` samples a half, or sooner, at the first that has added ``least`` and
+    whose summed drops of the variance reach ``need`` (``need`` and ``least`` inf: no such
+    stop; a ``need`` that is NaN never reached)."""
 
     goal: float
     need: float
