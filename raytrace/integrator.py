@@ -260,8 +260,8 @@ def frame_passes(samples: int, threads: int, most: int) -> int:
 
     Each pass drives its depths from Python, between ~150 kernel calls, so a frame in fewer,
     larger passes renders faster: on 2 threads 160×120 at 16 samples a pixel in 6 passes
-    takes 0.80× the time of 18 on the Whitted scene, 0.91× on the mesh scene (docs/
-    performance.md, "Small frames": ``python3 benchmarks/passes.py --per-thread``)."""
+    takes 0.76–0.80× the time of 18 on the Whitted scene, 0.91–0.92× on the mesh scene
+    (docs/performance.md, "Threads": ``python3 benchmarks/passes.py --per-thread``)."""
     least = PASSES_PER_THREAD * threads
     if least >= MIN_PASSES:
         return MIN_PASSES
