@@ -648,7 +648,7 @@ def threads_part(files: dict[str, Path], workdir: Path, quick: bool, repeat: int
     kernels, its BVH built inside the timing, best of ``repeat``, at least 3) and kept (the
     BVH kept from the render before), and whether each EXR is bit-identical to the first
     count's image."""
-    sizes = QUICK_SIZES if quick else SIZES  # 16 and 19 passes of 65 536 samples at full size
+    sizes = QUICK_SIZES if quick else SIZES  # at full size 16 (mesh), 19–20 passes (Whitted)
     counts = counts or ((1, 2) if quick else (1, 2, 4))
     out = []
     for name, path in files.items():

@@ -1,17 +1,17 @@
 """Renders by time, paired seed by seed: how close to its limit each ends, and its RMSE.
 
     python3 benchmarks/noise_time.py                                   # whitted, limits 0.5 1 2
-    python3 benchmarks/noise_time.py --scene mesh_model --limits 1 --set RAYS_BY_TIME=0,1
+    python3 benchmarks/noise_time.py --scene mesh_model --limits 1 --set TIME_PRIOR=inf,8
 
 For one scene at 160×120 on 2 threads, seed by seed (``--seeds``): uniform 16 spp timed
 (wall seconds of ``raytrace.render``), then at once, for each multiple of ``--limits`` and
-each value of ``--set NAME=A,B`` (a constant of :mod:`raytrace.noise`; the order of the
-values alternates from seed to seed), a render by ``time_limit`` = that multiple of this
-seed's uniform time, so that the machine's drift cancels in the pairs. Printed per limit and
-value: the medians over the seeds of the render's wall seconds over its limit and of its
-RMSE over uniform's of the same seed (against the 1024-spp reference of
-``benchmarks/noise.py``, kept in ``--cache``), the range of wall over limit, the mean
-samples a pixel and how many rounds.
+each value of ``--set NAME=A,B`` (a constant of :mod:`raytrace.noise`, each value read as
+its type: ``inf``, ``1`` or ``true``; the order of the values alternates from seed to
+seed), a render by ``time_limit`` = that multiple of this seed's uniform time, so that the
+machine's drift cancels in the pairs. Printed per limit and value: the medians over the
+seeds of the render's wall seconds over its limit and of its RMSE over uniform's of the
+same seed (against the 1024-spp reference of ``benchmarks/noise.py``, kept in
+``--cache``), the range of wall over limit, the mean samples a pixel and how many rounds.
 """
 
 from __future__ import annotations
@@ -28,6 +28,13 @@ import raytrace
 from raytrace import malloc, noise
 
 
+def value_of(text: str, like: object) -> object:
+    """``text`` as a value of ``like``'s type (a bool from 0/1/true/false)."""
+    if isinstance(like, bool):
+        return text.strip().lower() in ("1", "true", "yes", "on")
+    return int(text) if isinstance(like, int) else float(text)
+
+
 def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--scene", default="whitted")
@@ -39,9 +46,12 @@ def main() -> None:
     p.add_argument("--cache", type=Path, default=Path("/tmp/raytrace-noise-references"))
     a = p.parse_args()
     malloc.tune()  # as the command line does
-    name, values = a.set.split("=") if a.set else ("", "")
+    if a.set and "=" not in a.set:
+        p.error("--set takes NAME=A,B")
+    name, values = a.set.split("=", 1) if a.set else ("", "")
     default = getattr(noise, name) if name else None
-    settings = [type(default)(float(v)) for v in values.split(",")] if name else [None]
+    settings = list(dict.fromkeys(value_of(v, default) for v in values.split(","))) \
+        if name else [None]
     scene = raytrace.load_scene(scene_path(a.scene))
     common = dict(width=160, height=120, threads=2)
     ref = reference(scene, a.scene, 1024, a.cache, **common)
@@ -52,8 +62,9 @@ def main() -> None:
     try:
         for seed in range(a.seeds):
             t0 = time.perf_counter()
-            uniform = rms_error(raytrace.render(scene, spp=16, seed=seed, **common), ref)
+            image = raytrace.render(scene, spp=16, seed=seed, **common)
             limit = time.perf_counter() - t0
+            uniform = rms_error(image, ref)
             for f in a.limits:
                 for v in settings if seed % 2 == 0 else settings[::-1]:
                     if name:

@@ -6,26 +6,28 @@
 Each benchmark scene of ``benchmarks/bench.py`` (the 82k-triangle mesh at 1000², the Whitted
 scene at 1280×960) is rendered in one process with its BVH kept (:mod:`raytrace.accel_cache`)
 and its kernels loaded, at each thread count, with the image cut into 16, 32, 64 and 128
-passes (``pass_samples`` = ⌈pixels / passes⌉; the integrator never cuts an image into fewer
-than :data:`raytrace.integrator.MIN_PASSES` = 16, and by default into passes of at most
-:data:`raytrace.integrator.PASS_SAMPLES` samples: 16 and 19 passes here): the best and the
+passes (``pass_samples`` = ⌈pixels / passes⌉; from 8 threads up the integrator never cuts an
+image into fewer than :data:`raytrace.integrator.MIN_PASSES` = 16, and by default into
+passes of at most :data:`raytrace.integrator.PASS_SAMPLES` samples: 16 or 17 and 19 passes
+here; below, into as many as that many threads' ``PASSES_PER_THREAD`` ask): the best and the
 median of ``--repeat`` renders' ``stats["seconds"]["total"]``. The image is the same for
 every pass size (tests/test_threads.py), so only the time can differ: more passes balance the
 threads more finely, and each pass costs the same Python between its kernel calls, which
 holds the GIL.
 
-``--small``: frames of fewer than 16 full passes, which the integrator cuts into 16 passes,
-or into fewer of :data:`raytrace.integrator.MIN_PASS_SAMPLES`: the scenes of ``scenes/`` that
+``--small``: frames of fewer than 16 full passes, cut into 16 passes as from 8 threads up
+(:data:`raytrace.integrator.PASSES_PER_THREAD` set to 16 while it runs), or into fewer of
+:data:`raytrace.integrator.MIN_PASS_SAMPLES`: the scenes of ``scenes/`` that
 benchmarks/noise.py renders, at 160×120 and 4 samples a pixel, and the Whitted scene at
 320×240 and 1, rendered with each least pass size of :data:`SMALL_LEAST` in turn (interleaved,
 ``--repeat`` rounds, the API's wall seconds), and the ratio of each to the first.
 
-``--per-thread``: frames of 16 to 64 passes of the least size, which the integrator cuts into
-:data:`raytrace.integrator.PASSES_PER_THREAD` passes a thread where that is fewer than 16
-(:func:`raytrace.integrator.frame_passes`): the three scenes at 160×120 and 16 samples a
-pixel, the Whitted scene at 320×240 and 4 and at 640×480 and 1 (the README's frame), rendered
-with each count a thread of :data:`PER_THREAD` in turn, the first 16 (every frame in 16
-passes or more, whatever the threads), interleaved as ``--small``.
+``--per-thread``: frames of 16 to 64 least passes (307 200 samples: 18.75), which the
+integrator cuts into :data:`raytrace.integrator.PASSES_PER_THREAD` passes a thread where that
+is fewer than 16 (:func:`raytrace.integrator.frame_passes`): the three scenes at 160×120 and
+16 samples a pixel, the Whitted scene at 320×240 and 4 and at 640×480 and 1 (the README's
+size), rendered with each count a thread of :data:`PER_THREAD` in turn, the first 16 (every
+frame in 16 passes or more, whatever the threads), interleaved as ``--small``.
 """
 
 from __future__ import annotations
@@ -86,20 +88,26 @@ def measure(path: Path, size: tuple[int, int], threads: list[int], repeat: int) 
 def small(threads: list[int], repeat: int) -> list[dict]:
     """Rows of ``--small``: each frame of :data:`SMALL_FRAMES` at each least pass size of
     :data:`SMALL_LEAST`."""
-    return interleaved(SMALL_FRAMES, "MIN_PASS_SAMPLES", SMALL_LEAST, threads, repeat)
+    cut, integrator.PASSES_PER_THREAD = integrator.PASSES_PER_THREAD, integrator.MIN_PASSES
+    try:  # (16 passes, as from 8 threads up, whatever the threads here)
+        return interleaved(SMALL_FRAMES, "MIN_PASS_SAMPLES", SMALL_LEAST, threads, repeat,
+                           "least_pass_samples")
+    finally:
+        integrator.PASSES_PER_THREAD = cut
 
 
 def per_thread(threads: list[int], repeat: int) -> list[dict]:
     """Rows of ``--per-thread``: each frame of :data:`PER_THREAD_FRAMES` at each count of
     :data:`PER_THREAD` passes a thread."""
-    return interleaved(PER_THREAD_FRAMES, "PASSES_PER_THREAD", PER_THREAD, threads, repeat)
+    return interleaved(PER_THREAD_FRAMES, "PASSES_PER_THREAD", PER_THREAD, threads, repeat,
+                       "passes_per_thread")
 
 
 def interleaved(frames, setting: str, values: tuple[int, ...], threads: list[int],
-                repeat: int) -> list[dict]:
+                repeat: int, key: str) -> list[dict]:
     """Each frame rendered with each value of the integrator's ``setting`` in turn,
     ``repeat`` rounds: best and median wall seconds, and the median's ratio to the first
-    value's (the setting put back after)."""
+    value's (the setting put back after), the value under ``key`` in each row."""
     rows, default = [], getattr(integrator, setting)
     for name, w, h, spp in frames:
         scene = raytrace.load_scene(scene_path(name))
@@ -119,7 +127,7 @@ def interleaved(frames, setting: str, values: tuple[int, ...], threads: list[int
             for value, secs in seconds.items():
                 median = statistics.median(secs)
                 rows.append({"scene": name, "size": [w, h], "spp": spp, "threads": t,
-                             setting.lower(): value, "best": min(secs), "median": median,
+                             key: value, "best": min(secs), "median": median,
                              "ratio": median / base})
                 print(f"{name:10s} {w}x{h} {spp:2d} spp, threads {t}, {setting} {value:5d}: "
                       f"best {min(secs):.4f} s, median {median:.4f} s, "
@@ -134,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--json", help="write the rows here")
     p.add_argument("--small", action="store_true", help="small frames by least pass size")
     p.add_argument("--per-thread", action="store_true",
-                   help="frames of 16 to 64 least passes by passes a thread")
+                   help="frames of 16 to 64 least passes (18.75) by passes a thread")
     a = p.parse_args(argv)
     threads = [int(x) for x in a.threads.split(",")]
     malloc.tune()  # as the command line does

@@ -99,13 +99,15 @@ PASS_SAMPLES = 1 << 16
 #: A smaller image is cut into this many passes, so that more threads get some…
 MIN_PASSES = 16
 #: …or, where fewer threads render it, into this many a thread (rounded up to a multiple of
-#: the threads, so that they end together): each pass drives its depths from Python, so a
-#: frame in fewer, larger passes renders faster (:attr:`WhittedIntegrator.pass_size`).
+#: the threads, so that they end together, as near as whole bands of camera-ray blocks
+#: allow): each pass drives its depths from Python, so a frame in fewer, larger passes
+#: renders faster (:func:`frame_passes`).
 PASSES_PER_THREAD = 2
 #: …but no pass is smaller than this: the Python loop's work per depth, and the two threads'
-#: turns at the GIL, make smaller passes slow (2 threads, 160×120 at 4 spp: a Whitted frame in
-#: 0.134 s at passes of 4 800 samples, 0.094 at 8 192, 0.077 at 16 384, 0.082 at 32 768;
-#: docs/performance.md, "Threads"). A frame of fewer than 16 such passes gets fewer threads.
+#: turns at the GIL, make smaller passes slow (2 threads, 160×120 at 4 spp cut into 16
+#: passes: a Whitted frame in 0.134 s at passes of 4 800 samples, 0.094 at 8 192, 0.077 at
+#: 16 384, 0.082 at 32 768; docs/performance.md, "Threads"). A frame of fewer than 16 such
+#: passes gets fewer threads.
 MIN_PASS_SAMPLES = 16384
 #: The least pass of a noise-driven round (:func:`round_pass_size`): a small round still goes
 #: to every thread of a many-core machine.
@@ -260,8 +262,8 @@ def frame_passes(samples: int, threads: int, most: int) -> int:
 
     Each pass drives its depths from Python, between ~150 kernel calls, so a frame in fewer,
     larger passes renders faster: on 2 threads 160×120 at 16 samples a pixel in 6 passes
-    takes 0.76–0.80× the time of 18 on the Whitted scene, 0.91–0.92× on the mesh scene
-    (docs/performance.md, "Threads": ``python3 benchmarks/passes.py --per-thread``)."""
+    takes 0.76–0.80× the time of 16 on the Whitted scene, 0.91–0.92× that of 18 on the mesh
+    scene (docs/performance.md, "Threads": ``python3 benchmarks/passes.py --per-thread``)."""
     least = PASSES_PER_THREAD * threads
     if least >= MIN_PASSES:
         return MIN_PASSES
@@ -279,8 +281,8 @@ def round_pass_size(samples: int, threads: int, most: int) -> int:
 
     One pass a thread where a round fits: each pass pays its depths' Python and kernel
     dispatch once, however few its samples, and two threads wait for each other's turns at
-    the GIL. 16 samples a pixel in three rounds of 4, 4 and 8 take 154 ms cut so, 172 ms in
-    two passes a thread and 203 ms in three, against 136 ms in one round of 16 (the mesh
+    the GIL. 16 samples a pixel in three rounds of 4, 4 and 8 take 163 ms cut so, 190 ms in
+    two passes a thread and 195 ms in three, against 134 ms in one round of 16 (the mesh
     scene at 160×120 on 2 threads, medians of 12: ``python3 benchmarks/noise_passes.py
     --per-thread 1 2 3 --seeds 12``; the third round's 153 600 samples go in two passes a
     thread in the first two cuts, at most 65 536 a pass; docs/sampling.md, "Stopping by
@@ -480,19 +482,21 @@ class WhittedIntegrator:
         """Camera samples per pass, in whole pixels: the image cut evenly into
         :func:`frame_passes` passes, but at most ``pass_samples`` and none below
         :data:`MIN_PASS_SAMPLES` (a small image goes in fewer, larger passes, which the Python
-        loop runs faster than many small ones); where camera rays go in packets of blocks h
-        pixels high (:attr:`lanes`), rounded down to whole bands of h rows where it holds one,
-        so that no pass cuts a block of a frame and traces samples not its own
-        (:func:`raytrace.kernels.camera.frame_packets`). Any cut gives the same image."""
+        loop runs faster than many small ones), rounded up to whole pixels, or where camera
+        rays go in packets of blocks h pixels high (:attr:`lanes`) to whole bands of h rows
+        where it holds one, so that no pass cuts a block of a frame and traces samples not its
+        own (:func:`raytrace.kernels.camera.frame_packets`); down where up would pass
+        ``pass_samples`` (and then one pass more may be left). Any cut gives the same image."""
         opt = self.opt
         total = self.size[0] * self.size[1] * opt.spp
         size = min(opt.pass_samples, max(MIN_PASS_SAMPLES, -(-total // frame_passes(
             total, opt.threads, opt.pass_samples))))
+        unit = opt.spp  # whole pixels, or whole bands where one fits
         if self.lanes:
             band = block_shape(opt.spp, self.lanes)[0] * self.size[0] * opt.spp
-            if size >= band:
-                return size // band * band
-        return max(opt.spp, (size // opt.spp) * opt.spp)
+            unit = band if size >= band else unit
+        up = -(-size // unit) * unit  # up, so that the cut leaves no pass over
+        return up if up <= opt.pass_samples else max(opt.spp, size // unit * unit)
 
     # -- the loop ----------------------------------------------------------------------------
     def render(self, progress: Callable[[int, int], None] | None = None,

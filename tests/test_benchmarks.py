@@ -30,6 +30,7 @@ import mitsuba_peer  # noqa: E402
 import noise  # noqa: E402
 import noise_oracle  # noqa: E402
 import noise_passes  # noqa: E402
+import noise_time  # noqa: E402
 import povray  # noqa: E402
 
 needs_povray = pytest.mark.skipif(not povray.available(), reason="povray is not installed")
@@ -428,3 +429,13 @@ def test_the_passes_benchmark_cuts_k_passes_a_thread(k):
     65 536."""
     size = noise_passes.per_thread(k)(76800, 2, 65536)
     assert -(-76800 // size) == 2 * k and size == -(-76800 // (2 * k))
+
+
+# -- noise_time.py: renders by time, paired ----------------------------------------------------
+def test_noise_time_reads_a_setting_as_its_constants_type():
+    """``--set NAME=A,B`` values take the constant's type: a float's ``inf``, an int, and a
+    bool from 0/1/true/false (``bool("0")`` would be True)."""
+    assert noise_time.value_of("inf", 8.0) == math.inf
+    assert noise_time.value_of("3", 4) == 3 and isinstance(noise_time.value_of("3", 4), int)
+    assert noise_time.value_of("0", True) is False
+    assert noise_time.value_of("true", False) is True

@@ -123,22 +123,23 @@ def test_an_error_in_a_pass_stops_the_render_and_is_raised(monkeypatch):
 #: Image, spp, threads, and the pass size: plain, then in whole bands of camera-ray blocks of
 #: 4 or 8 lanes (h = 2 rows at 1 spp, 1 at 3 and 5) and of 16 lanes (h = 4, 2 and 1). From 8
 #: threads a frame goes in 16 passes or more; on fewer, in 2 a thread or more, a multiple of
-#: the threads, cut evenly.
+#: the threads, cut evenly; each share rounded up to whole pixels or bands, down where up
+#: would pass the most a pass holds (65 536).
 PASS_SIZES = [
-    (2000, 2000, 1, 16, 65536, 64000, 64000),  # large: the full pass (PASS_SAMPLES); 16 or 8 rows
+    (2000, 2000, 1, 16, 65536, 64000, 64000),  # large: the full pass (PASS_SAMPLES), or down
     (2000, 2000, 1, 2, 64517, 64000, 64000),   # 62 passes: 4 000 000 / 62, rounded up
-    (1000, 1000, 1, 16, 62500, 62000, 60000),  # 16 passes of 62 500, just under PASS_SAMPLES
-    (1000, 1000, 1, 1, 62500, 62000, 60000),   # 16 of at most 65 536, on any threads…
-    (1000, 1000, 1, 7, 47620, 46000, 44000),   # …but 21 on 7 threads, 3 each: 10⁶ / 21
-    (250, 250, 1, 16, 16384, 16000, 16000),    # 62 500 / 16 = 3907 → MIN_PASS_SAMPLES: 4 passes
-    (250, 250, 1, 2, 16384, 16000, 16000),     # 62 500 / 4 = 15 625 → MIN_PASS_SAMPLES
-    (250, 250, 1, 1, 31250, 31000, 31000),     # 2 passes on one thread
+    (1000, 1000, 1, 16, 62500, 64000, 64000),  # 16 passes of 62 500, just under PASS_SAMPLES
+    (1000, 1000, 1, 1, 62500, 64000, 64000),   # 16 of at most 65 536 on 1, 2 or 4 threads…
+    (1000, 1000, 1, 7, 47620, 48000, 48000),   # …but 21 on 7 threads, 3 each: 10⁶ / 21
+    (250, 250, 1, 16, 16384, 16500, 17000),    # 62 500 / 16 = 3907 → MIN_PASS_SAMPLES: 4 passes
+    (250, 250, 1, 2, 16384, 16500, 17000),     # 62 500 / 4 = 15 625 → MIN_PASS_SAMPLES
+    (250, 250, 1, 1, 31250, 31500, 32000),     # 2 passes on one thread
     (1024, 512, 1, 16, 32768, 32768, 32768),   # 524 288 / 16 = 32 768: exactly 16 passes
     (1024, 512, 1, 2, 65536, 65536, 65536),    # 8 passes on 2 threads, the most a pass
-    (500, 500, 3, 16, 46875, 46500, 45000),    # 750 000 / 16 = 46 875 = 15 625 pixels of 3
-    (500, 500, 3, 2, 62499, 61500, 60000),     # 12 passes: 62 500, whole pixels of 3 samples
-    (10, 10, 5, 16, 16380, 16350, 16350),      # MIN_PASS_SAMPLES down to whole pixels of 5
-    (10, 10, 5, 2, 16380, 16350, 16350),
+    (500, 500, 3, 16, 46875, 48000, 48000),    # 750 000 / 16 = 46 875 = 15 625 pixels of 3
+    (500, 500, 3, 2, 62502, 63000, 63000),     # 12 passes: 62 500 up to whole pixels of 3
+    (10, 10, 5, 16, 16385, 16400, 16400),      # MIN_PASS_SAMPLES up to whole pixels of 5
+    (10, 10, 5, 2, 16385, 16400, 16400),
 ]
 
 
@@ -150,7 +151,8 @@ def test_pass_size_cuts_the_image_for_its_threads(monkeypatch, width, height, sp
     """A pass is at most ``pass_samples``, an even cut of a small image into 16 passes, or 2
     a thread where that is fewer, whole pixels; with camera rays in packets of pixel blocks
     (a scene with meshes), whole bands of blocks, so that no pass cuts one
-    (``WhittedIntegrator.pass_size``, ``integrator.frame_passes``)."""
+    (``WhittedIntegrator.pass_size``, ``integrator.frame_passes``), rounded up so that the
+    cut leaves no pass over where that stays within ``pass_samples``."""
     monkeypatch.setattr(WhittedIntegrator, "coherent_camera", packets)
     made = WhittedIntegrator(scene(), RenderOptions(width=width, height=height, spp=spp,
                                                     max_depth=2, threads=threads))
