@@ -258,7 +258,8 @@ def frame_passes(samples: int, threads: int, most: int) -> int:
     and :data:`MIN_PASS_SAMPLES` and rounds it to whole pixels: :data:`MIN_PASSES`, so that
     16 threads get some; where :data:`PASSES_PER_THREAD` a thread is fewer, that many, or the
     fewest of at most ``most`` samples, rounded up to a multiple of the threads so that each
-    takes as many.
+    takes as many (as near as :attr:`WhittedIntegrator.pass_size`'s whole pixels or bands
+    within ``most`` allow: one pass more may be left).
 
     Each pass drives its depths from Python, between ~150 kernel calls, so a frame in fewer,
     larger passes renders faster: on 2 threads 160×120 at 16 samples a pixel in 6 passes
