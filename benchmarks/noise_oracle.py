@@ -1,5 +1,5 @@
-"""What the renderer itself would take with each pixel's variance known: issue 30's two time
-targets traced and timed, not counted in rays.
+"""What the renderer itself would take with each pixel's variance known, and with its own
+estimates perfectly aimed: issue 30's two time targets traced and timed, not counted in rays.
 
     python3 benchmarks/noise_oracle.py                  # whitted, mesh_model, area_light
     python3 benchmarks/noise_oracle.py --seeds 10 --variance-seeds 12
@@ -25,6 +25,17 @@ order of the variance each takes off, ``v16·(16/m)^β − v16·(16/2m)^β``, ov
 * ``least rays``: the same, ranked by rays;
 * ``uniform's rays``: ranked by rays, until they trace uniform 16 spp's rays.
 
+Two more rows take the renderer's own allocation (:func:`raytrace.noise.neyman_counts` on
+the variances its first round estimates, as its renders by target rank pixels) in the same
+single round, without the bound on a round's samples (``ROUND_SHARE``) and with no third
+round: what its estimates would give were its rounds aimed perfectly:
+
+* ``own, its error``: aimed below each seed's uniform error by a margin (the renderer's
+  ``TARGET_MARGIN``, 1.1) scaled by the measured RMSE's ratio to uniform's, twice, so that
+  the one round reaches uniform's RMSE as measured (the margin found is printed);
+* ``own, its time``: of as many samples as take uniform's time (16 a pixel scaled by the
+  time's ratio to uniform's, twice).
+
 Each render is timed against uniform 16 spp of the same seed, one after the other, for
 ``--seeds`` seeds (the machine's drift cancels), and its error measured against the 1024-spp
 reference of ``benchmarks/noise.py`` (``--cache``). Printed: the medians of the time over
@@ -32,7 +43,9 @@ uniform's and of the RMSE over uniform's, and the samples a pixel. The time of `
 samples`` and ``least rays`` is the ceiling of the "time to uniform's RMSE" target (≤ 0.5),
 and the RMSE of ``uniform's rays`` at the time it took that of the "RMSE at uniform's time"
 target (≤ 0.7), on this renderer: two rounds, no estimate to make and no allocation to
-compute. The allocation is a bound on knowing each pixel's variance, not a forecast.
+compute. The allocation is a bound on knowing each pixel's variance, not a forecast. The
+``own`` rows bound what the renderer's estimates from its first round can reach: the time
+of ``own, its error`` for the first target, the RMSE of ``own, its time`` for the second.
 """
 
 from __future__ import annotations
@@ -52,6 +65,9 @@ from raytrace import malloc, noise
 
 #: The renderer's first round by target or time (samples a pixel), and its most doublings.
 FIRST, DOUBLINGS = 4, noise.MAX_DOUBLINGS
+#: The rows of the renderer's own allocation in one round: aimed so that it reaches uniform's
+#: RMSE, and of the samples that take uniform's time.
+AIMED, OWN_TIME = "own, its error", "own, its time"
 
 
 def doublings(v16: np.ndarray, cost: np.ndarray, beta: float, goal: float | None = None,
@@ -92,6 +108,29 @@ def render_counts(scene: raytrace.Scene, counts: np.ndarray, seed: int,
         noise.neyman_counts = allocate
 
 
+def render_own(scene: raytrace.Scene, seed: int, target: float, margin: float = 1.0,
+               share: float = 2.0 ** DOUBLINGS, **common) -> raytrace.Image:
+    """A noise-driven render by ``target`` (relative RMSE) of a first round of :data:`FIRST`
+    samples a pixel and exactly one more, allocated by the renderer's own estimates
+    (:func:`raytrace.noise.neyman_counts` on its first round's samples), aimed ``margin``
+    below the target (where the renderer aims :data:`raytrace.noise.TARGET_MARGIN` below it
+    and takes more rounds while its estimate is above it) and adding at most ``share`` of
+    the first round's samples (the renderer's :data:`raytrace.noise.ROUND_SHARE`; by
+    default no bound but a pixel's :data:`DOUBLINGS`, as the other allocations here)."""
+    saved = noise.neyman_counts, noise.TARGET_MARGIN, noise.ROUND_SHARE
+    allocate = saved[0]
+
+    def once(n, *args, **kw):
+        return allocate(n, *args, **kw) if n.max() <= FIRST // 2 else n
+
+    noise.neyman_counts, noise.TARGET_MARGIN, noise.ROUND_SHARE = once, margin, share
+    try:  # the rounds end when the counts stop growing
+        return raytrace.render(scene, target_error=target, min_spp=FIRST, seed=seed,
+                               aovs="samples", **common)
+    finally:
+        noise.neyman_counts, noise.TARGET_MARGIN, noise.ROUND_SHARE = saved
+
+
 def measure(name: str, a: argparse.Namespace, common: dict) -> list[tuple]:
     """The rows of one scene (module docstring): per allocation, its label, counts, and the
     medians over the seeds of its time and RMSE over uniform 16 spp's, and its rays over
@@ -121,7 +160,29 @@ def measure(name: str, a: argparse.Namespace, common: dict) -> list[tuple]:
     plans = {"least samples": calibrated(np.ones_like(cost)),
              "least rays": calibrated(cost),
              "uniform's rays": doublings(v16, cost, beta, budget=(cost * SPP).sum())}
-    ratios = {label: [] for label in plans}
+    level = float(ref.mean())
+    margin = noise.TARGET_MARGIN
+    for _ in range(2):  # the margin whose one round reaches uniform's RMSE as measured
+        margin *= float(np.median([rmse(render_own(scene, 1000 + seed, e / level, margin,
+                                                   **common)) / e
+                                   for seed, e in enumerate(uniform_rmse)]))
+
+    def time_ratio(spp: float, seed: int) -> float:
+        """The time of a render of one round to ``spp`` samples a pixel over uniform's."""
+        t0 = time.perf_counter()
+        render_own(scene, seed, 1e-12, share=spp / FIRST - 1, **common)
+        t1 = time.perf_counter()
+        raytrace.render(scene, spp=SPP, seed=seed, **common)
+        return (t1 - t0) / (time.perf_counter() - t1)
+
+    spp = float(SPP)
+    for _ in range(2):  # the samples whose one round takes uniform's time
+        spp /= float(np.median([time_ratio(spp, 1000 + seed) for seed in range(a.calibrate)]))
+    own = {AIMED: lambda seed, e: render_own(scene, seed, e / level, margin, **common),
+           OWN_TIME: lambda seed, e: render_own(scene, seed, 1e-12, share=spp / FIRST - 1,
+                                                **common)}
+    ratios = {label: [] for label in (*plans, *own)}
+    own_counts = {label: [] for label in own}
     for seed in range(a.seeds):
         t0 = time.perf_counter()
         uniform = raytrace.render(scene, spp=SPP, seed=seed, **common)
@@ -132,6 +193,15 @@ def measure(name: str, a: argparse.Namespace, common: dict) -> list[tuple]:
             seconds = time.perf_counter() - t0
             assert image.stats["aa"]["samples_per_pixel"] == counts.mean()
             ratios[label].append((seconds / t_u, rmse(image) / rmse(uniform)))
+        for label, render in own.items():
+            t0 = time.perf_counter()
+            image = render(seed, rmse(uniform))
+            seconds = time.perf_counter() - t0
+            own_counts[label].append(image.aov("samples").reshape(-1))
+            ratios[label].append((seconds / t_u, rmse(image) / rmse(uniform)))
+    plans.update({label: np.mean(counts, axis=0) for label, counts in own_counts.items()})
+    print(f"{name}: own, its error aimed {margin:.2f}× below the target "
+          f"({noise.TARGET_MARGIN}× in the renderer); own, its time {spp:.2f} samples a pixel")
     return [(label, counts, *np.median(ratios[label], axis=0),
              (cost * counts).sum() / (cost * SPP).sum()) for label, counts in plans.items()]
 
@@ -147,8 +217,9 @@ def main() -> None:
     malloc.tune()  # as the command line does
     common = dict(width=SIZE[0], height=SIZE[1], threads=2)
     print(f"{SIZE[0]}x{SIZE[1]}, 2 threads: a first round of {FIRST} and one round to counts "
-          f"by known variances ({a.variance_seeds} renders); medians over {a.seeds} seeds, "
-          "each against uniform 16 spp of its seed")
+          f"by known variances ({a.variance_seeds} renders), or by the renderer's own "
+          f"estimates (own); medians over {a.seeds} seeds, each against uniform 16 spp of its "
+          "seed")
     print(f"{'scene':<12}{'allocation':<16}{'samples/px':>11}{'time':>7}{'RMSE':>7}"
           f"{'rays':>7}")
     for name in a.scenes:

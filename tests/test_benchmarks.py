@@ -363,18 +363,42 @@ def test_oracle_doublings_are_the_fewest_that_reach_the_goal():
     assert (v16 * (16.0 / n) ** beta).sum() + loss[i] > goal
 
 
-def test_a_render_follows_the_oracle_s_counts():
-    # an edge down the image (so the estimate is not 0 and the render goes on past its
-    # first round): each pixel ends with the samples it was given, in two rounds
+def edge_scene() -> raytrace.Scene:
+    """An 8×6 frame with an edge down it, so that a noise-driven render's estimate is not 0
+    and it goes on past its first round."""
     quad = raytrace.Mesh(vertices=[[-100, -100, -1], [0.1, -100, -1], [0.1, 100, -1],
                                    [-100, 100, -1]], faces=[[0, 1, 2], [0, 2, 3]],
                          material={"ka": 1.0, "kd": 0.0})
-    scene = raytrace.Scene(camera=raytrace.Camera(), objects=[quad], ambient=1.0,
-                           render=raytrace.RenderSettings(width=8, height=6))
+    return raytrace.Scene(camera=raytrace.Camera(), objects=[quad], ambient=1.0,
+                          render=raytrace.RenderSettings(width=8, height=6))
+
+
+def test_a_render_follows_the_oracle_s_counts():
+    # each pixel ends with the samples it was given, in two rounds
+    scene = edge_scene()
     counts = np.array([4, 8, 16, 64] * 12)
     image = noise_oracle.render_counts(scene, counts, 0, threads=1, aovs=["samples"])
     assert image.aovs["samples"].ravel().tolist() == counts.tolist()
     assert image.stats["aa"]["rounds"] == 2
+
+
+def test_own_allocation_takes_one_round_within_its_share():
+    # a target no estimate reaches: the renderer's own allocation runs once after the first
+    # round of 4 samples a pixel, adds `share` of that round's samples (the doubling that
+    # reaches it taken whole: at most 32 samples past it, 32 → 64), and then the render
+    # stops; the module's constants come back as they were
+    scene = edge_scene()
+    saved = (noise_oracle.noise.neyman_counts, noise_oracle.noise.TARGET_MARGIN,
+             noise_oracle.noise.ROUND_SHARE)
+    for share in (0.5, 2.0):
+        image = noise_oracle.render_own(scene, 0, 1e-12, share=share, threads=1)
+        samples = image.aovs["samples"]
+        assert image.stats["aa"]["rounds"] == 2
+        assert samples.min() >= 4 and (samples > 4).any()
+        added, goal = samples.sum() - 4 * samples.size, share * 4 * samples.size
+        assert goal <= added <= goal + 32
+    assert (noise_oracle.noise.neyman_counts, noise_oracle.noise.TARGET_MARGIN,
+            noise_oracle.noise.ROUND_SHARE) == saved
 
 
 # -- allocation.py: the numpy baseline ---------------------------------------------------------
