@@ -33,8 +33,9 @@ round: what its estimates would give were its rounds aimed perfectly:
 * ``own, its error``: aimed below each seed's uniform error by a margin (the renderer's
   ``TARGET_MARGIN``, 1.1) scaled by the measured RMSE's ratio to uniform's, twice, so that
   the one round reaches uniform's RMSE as measured (the margin found is printed);
-* ``own, its time``: of as many samples as take uniform's time (16 a pixel scaled by the
-  time's ratio to uniform's, twice).
+* ``own, its time``: of as many samples as take uniform's time (the time's ratio to
+  uniform's measured at 16 samples a pixel and at 16 over that ratio, medians of three
+  times ``--calibrate`` seeds each, and the line through the two solved for a ratio of 1).
 
 Each render is timed against uniform 16 spp of the same seed, one after the other, for
 ``--seeds`` seeds (the machine's drift cancels), and its error measured against the 1024-spp
@@ -44,8 +45,10 @@ samples`` and ``least rays`` is the ceiling of the "time to uniform's RMSE" targ
 and the RMSE of ``uniform's rays`` at the time it took that of the "RMSE at uniform's time"
 target (≤ 0.7), on this renderer: two rounds, no estimate to make and no allocation to
 compute. The allocation is a bound on knowing each pixel's variance, not a forecast. The
-``own`` rows bound what the renderer's estimates from its first round can reach: the time
-of ``own, its error`` for the first target, the RMSE of ``own, its time`` for the second.
+``own`` rows are what the renderer's estimates from its first round give, spent in one
+round aimed perfectly: the time of ``own, its error`` for the first target, the RMSE of
+``own, its time`` for the second (a render's later rounds estimate again from more samples,
+and pay each round's fixed cost).
 """
 
 from __future__ import annotations
@@ -111,12 +114,13 @@ def render_counts(scene: raytrace.Scene, counts: np.ndarray, seed: int,
 def render_own(scene: raytrace.Scene, seed: int, target: float, margin: float = 1.0,
                share: float = 2.0 ** DOUBLINGS, **common) -> raytrace.Image:
     """A noise-driven render by ``target`` (relative RMSE) of a first round of :data:`FIRST`
-    samples a pixel and exactly one more, allocated by the renderer's own estimates
-    (:func:`raytrace.noise.neyman_counts` on its first round's samples), aimed ``margin``
-    below the target (where the renderer aims :data:`raytrace.noise.TARGET_MARGIN` below it
-    and takes more rounds while its estimate is above it) and adding at most ``share`` of
-    the first round's samples (the renderer's :data:`raytrace.noise.ROUND_SHARE`; by
-    default no bound but a pixel's :data:`DOUBLINGS`, as the other allocations here)."""
+    samples a pixel and at most one more (none where the first meets the target), allocated
+    by the renderer's own estimates (:func:`raytrace.noise.neyman_counts` on its first
+    round's samples), aimed ``margin`` below the target (where the renderer aims
+    :data:`raytrace.noise.TARGET_MARGIN` below it and takes more rounds while its estimate is
+    above it) and adding at most ``share`` of the first round's samples (the renderer's
+    :data:`raytrace.noise.ROUND_SHARE`; by default no bound but a pixel's :data:`DOUBLINGS`,
+    as the other allocations here)."""
     saved = noise.neyman_counts, noise.TARGET_MARGIN, noise.ROUND_SHARE
     allocate = saved[0]
 
@@ -132,9 +136,9 @@ def render_own(scene: raytrace.Scene, seed: int, target: float, margin: float = 
 
 
 def measure(name: str, a: argparse.Namespace, common: dict) -> list[tuple]:
-    """The rows of one scene (module docstring): per allocation, its label, counts, and the
-    medians over the seeds of its time and RMSE over uniform 16 spp's, and its rays over
-    uniform's."""
+    """The rows of one scene (module docstring): per allocation, its label, counts (the own
+    rows': each pixel's mean over the seeds), and the medians over the seeds of its time and
+    RMSE over uniform 16 spp's, and its rays over uniform's."""
     scene = raytrace.load_scene(scene_path(name))
     ref = reference(scene, name, 1024, a.cache, **common)
     goal = variances(scene, SPP, a.variance_seeds, "uniform").sum()
@@ -175,9 +179,17 @@ def measure(name: str, a: argparse.Namespace, common: dict) -> list[tuple]:
         raytrace.render(scene, spp=SPP, seed=seed, **common)
         return (t1 - t0) / (time.perf_counter() - t1)
 
-    spp = float(SPP)
-    for _ in range(2):  # the samples whose one round takes uniform's time
-        spp /= float(np.median([time_ratio(spp, 1000 + seed) for seed in range(a.calibrate)]))
+    # the samples whose one round takes uniform's time: the time's ratio measured at 16 and
+    # at 16 over it, and the line through the two points (a round has a fixed cost, so the
+    # ratio is not proportional to the samples) solved for a ratio of 1; times are noisier
+    # than errors, so each ratio is the median of three times the seeds
+    seeds = range(1000, 1000 + 3 * a.calibrate)
+    ratio = float(np.median([time_ratio(SPP, seed) for seed in seeds]))
+    spp = SPP / ratio
+    again = float(np.median([time_ratio(spp, seed) for seed in seeds]))
+    if again != ratio:
+        spp = min(max(SPP + (1.0 - ratio) * (spp - SPP) / (again - ratio), FIRST + 1.0),
+                  FIRST * 2.0 ** DOUBLINGS)
     own = {AIMED: lambda seed, e: render_own(scene, seed, e / level, margin, **common),
            OWN_TIME: lambda seed, e: render_own(scene, seed, 1e-12, share=spp / FIRST - 1,
                                                 **common)}
@@ -219,7 +231,7 @@ def main() -> None:
     print(f"{SIZE[0]}x{SIZE[1]}, 2 threads: a first round of {FIRST} and one round to counts "
           f"by known variances ({a.variance_seeds} renders), or by the renderer's own "
           f"estimates (own); medians over {a.seeds} seeds, each against uniform 16 spp of its "
-          "seed")
+          "seed (the own rows' samples and rays: means)")
     print(f"{'scene':<12}{'allocation':<16}{'samples/px':>11}{'time':>7}{'RMSE':>7}"
           f"{'rays':>7}")
     for name in a.scenes:

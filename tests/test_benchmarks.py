@@ -397,6 +397,13 @@ def test_own_allocation_takes_one_round_within_its_share():
         assert samples.min() >= 4 and (samples > 4).any()
         added, goal = samples.sum() - 4 * samples.size, share * 4 * samples.size
         assert goal <= added <= goal + 32
+    # aimed further below a target the first round misses (its estimate here is 0.10), the
+    # round adds more; and a render that fails leaves the constants as they were too
+    spent = [noise_oracle.render_own(scene, 0, 0.05, margin, threads=1).aovs["samples"].sum()
+             for margin in (1.0, 2.0)]
+    assert 4 * 48 < spent[0] < spent[1]
+    with pytest.raises(ValueError):
+        noise_oracle.render_own(scene, 0, 0.05, 2.0, threads=1, width=-1)
     assert (noise_oracle.noise.neyman_counts, noise_oracle.noise.TARGET_MARGIN,
             noise_oracle.noise.ROUND_SHARE) == saved
 
